@@ -1,0 +1,249 @@
+#include "cli.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static bool parse_float(const char *s, float lo, float hi, float *out)
+{
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (errno || end == s || *end || !isfinite(v) || v < lo || v > hi)
+        return false;
+    *out = (float)v;
+    return true;
+}
+
+static bool parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
+{
+    char *end;
+    errno = 0;
+    unsigned long long v = strtoull(s, &end, 10);
+    if (errno || end == s || *end || s[0] == '-' || v < lo || v > hi)
+        return false;
+    *out = (uint32_t)v;
+    return true;
+}
+
+void cli_usage_terrain(void)
+{
+    fprintf(stderr,
+            "terrain:\n"
+            "  --dem PATH              16-bit/8-bit PNG, Terrarium PNG, SRTM .hgt, .r16, .r32 (each also .gz)\n"
+            "  --format png|terrarium|hgt|r16|r32   override detection from the file name\n"
+            "  --units m|ft|dm|raw     height units of PNG/raw values (default: from the name, else m)\n"
+            "  --raw-size W[xH]        raw .r16/.r32 dimensions (default: square from the file size)\n"
+            "  --generate perlin|diamond  generated terrain (default perlin when no --dem)\n"
+            "  --size N                generated size, 2^n+1 (default 4097)\n"
+            "  --seed S                generator seed (default 1)\n"
+            "  --amplitude M           generated relief in metres (default 1800)\n"
+            "  --fit auto|crop|pad|refuse  non-2^n+1 DEMs (default auto: nearest valid size)\n"
+            "  --layout blocked|linear heightmap memory layout (default blocked 32x32)\n"
+            "  --spacing M             metres between samples (default: SRTM 90/30, generated 10)\n"
+            "  --zscale Z              height multiplier (default 1)\n"
+            "LOD:\n"
+            "  --lod-c C --lod-c2 C2   distance and roughness factors (default 25, 2.5)\n"
+            "  --criterion clamped|unclamped  Roettger's clamped form (default) or the seed's\n"
+            "  --no-cull               disable frustum culling\n"
+            "view:\n"
+            "  --camera X,Y,Z,YAW,PITCH  metres and degrees (default: above the centre)\n"
+            "  --fov DEG               vertical field of view (default 60)\n"
+            "  --far M                 view distance in metres (default 1.5 x map side)\n"
+            "  --width W --height H    image size (default 1280x720)\n");
+}
+
+static int bad(const char *cmd, const char *opt, const char *val, const char *want)
+{
+    fprintf(stderr, "horizon %s: invalid value '%s' for %s: expected %s\n", cmd, val ? val : "", opt, want);
+    return 2;
+}
+
+int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
+{
+    memset(o, 0, sizeof *o);
+    o->width = 1280;
+    o->height = 720;
+    o->repeat = 20;
+    o->terrain.seed = 1;
+    for (int i = first; i < argc; i++) {
+        const char *a = argv[i];
+        const char *v = i + 1 < argc ? argv[i + 1] : NULL;
+#define NEEDV()                                                                         \
+    do {                                                                                \
+        if (!v) {                                                                       \
+            fprintf(stderr, "horizon %s: option %s needs a value\n", cmd, a);           \
+            return 2;                                                                   \
+        }                                                                               \
+        i++;                                                                            \
+    } while (0)
+        if (!strcmp(a, "--dem")) {
+            NEEDV();
+            o->terrain.dem_path = v;
+        } else if (!strcmp(a, "--format")) {
+            NEEDV();
+            if (!hz_dem_format_parse(v, &o->terrain.format))
+                return bad(cmd, a, v, "png, terrarium, hgt, r16 or r32");
+        } else if (!strcmp(a, "--units")) {
+            NEEDV();
+            if (!strcmp(v, "m")) o->terrain.units = HZ_UNITS_M;
+            else if (!strcmp(v, "ft")) o->terrain.units = HZ_UNITS_FT;
+            else if (!strcmp(v, "dm")) o->terrain.units = HZ_UNITS_DM;
+            else if (!strcmp(v, "raw")) o->terrain.units = HZ_UNITS_RAW;
+            else return bad(cmd, a, v, "m, ft, dm or raw");
+        } else if (!strcmp(a, "--raw-size")) {
+            NEEDV();
+            char buf[64];
+            snprintf(buf, sizeof buf, "%s", v);
+            char *x = strchr(buf, 'x');
+            if (x)
+                *x = 0;
+            if (!parse_u32(buf, 2, 65537, &o->terrain.raw_width) ||
+                (x && !parse_u32(x + 1, 2, 65537, &o->terrain.raw_height)))
+                return bad(cmd, a, v, "W or WxH, 2..65537");
+        } else if (!strcmp(a, "--generate")) {
+            NEEDV();
+            if (!hz_gen_kind_parse(v, &o->terrain.generate))
+                return bad(cmd, a, v, "perlin or diamond");
+        } else if (!strcmp(a, "--size")) {
+            NEEDV();
+            if (!parse_u32(v, 3, 16385, &o->terrain.gen_size) || !hz_is_pow2_plus1(o->terrain.gen_size))
+                return bad(cmd, a, v, "2^n+1 between 3 and 16385 (e.g. 1025, 2049, 4097)");
+        } else if (!strcmp(a, "--seed")) {
+            NEEDV();
+            char *end;
+            errno = 0;
+            o->terrain.seed = strtoull(v, &end, 10);
+            if (errno || *end || end == v || v[0] == '-')
+                return bad(cmd, a, v, "a non-negative integer");
+        } else if (!strcmp(a, "--amplitude")) {
+            NEEDV();
+            if (!parse_float(v, 0.001f, 100000, &o->terrain.amplitude))
+                return bad(cmd, a, v, "metres in (0, 100000]");
+        } else if (!strcmp(a, "--fit")) {
+            NEEDV();
+            if (!strcmp(v, "auto")) o->terrain.fit = HZ_FIT_AUTO;
+            else if (!strcmp(v, "crop")) o->terrain.fit = HZ_FIT_CROP;
+            else if (!strcmp(v, "pad")) o->terrain.fit = HZ_FIT_PAD;
+            else if (!strcmp(v, "refuse")) o->terrain.fit = HZ_FIT_REFUSE;
+            else return bad(cmd, a, v, "auto, crop, pad or refuse");
+        } else if (!strcmp(a, "--layout")) {
+            NEEDV();
+            if (!strcmp(v, "blocked")) o->terrain.layout = HZ_LAYOUT_BLOCKED;
+            else if (!strcmp(v, "linear")) o->terrain.layout = HZ_LAYOUT_LINEAR;
+            else return bad(cmd, a, v, "blocked or linear");
+        } else if (!strcmp(a, "--spacing")) {
+            NEEDV();
+            if (!parse_float(v, 0.001f, 100000, &o->terrain.spacing))
+                return bad(cmd, a, v, "metres in (0, 100000]");
+        } else if (!strcmp(a, "--zscale")) {
+            NEEDV();
+            if (!parse_float(v, 0.0001f, 10000, &o->terrain.zscale))
+                return bad(cmd, a, v, "a number in (0, 10000]");
+        } else if (!strcmp(a, "--lod-c")) {
+            NEEDV();
+            if (!parse_float(v, 0.01f, 100000, &o->lod.c))
+                return bad(cmd, a, v, "a number in (0, 100000]");
+        } else if (!strcmp(a, "--lod-c2")) {
+            NEEDV();
+            if (!parse_float(v, 0.01f, 100000, &o->lod.c2))
+                return bad(cmd, a, v, "a number in (0, 100000]");
+        } else if (!strcmp(a, "--criterion")) {
+            NEEDV();
+            if (!strcmp(v, "clamped")) o->lod.criterion = HZ_LOD_CLAMPED;
+            else if (!strcmp(v, "unclamped")) o->lod.criterion = HZ_LOD_UNCLAMPED;
+            else return bad(cmd, a, v, "clamped or unclamped");
+        } else if (!strcmp(a, "--no-cull")) {
+            o->lod.no_cull = true;
+        } else if (!strcmp(a, "--camera")) {
+            NEEDV();
+            char buf[256], *save = NULL;
+            snprintf(buf, sizeof buf, "%s", v);
+            int k = 0;
+            for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save), k++)
+                if (k >= 5 || !parse_float(tok, -1e7f, 1e7f, &o->camera[k]))
+                    return bad(cmd, a, v, "X,Y,Z,YAW,PITCH (metres, degrees)");
+            if (k != 5)
+                return bad(cmd, a, v, "X,Y,Z,YAW,PITCH (metres, degrees)");
+            o->have_camera = true;
+        } else if (!strcmp(a, "--fov")) {
+            NEEDV();
+            if (!parse_float(v, 1, 170, &o->fov))
+                return bad(cmd, a, v, "degrees in [1, 170]");
+        } else if (!strcmp(a, "--far")) {
+            NEEDV();
+            if (!parse_float(v, 1, 1e8f, &o->far))
+                return bad(cmd, a, v, "metres in [1, 1e8]");
+        } else if (!strcmp(a, "--width")) {
+            NEEDV();
+            if (!parse_u32(v, 16, 8192, &o->width))
+                return bad(cmd, a, v, "pixels in [16, 8192]");
+        } else if (!strcmp(a, "--height")) {
+            NEEDV();
+            if (!parse_u32(v, 16, 8192, &o->height))
+                return bad(cmd, a, v, "pixels in [16, 8192]");
+        } else if (!strcmp(a, "--out")) {
+            NEEDV();
+            o->out = v;
+        } else if (!strcmp(a, "--dump-mesh")) {
+            NEEDV();
+            o->dump_mesh = v;
+        } else if (!strcmp(a, "--repeat")) {
+            NEEDV();
+            if (!parse_u32(v, 1, 100000, &o->repeat))
+                return bad(cmd, a, v, "a count in [1, 100000]");
+        } else if (!strcmp(a, "--json")) {
+            o->json = true;
+        } else if (!strcmp(a, "--wireframe")) {
+            o->wireframe = true;
+        } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
+            o->quiet = true;
+        } else {
+            fprintf(stderr, "horizon %s: unknown option '%s' (see horizon %s --help)\n", cmd, a, cmd);
+            return 2;
+        }
+#undef NEEDV
+    }
+    if (o->terrain.dem_path && o->terrain.generate) {
+        fprintf(stderr, "horizon %s: give either --dem or --generate, not both\n", cmd);
+        return 2;
+    }
+    return 0;
+}
+
+hz_terrain *cli_load_terrain(const cli_opts *o)
+{
+    hz_err err = {0};
+    hz_terrain_desc d = o->terrain;
+    d.progress = o->quiet ? NULL : hz_progress_stderr;
+    hz_terrain *t = hz_terrain_create(&d, &err);
+    if (!t) {
+        fprintf(stderr, "horizon: %s\n", err.msg);
+        return NULL;
+    }
+    if (t->note[0] && !o->quiet)
+        fprintf(stderr, "horizon: %s\n", t->note);
+    if (t->voids_filled && !o->quiet)
+        fprintf(stderr, "horizon: filled %llu void samples from their neighbours\n",
+                (unsigned long long)t->voids_filled);
+    return t;
+}
+
+hz_camera cli_camera(const cli_opts *o, const hz_terrain *t)
+{
+    hz_camera c = hz_terrain_default_camera(t, o->width, o->height);
+    if (o->have_camera) {
+        c.pos[0] = o->camera[0];
+        c.pos[1] = o->camera[1];
+        c.pos[2] = o->camera[2];
+        c.yaw = o->camera[3];
+        c.pitch = o->camera[4];
+    }
+    if (o->fov > 0)
+        c.fov_y = o->fov;
+    if (o->far > 0)
+        c.zfar = o->far;
+    return c;
+}

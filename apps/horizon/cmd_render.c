@@ -1,0 +1,181 @@
+/* horizon render: one frame of a terrain, headless, to PNG (+ OBJ, JSON). */
+#include "cli.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static double median(double *v, size_t n)
+{
+    qsort(v, n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+static size_t count_vertices(const hz_index_list *il, uint32_t n)
+{
+    uint8_t *seen = calloc((size_t)n * n, 1);
+    if (!seen)
+        return 0;
+    size_t c = 0;
+    for (size_t k = 0; k < il->count; k++)
+        if (!seen[il->data[k]]) {
+            seen[il->data[k]] = 1;
+            c++;
+        }
+    free(seen);
+    return c;
+}
+
+static int write_obj(const char *path, const hz_terrain *t, const hz_index_list *il)
+{
+    const uint32_t n = t->hm.size;
+    FILE *f = fopen(path, "w");
+    if (!f) {
+        perror(path);
+        return 1;
+    }
+    uint32_t *remap = calloc((size_t)n * n, sizeof *remap);
+    if (!remap) {
+        fclose(f);
+        fprintf(stderr, "horizon render: out of memory writing %s\n", path);
+        return 1;
+    }
+    fprintf(f, "# horizon LOD mesh: %s, %zu triangles, world metres, y up\n", t->source, il->count / 3);
+    uint32_t next = 1;
+    for (size_t k = 0; k < il->count; k++) {
+        uint32_t v = il->data[k];
+        if (!remap[v]) {
+            remap[v] = next++;
+            uint32_t i = v % n, j = v / n;
+            fprintf(f, "v %.3f %.3f %.3f\n", (double)((float)i * t->spacing),
+                    (double)(hz_heightmap_get(&t->hm, i, j) * t->zscale), (double)((float)j * t->spacing));
+        }
+    }
+    for (size_t k = 0; k < il->count; k += 3)
+        fprintf(f, "f %u %u %u\n", remap[il->data[k]], remap[il->data[k + 1]], remap[il->data[k + 2]]);
+    free(remap);
+    if (fclose(f) != 0) {
+        perror(path);
+        return 1;
+    }
+    return 0;
+}
+
+int cmd_render(int argc, char **argv)
+{
+    cli_opts o;
+    for (int i = 2; i < argc; i++)
+        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+            fprintf(stderr, "usage: horizon render [options]\n"
+                            "Renders one frame headless (EGL, no window) and prints its figures.\n");
+            cli_usage_terrain();
+            fprintf(stderr, "output:\n"
+                            "  --out FILE.png          image (default render.png)\n"
+                            "  --dump-mesh FILE.obj    the frame's LOD mesh, world coordinates\n"
+                            "  --json                  figures as one JSON object on stdout\n"
+                            "  --wireframe             draw the mesh edges over the shading\n"
+                            "  --repeat N              LOD selections timed, median reported (default 20)\n"
+                            "  --quiet                 no progress bars or notes\n");
+            return 0;
+        }
+    int rc = cli_parse(argc, argv, 2, &o, "render");
+    if (rc)
+        return rc;
+    const char *out = o.out ? o.out : "render.png";
+    hz_terrain *t = cli_load_terrain(&o);
+    if (!t)
+        return 1;
+    hz_camera cam = cli_camera(&o, t);
+
+    hz_index_list il = {0};
+    hz_lod_stats st = {0};
+    double *lod_ms = malloc(o.repeat * sizeof *lod_ms);
+    if (!lod_ms)
+        return 1;
+    for (uint32_t r = 0; r < o.repeat; r++) {
+        if (hz_lod_select(t->lod, &cam, &o.lod, &il, NULL, NULL, &st) != HZ_OK) {
+            fprintf(stderr, "horizon render: out of memory in LOD selection\n");
+            return 1;
+        }
+        lod_ms[r] = st.ms;
+    }
+    double lod_med = median(lod_ms, o.repeat);
+    free(lod_ms);
+
+    rc = 1;
+    hz_err err = {0};
+    hz_renderer *ren = NULL;
+    hz_gl *gl = hz_gl_create_headless(&err);
+    if (!gl)
+        goto done;
+    ren = hz_renderer_create(&(hz_renderer_desc){.width = o.width, .height = o.height}, &err);
+    if (!ren || hz_renderer_set_heightmap(ren, &t->hm, t->spacing, t->zscale, &err) != HZ_OK)
+        goto done;
+    hz_scene_params sp = {.wireframe = o.wireframe};
+    double draw[3];
+    hz_draw_stats ds = {0};
+    for (int k = 0; k < 3; k++) {
+        if (hz_renderer_draw(ren, &cam, &sp, il.data, (uint32_t)il.count, &ds, &err) != HZ_OK)
+            goto done;
+        draw[k] = ds.draw_ms;
+    }
+    double draw_first = draw[0];
+    double draw_med = median(draw, 3);
+    uint8_t *rgb = malloc((size_t)o.width * o.height * 3);
+    if (!rgb || hz_renderer_read_rgb(ren, rgb, &err) != HZ_OK ||
+        hz_image_write_png(out, rgb, o.width, o.height, &err) != HZ_OK) {
+        free(rgb);
+        goto done;
+    }
+    free(rgb);
+    if (o.dump_mesh && write_obj(o.dump_mesh, t, &il))
+        goto done;
+
+    if (o.json) {
+        printf("{\"terrain\":\"%s\",\"heightmap_size\":%u,\"spacing\":%g,\"zscale\":%g,"
+               "\"layout\":\"%s\",\"lod_c\":%g,\"lod_c2\":%g,\"criterion\":\"%s\","
+               "\"camera\":[%g,%g,%g,%g,%g],\"fov\":%g,\"far\":%g,\"width\":%u,\"height\":%u,"
+               "\"triangles\":%u,\"vertices\":%zu,\"nodes_visited\":%u,\"nodes_culled\":%u,"
+               "\"leaves\":%u,\"restricted\":%u,\"lod_ms\":%.4f,\"lod_runs\":%u,\"upload_ms\":%.3f,"
+               "\"draw_ms\":%.3f,\"draw_ms_first\":%.3f,\"bytes_per_sample\":%.3f,"
+               "\"lod_bytes\":%zu,\"load_ms\":%.1f,\"prep_ms\":%.1f,\"peak_rss_mb\":%.1f,\"out\":\"%s\"}\n",
+               t->source, t->hm.size, (double)t->spacing, (double)t->zscale, hz_layout_name(t->hm.layout),
+               (double)(o.lod.c > 0 ? o.lod.c : 25), (double)(o.lod.c2 > 0 ? o.lod.c2 : 2.5f),
+               o.lod.criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped", (double)cam.pos[0],
+               (double)cam.pos[1], (double)cam.pos[2], (double)cam.yaw, (double)cam.pitch,
+               (double)cam.fov_y, (double)cam.zfar, o.width, o.height, st.triangles,
+               count_vertices(&il, t->hm.size), st.nodes_visited, st.nodes_culled, st.leaves,
+               st.restricted, lod_med, o.repeat, ds.upload_ms, draw_med, draw_first,
+               hz_lod_bytes_per_sample(t->lod), hz_lod_memory_bytes(t->lod), t->load_ms, t->prep_ms,
+               (double)hz_peak_rss_bytes() / (1024.0 * 1024.0), out);
+    } else {
+        printf("terrain       %s (%ux%u, %.1f m spacing%s%s)\n", t->source, t->hm.size, t->hm.size,
+               (double)t->spacing, t->note[0] ? "; " : "", t->note);
+        printf("camera        %.0f,%.0f,%.0f yaw %.1f pitch %.1f fov %.0f far %.0f m\n", (double)cam.pos[0],
+               (double)cam.pos[1], (double)cam.pos[2], (double)cam.yaw, (double)cam.pitch,
+               (double)cam.fov_y, (double)cam.zfar);
+        printf("triangles     %u\n", st.triangles);
+        printf("nodes         %u visited, %u culled, %u drawn\n", st.nodes_visited, st.nodes_culled, st.leaves);
+        printf("LOD           %.3f ms (median of %u)\n", lod_med, o.repeat);
+        printf("draw          %.1f ms (median of 3; first %.1f ms) on %s\n", draw_med, draw_first,
+               hz_gl_describe(gl));
+        printf("LOD memory    %.2f bytes/sample (%.1f MB)\n", hz_lod_bytes_per_sample(t->lod),
+               (double)hz_lod_memory_bytes(t->lod) / 1048576.0);
+        printf("image         %s (%ux%u)\n", out, o.width, o.height);
+    }
+    rc = 0;
+done:
+    if (rc)
+        fprintf(stderr, "horizon render: %s\n", err.msg[0] ? err.msg : "failed");
+    hz_renderer_destroy(ren);
+    hz_gl_destroy(gl);
+    free(il.data);
+    hz_terrain_destroy(t);
+    return rc;
+}

@@ -1,0 +1,25 @@
+/* horizon: command-line front end over libhorizon. */
+#include "cli.h"
+
+#include <stdio.h>
+#include <string.h>
+
+static void usage(void)
+{
+    fprintf(stderr, "usage: horizon <command> [options]\n"
+                    "commands:\n"
+                    "  render   render one frame of a terrain headless to PNG (--help for options)\n");
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2 || !strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
+        usage();
+        return argc < 2 ? 2 : 0;
+    }
+    if (!strcmp(argv[1], "render"))
+        return cmd_render(argc, argv);
+    fprintf(stderr, "horizon: unknown command '%s'\n", argv[1]);
+    usage();
+    return 2;
+}

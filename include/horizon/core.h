@@ -1,0 +1,64 @@
+/* horizon core: result codes, error messages, timing, progress, memory.
+ * No GL, no globals. */
+#ifndef HORIZON_CORE_H
+#define HORIZON_CORE_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <stdbool.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Result of any operation that can fail because of the environment or the data
+ * (missing file, corrupt data, GL failure). 0 is success. */
+typedef enum hz_result {
+    HZ_OK = 0,
+    HZ_ERR_IO,          /* file missing, unreadable, short read */
+    HZ_ERR_FORMAT,      /* data is not what it claims to be, truncated, unknown format */
+    HZ_ERR_VALUE,       /* NaN/inf heights, nonsense parameters */
+    HZ_ERR_MEMORY,      /* allocation failed */
+    HZ_ERR_GL,          /* GL/EGL failure (context, shader compile, FBO) */
+    HZ_ERR_UNSUPPORTED  /* a valid request we do not handle */
+} hz_result;
+
+/* Human readable error, filled by any function that takes a hz_err* (may be NULL). */
+typedef struct hz_err {
+    hz_result code;
+    char msg[512];
+} hz_err;
+
+/* Sets err->code and a printf-formatted message; returns code. err may be NULL. */
+hz_result hz_err_set(hz_err *err, hz_result code, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+
+/* Name of a result code ("io", "format", ...). */
+const char *hz_result_name(hz_result r);
+
+/* Progress callback for long work: done of total units, label says what.
+ * Called at most ~100 times per job. user is the desc's progress_user. */
+typedef void (*hz_progress_fn)(void *user, const char *label, uint64_t done, uint64_t total);
+
+/* A ready-made progress callback that draws a bar on stderr when stderr is a tty
+ * (or when user != NULL, forced); finishes the line when done == total. */
+void hz_progress_stderr(void *user, const char *label, uint64_t done, uint64_t total);
+
+/* Monotonic wall clock in milliseconds. */
+double hz_time_ms(void);
+
+/* Peak resident set size of this process in bytes (0 if unknown). */
+uint64_t hz_peak_rss_bytes(void);
+
+/* Debug assertion for programmer misuse (NULL where not allowed, counts out of range). */
+#ifdef NDEBUG
+#define HZ_ASSERT(c) ((void)0)
+#else
+#include <assert.h>
+#define HZ_ASSERT(c) assert(c)
+#endif
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,86 @@
+/* horizon DEM loading and terrain generation. No GL. */
+#ifndef HORIZON_DEM_H
+#define HORIZON_DEM_H
+
+#include "horizon/grid.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum hz_dem_format {
+    HZ_DEM_AUTO = 0,   /* from the file name (extension, after stripping .gz) and contents */
+    HZ_DEM_PNG,        /* 16-bit grey (or 8-bit grey/palette) PNG; value * units */
+    HZ_DEM_TERRARIUM,  /* 8-bit RGB PNG, h = R*256 + G + B/256 - 32768 metres */
+    HZ_DEM_HGT,        /* SRTM .hgt: int16 big-endian, square, side = sqrt(bytes/2), void -32768 */
+    HZ_DEM_R16,        /* raw uint16 little-endian, side from desc.size (or sqrt(bytes/2)) */
+    HZ_DEM_R32         /* raw float32 little-endian, side from desc.size (or sqrt(bytes/4)) */
+} hz_dem_format;
+
+typedef enum hz_dem_units {
+    HZ_UNITS_AUTO = 0, /* from the file name: "_ft16" feet, "_dm16" decimetres, else metres */
+    HZ_UNITS_M,
+    HZ_UNITS_FT,
+    HZ_UNITS_DM,
+    HZ_UNITS_RAW       /* the stored value as is */
+} hz_dem_units;
+
+typedef struct hz_dem_desc {
+    const char *path;      /* required; a trailing ".gz" means gzip-compressed */
+    hz_dem_format format;  /* 0 -> auto */
+    hz_dem_units units;    /* 0 -> auto */
+    uint32_t width;        /* raw formats: samples per row; 0 -> square from the byte count */
+    uint32_t height;       /* raw formats: rows; 0 -> same as width */
+    hz_progress_fn progress; /* optional */
+    void *progress_user;
+} hz_dem_desc;
+
+typedef struct hz_dem_info {
+    hz_dem_format format;  /* format actually read */
+    hz_dem_units units;    /* units actually applied */
+    uint64_t voids;        /* samples that were void/nodata (stored as NaN in the grid) */
+    float spacing_hint;    /* metres between samples if known from the format or name
+                              (SRTM 1201 -> 90, 3601 -> 30, "_3as_" 90, "_1as_" 30,
+                              "_10m" 10 ...), else 0 */
+} hz_dem_info;
+
+/* Reads a DEM into out (allocated here; free with hz_grid_free). Voids become
+ * NaN; the caller fills them (hz_grid_fill_voids). Never reads out of bounds:
+ * truncated, oversized or garbage files return HZ_ERR_FORMAT with a message
+ * naming the file, the expected and the actual size. info may be NULL. */
+hz_result hz_dem_load(const hz_dem_desc *desc, hz_grid *out, hz_dem_info *info, hz_err *err);
+
+/* Writes a grid as a 16-bit grey PNG (values mapped linearly from [lo, hi] to
+ * 0..65535; pass lo == hi to use the grid's range) — used by tests and import. */
+hz_result hz_dem_write_png16(const char *path, const hz_grid *g, float lo, float hi, hz_err *err);
+
+/* Names for the CLI: "png", "terrarium", "hgt", "r16", "r32"; parse returns false if unknown. */
+const char *hz_dem_format_name(hz_dem_format f);
+bool hz_dem_format_parse(const char *s, hz_dem_format *out);
+
+typedef enum hz_gen_kind {
+    HZ_GEN_PERLIN = 1, /* fBm of gradient noise: low octaves mountains, high octaves roughness */
+    HZ_GEN_DIAMOND     /* diamond-square midpoint displacement */
+} hz_gen_kind;
+
+typedef struct hz_gen_desc {
+    hz_gen_kind kind;   /* required */
+    uint32_t size;      /* side, must be 2^n+1, >= 3 */
+    uint64_t seed;      /* same seed -> same terrain, bit for bit, on every machine */
+    float amplitude;    /* metres from lowest to highest; 0 -> 1800 */
+    uint32_t octaves;   /* perlin only; 0 -> enough to reach ~2-sample detail */
+    float roughness;    /* amplitude ratio per octave (perlin persistence) or per level (diamond, = 2^-H); 0 -> 0.5 */
+    float feature_size; /* perlin: wavelength of the lowest octave in samples; 0 -> size/2 */
+    hz_progress_fn progress; /* optional */
+    void *progress_user;
+} hz_gen_desc;
+
+/* Generates a terrain into out (allocated; free with hz_grid_free), values in
+ * metres in [0, amplitude]. Fails on sizes that are not 2^n+1 or > 16385. */
+hz_result hz_generate(const hz_gen_desc *desc, hz_grid *out, hz_err *err);
+bool hz_gen_kind_parse(const char *s, hz_gen_kind *out);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

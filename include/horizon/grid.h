@@ -1,0 +1,55 @@
+/* horizon grid: a plain float elevation grid as read from a file or generated,
+ * before it becomes a hz_heightmap. No GL. */
+#ifndef HORIZON_GRID_H
+#define HORIZON_GRID_H
+
+#include "horizon/core.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Row-major elevations in metres. Row 0 is the north edge (first row of the
+ * file), column 0 the west edge. Sample (i, j) = z[j * width + i], i = column.
+ * NaN marks a void (no data). */
+typedef struct hz_grid {
+    uint32_t width, height;
+    float *z;
+} hz_grid;
+
+/* Allocates a width x height grid filled with 0. Fails on 0 sizes, sizes over
+ * 65537 per side, or out of memory. */
+hz_result hz_grid_alloc(hz_grid *g, uint32_t width, uint32_t height, hz_err *err);
+void hz_grid_free(hz_grid *g);
+
+/* Min/max of all finite samples; returns the number of non-finite samples
+ * (NaN or inf). If there is no finite sample, *min = *max = 0. */
+uint64_t hz_grid_range(const hz_grid *g, float *min, float *max);
+
+/* Replaces every NaN sample by a value interpolated from the nearest valid
+ * samples (iterative neighbour averaging, so large voids fill smoothly).
+ * *filled (may be NULL) receives the count. Fails if the grid has no valid
+ * sample or contains +-inf. */
+hz_result hz_grid_fill_voids(hz_grid *g, uint64_t *filled, hz_err *err);
+
+/* How to make a grid square with side 2^n + 1. */
+typedef enum hz_fit {
+    HZ_FIT_AUTO = 0, /* nearest valid side: crop if that is closer, else pad */
+    HZ_FIT_CROP,     /* largest 2^n+1 that fits in min(width, height); centred crop */
+    HZ_FIT_PAD,      /* smallest 2^n+1 >= max(width, height); edge values extended */
+    HZ_FIT_REFUSE    /* fail unless already square 2^n+1 */
+} hz_fit;
+
+/* Makes *g square 2^n+1 (n >= 1, side >= 3) in place (reallocates). Writes a one-line
+ * description of what was done to note (may be NULL; empty when nothing was
+ * done). Crop keeps the centre; pad extends edge samples outward (so the padded
+ * border is flat continuation of the edge). */
+hz_result hz_grid_fit_pow2(hz_grid *g, hz_fit fit, char *note, size_t note_cap, hz_err *err);
+
+/* True if n = 2^k + 1 for some k >= 1. */
+bool hz_is_pow2_plus1(uint32_t n);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,101 @@
+/* horizon quadtree LOD (SPEC T2-T7): per-node roughness and min/max
+ * precomputation, and the per-frame breadth-first selection that emits one
+ * crack-free triangle list into the full-resolution sample grid. No GL.
+ *
+ * Nodes: a node is its centre sample (x, z) and half-size s (a power of two);
+ * it covers samples [x-s, x+s] x [z-s, z+s]. Level 0 is the root (s = (size-1)/2),
+ * level levels-1 holds the smallest nodes (s = 1, 3x3 samples). */
+#ifndef HORIZON_LOD_H
+#define HORIZON_LOD_H
+
+#include "horizon/camera.h"
+#include "horizon/heightmap.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct hz_lod hz_lod;
+
+typedef struct hz_lod_desc {
+    const hz_heightmap *hm; /* required; retained: must outlive the hz_lod */
+    float spacing;          /* metres between samples; 0 -> 1 */
+    float zscale;           /* height multiplier; 0 -> 1; must be > 0 */
+    float propagate_c;      /* C for Röttger's upward propagation of d2,
+                               K = C / (2 (C - 1)); 0 -> 25 (clamped to >= 2) */
+    hz_progress_fn progress; /* optional */
+    void *progress_user;
+} hz_lod_desc;
+
+/* Precomputes d2 (propagated) and the min/max pyramid. NULL + err on failure. */
+hz_lod *hz_lod_create(const hz_lod_desc *desc, hz_err *err);
+void hz_lod_destroy(hz_lod *lod);
+
+/* Bytes of all LOD data including the 16-bit heights (heights, d2, min/max,
+ * flags), and per sample. */
+size_t hz_lod_memory_bytes(const hz_lod *lod);
+double hz_lod_bytes_per_sample(const hz_lod *lod);
+
+typedef enum hz_lod_criterion {
+    HZ_LOD_CLAMPED = 0, /* Röttger: split when l / (d C max(C2 d2, 1)) < 1 (default) */
+    HZ_LOD_UNCLAMPED    /* the seed's form: split when l / (d C C2 d2) < 1 */
+} hz_lod_criterion;
+
+typedef struct hz_lod_params {
+    float c;   /* distance factor C; 0 -> 25 */
+    float c2;  /* roughness factor C2; 0 -> 2.5 */
+    hz_lod_criterion criterion;
+    bool no_cull; /* keep every node regardless of the frustum (tests, references) */
+} hz_lod_params;
+
+/* A growable array the caller owns; free with free(list->data). */
+typedef struct hz_index_list {
+    uint32_t *data; /* triangles, 3 indices each, index = z * size + x */
+    size_t count, cap;
+} hz_index_list;
+
+typedef struct hz_lod_node {
+    uint32_t x, z, half;
+    uint32_t level;
+} hz_lod_node;
+
+typedef struct hz_node_list {
+    hz_lod_node *data;
+    size_t count, cap;
+} hz_node_list;
+
+typedef struct hz_lod_stats {
+    uint32_t nodes_visited; /* nodes whose criterion or box was evaluated */
+    uint32_t nodes_culled;  /* nodes dropped by the frustum */
+    uint32_t leaves;        /* nodes drawn as fans */
+    uint32_t restricted;    /* splits refused because a neighbour was coarser */
+    uint32_t triangles;
+    uint32_t max_level;
+    double ms;              /* CPU time of the selection */
+} hz_lod_stats;
+
+/* Selects the nodes for a camera and writes the triangle list into out
+ * (cleared first, grown as needed). leaves / culled (may be NULL) receive the
+ * drawn leaf nodes / the culled nodes. stats may be NULL. Not thread-safe on
+ * the same hz_lod (it keeps the per-node flag array, never cleared).
+ * Returns HZ_ERR_MEMORY if a list cannot grow. */
+hz_result hz_lod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params,
+                        hz_index_list *out, hz_node_list *leaves, hz_node_list *culled,
+                        hz_lod_stats *stats);
+
+/* Every cell of the grid as two triangles (the full-resolution reference mesh),
+ * counter-clockwise seen from above. */
+hz_result hz_lod_full_mesh(const hz_heightmap *hm, hz_index_list *out);
+
+/* Read-only per-node data (x, z, half as above): propagated d2 and the node's
+ * min/max height in metres (before zscale). False if (x, z, half) is not a node. */
+bool hz_lod_query_node(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t half, float *d2,
+                       float *min_h, float *max_h);
+
+/* World-space box of a node: metres, y from the node's min/max times zscale. */
+bool hz_lod_node_box(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t half, vec3 box[2]);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

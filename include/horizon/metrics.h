@@ -1,0 +1,51 @@
+/* horizon metrics: exact screen-space error of a LOD mesh against the
+ * full-resolution heightmap, and image comparisons. No GL. */
+#ifndef HORIZON_METRICS_H
+#define HORIZON_METRICS_H
+
+#include "horizon/camera.h"
+#include "horizon/heightmap.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct hz_px_error {
+    double max_px;        /* largest projected error of any sample in the frustum */
+    double p99_px;        /* 99th percentile over samples in the frustum */
+    double max_m;         /* largest vertical error in metres (after zscale) */
+    uint64_t samples;     /* samples inside the frustum that the mesh covers */
+    uint64_t uncovered;   /* samples inside the frustum with no triangle over them */
+} hz_px_error;
+
+/* For every heightmap sample inside the camera frustum: the LOD surface height
+ * at its (x, z) (barycentric interpolation in the mesh triangle that covers it)
+ * minus the true height, projected to pixels at the sample's distance:
+ * h_px = |dh| * image_height / (2 * dist * tan(fov_y / 2)).
+ * indices: triangles into the row-major sample grid (index = j * size + i).
+ * scratch is grown as needed (caller frees scratch->data); may not be NULL. */
+typedef struct hz_float_buf {
+    float *data;
+    size_t count, cap;
+} hz_float_buf;
+
+hz_result hz_metrics_px_error(const hz_heightmap *hm, float spacing, float zscale,
+                              const uint32_t *indices, size_t count, const hz_camera *cam,
+                              uint32_t image_height, hz_float_buf *scratch, hz_px_error *out);
+
+/* PSNR in dB of two RGB8 images of n pixels (INFINITY when identical). */
+double hz_metrics_psnr(const uint8_t *a, const uint8_t *b, size_t n);
+
+/* Mean over pixels and channels of |(a1 - a0) - (b1 - b0)| in 0..255 units:
+ * the frame-to-frame change of a that b does not have (popping). */
+double hz_metrics_popping(const uint8_t *a0, const uint8_t *a1, const uint8_t *b0,
+                          const uint8_t *b1, size_t n);
+
+/* Fraction of pixels that are sky in one image and not in the other; sky is
+ * given as a per-pixel mask (1 = sky). */
+double hz_metrics_silhouette(const uint8_t *sky_a, const uint8_t *sky_b, size_t n);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

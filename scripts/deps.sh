@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages horizon needs to build, test and render
+# headless. Installs only what is missing; safe to run repeatedly.
+set -euo pipefail
+PKGS=(
+  build-essential cmake pkg-config
+  libcglm-dev          # vectors, matrices, frustum planes
+  libepoxy-dev         # GL/EGL function loading
+  libegl-dev libegl1-mesa-dev libgl1-mesa-dri libegl-mesa0   # EGL + Mesa llvmpipe (software GL 4.5)
+  libstb-dev           # stb_image / stb_image_write
+  libpng-dev zlib1g-dev
+  libcmocka-dev        # unit tests
+  python3              # CLI tests check JSON output
+)
+missing=()
+for p in "${PKGS[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  exit 0
+fi
+echo "deps: installing ${missing[*]}" >&2
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then
+  if command -v sudo >/dev/null; then SUDO=sudo; else
+    echo "deps: missing packages (${missing[*]}) and not root; install them with apt-get" >&2
+    exit 1
+  fi
+fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -q >&2
+$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}" >&2

@@ -1,0 +1,16 @@
+#version 330 core
+// Sky: one full-screen triangle (no vertex buffer). Each corner carries the
+// world-space view ray, which is linear in screen space, so the fragment
+// shader gets the exact per-pixel direction.
+uniform mat4 u_inv_viewproj_rot; // inverse(proj * view-without-translation)
+
+out vec3 v_dir;
+
+void main()
+{
+    vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2)) * 2.0 - 1.0;
+    vec4 w = u_inv_viewproj_rot * vec4(p, 0.5, 1.0);
+    v_dir = w.xyz / w.w;
+    // z = 0 is the far plane in reverse-Z; depth is neither tested nor written.
+    gl_Position = vec4(p, 0.0, 1.0);
+}

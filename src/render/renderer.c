@@ -1,0 +1,728 @@
+/* horizon renderer: sky + vertex-less terrain in one indexed draw.
+ *
+ * The heights live on the GPU once, as a GL_R16 texture buffer in row-major
+ * order. There is no vertex buffer: the per-frame index buffer holds sample
+ * indices and the vertex shader turns gl_VertexID into (i, j, height).
+ * Depth is reverse-Z (glClipControl ZERO_TO_ONE, clear 0, GL_GREATER) into a
+ * 32-bit float buffer, so far horizons do not z-fight. */
+#include "horizon/render.h"
+
+#include <dlfcn.h>
+#include <epoxy/egl.h>
+#include <epoxy/gl.h>
+#include <limits.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "hz_shaders.h" /* generated from shaders/<name>.glsl */
+
+#define DEFAULT_WIDTH 1280u
+#define DEFAULT_HEIGHT 720u
+
+typedef struct sky_uniforms {
+    GLint inv_viewproj_rot, horizon, zenith, sun_dir;
+} sky_uniforms;
+
+typedef struct terrain_uniforms {
+    GLint heights, size, spacing, hscale, hoffset, viewproj;
+    GLint sun_dir, horizon, eye, fog_density, ambient, hrange, wire;
+} terrain_uniforms;
+
+struct hz_renderer {
+    void *ctx;         /* EGLContext or GLXContext current at creation */
+    uint32_t width, height;
+    bool to_default;   /* draw to framebuffer 0 instead of fbo */
+    bool clip_control; /* GL 4.5 or ARB_clip_control: depth range [0, 1] */
+    GLint max_tbo;     /* GL_MAX_TEXTURE_BUFFER_SIZE, texels */
+
+    GLuint fbo, color_rb, depth_rb;
+    GLuint vao;         /* empty: the terrain and the sky have no attributes */
+    GLuint ibo;         /* per-frame indices, GL_STREAM_DRAW */
+    size_t ibo_cap;     /* bytes allocated in ibo */
+    GLuint height_buf;  /* GL_TEXTURE_BUFFER storage, uint16 per sample */
+    GLuint height_tex;  /* GL_R16 view of height_buf */
+
+    GLuint sky_prog, terrain_prog;
+    sky_uniforms su;
+    terrain_uniforms tu;
+
+    /* Current heightmap, world units (metres, zscale applied). */
+    bool has_heights;
+    uint32_t size;
+    float spacing, hscale, hoffset, hmin, hmax;
+};
+
+/* ---- GL error helpers --------------------------------------------------- */
+
+static const char *gl_error_name(GLenum e)
+{
+    switch (e) {
+    case GL_NO_ERROR: return "GL_NO_ERROR";
+    case GL_INVALID_ENUM: return "GL_INVALID_ENUM";
+    case GL_INVALID_VALUE: return "GL_INVALID_VALUE";
+    case GL_INVALID_OPERATION: return "GL_INVALID_OPERATION";
+    case GL_INVALID_FRAMEBUFFER_OPERATION: return "GL_INVALID_FRAMEBUFFER_OPERATION";
+    case GL_OUT_OF_MEMORY: return "GL_OUT_OF_MEMORY";
+    case GL_STACK_UNDERFLOW: return "GL_STACK_UNDERFLOW";
+    case GL_STACK_OVERFLOW: return "GL_STACK_OVERFLOW";
+    }
+    return "unknown GL error";
+}
+
+static const char *fbo_status_name(GLenum s)
+{
+    switch (s) {
+    case GL_FRAMEBUFFER_COMPLETE: return "GL_FRAMEBUFFER_COMPLETE";
+    case GL_FRAMEBUFFER_UNDEFINED: return "GL_FRAMEBUFFER_UNDEFINED";
+    case GL_FRAMEBUFFER_INCOMPLETE_ATTACHMENT: return "GL_FRAMEBUFFER_INCOMPLETE_ATTACHMENT";
+    case GL_FRAMEBUFFER_INCOMPLETE_MISSING_ATTACHMENT: return "GL_FRAMEBUFFER_INCOMPLETE_MISSING_ATTACHMENT";
+    case GL_FRAMEBUFFER_INCOMPLETE_DRAW_BUFFER: return "GL_FRAMEBUFFER_INCOMPLETE_DRAW_BUFFER";
+    case GL_FRAMEBUFFER_INCOMPLETE_READ_BUFFER: return "GL_FRAMEBUFFER_INCOMPLETE_READ_BUFFER";
+    case GL_FRAMEBUFFER_UNSUPPORTED: return "GL_FRAMEBUFFER_UNSUPPORTED";
+    case GL_FRAMEBUFFER_INCOMPLETE_MULTISAMPLE: return "GL_FRAMEBUFFER_INCOMPLETE_MULTISAMPLE";
+    case GL_FRAMEBUFFER_INCOMPLETE_LAYER_TARGETS: return "GL_FRAMEBUFFER_INCOMPLETE_LAYER_TARGETS";
+    }
+    return "unknown framebuffer status";
+}
+
+/* Clears stale errors so the next gl_check blames the right call. */
+static void gl_drain(void)
+{
+    for (int k = 0; k < 16 && glGetError() != GL_NO_ERROR; k++) {
+    }
+}
+
+static hz_result gl_check(hz_err *err, const char *what)
+{
+    GLenum e = glGetError();
+    if (e == GL_NO_ERROR)
+        return HZ_OK;
+    gl_drain();
+    return hz_err_set(err, HZ_ERR_GL, "GL: %s failed: %s (0x%04x)", what, gl_error_name(e), (unsigned)e);
+}
+
+/* The current context of any API, NULL if none.
+ * WARNING: libepoxy abort()s on any GL call without a current context, so
+ * every entry point checks first. EGL covers hz_gl and EGL windows; a GLX
+ * context (GLFW on X11) is found through an already loaded libGLX/libGL. */
+static void *current_context(void)
+{
+    EGLContext egl = eglGetCurrentContext();
+    if (egl != EGL_NO_CONTEXT)
+        return egl;
+    static const char *const libs[] = {"libGLX.so.0", "libGL.so.1"};
+    for (size_t k = 0; k < sizeof libs / sizeof libs[0]; k++) {
+        void *lib = dlopen(libs[k], RTLD_LAZY | RTLD_NOLOAD);
+        if (!lib)
+            continue;
+        void *(*get_current)(void) = (void *(*)(void))dlsym(lib, "glXGetCurrentContext");
+        void *glx = get_current ? get_current() : NULL;
+        dlclose(lib);
+        if (glx)
+            return glx;
+    }
+    return NULL;
+}
+
+/* The renderer's GL names only mean something in the context that made them. */
+static hz_result check_context(const hz_renderer *r, hz_err *err, const char *what)
+{
+    void *cur = current_context();
+    if (!cur)
+        return hz_err_set(err, HZ_ERR_GL, "renderer: %s without a current OpenGL context", what);
+    if (cur != r->ctx)
+        return hz_err_set(err, HZ_ERR_GL, "renderer: %s with a different OpenGL context current than the one "
+                          "the renderer was created in", what);
+    return HZ_OK;
+}
+
+/* ---- shaders ------------------------------------------------------------- */
+
+/* Copies a GL info log into buf, without the trailing newline. */
+static void trim_log(char *buf)
+{
+    size_t n = strlen(buf);
+    while (n && (buf[n - 1] == '\n' || buf[n - 1] == '\r' || buf[n - 1] == ' '))
+        buf[--n] = 0;
+}
+
+static GLuint compile_shader(GLenum type, const char *src, const char *name, hz_err *err)
+{
+    GLuint s = glCreateShader(type);
+    if (!s) {
+        gl_check(err, "glCreateShader");
+        return 0;
+    }
+    glShaderSource(s, 1, &src, NULL);
+    glCompileShader(s);
+    GLint ok = GL_FALSE;
+    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+        char log[400] = "";
+        glGetShaderInfoLog(s, (GLsizei)sizeof log, NULL, log);
+        trim_log(log);
+        hz_err_set(err, HZ_ERR_GL, "GL: shader %s failed to compile: %s", name, log[0] ? log : "(empty log)");
+        glDeleteShader(s);
+        return 0;
+    }
+    return s;
+}
+
+static GLuint link_program(const char *vs_src, const char *fs_src, const char *name, hz_err *err)
+{
+    char vs_name[64], fs_name[64];
+    snprintf(vs_name, sizeof vs_name, "%s_vs.glsl", name);
+    snprintf(fs_name, sizeof fs_name, "%s_fs.glsl", name);
+    GLuint vs = compile_shader(GL_VERTEX_SHADER, vs_src, vs_name, err);
+    if (!vs)
+        return 0;
+    GLuint fs = compile_shader(GL_FRAGMENT_SHADER, fs_src, fs_name, err);
+    if (!fs) {
+        glDeleteShader(vs);
+        return 0;
+    }
+    GLuint p = glCreateProgram();
+    glAttachShader(p, vs);
+    glAttachShader(p, fs);
+    glLinkProgram(p);
+    glDeleteShader(vs); /* the program keeps them alive */
+    glDeleteShader(fs);
+    GLint ok = GL_FALSE;
+    glGetProgramiv(p, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        char log[400] = "";
+        glGetProgramInfoLog(p, (GLsizei)sizeof log, NULL, log);
+        trim_log(log);
+        hz_err_set(err, HZ_ERR_GL, "GL: program %s failed to link: %s", name, log[0] ? log : "(empty log)");
+        glDeleteProgram(p);
+        return 0;
+    }
+    return p;
+}
+
+static hz_result make_programs(hz_renderer *r, hz_err *err)
+{
+    r->sky_prog = link_program(hz_shader_sky_vs, hz_shader_sky_fs, "sky", err);
+    if (!r->sky_prog)
+        return HZ_ERR_GL;
+    r->terrain_prog = link_program(hz_shader_terrain_vs, hz_shader_terrain_fs, "terrain", err);
+    if (!r->terrain_prog)
+        return HZ_ERR_GL;
+
+    GLuint p = r->sky_prog;
+    r->su.inv_viewproj_rot = glGetUniformLocation(p, "u_inv_viewproj_rot");
+    r->su.horizon = glGetUniformLocation(p, "u_sky_horizon");
+    r->su.zenith = glGetUniformLocation(p, "u_sky_zenith");
+    r->su.sun_dir = glGetUniformLocation(p, "u_sun_dir");
+
+    p = r->terrain_prog;
+    r->tu.heights = glGetUniformLocation(p, "u_heights");
+    r->tu.size = glGetUniformLocation(p, "u_size");
+    r->tu.spacing = glGetUniformLocation(p, "u_spacing");
+    r->tu.hscale = glGetUniformLocation(p, "u_hscale");
+    r->tu.hoffset = glGetUniformLocation(p, "u_hoffset");
+    r->tu.viewproj = glGetUniformLocation(p, "u_viewproj");
+    r->tu.sun_dir = glGetUniformLocation(p, "u_sun_dir");
+    r->tu.horizon = glGetUniformLocation(p, "u_sky_horizon");
+    r->tu.eye = glGetUniformLocation(p, "u_eye");
+    r->tu.fog_density = glGetUniformLocation(p, "u_fog_density");
+    r->tu.ambient = glGetUniformLocation(p, "u_ambient");
+    r->tu.hrange = glGetUniformLocation(p, "u_hrange");
+    r->tu.wire = glGetUniformLocation(p, "u_wire");
+    return gl_check(err, "shader setup");
+}
+
+/* ---- render target ------------------------------------------------------- */
+
+static hz_result fbo_alloc(hz_renderer *r, uint32_t w, uint32_t h, hz_err *err)
+{
+    GLint max_rb = 0;
+    glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
+    if (max_rb > 0 && (w > (uint32_t)max_rb || h > (uint32_t)max_rb))
+        return hz_err_set(err, HZ_ERR_UNSUPPORTED, "GL: target %ux%u exceeds GL_MAX_RENDERBUFFER_SIZE %d", w, h,
+                          max_rb);
+    if (!r->fbo)
+        glGenFramebuffers(1, &r->fbo);
+    if (!r->color_rb)
+        glGenRenderbuffers(1, &r->color_rb);
+    if (!r->depth_rb)
+        glGenRenderbuffers(1, &r->depth_rb);
+
+    glBindRenderbuffer(GL_RENDERBUFFER, r->color_rb);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, (GLsizei)w, (GLsizei)h);
+    glBindRenderbuffer(GL_RENDERBUFFER, r->depth_rb);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, (GLsizei)w, (GLsizei)h);
+    glBindRenderbuffer(GL_RENDERBUFFER, 0);
+    hz_result res = gl_check(err, "render target allocation (glRenderbufferStorage RGBA8 + DEPTH32F)");
+    if (res != HZ_OK)
+        return res;
+
+    glBindFramebuffer(GL_FRAMEBUFFER, r->fbo);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, r->color_rb);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, r->depth_rb);
+    GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    if (status != GL_FRAMEBUFFER_COMPLETE)
+        return hz_err_set(err, HZ_ERR_GL, "GL: framebuffer %ux%u incomplete: %s (0x%04x)", w, h,
+                          fbo_status_name(status), (unsigned)status);
+    return gl_check(err, "framebuffer setup");
+}
+
+/* ---- public API ---------------------------------------------------------- */
+
+hz_renderer *hz_renderer_create(const hz_renderer_desc *desc, hz_err *err)
+{
+    hz_renderer_desc d = desc ? *desc : (hz_renderer_desc){0};
+    if (d.width == 0 || d.height == 0) {
+        d.width = DEFAULT_WIDTH;
+        d.height = DEFAULT_HEIGHT;
+    }
+    if (d.width > INT_MAX || d.height > INT_MAX) {
+        hz_err_set(err, HZ_ERR_VALUE, "renderer: bad target size %ux%u", d.width, d.height);
+        return NULL;
+    }
+    void *ctx = current_context();
+    if (!ctx) {
+        hz_err_set(err, HZ_ERR_GL, "renderer: no current OpenGL context (create one with hz_gl_create_headless, "
+                   "or make the window's context current)");
+        return NULL;
+    }
+    const char *version = (const char *)glGetString(GL_VERSION);
+    if (!version) {
+        hz_err_set(err, HZ_ERR_GL, "renderer: glGetString(GL_VERSION) returned NULL");
+        return NULL;
+    }
+    int ver = epoxy_gl_version();
+    if (epoxy_is_desktop_gl() == false || ver < 33) {
+        hz_err_set(err, HZ_ERR_UNSUPPORTED, "renderer: needs desktop OpenGL 3.3 core or newer, context is \"%s\"",
+                   version);
+        return NULL;
+    }
+
+    hz_renderer *r = calloc(1, sizeof *r);
+    if (!r) {
+        hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
+        return NULL;
+    }
+    r->ctx = ctx;
+    r->width = d.width;
+    r->height = d.height;
+    r->to_default = d.to_default_framebuffer;
+    /* Without glClipControl the reverse-Z projection still works (depth
+     * lands in [0.5, 1]) but loses precision and the far-plane clip. */
+    r->clip_control = ver >= 45 || epoxy_has_gl_extension("GL_ARB_clip_control");
+    gl_drain();
+    glGetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &r->max_tbo);
+
+    if (make_programs(r, err) != HZ_OK)
+        goto fail;
+    glGenVertexArrays(1, &r->vao);
+    glGenBuffers(1, &r->ibo);
+    glGenBuffers(1, &r->height_buf);
+    glGenTextures(1, &r->height_tex);
+    if (gl_check(err, "renderer object creation") != HZ_OK)
+        goto fail;
+    if (!r->to_default && fbo_alloc(r, r->width, r->height, err) != HZ_OK)
+        goto fail;
+    return r;
+
+fail:
+    hz_renderer_destroy(r);
+    return NULL;
+}
+
+void hz_renderer_destroy(hz_renderer *r)
+{
+    if (!r)
+        return;
+    if (current_context() != r->ctx) {
+        /* Deleting our names here would hit another context's objects; ours
+         * die with their own context. */
+        free(r);
+        return;
+    }
+    /* glDelete* ignore 0 names. */
+    glDeleteProgram(r->sky_prog);
+    glDeleteProgram(r->terrain_prog);
+    glDeleteVertexArrays(1, &r->vao);
+    glDeleteBuffers(1, &r->ibo);
+    glDeleteTextures(1, &r->height_tex);
+    glDeleteBuffers(1, &r->height_buf);
+    glDeleteFramebuffers(1, &r->fbo);
+    glDeleteRenderbuffers(1, &r->color_rb);
+    glDeleteRenderbuffers(1, &r->depth_rb);
+    free(r);
+}
+
+hz_result hz_renderer_resize(hz_renderer *r, uint32_t width, uint32_t height, hz_err *err)
+{
+    HZ_ASSERT(r);
+    if (width == 0 || height == 0 || width > INT_MAX || height > INT_MAX)
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: bad target size %ux%u", width, height);
+    hz_result ctx_res = check_context(r, err, "hz_renderer_resize");
+    if (ctx_res != HZ_OK)
+        return ctx_res;
+    if (!r->to_default) {
+        gl_drain();
+        hz_result res = fbo_alloc(r, width, height, err);
+        if (res != HZ_OK)
+            return res;
+    }
+    r->width = width;
+    r->height = height;
+    glViewport(0, 0, (GLsizei)width, (GLsizei)height);
+    return HZ_OK;
+}
+
+/* Row-major copy of the heights into dst (size*size values), any layout.
+ * Also returns the raw min/max. */
+static void copy_rows(const hz_heightmap *hm, uint16_t *dst, uint16_t *lo, uint16_t *hi)
+{
+    const uint32_t n = hm->size;
+    uint16_t mn = UINT16_MAX, mx = 0;
+    for (uint32_t j = 0; j < n; j++) {
+        uint16_t *row = dst + (size_t)j * n;
+        if (hm->layout == HZ_LAYOUT_LINEAR) {
+            memcpy(row, hm->h + (size_t)j * n, (size_t)n * sizeof *row);
+        } else {
+            /* Blocked: each 32-sample run of a row is contiguous. */
+            for (uint32_t i = 0; i < n; i += HZ_BLOCK) {
+                uint32_t len = n - i < HZ_BLOCK ? n - i : HZ_BLOCK;
+                memcpy(row + i, hm->h + hz_heightmap_index(hm, i, j), (size_t)len * sizeof *row);
+            }
+        }
+        for (uint32_t i = 0; i < n; i++) {
+            mn = row[i] < mn ? row[i] : mn;
+            mx = row[i] > mx ? row[i] : mx;
+        }
+    }
+    *lo = mn;
+    *hi = mx;
+}
+
+hz_result hz_renderer_set_heightmap(hz_renderer *r, const hz_heightmap *hm, float spacing,
+                                    float zscale, hz_err *err)
+{
+    HZ_ASSERT(r && hm);
+    if (hm->size < 2)
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: heightmap size %u is too small", hm->size);
+    const uint64_t samples = (uint64_t)hm->size * hm->size;
+    if (r->max_tbo <= 0 || samples > (uint64_t)r->max_tbo)
+        return hz_err_set(err, HZ_ERR_UNSUPPORTED,
+                          "renderer: heightmap %ux%u = %llu samples exceeds GL_MAX_TEXTURE_BUFFER_SIZE %d texels",
+                          hm->size, hm->size, (unsigned long long)samples, r->max_tbo);
+    if (samples > (uint64_t)INT_MAX)
+        return hz_err_set(err, HZ_ERR_UNSUPPORTED, "renderer: heightmap %ux%u exceeds the 2^31 vertex id range",
+                          hm->size, hm->size);
+    if (!(spacing > 0.0f) || !isfinite(spacing) || !isfinite(zscale) || !isfinite(hm->scale) ||
+        !isfinite(hm->offset))
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: bad spacing %g / zscale %g / scale %g / offset %g",
+                          (double)spacing, (double)zscale, (double)hm->scale, (double)hm->offset);
+    if (!hm->h || hm->size_bytes < samples * sizeof(uint16_t))
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: heightmap storage too small (%zu bytes for %ux%u)",
+                          hm->size_bytes, hm->size, hm->size);
+    if (hm->layout == HZ_LAYOUT_BLOCKED || hm->layout == HZ_LAYOUT_DEFAULT) {
+        /* The blocked layout stores whole 32x32 tiles. */
+        size_t bpr = hm->blocks_per_row;
+        if (bpr * HZ_BLOCK < hm->size ||
+            hm->size_bytes < bpr * bpr * HZ_BLOCK * HZ_BLOCK * sizeof(uint16_t))
+            return hz_err_set(err, HZ_ERR_VALUE, "renderer: blocked heightmap has %zu blocks per row for size %u",
+                              bpr, hm->size);
+    }
+
+    hz_result ctx_res = check_context(r, err, "hz_renderer_set_heightmap");
+    if (ctx_res != HZ_OK)
+        return ctx_res;
+    gl_drain();
+    const GLsizeiptr bytes = (GLsizeiptr)(samples * sizeof(uint16_t));
+    r->has_heights = false;
+    glBindBuffer(GL_TEXTURE_BUFFER, r->height_buf);
+    glBufferData(GL_TEXTURE_BUFFER, bytes, NULL, GL_STATIC_DRAW);
+    hz_result res = gl_check(err, "height buffer allocation");
+    if (res != HZ_OK) {
+        glBindBuffer(GL_TEXTURE_BUFFER, 0);
+        return res;
+    }
+    uint16_t *dst = glMapBufferRange(GL_TEXTURE_BUFFER, 0, bytes, GL_MAP_WRITE_BIT | GL_MAP_INVALIDATE_BUFFER_BIT);
+    if (!dst) {
+        res = gl_check(err, "glMapBufferRange(height buffer)");
+        glBindBuffer(GL_TEXTURE_BUFFER, 0);
+        return res != HZ_OK ? res : hz_err_set(err, HZ_ERR_GL, "GL: glMapBufferRange(height buffer) returned NULL");
+    }
+    uint16_t lo, hi;
+    copy_rows(hm, dst, &lo, &hi);
+    GLboolean intact = glUnmapBuffer(GL_TEXTURE_BUFFER);
+    glBindTexture(GL_TEXTURE_BUFFER, r->height_tex);
+    glTexBuffer(GL_TEXTURE_BUFFER, GL_R16, r->height_buf);
+    glBindTexture(GL_TEXTURE_BUFFER, 0);
+    glBindBuffer(GL_TEXTURE_BUFFER, 0);
+    res = gl_check(err, "height texture buffer upload (GL_R16)");
+    if (res != HZ_OK)
+        return res;
+    if (!intact)
+        return hz_err_set(err, HZ_ERR_GL, "GL: height buffer contents lost during upload (glUnmapBuffer)");
+
+    r->size = hm->size;
+    r->spacing = spacing;
+    r->hscale = hm->scale * zscale;
+    r->hoffset = hm->offset * zscale;
+    float a = r->hoffset + r->hscale * (float)lo, b = r->hoffset + r->hscale * (float)hi;
+    r->hmin = a < b ? a : b;
+    r->hmax = a < b ? b : a;
+    r->has_heights = true;
+
+    /* Warm-up: llvmpipe (and many drivers) compile shaders lazily at the first
+     * draw, which would otherwise land in the first frame's draw_ms (~1 s on
+     * llvmpipe). One triangle in the corner, looking down at it. */
+    const uint32_t tri[3] = {0, r->size, 1};
+    hz_camera cam = {.pos = {spacing * 0.5f, r->hmax + 10.0f * spacing, spacing * 0.5f}, .pitch = -89.0f};
+    return hz_renderer_draw(r, &cam, NULL, tri, 3, NULL, err);
+}
+
+static bool vec3_is_zero(const float *v)
+{
+    return v[0] == 0.0f && v[1] == 0.0f && v[2] == 0.0f;
+}
+
+/* Zero fields -> defaults (render.h). */
+static hz_scene_params params_defaults(const hz_scene_params *p, float zfar)
+{
+    hz_scene_params d = p ? *p : (hz_scene_params){0};
+    if (vec3_is_zero(d.sun_dir)) {
+        /* Afternoon sun: from the west-south-west, about 30 degrees up
+         * (x east, z south), low enough to model the relief. */
+        d.sun_dir[0] = -0.78f;
+        d.sun_dir[1] = 0.50f;
+        d.sun_dir[2] = 0.36f;
+    }
+    glm_vec3_normalize(d.sun_dir);
+    if (vec3_is_zero(d.sky_color)) {
+        d.sky_color[0] = 0.72f;
+        d.sky_color[1] = 0.81f;
+        d.sky_color[2] = 0.92f;
+    }
+    if (d.fog_density == 0.0f)
+        d.fog_density = 3.0f / zfar;
+    else if (d.fog_density < 0.0f)
+        d.fog_density = 0.0f;
+    if (d.ambient == 0.0f)
+        d.ambient = 0.3f;
+    return d;
+}
+
+hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_params *params,
+                           const uint32_t *indices, uint32_t count, hz_draw_stats *stats,
+                           hz_err *err)
+{
+    HZ_ASSERT(r && cam);
+    if (stats)
+        *stats = (hz_draw_stats){0};
+    if (count % 3 != 0)
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: index count %u is not a multiple of 3", count);
+    if (count > 0 && !indices)
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: %u indices but no index array", count);
+    if (count > 0 && !r->has_heights)
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: draw with %u indices before hz_renderer_set_heightmap",
+                          count);
+    if (count > (uint32_t)INT_MAX)
+        return hz_err_set(err, HZ_ERR_UNSUPPORTED, "renderer: %u indices exceed one glDrawElements call", count);
+
+    hz_result ctx_res = check_context(r, err, "hz_renderer_draw");
+    if (ctx_res != HZ_OK)
+        return ctx_res;
+    const float zfar = cam->zfar > 0.0f ? cam->zfar : 100000.0f;
+    const hz_scene_params sp = params_defaults(params, zfar);
+    gl_drain();
+    glBindVertexArray(r->vao);
+
+    /* Index upload. Orphaning (glBufferData NULL) lets the driver hand us
+     * fresh storage instead of waiting for the previous frame's draw. */
+    double t0 = hz_time_ms();
+    if (count > 0) {
+        size_t bytes = (size_t)count * sizeof(uint32_t);
+        glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ibo);
+        if (bytes > r->ibo_cap)
+            r->ibo_cap = bytes + bytes / 4; /* headroom: the LOD's count varies per frame */
+        glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)r->ibo_cap, NULL, GL_STREAM_DRAW);
+        glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, (GLsizeiptr)bytes, indices);
+        hz_result res = gl_check(err, "index buffer upload");
+        if (res != HZ_OK) {
+            r->ibo_cap = 0;
+            glBindVertexArray(0);
+            return res;
+        }
+    }
+    double t1 = hz_time_ms();
+
+    /* Matrices. The sky only needs the view rotation. */
+    mat4 view, proj, viewproj, view_rot, vp_rot, inv_vp_rot;
+    hz_camera_view(cam, view);
+    hz_camera_proj_reverse_z(cam, proj);
+    glm_mat4_mul(proj, view, viewproj);
+    glm_mat4_copy(view, view_rot);
+    view_rot[3][0] = view_rot[3][1] = view_rot[3][2] = 0.0f;
+    glm_mat4_mul(proj, view_rot, vp_rot);
+    glm_mat4_inv(vp_rot, inv_vp_rot);
+    /* Zenith derived from the horizon colour: the default pale blue gives a
+     * deep blue (0.20, 0.40, 0.78); a custom colour keeps its hue. */
+    const vec3 zenith = {sp.sky_color[0] * 0.28f, sp.sky_color[1] * 0.5f, sp.sky_color[2] * 0.85f};
+
+    glFinish(); /* start the clock with an idle GPU */
+    double t2 = hz_time_ms();
+
+    glBindFramebuffer(GL_FRAMEBUFFER, r->to_default ? 0 : r->fbo);
+    glViewport(0, 0, (GLsizei)r->width, (GLsizei)r->height);
+    if (r->clip_control)
+        glClipControl(GL_LOWER_LEFT, GL_ZERO_TO_ONE);
+    glDisable(GL_BLEND);
+    glDisable(GL_SCISSOR_TEST);
+    glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    glDepthMask(GL_TRUE);
+    glClearColor(sp.sky_color[0], sp.sky_color[1], sp.sky_color[2], 1.0f);
+    glClearDepth(0.0); /* reverse-Z: 0 is infinitely far */
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+
+    /* Sky: full-screen triangle, no depth. */
+    glDisable(GL_DEPTH_TEST);
+    glDepthMask(GL_FALSE);
+    glDisable(GL_CULL_FACE);
+    glUseProgram(r->sky_prog);
+    glUniformMatrix4fv(r->su.inv_viewproj_rot, 1, GL_FALSE, (const float *)inv_vp_rot);
+    glUniform3fv(r->su.horizon, 1, sp.sky_color);
+    glUniform3fv(r->su.zenith, 1, zenith);
+    glUniform3fv(r->su.sun_dir, 1, sp.sun_dir);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+
+    if (count > 0) {
+        glEnable(GL_DEPTH_TEST);
+        glDepthFunc(GL_GREATER);
+        glDepthMask(GL_TRUE);
+        /* The LOD emits CCW-from-above triangles: a camera under the
+         * surface sees nothing, which is fine. */
+        glEnable(GL_CULL_FACE);
+        glCullFace(GL_BACK);
+        glFrontFace(GL_CCW);
+        glUseProgram(r->terrain_prog);
+        glActiveTexture(GL_TEXTURE0);
+        glBindTexture(GL_TEXTURE_BUFFER, r->height_tex);
+        glUniform1i(r->tu.heights, 0);
+        glUniform1i(r->tu.size, (GLint)r->size);
+        glUniform1f(r->tu.spacing, r->spacing);
+        glUniform1f(r->tu.hscale, r->hscale);
+        glUniform1f(r->tu.hoffset, r->hoffset);
+        glUniformMatrix4fv(r->tu.viewproj, 1, GL_FALSE, (const float *)viewproj);
+        glUniform3fv(r->tu.sun_dir, 1, sp.sun_dir);
+        glUniform3fv(r->tu.horizon, 1, sp.sky_color);
+        glUniform3fv(r->tu.eye, 1, cam->pos);
+        glUniform1f(r->tu.fog_density, sp.fog_density);
+        glUniform1f(r->tu.ambient, sp.ambient);
+        glUniform2f(r->tu.hrange, r->hmin, r->hmax);
+        glUniform1i(r->tu.wire, 0);
+        glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
+
+        if (sp.wireframe) {
+            /* Second pass as lines, pulled toward the eye: with reverse-Z
+             * nearer means larger depth, hence the positive offset. */
+            glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
+            glEnable(GL_POLYGON_OFFSET_LINE);
+            glPolygonOffset(1.0f, 1.0f);
+            glDepthFunc(GL_GEQUAL);
+            glDepthMask(GL_FALSE);
+            glUniform1i(r->tu.wire, 1);
+            glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
+            glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+            glDisable(GL_POLYGON_OFFSET_LINE);
+            glDepthMask(GL_TRUE);
+        }
+        glBindTexture(GL_TEXTURE_BUFFER, 0);
+    }
+    glUseProgram(0);
+    glBindVertexArray(0);
+    glFinish();
+    double t3 = hz_time_ms();
+    if (stats) {
+        stats->upload_ms = t1 - t0;
+        stats->draw_ms = t3 - t2;
+    }
+    return gl_check(err, "terrain draw");
+}
+
+/* Binds the frame we drew for reading. */
+static void bind_read(const hz_renderer *r)
+{
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, r->to_default ? 0 : r->fbo);
+    glReadBuffer(r->to_default ? GL_BACK : GL_COLOR_ATTACHMENT0);
+    glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glPixelStorei(GL_PACK_ROW_LENGTH, 0);
+    glPixelStorei(GL_PACK_SKIP_ROWS, 0);
+    glPixelStorei(GL_PACK_SKIP_PIXELS, 0);
+}
+
+/* GL rows are bottom-up; ours are top-down. */
+static bool flip_rows(uint8_t *p, size_t row_bytes, uint32_t rows)
+{
+    uint8_t *tmp = malloc(row_bytes);
+    if (!tmp)
+        return false;
+    for (uint32_t y = 0; y < rows / 2; y++) {
+        uint8_t *a = p + (size_t)y * row_bytes, *b = p + (size_t)(rows - 1 - y) * row_bytes;
+        memcpy(tmp, a, row_bytes);
+        memcpy(a, b, row_bytes);
+        memcpy(b, tmp, row_bytes);
+    }
+    free(tmp);
+    return true;
+}
+
+hz_result hz_renderer_read_rgb(hz_renderer *r, uint8_t *rgb, hz_err *err)
+{
+    HZ_ASSERT(r && rgb);
+    hz_result ctx_res = check_context(r, err, "hz_renderer_read_rgb");
+    if (ctx_res != HZ_OK)
+        return ctx_res;
+    gl_drain();
+    bind_read(r);
+    glReadPixels(0, 0, (GLsizei)r->width, (GLsizei)r->height, GL_RGB, GL_UNSIGNED_BYTE, rgb);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+    hz_result res = gl_check(err, "glReadPixels(RGB)");
+    if (res != HZ_OK)
+        return res;
+    if (!flip_rows(rgb, (size_t)r->width * 3, r->height))
+        return hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
+    return HZ_OK;
+}
+
+hz_result hz_renderer_read_sky_mask(hz_renderer *r, uint8_t *mask, hz_err *err)
+{
+    HZ_ASSERT(r && mask);
+    if (r->to_default)
+        return hz_err_set(err, HZ_ERR_UNSUPPORTED, "renderer: sky mask needs the internal framebuffer");
+    hz_result ctx_res = check_context(r, err, "hz_renderer_read_sky_mask");
+    if (ctx_res != HZ_OK)
+        return ctx_res;
+    const size_t n = (size_t)r->width * r->height;
+    float *depth = malloc(n * sizeof *depth);
+    if (!depth)
+        return hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
+    gl_drain();
+    bind_read(r);
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glReadPixels(0, 0, (GLsizei)r->width, (GLsizei)r->height, GL_DEPTH_COMPONENT, GL_FLOAT, depth);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+    hz_result res = gl_check(err, "glReadPixels(DEPTH)");
+    if (res == HZ_OK) {
+        /* Depth is cleared to 0 (reverse-Z far) and only terrain writes it. */
+        for (uint32_t y = 0; y < r->height; y++) {
+            const float *src = depth + (size_t)(r->height - 1 - y) * r->width;
+            uint8_t *dst = mask + (size_t)y * r->width;
+            for (uint32_t x = 0; x < r->width; x++)
+                dst[x] = src[x] == 0.0f ? 1 : 0;
+        }
+    }
+    free(depth);
+    return res;
+}

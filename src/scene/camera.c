@@ -1,0 +1,110 @@
+#include "horizon/camera.h"
+
+#include <math.h>
+
+typedef struct cam_params {
+    float fov, aspect, znear, zfar;
+} cam_params;
+
+static cam_params params_of(const hz_camera *c)
+{
+    cam_params p;
+    p.fov = glm_rad(c->fov_y > 0 ? c->fov_y : 60.0f);
+    p.aspect = c->aspect > 0 ? c->aspect : 16.0f / 9.0f;
+    p.znear = c->znear > 0 ? c->znear : 1.0f;
+    p.zfar = c->zfar > 0 ? c->zfar : 100000.0f;
+    if (p.zfar <= p.znear)
+        p.zfar = p.znear * 2.0f;
+    return p;
+}
+
+void hz_camera_forward(const hz_camera *c, vec3 dest)
+{
+    float pitch = glm_clamp(c->pitch, -89.9f, 89.9f);
+    float y = glm_rad(c->yaw), p = glm_rad(pitch);
+    /* yaw 0 -> -z, yaw 90 -> +x */
+    dest[0] = sinf(y) * cosf(p);
+    dest[1] = sinf(p);
+    dest[2] = -cosf(y) * cosf(p);
+}
+
+void hz_camera_view(const hz_camera *c, mat4 dest)
+{
+    vec3 f, eye, up = {0.0f, 1.0f, 0.0f};
+    hz_camera_forward(c, f);
+    glm_vec3_copy((float *)c->pos, eye);
+    glm_look(eye, f, up, dest);
+}
+
+void hz_camera_proj(const hz_camera *c, mat4 dest)
+{
+    cam_params p = params_of(c);
+    /* Built by hand so it is the OpenGL [-w, w] convention whatever cglm's
+     * CGLM_FORCE_DEPTH_ZERO_TO_ONE setting is. */
+    float f = 1.0f / tanf(p.fov * 0.5f);
+    glm_mat4_zero(dest);
+    dest[0][0] = f / p.aspect;
+    dest[1][1] = f;
+    dest[2][2] = -(p.zfar + p.znear) / (p.zfar - p.znear);
+    dest[2][3] = -1.0f;
+    dest[3][2] = -2.0f * p.zfar * p.znear / (p.zfar - p.znear);
+}
+
+void hz_camera_proj_reverse_z(const hz_camera *c, mat4 dest)
+{
+    cam_params p = params_of(c);
+    float f = 1.0f / tanf(p.fov * 0.5f);
+    glm_mat4_zero(dest);
+    dest[0][0] = f / p.aspect;
+    dest[1][1] = f;
+    /* z_ndc = (A z + B) / -z with depth 1 at -near and 0 at -far */
+    dest[2][2] = p.znear / (p.zfar - p.znear);
+    dest[2][3] = -1.0f;
+    dest[3][2] = p.zfar * p.znear / (p.zfar - p.znear);
+}
+
+void hz_camera_viewproj(const hz_camera *c, mat4 dest)
+{
+    mat4 v, pr;
+    hz_camera_view(c, v);
+    hz_camera_proj(c, pr);
+    glm_mat4_mul(pr, v, dest);
+}
+
+void hz_camera_frustum(const hz_camera *c, vec4 planes[6])
+{
+    /* Built geometrically in double rather than extracted from proj * view:
+     * the extraction loses ~1e-4 relative precision on the far plane. */
+    cam_params p = params_of(c);
+    double pitch = glm_rad(glm_clamp(c->pitch, -89.9f, 89.9f)), yaw = glm_rad(c->yaw);
+    double f[3] = {sin(yaw) * cos(pitch), sin(pitch), -cos(yaw) * cos(pitch)};
+    double r[3] = {cos(yaw), 0.0, sin(yaw)}; /* f x up, normalised */
+    double u[3] = {r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2], r[0] * f[1] - r[1] * f[0]};
+    double tv = tan(p.fov * 0.5), th = tv * p.aspect;
+    const double e[3] = {c->pos[0], c->pos[1], c->pos[2]};
+    double n[6][3];
+    for (int k = 0; k < 3; k++) {
+        n[0][k] = r[k] + th * f[k];  /* left */
+        n[1][k] = -r[k] + th * f[k]; /* right */
+        n[2][k] = u[k] + tv * f[k];  /* bottom */
+        n[3][k] = -u[k] + tv * f[k]; /* top */
+        n[4][k] = f[k];              /* near */
+        n[5][k] = -f[k];             /* far */
+    }
+    for (int i = 0; i < 6; i++) {
+        double len = sqrt(n[i][0] * n[i][0] + n[i][1] * n[i][1] + n[i][2] * n[i][2]);
+        double d = 0;
+        for (int k = 0; k < 3; k++) {
+            n[i][k] /= len;
+            d -= n[i][k] * e[k];
+        }
+        if (i == 4)
+            d -= p.znear;
+        if (i == 5)
+            d += p.zfar;
+        planes[i][0] = (float)n[i][0];
+        planes[i][1] = (float)n[i][1];
+        planes[i][2] = (float)n[i][2];
+        planes[i][3] = (float)d;
+    }
+}

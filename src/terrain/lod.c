@@ -1,0 +1,496 @@
+/* Quadtree LOD after Röttger et al. 1998 and the seed thesis (SPEC T2-T7).
+ *
+ * Per node (not per sample) we keep d2 (float), min and max height (uint16) and
+ * one flag byte, in one compact array per level: about (size-1)^2 / 3 nodes in
+ * all. The flag array is never cleared; see select() for why stale flags are
+ * never read. */
+#include "horizon/lod.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum {
+    DIR_W = 0, /* -x */
+    DIR_E = 1, /* +x */
+    DIR_N = 2, /* -z (row 0 is north) */
+    DIR_S = 3  /* +z */
+};
+
+/* Flag byte: bits 0-1 state, bits 2-5 "don't care" per direction (the
+ * neighbour across that edge is off the map or inside a culled node). */
+enum {
+    ST_NONE = 0,
+    ST_LEAF = 1,
+    ST_SPLIT = 2,
+    ST_CULLED = 3,
+    ST_MASK = 3,
+    DC_SHIFT = 2
+};
+
+/* Neighbour status seen from a node. */
+enum { NB_EXISTS = 0, NB_ABSENT = 1, NB_DONTCARE = 2 };
+
+typedef struct qnode {
+    uint32_t x, z;
+} qnode;
+
+struct hz_lod {
+    const hz_heightmap *hm;
+    uint32_t size, levels;
+    float spacing, zscale;
+    size_t nodes;
+    size_t *level_offset; /* levels entries */
+    float *d2;
+    uint16_t *mn, *mx;
+    uint8_t *flags;
+    qnode *q[2];
+    size_t qcap;
+};
+
+static inline uint32_t half_of(const hz_lod *lod, uint32_t level)
+{
+    return 1u << (lod->levels - 1 - level);
+}
+
+static inline size_t node_index(const hz_lod *lod, uint32_t level, uint32_t x, uint32_t z)
+{
+    uint32_t s = half_of(lod, level);
+    uint32_t m = 1u << level; /* nodes per side */
+    return lod->level_offset[level] + (size_t)(z / (2 * s)) * m + x / (2 * s);
+}
+
+static inline uint16_t h16(const hz_lod *lod, uint32_t x, uint32_t z)
+{
+    return hz_heightmap_get16(lod->hm, x, z);
+}
+
+static float err16(uint16_t mid, uint16_t a, uint16_t b)
+{
+    return fabsf((float)mid - 0.5f * ((float)a + (float)b));
+}
+
+static void progress(const hz_lod_desc *d, uint64_t done, uint64_t total)
+{
+    if (d->progress)
+        d->progress(d->progress_user, "LOD data", done, total);
+}
+
+hz_lod *hz_lod_create(const hz_lod_desc *desc, hz_err *err)
+{
+    const hz_heightmap *hm = desc ? desc->hm : NULL;
+    if (!hm || !hm->h || !hz_is_pow2_plus1(hm->size)) {
+        hz_err_set(err, HZ_ERR_VALUE, "lod: a square 2^n+1 heightmap is required");
+        return NULL;
+    }
+    float spacing = desc->spacing > 0 ? desc->spacing : 1.0f;
+    float zscale = desc->zscale != 0 ? desc->zscale : 1.0f;
+    if (!(zscale > 0) || !isfinite(zscale) || !isfinite(spacing)) {
+        hz_err_set(err, HZ_ERR_VALUE, "lod: zscale must be finite and > 0, spacing finite (got %g, %g)",
+                   (double)zscale, (double)spacing);
+        return NULL;
+    }
+    float pc = desc->propagate_c > 0 ? desc->propagate_c : 25.0f;
+    if (pc < 2.0f)
+        pc = 2.0f;
+    float K = pc / (2.0f * (pc - 1.0f));
+
+    hz_lod *lod = calloc(1, sizeof *lod);
+    if (!lod)
+        goto oom;
+    lod->hm = hm;
+    lod->size = hm->size;
+    lod->levels = hm->levels;
+    lod->spacing = spacing;
+    lod->zscale = zscale;
+    lod->level_offset = calloc(lod->levels, sizeof *lod->level_offset);
+    if (!lod->level_offset)
+        goto oom;
+    size_t total = 0;
+    for (uint32_t l = 0; l < lod->levels; l++) {
+        lod->level_offset[l] = total;
+        total += (size_t)1 << (2 * l);
+    }
+    lod->nodes = total;
+    lod->d2 = malloc(total * sizeof *lod->d2);
+    lod->mn = malloc(total * sizeof *lod->mn);
+    lod->mx = malloc(total * sizeof *lod->mx);
+    lod->flags = calloc(total, 1);
+    /* A level never holds more than 4^(levels-1) nodes. */
+    lod->qcap = (size_t)1 << (2 * (lod->levels - 1));
+    lod->q[0] = malloc(lod->qcap * sizeof(qnode));
+    lod->q[1] = malloc(lod->qcap * sizeof(qnode));
+    if (!lod->d2 || !lod->mn || !lod->mx || !lod->flags || !lod->q[0] || !lod->q[1])
+        goto oom;
+
+    /* d2 in world units: error metres / node size metres. */
+    const float to_world = hm->scale * zscale;
+    uint64_t work_total = total, work_done = 0;
+    for (uint32_t l = lod->levels; l-- > 0;) {
+        uint32_t s = half_of(lod, l), m = 1u << l;
+        float d = 2.0f * (float)s * spacing;
+        for (uint32_t zi = 0; zi < m; zi++) {
+            uint32_t z = zi * 2 * s + s;
+            for (uint32_t xi = 0; xi < m; xi++) {
+                uint32_t x = xi * 2 * s + s;
+                uint16_t c = h16(lod, x, z);
+                uint16_t nw = h16(lod, x - s, z - s), ne = h16(lod, x + s, z - s);
+                uint16_t sw = h16(lod, x - s, z + s), se = h16(lod, x + s, z + s);
+                float e = fmaxf(err16(c, nw, se), err16(c, ne, sw));
+                e = fmaxf(e, err16(h16(lod, x, z - s), nw, ne));
+                e = fmaxf(e, err16(h16(lod, x, z + s), sw, se));
+                e = fmaxf(e, err16(h16(lod, x - s, z), nw, sw));
+                e = fmaxf(e, err16(h16(lod, x + s, z), ne, se));
+                float d2 = e * to_world / d;
+                size_t idx = lod->level_offset[l] + (size_t)zi * m + xi;
+                uint16_t lo, hi;
+                if (s == 1) {
+                    lo = hi = c;
+                    for (uint32_t dz = 0; dz < 3; dz++)
+                        for (uint32_t dx = 0; dx < 3; dx++) {
+                            uint16_t v = h16(lod, x - 1 + dx, z - 1 + dz);
+                            lo = v < lo ? v : lo;
+                            hi = v > hi ? v : hi;
+                        }
+                } else {
+                    lo = UINT16_MAX;
+                    hi = 0;
+                    uint32_t h = s / 2;
+                    const uint32_t cx[4] = {x - h, x + h, x - h, x + h};
+                    const uint32_t cz[4] = {z - h, z - h, z + h, z + h};
+                    for (int k = 0; k < 4; k++) {
+                        size_t ci = node_index(lod, l + 1, cx[k], cz[k]);
+                        lo = lod->mn[ci] < lo ? lod->mn[ci] : lo;
+                        hi = lod->mx[ci] > hi ? lod->mx[ci] : hi;
+                        /* Röttger's upward propagation keeps the level difference
+                         * of neighbours <= 1 for C >= propagate_c. */
+                        d2 = fmaxf(d2, K * lod->d2[ci]);
+                    }
+                }
+                lod->d2[idx] = d2;
+                lod->mn[idx] = lo;
+                lod->mx[idx] = hi;
+            }
+            work_done += m;
+            if ((zi & 63) == 0 || zi + 1 == m)
+                progress(desc, work_done, work_total);
+        }
+    }
+    return lod;
+oom:
+    hz_err_set(err, HZ_ERR_MEMORY, "lod: out of memory for %ux%u samples", hm->size, hm->size);
+    hz_lod_destroy(lod);
+    return NULL;
+}
+
+void hz_lod_destroy(hz_lod *lod)
+{
+    if (!lod)
+        return;
+    free(lod->level_offset);
+    free(lod->d2);
+    free(lod->mn);
+    free(lod->mx);
+    free(lod->flags);
+    free(lod->q[0]);
+    free(lod->q[1]);
+    free(lod);
+}
+
+size_t hz_lod_memory_bytes(const hz_lod *lod)
+{
+    return lod->hm->size_bytes + lod->nodes * (sizeof(float) + 2 * sizeof(uint16_t) + 1);
+}
+
+double hz_lod_bytes_per_sample(const hz_lod *lod)
+{
+    return (double)hz_lod_memory_bytes(lod) / ((double)lod->size * lod->size);
+}
+
+static bool lookup(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t half, size_t *idx,
+                   uint32_t *level)
+{
+    if (half == 0 || (half & (half - 1)) || x < half || z < half || x + half >= lod->size + 0u ||
+        z + half >= lod->size)
+        return false;
+    if ((x - half) % (2 * half) || (z - half) % (2 * half))
+        return false;
+    uint32_t l = 0;
+    while (l < lod->levels && half_of(lod, l) != half)
+        l++;
+    if (l == lod->levels)
+        return false;
+    *idx = node_index(lod, l, x, z);
+    *level = l;
+    return true;
+}
+
+bool hz_lod_query_node(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t half, float *d2,
+                       float *min_h, float *max_h)
+{
+    size_t i;
+    uint32_t l;
+    if (!lookup(lod, x, z, half, &i, &l))
+        return false;
+    if (d2)
+        *d2 = lod->d2[i];
+    if (min_h)
+        *min_h = lod->hm->offset + lod->hm->scale * lod->mn[i];
+    if (max_h)
+        *max_h = lod->hm->offset + lod->hm->scale * lod->mx[i];
+    return true;
+}
+
+static void box_of(const hz_lod *lod, size_t i, uint32_t x, uint32_t z, uint32_t s, vec3 box[2])
+{
+    const hz_heightmap *hm = lod->hm;
+    box[0][0] = (float)(x - s) * lod->spacing;
+    box[1][0] = (float)(x + s) * lod->spacing;
+    box[0][2] = (float)(z - s) * lod->spacing;
+    box[1][2] = (float)(z + s) * lod->spacing;
+    box[0][1] = (hm->offset + hm->scale * lod->mn[i]) * lod->zscale;
+    box[1][1] = (hm->offset + hm->scale * lod->mx[i]) * lod->zscale;
+}
+
+bool hz_lod_node_box(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t half, vec3 box[2])
+{
+    size_t i;
+    uint32_t l;
+    if (!lookup(lod, x, z, half, &i, &l))
+        return false;
+    box_of(lod, i, x, z, half, box);
+    return true;
+}
+
+static hz_result list_reserve(void **data, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap)
+        return HZ_OK;
+    size_t n = *cap ? *cap : 1024;
+    while (n < need)
+        n *= 2;
+    void *p = realloc(*data, n * elem);
+    if (!p)
+        return HZ_ERR_MEMORY;
+    *data = p;
+    *cap = n;
+    return HZ_OK;
+}
+
+static hz_result push_node(hz_node_list *list, uint32_t x, uint32_t z, uint32_t s, uint32_t level)
+{
+    if (!list)
+        return HZ_OK;
+    if (list_reserve((void **)&list->data, &list->cap, list->count + 1, sizeof *list->data))
+        return HZ_ERR_MEMORY;
+    list->data[list->count++] = (hz_lod_node){x, z, s, level};
+    return HZ_OK;
+}
+
+/* Box outside the frustum? p-vertex test against each plane (conservative:
+ * a box is only dropped when it is entirely behind one plane, by more than
+ * margin metres, so float rounding never drops a box that touches the frustum). */
+static bool box_outside(const vec3 box[2], const vec4 planes[6], float margin)
+{
+    for (int p = 0; p < 6; p++) {
+        const float *pl = planes[p];
+        float dp = pl[0] * box[pl[0] > 0.0f][0] + pl[1] * box[pl[1] > 0.0f][1] +
+                   pl[2] * box[pl[2] > 0.0f][2];
+        if (dp < -pl[3] - margin)
+            return true;
+    }
+    return false;
+}
+
+/* Appends a fan around (x, z) with half-size s; an edge midpoint is skipped when
+ * the neighbour across it is coarser. Triangles are counter-clockwise seen from
+ * above (+y). */
+static uint32_t emit_fan(uint32_t *dst, uint32_t n, uint32_t x, uint32_t z, uint32_t s,
+                         const uint8_t nb[4])
+{
+    const uint32_t c = z * n + x;
+    uint32_t ring[9];
+    uint32_t k = 0;
+    /* Ring order W, SW, S, SE, E, NE, N, NW (counter-clockwise from above). */
+    if (nb[DIR_W] != NB_ABSENT)
+        ring[k++] = z * n + (x - s);
+    ring[k++] = (z + s) * n + (x - s);
+    if (nb[DIR_S] != NB_ABSENT)
+        ring[k++] = (z + s) * n + x;
+    ring[k++] = (z + s) * n + (x + s);
+    if (nb[DIR_E] != NB_ABSENT)
+        ring[k++] = z * n + (x + s);
+    ring[k++] = (z - s) * n + (x + s);
+    if (nb[DIR_N] != NB_ABSENT)
+        ring[k++] = (z - s) * n + x;
+    ring[k++] = (z - s) * n + (x - s);
+    ring[k] = ring[0];
+    for (uint32_t t = 0; t < k; t++) {
+        dst[3 * t + 0] = c;
+        dst[3 * t + 1] = ring[t];
+        dst[3 * t + 2] = ring[t + 1];
+    }
+    return k;
+}
+
+/* Status of the same-level neighbour of node (x, z, s) at level l across dir.
+ * The neighbour exists iff its parent split this frame. Its parent is either
+ * our parent P (a sibling: exists) or P's neighbour Q across the same edge.
+ * Q's flag is only read when P saw Q exist (P's don't-care bit clear), so Q was
+ * visited this frame and its flag is fresh: the flag array never needs
+ * clearing. A culled Q means nothing is drawn there: don't care. */
+static uint8_t neighbour(const hz_lod *lod, uint32_t l, uint32_t x, uint32_t z, uint32_t s, int dir)
+{
+    const uint32_t n = lod->size;
+    switch (dir) {
+    case DIR_W: if (x == s) return NB_DONTCARE; break;
+    case DIR_E: if (x + s == n - 1) return NB_DONTCARE; break;
+    case DIR_N: if (z == s) return NB_DONTCARE; break;
+    default:    if (z + s == n - 1) return NB_DONTCARE; break;
+    }
+    if (l == 0)
+        return NB_DONTCARE;
+    const uint32_t ps = 2 * s;
+    const uint32_t px = (x / (2 * ps)) * (2 * ps) + ps;
+    const uint32_t pz = (z / (2 * ps)) * (2 * ps) + ps;
+    bool sibling;
+    uint32_t qx = px, qz = pz;
+    switch (dir) {
+    case DIR_W: sibling = x > px; qx = px - 2 * ps; break;
+    case DIR_E: sibling = x < px; qx = px + 2 * ps; break;
+    case DIR_N: sibling = z > pz; qz = pz - 2 * ps; break;
+    default:    sibling = z < pz; qz = pz + 2 * ps; break;
+    }
+    if (sibling)
+        return NB_EXISTS;
+    uint8_t pf = lod->flags[node_index(lod, l - 1, px, pz)];
+    if (pf & (1u << (DC_SHIFT + dir)))
+        return NB_DONTCARE;
+    uint8_t qf = lod->flags[node_index(lod, l - 1, qx, qz)] & ST_MASK;
+    if (qf == ST_SPLIT)
+        return NB_EXISTS;
+    if (qf == ST_CULLED)
+        return NB_DONTCARE;
+    return NB_ABSENT;
+}
+
+hz_result hz_lod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params,
+                        hz_index_list *out, hz_node_list *leaves, hz_node_list *culled,
+                        hz_lod_stats *stats)
+{
+    double t0 = hz_time_ms();
+    hz_lod_params p = params ? *params : (hz_lod_params){0};
+    const float C = p.c > 0 ? p.c : 25.0f;
+    const float C2 = p.c2 > 0 ? p.c2 : 2.5f;
+    const hz_heightmap *hm = lod->hm;
+    const uint32_t n = lod->size;
+    hz_lod_stats st = {0};
+    vec4 planes[6];
+    hz_camera_frustum(cam, planes);
+    const float ex = cam->pos[0], ey = cam->pos[1], ez = cam->pos[2];
+    const float sp = lod->spacing, zs = lod->zscale;
+    const float margin = 1e-4f * ((cam->zfar > 0 ? cam->zfar : 1e5f) + fabsf(ex) + fabsf(ey) + fabsf(ez)) + 1e-2f;
+
+    out->count = 0;
+    if (leaves)
+        leaves->count = 0;
+    if (culled)
+        culled->count = 0;
+
+    qnode *cur = lod->q[0], *next = lod->q[1];
+    size_t ncur = 1;
+    cur[0] = (qnode){(n - 1) / 2, (n - 1) / 2};
+    for (uint32_t l = 0; l < lod->levels && ncur > 0; l++) {
+        const uint32_t s = half_of(lod, l);
+        const float d = 2.0f * (float)s * sp;
+        const bool can_split = l + 1 < lod->levels;
+        size_t nnext = 0;
+        /* Worst case this level emits 8 triangles per node. */
+        if (list_reserve((void **)&out->data, &out->cap, out->count + ncur * 24, sizeof(uint32_t)))
+            return HZ_ERR_MEMORY;
+        for (size_t k = 0; k < ncur; k++) {
+            const uint32_t x = cur[k].x, z = cur[k].z;
+            const size_t idx = node_index(lod, l, x, z);
+            st.nodes_visited++;
+            if (!p.no_cull) {
+                vec3 box[2];
+                box_of(lod, idx, x, z, s, box);
+                if (box_outside((const vec3 *)box, (const vec4 *)planes, margin)) {
+                    lod->flags[idx] = ST_CULLED;
+                    st.nodes_culled++;
+                    if (push_node(culled, x, z, s, l))
+                        return HZ_ERR_MEMORY;
+                    continue;
+                }
+            }
+            uint8_t nb[4];
+            bool blocked = false;
+            for (int dir = 0; dir < 4; dir++) {
+                nb[dir] = neighbour(lod, l, x, z, s, dir);
+                blocked |= nb[dir] == NB_ABSENT;
+            }
+            bool split = false;
+            if (can_split) {
+                const float cx = (float)x * sp - ex;
+                const float cy = (hm->offset + hm->scale * (float)hz_heightmap_get16(hm, x, z)) * zs - ey;
+                const float cz = (float)z * sp - ez;
+                const float dist = sqrtf(cx * cx + cy * cy + cz * cz);
+                const float r = C2 * lod->d2[idx];
+                const float denom = d * C * (p.criterion == HZ_LOD_UNCLAMPED ? r : fmaxf(r, 1.0f));
+                split = dist < denom; /* f = dist / denom < 1 */
+                if (split && blocked) {
+                    st.restricted++;
+                    split = false;
+                }
+            }
+            if (split) {
+                uint8_t f = ST_SPLIT;
+                for (int dir = 0; dir < 4; dir++)
+                    if (nb[dir] == NB_DONTCARE)
+                        f |= (uint8_t)(1u << (DC_SHIFT + dir));
+                lod->flags[idx] = f;
+                const uint32_t h = s / 2;
+                next[nnext++] = (qnode){x - h, z - h};
+                next[nnext++] = (qnode){x + h, z - h};
+                next[nnext++] = (qnode){x - h, z + h};
+                next[nnext++] = (qnode){x + h, z + h};
+            } else {
+                lod->flags[idx] = ST_LEAF;
+                uint32_t tris = emit_fan(out->data + out->count, n, x, z, s, nb);
+                out->count += 3 * tris;
+                st.triangles += tris;
+                st.leaves++;
+                if (l > st.max_level)
+                    st.max_level = l;
+                if (push_node(leaves, x, z, s, l))
+                    return HZ_ERR_MEMORY;
+            }
+        }
+        qnode *t = cur;
+        cur = next;
+        next = t;
+        ncur = nnext;
+    }
+    st.ms = hz_time_ms() - t0;
+    if (stats)
+        *stats = st;
+    return HZ_OK;
+}
+
+hz_result hz_lod_full_mesh(const hz_heightmap *hm, hz_index_list *out)
+{
+    const uint32_t n = hm->size;
+    size_t need = (size_t)(n - 1) * (n - 1) * 6;
+    out->count = 0;
+    if (list_reserve((void **)&out->data, &out->cap, need, sizeof(uint32_t)))
+        return HZ_ERR_MEMORY;
+    uint32_t *o = out->data;
+    for (uint32_t j = 0; j + 1 < n; j++)
+        for (uint32_t i = 0; i + 1 < n; i++) {
+            uint32_t a = j * n + i, b = (j + 1) * n + i, c = j * n + i + 1, d = (j + 1) * n + i + 1;
+            *o++ = a; *o++ = b; *o++ = c;
+            *o++ = c; *o++ = b; *o++ = d;
+        }
+    out->count = need;
+    return HZ_OK;
+}

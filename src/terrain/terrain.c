@@ -1,0 +1,165 @@
+#include "horizon/terrain.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const char *base_name(const char *p)
+{
+    const char *s = strrchr(p, '/');
+    return s ? s + 1 : p;
+}
+
+hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
+{
+    hz_terrain *t = calloc(1, sizeof *t);
+    hz_grid g = {0};
+    if (!t) {
+        hz_err_set(err, HZ_ERR_MEMORY, "terrain: out of memory");
+        return NULL;
+    }
+    if (desc->spacing < 0 || !isfinite(desc->spacing) || desc->spacing > 1e5f) {
+        hz_err_set(err, HZ_ERR_VALUE, "spacing must be a positive number of metres (got %g)", (double)desc->spacing);
+        goto fail;
+    }
+    if (desc->zscale < 0 || !isfinite(desc->zscale) || desc->zscale > 1e4f) {
+        hz_err_set(err, HZ_ERR_VALUE, "zscale must be a positive number (got %g)", (double)desc->zscale);
+        goto fail;
+    }
+    double t0 = hz_time_ms();
+    float default_spacing;
+    if (desc->dem_path) {
+        hz_dem_desc dd = {.path = desc->dem_path, .format = desc->format, .units = desc->units,
+                          .width = desc->raw_width, .height = desc->raw_height,
+                          .progress = desc->progress, .progress_user = desc->progress_user};
+        if (hz_dem_load(&dd, &g, &t->info, err) != HZ_OK)
+            goto fail;
+        if (hz_grid_fill_voids(&g, &t->voids_filled, err) != HZ_OK)
+            goto fail;
+        snprintf(t->source, sizeof t->source, "%s", base_name(desc->dem_path));
+        default_spacing = t->info.spacing_hint > 0 ? t->info.spacing_hint : 30.0f;
+    } else {
+        hz_gen_desc gd = {.kind = desc->generate ? desc->generate : HZ_GEN_PERLIN,
+                          .size = desc->gen_size ? desc->gen_size : 4097,
+                          .seed = desc->seed, .amplitude = desc->amplitude,
+                          .progress = desc->progress, .progress_user = desc->progress_user};
+        if (hz_generate(&gd, &g, err) != HZ_OK)
+            goto fail;
+        snprintf(t->source, sizeof t->source, "%s %u seed %llu",
+                 gd.kind == HZ_GEN_DIAMOND ? "diamond" : "perlin", gd.size, (unsigned long long)gd.seed);
+        default_spacing = 10.0f;
+    }
+    if (hz_grid_fit_pow2(&g, desc->fit, t->note, sizeof t->note, err) != HZ_OK)
+        goto fail;
+    t->load_ms = hz_time_ms() - t0;
+    t0 = hz_time_ms();
+    if (hz_heightmap_create(&t->hm, &g, desc->layout, err) != HZ_OK)
+        goto fail;
+    hz_grid_free(&g);
+    t->spacing = desc->spacing > 0 ? desc->spacing : default_spacing;
+    t->zscale = desc->zscale > 0 ? desc->zscale : 1.0f;
+    t->min_h = t->hm.offset;
+    t->max_h = t->hm.offset + 65535.0f * t->hm.scale;
+    t->lod = hz_lod_create(&(hz_lod_desc){.hm = &t->hm, .spacing = t->spacing, .zscale = t->zscale,
+                                          .propagate_c = desc->propagate_c, .progress = desc->progress,
+                                          .progress_user = desc->progress_user},
+                           err);
+    if (!t->lod)
+        goto fail;
+    t->prep_ms = hz_time_ms() - t0;
+    return t;
+fail:
+    hz_grid_free(&g);
+    hz_terrain_destroy(t);
+    return NULL;
+}
+
+void hz_terrain_destroy(hz_terrain *t)
+{
+    if (!t)
+        return;
+    hz_lod_destroy(t->lod);
+    hz_heightmap_destroy(&t->hm);
+    free(t);
+}
+
+float hz_terrain_extent(const hz_terrain *t)
+{
+    return (float)(t->hm.size - 1) * t->spacing;
+}
+
+float hz_terrain_height_at(const hz_terrain *t, float x, float z)
+{
+    float fi = x / t->spacing, fj = z / t->spacing, m = (float)(t->hm.size - 1);
+    fi = fi < 0 ? 0 : fi > m ? m : fi;
+    fj = fj < 0 ? 0 : fj > m ? m : fj;
+    return hz_heightmap_get(&t->hm, (uint32_t)lroundf(fi), (uint32_t)lroundf(fj)) * t->zscale;
+}
+
+hz_camera hz_terrain_default_camera(const hz_terrain *t, uint32_t width, uint32_t height)
+{
+    float ext = hz_terrain_extent(t);
+    float relief = (t->max_h - t->min_h) * t->zscale;
+    hz_camera c = {0};
+    c.pos[0] = 0.5f * ext;
+    c.pos[2] = 0.5f * ext;
+    c.pos[1] = hz_terrain_height_at(t, c.pos[0], c.pos[2]) + 0.15f * relief + 0.01f * ext;
+    if (c.pos[1] < t->max_h * t->zscale * 0.9f)
+        c.pos[1] = t->max_h * t->zscale * 0.9f;
+    c.yaw = 30.0f;
+    c.pitch = -10.0f;
+    c.fov_y = 60.0f;
+    c.aspect = height ? (float)width / (float)height : 16.0f / 9.0f;
+    c.znear = fmaxf(0.5f, 0.2f * t->spacing);
+    c.zfar = 1.5f * ext;
+    return c;
+}
+
+/* Highest ground within radius metres of (x, z), sampled on a coarse grid. */
+static float max_ground_near(const hz_terrain *t, float x, float z, float radius)
+{
+    float m = -INFINITY;
+    for (int dz = -4; dz <= 4; dz++)
+        for (int dx = -4; dx <= 4; dx++)
+            m = fmaxf(m, hz_terrain_height_at(t, x + radius * (float)dx / 4.0f, z + radius * (float)dz / 4.0f));
+    return m;
+}
+
+hz_result hz_terrain_path(const hz_terrain *t, const char *name, hz_path *out, hz_err *err)
+{
+    enum { MAXK = 128 };
+    hz_path_key k[MAXK];
+    size_t n = 0;
+    const float E = hz_terrain_extent(t), c = 0.5f * E;
+    const float relief = (t->max_h - t->min_h) * t->zscale;
+    const float duration = 60.0f;
+    if (!strcmp(name, "flyover")) {
+        const float clearance = fmaxf(60.0f, 0.05f * relief);
+        const float x0 = 0.1f * E, x1 = 0.9f * E;
+        const float yaw = glm_deg(atan2f(1.0f, -1.0f)); /* toward +x +z */
+        for (n = 0; n < 61; n++) {
+            float u = (float)n / 60.0f, x = x0 + u * (x1 - x0);
+            k[n] = (hz_path_key){u * duration, x, max_ground_near(t, x, x, 0.03f * E) + clearance, x, yaw, -8.0f};
+        }
+    } else if (!strcmp(name, "orbit")) {
+        const float r = 0.3f * E, y = t->max_h * t->zscale + 0.25f * E;
+        const float pitch = -glm_deg(atanf((y - hz_terrain_height_at(t, c, c)) / r));
+        for (n = 0; n < 73; n++) {
+            float a = glm_rad(5.0f * (float)n);
+            float x = c + r * sinf(a), z = c - r * cosf(a);
+            /* look at the centre: direction (c - x, c - z) */
+            float yaw = glm_deg(atan2f(c - x, -(c - z)));
+            k[n] = (hz_path_key){duration * (float)n / 72.0f, x, y, z, yaw, pitch};
+        }
+    } else if (!strcmp(name, "ground")) {
+        const float speed = 5.0f, step = duration * speed / 100.0f;
+        for (n = 0; n < 101; n++) {
+            float x = c + step * (float)n;
+            k[n] = (hz_path_key){duration * (float)n / 100.0f, x, hz_terrain_height_at(t, x, c) + 2.0f, c, 90.0f, 0.0f};
+        }
+    } else {
+        return hz_err_set(err, HZ_ERR_VALUE, "unknown path '%s': use flyover, orbit, ground or a CSV file", name);
+    }
+    return hz_path_from_keys(k, n, name, out, err);
+}
