@@ -31,5 +31,6 @@ hz_terrain *cli_load_terrain(const cli_opts *o);
 hz_camera cli_camera(const cli_opts *o, const hz_terrain *t);
 
 int cmd_render(int argc, char **argv);
+int cmd_bench(int argc, char **argv);
 
 #endif

@@ -194,6 +194,12 @@ int cmd_bench(int argc, char **argv)
     hz_camera cam = cli_camera(&o, t);
     /* Full resolution inside the frustum: every node splits down to 3x3. */
     hz_lod_params refp = {.c = 1e30f, .c2 = 1e30f, .criterion = HZ_LOD_CLAMPED};
+    /* One untimed warm-up frame: buffer allocation and shader compilation in
+     * llvmpipe happen on the first draw, not in steady state. */
+    hz_path_sample(&path, 0.0f, &cam);
+    if (hz_lod_select(t->lod, &cam, &o.lod, &il, NULL, NULL, NULL) != HZ_OK ||
+        hz_renderer_draw(ren, &cam, NULL, il.data, (uint32_t)il.count, NULL, &err) != HZ_OK)
+        goto done;
     double t_start = hz_time_ms(), last_progress = t_start;
     for (uint32_t f = 0; f < frames; f++) {
         frame_row *row = &rows[f];

@@ -8,7 +8,8 @@ static void usage(void)
 {
     fprintf(stderr, "usage: horizon <command> [options]\n"
                     "commands:\n"
-                    "  render   render one frame of a terrain headless to PNG (--help for options)\n");
+                    "  render   render one frame of a terrain headless to PNG (--help for options)\n"
+                    "  bench    fly a camera path headless and measure every frame (--help)\n");
 }
 
 int main(int argc, char **argv)
@@ -19,6 +20,8 @@ int main(int argc, char **argv)
     }
     if (!strcmp(argv[1], "render"))
         return cmd_render(argc, argv);
+    if (!strcmp(argv[1], "bench"))
+        return cmd_bench(argc, argv);
     fprintf(stderr, "horizon: unknown command '%s'\n", argv[1]);
     usage();
     return 2;

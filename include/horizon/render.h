@@ -67,6 +67,10 @@ hz_result hz_renderer_read_rgb(hz_renderer *r, uint8_t *rgb, hz_err *err);
  * to_default_framebuffer). */
 hz_result hz_renderer_read_sky_mask(hz_renderer *r, uint8_t *mask, hz_err *err);
 
+/* Per-pixel sky mask of the last frame (1 = no terrain drawn there), top row
+ * first, width*height bytes. Needs the internal FBO. */
+hz_result hz_renderer_read_sky_mask(hz_renderer *r, uint8_t *mask, hz_err *err);
+
 /* Writes RGB8 (top row first) as PNG. */
 hz_result hz_image_write_png(const char *path, const uint8_t *rgb, uint32_t width,
                              uint32_t height, hz_err *err);

@@ -177,7 +177,7 @@ size_t fx_make_cases(fx_case **out)
         if (hz_dem_write_png16(fx_tmp(k->name), &g, 0.0f, 65535.0f, &err) != HZ_OK)
             fprintf(stderr, "write png16: %s\n", err.msg);
         uint8_t *b;
-        size_t bn;
+        size_t bn = 0;
         b = fx_read(fx_tmp(k->name), &bn);
         fx_write_gz(fx_tmp("rt_png16.png.gz"), b, bn);
         free(b);
@@ -253,7 +253,7 @@ size_t fx_make_cases(fx_case **out)
         }
         fx_write_png(fx_tmp(k->name), k->w, k->h, 8, PNG_COLOR_TYPE_RGB, false, smp);
         uint8_t *b;
-        size_t bn;
+        size_t bn = 0;
         b = fx_read(fx_tmp(k->name), &bn);
         fx_write_gz(fx_tmp("rt_terrarium_z9_x270_y178.png.gz"), b, bn);
         free(b);
