@@ -5,7 +5,6 @@
 
 #include <epoxy/egl.h>
 #include <epoxy/gl.h>
-#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -16,14 +15,6 @@ struct hz_gl {
     int major, minor; /* the version we asked for and got */
     char desc[256];
 };
-
-/* NOTE: the one process-wide state in horizon, and on purpose: EGL hands out
- * the same EGLDisplay to every caller, and eglTerminate on it kills every
- * context on it, including other live hz_gl objects (Mesa 22 lacks
- * EGL_KHR_display_reference). So we count the live hz_gl objects and
- * terminate with the last one. */
-static pthread_mutex_t g_display_lock = PTHREAD_MUTEX_INITIALIZER;
-static int g_display_users;
 
 static const char *egl_error_name(EGLint e)
 {
@@ -74,7 +65,7 @@ hz_gl *hz_gl_create_headless(hz_err *err)
                    "EGL: no surfaceless platform (need EGL_EXT_platform_base and "
                    "EGL_MESA_platform_surfaceless; is Mesa's libegl-mesa0 installed?). "
                    "Client extensions: %s",
-                   ext ? ext : "(none)");
+                   ext && *ext ? ext : "(none)");
         return NULL;
     }
 
@@ -92,12 +83,7 @@ hz_gl *hz_gl_create_headless(hz_err *err)
         goto fail;
     }
     EGLint emaj = 0, emin = 0;
-    pthread_mutex_lock(&g_display_lock);
-    EGLBoolean inited = eglInitialize(gl->dpy, &emaj, &emin);
-    if (inited)
-        g_display_users++;
-    pthread_mutex_unlock(&g_display_lock);
-    if (!inited) {
+    if (!eglInitialize(gl->dpy, &emaj, &emin)) {
         egl_fail(err, "eglInitialize on the surfaceless display (no usable Mesa driver?)");
         gl->dpy = EGL_NO_DISPLAY;
         goto fail;
@@ -181,10 +167,13 @@ void hz_gl_destroy(hz_gl *gl)
                 eglMakeCurrent(gl->dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
             eglDestroyContext(gl->dpy, gl->ctx);
         }
-        pthread_mutex_lock(&g_display_lock);
-        if (--g_display_users == 0)
-            eglTerminate(gl->dpy);
-        pthread_mutex_unlock(&g_display_lock);
+        /* NOTE: no eglTerminate, on purpose. EGL hands the same display to
+         * every caller in the process, and terminating it kills every context
+         * on it, including other live hz_gl objects (Mesa 22 lacks
+         * EGL_KHR_display_reference); it also unloads the driver, which makes
+         * LeakSanitizer report the driver's still-referenced allocations.
+         * Re-initialising an initialised display is a no-op, so the display
+         * simply lives until the process exits. */
     }
     free(gl);
 }

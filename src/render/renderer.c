@@ -641,6 +641,10 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
     }
     glUseProgram(0);
     glBindVertexArray(0);
+    /* Leave the clip convention as GL's default for any other drawing code
+     * sharing the context (a window's UI). */
+    if (r->clip_control)
+        glClipControl(GL_LOWER_LEFT, GL_NEGATIVE_ONE_TO_ONE);
     glFinish();
     double t3 = hz_time_ms();
     if (stats) {

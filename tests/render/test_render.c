@@ -502,6 +502,17 @@ static void test_errors(void **state)
     assert_int_equal(hz_renderer_draw(r2, &cam, NULL, NULL, 0, NULL, &err), HZ_OK);
     hz_renderer_destroy(r2);
 
+    /* to_default_framebuffer on a surfaceless context: there is no
+     * framebuffer 0, so drawing and reading fail with a GL error, not a crash. */
+    hz_renderer *r3 = hz_renderer_create(
+        &(hz_renderer_desc){.width = 64, .height = 32, .to_default_framebuffer = true}, &err);
+    assert_non_null(r3);
+    assert_int_equal(hz_renderer_draw(r3, &cam, NULL, NULL, 0, NULL, &err), HZ_ERR_GL);
+    assert_non_null(strstr(err.msg, "GL_INVALID_FRAMEBUFFER_OPERATION"));
+    uint8_t small[64 * 32 * 3];
+    assert_int_equal(hz_renderer_read_rgb(r3, small, &err), HZ_ERR_GL);
+    hz_renderer_destroy(r3);
+
     /* Too-large target: a clean error, the old target still works. */
     assert_int_not_equal(hz_renderer_resize(fx->r, 1u << 20, 16, &err), HZ_OK);
     printf("%s\n", err.msg);
