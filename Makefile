@@ -2,6 +2,7 @@
 #   make demo   installs missing Debian packages, builds, renders the default
 #               generated 4097x4097 terrain headless to out/demo.png, prints its figures
 #   make test   installs, builds and runs every test (ctest)
+#   make bench  the standard benchmark set -> out/bench/*.json, out/bench/summary.md
 BUILD ?= build
 JOBS  ?= 2
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
@@ -10,7 +11,7 @@ CMAKE_FLAGS += -DHZ_WERROR=ON
 endif
 HORIZON = $(BUILD)/apps/horizon/horizon
 
-.PHONY: all deps build demo test clean
+.PHONY: all deps build demo test bench clean
 
 all: build
 
@@ -27,6 +28,10 @@ demo: build
 
 test: build
 	@cd $(BUILD) && ctest --output-on-failure -j$(JOBS)
+
+bench: build
+	@bash scripts/deps.sh bench
+	bash bench/standard.sh $(HORIZON) ../shared/data
 
 clean:
 	rm -rf $(BUILD) out

@@ -12,6 +12,8 @@ PKGS=(
   libcmocka-dev        # unit tests
   python3              # CLI tests check JSON output
 )
+# "bench": also gnuplot for horizon bench --plot
+if [ "${1:-}" = bench ]; then PKGS+=(gnuplot-nox); fi
 missing=()
 for p in "${PKGS[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then

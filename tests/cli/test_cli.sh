@@ -76,5 +76,30 @@ err=$($HZ render --width 320 --height 180 --dem "$DATA/sthelens_10m_dm16.png" --
 rc=$?
 [ $rc -eq 0 ] && echo "$err" | grep -Eqi "pad|crop" && ok "non-2^n+1 DEM fitted: $(echo "$err" | grep -Ei 'pad|crop' | head -1)" || bad "sthelens (exit $rc): $err"
 
+# horizon bench: JSON parses, has every promised key, per-frame rows agree.
+if $HZ bench --quiet --generate perlin --size 257 --frames 4 --width 320 --height 180 --json "$TMP/bench.json" >/dev/null 2>"$TMP/bench.err" &&
+   python3 - "$TMP/bench.json" <<'PY'
+import json, sys
+j = json.load(open(sys.argv[1]))
+need = ["frames","triangles_median","triangles_p95","lod_ms_median","draw_ms_median","frame_ms_median",
+        "px_error_p99","px_error_max","psnr_db_median","silhouette_frac","popping","bytes_per_sample",
+        "peak_rss_mb","terrain","size","lod_mode","path","width","height","fov","per_frame"]
+missing = [k for k in need if k not in j]
+assert not missing, missing
+assert j["frames"] == 4 and len(j["per_frame"]) == 4 and j["size"] == 257
+for r in j["per_frame"]:
+    assert r["triangles"] > 0 and r["px_error_max"] >= r["px_error_p99"] >= 0
+    assert r["uncovered"] == 0, "culling dropped samples inside the frustum"
+    assert r["psnr_db"] is None or r["psnr_db"] > 20
+assert j["psnr_db_median"] is None or j["psnr_db_median"] > 20
+PY
+then ok "bench JSON has every field"; else bad "bench JSON: $(cat "$TMP/bench.err")"; fi
+printf '0,100,900,100,135,-10\n1,500,900,500,135,-10\n' > "$TMP/p.csv"
+$HZ bench --quiet --generate perlin --size 257 --frames 3 --width 160 --height 90 --path "$TMP/p.csv" --reference off --json "$TMP/b2.json" >/dev/null 2>&1 &&
+  python3 -c "import json,sys; j=json.load(open(sys.argv[1])); assert j['path']=='p.csv' and j['psnr_db_median'] is None" "$TMP/b2.json" &&
+  ok "bench with a CSV path, no reference" || bad "bench with CSV path"
+expect_fail "bench unknown path"    "unknown path"            $HZ bench --quiet --size 257 --path nowhere
+expect_fail "bench bad frames"      "invalid value"           $HZ bench --quiet --size 257 --frames 0
+
 echo "$passes passed, $fails failed"
 [ $fails -eq 0 ]

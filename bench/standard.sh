@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# The standard benchmark set: writes out/bench/*.json and out/bench/summary.md.
+#   bench/standard.sh [HORIZON_BINARY] [DATA_DIR]
+# FRAMES=N overrides the frame count of every run (quick look: FRAMES=5).
+set -euo pipefail
+HZ=${1:-build/apps/horizon/horizon}
+DATA=${2:-../shared/data}
+OUT=out/bench
+mkdir -p "$OUT"
+F=${FRAMES:-}
+
+run() { # name, frames, args...
+  local name=$1 frames=$2; shift 2
+  [ -n "$F" ] && frames=$F
+  echo "== $name ($frames frames)" >&2
+  "$HZ" bench --quiet --frames "$frames" --json "$OUT/$name.json" "$@" >/dev/null
+}
+
+# The seed's table (SPEC T9): 2049^2 map, view distance 600 samples (6 km at 10 m),
+# C=25/C2=2.5 and C=50/C2=5, with the seed's unclamped criterion and Roettger's clamped one.
+for crit in unclamped clamped; do
+  run "seed_c25_${crit}" 60 --generate perlin --size 2049 --seed 1 --far 6000 --lod-c 25 --lod-c2 2.5 --criterion $crit --path flyover
+  run "seed_c50_${crit}" 60 --generate perlin --size 2049 --seed 1 --far 6000 --lod-c 50 --lod-c2 5 --criterion $crit --path flyover
+done
+
+# Scale: the same flight over growing generated maps (reference off: speed and memory).
+for s in 1025 2049 4097 8193; do
+  run "scale_$s" 30 --generate perlin --size $s --seed 1 --path flyover --reference off
+done
+
+# Real DEMs (fitted to 2^n+1 as horizon render does).
+run dem_N44W072      60 --dem "$DATA/N44W072.hgt" --path flyover
+run dem_S46W066      30 --dem "$DATA/S46W066.hgt.gz" --path flyover
+run dem_sierra       30 --dem "$DATA/sierra_nevada_N36-N40_W122-W118_srtm3_4801x4801_int16be.raw.gz" --path flyover
+run dem_sthelens     60 --dem "$DATA/sthelens_10m_dm16.png" --path flyover
+run dem_pyrenees     60 --dem "$DATA/pyrenees_1as_ft16.png" --path flyover
+run dem_sthelens_ground 60 --dem "$DATA/sthelens_10m_dm16.png" --path ground
+run dem_everest_orbit   60 --dem "$DATA/himalaya-everest_3as_ft16.png" --path orbit
+
+python3 bench/summary.py "$OUT" > "$OUT/summary.md"
+cat "$OUT/summary.md"
