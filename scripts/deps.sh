@@ -11,6 +11,8 @@ PKGS=(
   libpng-dev zlib1g-dev
   libcmocka-dev        # unit tests
   python3              # CLI tests check JSON output
+  libglfw3-dev libglx-mesa0   # horizon view: GLFW window, GLX on Mesa llvmpipe
+  xvfb xauth           # horizon view tests run in a virtual X server (xvfb-run)
 )
 # "bench": also gnuplot for horizon bench --plot
 if [ "${1:-}" = bench ]; then PKGS+=(gnuplot-nox); fi

@@ -32,5 +32,6 @@ hz_camera cli_camera(const cli_opts *o, const hz_terrain *t);
 
 int cmd_render(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
+int cmd_view(int argc, char **argv);
 
 #endif

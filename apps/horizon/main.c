@@ -9,7 +9,8 @@ static void usage(void)
     fprintf(stderr, "usage: horizon <command> [options]\n"
                     "commands:\n"
                     "  render   render one frame of a terrain headless to PNG (--help for options)\n"
-                    "  bench    fly a camera path headless and measure every frame (--help)\n");
+                    "  bench    fly a camera path headless and measure every frame (--help)\n"
+                    "  view     open a window to fly over the terrain, HUD and debug views (--help)\n");
 }
 
 int main(int argc, char **argv)
@@ -22,6 +23,8 @@ int main(int argc, char **argv)
         return cmd_render(argc, argv);
     if (!strcmp(argv[1], "bench"))
         return cmd_bench(argc, argv);
+    if (!strcmp(argv[1], "view"))
+        return cmd_view(argc, argv);
     fprintf(stderr, "horizon: unknown command '%s'\n", argv[1]);
     usage();
     return 2;

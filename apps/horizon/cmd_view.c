@@ -1,0 +1,1318 @@
+/* horizon view: an interactive window to fly over a terrain, with a HUD and
+ * debug views (wireframe, the seed's two-colour fans, a frozen LOD camera with
+ * its frustum and culled nodes, node boxes). Scriptable for tests and demos:
+ * --script (timed input events), --path (a camera path), --frames N,
+ * --screenshot FILE. Settings may come from a `key = value` config file. */
+#include "cli.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "horizon/flycam.h"
+#include "horizon/window.h"
+
+#define MAX_BOXES 30000u /* node boxes drawn per frame (leaves and culled) */
+
+/* ---- options --------------------------------------------------------------- */
+
+typedef struct view_opts {
+    const char *config, *script, *screenshot, *shot_dir, *path;
+    uint32_t frames;      /* 0: until the window closes */
+    float dt;             /* fixed seconds per frame; 0 -> real time (1/30 for scripted runs) */
+    float speed;          /* m/s; 0 -> map side / 200 */
+    float walk_speed;     /* m/s in walk mode; 0 -> 10 */
+    float eye_height;     /* walk mode, metres; 0 -> 1.8 */
+    float hud_scale;      /* 0 -> 2 for windows >= 600 px high, else 1 */
+    float mouse_sens;     /* degrees per pixel; 0 -> 0.15 */
+    bool walk, free_cam, fans, boxes, no_hud, no_vsync;
+} view_opts;
+
+/* Options that take no value: those of the shared parser and ours. */
+static const char *const flag_opts[] = {"no-cull", "json", "wireframe", "quiet", "walk",
+                                        "free",    "fans", "boxes",     "no-hud", "no-vsync"};
+
+static bool is_flag(const char *name)
+{
+    for (size_t k = 0; k < sizeof flag_opts / sizeof flag_opts[0]; k++)
+        if (!strcmp(name, flag_opts[k]))
+            return true;
+    return false;
+}
+
+static void usage(void)
+{
+    fprintf(stderr, "usage: horizon view [terrain, LOD and view options as in render] [view options]\n"
+                    "Opens a window to fly over the terrain (X11; xvfb-run for none).\n");
+    cli_usage_terrain();
+    fprintf(stderr,
+            "view:\n"
+            "  --config FILE           settings as 'key = value' lines (keys are these long option\n"
+            "                          names, flags take true/false); the command line wins\n"
+            "  --speed M               flying speed in m/s (default: map side / 200); scroll changes it\n"
+            "  --walk                  start in walk mode (eye kept --eye-height above the ground)\n"
+            "  --eye-height M          walk mode eye height (default 1.8)\n"
+            "  --walk-speed M          walk mode speed in m/s (default 10)\n"
+            "  --free                  start with the free camera instead of the viewer camera\n"
+            "  --fans / --boxes        start with the fan view / node boxes on (--wireframe too)\n"
+            "  --no-hud                start with the HUD hidden\n"
+            "  --hud-scale S           HUD text size (default 2, 1 below 600 px)\n"
+            "  --mouse-sens D          mouse look degrees per pixel (default 0.15)\n"
+            "  --no-vsync              do not wait for the display (measure FPS)\n"
+            "  --shot-dir DIR          where P/F12 screenshots go (default .)\n"
+            "scripted runs:\n"
+            "  --script FILE           timed input events (see README: 'horizon view')\n"
+            "  --path NAME|FILE.csv    fly a camera path (flyover, orbit, ground or t,x,y,z,yaw,pitch CSV)\n"
+            "  --frames N              quit after N frames\n"
+            "  --dt S                  fixed seconds per frame (default: real time; 1/30 with\n"
+            "                          --script, --path or --frames)\n"
+            "  --screenshot FILE.png   write the last frame when quitting\n"
+            "  --json                  print a summary (frames, FPS, size, camera) as JSON on exit\n"
+            "keys: WASD move, Q/E down/up, shift fast, ctrl slow, mouse drag (or M) look, arrows turn,\n"
+            "      scroll speed, Tab viewer/free, G walk, 1/2 C, 3/4 C2, K culling, F1 HUD, H help,\n"
+            "      F2 wireframe, F3 fans, F4 freeze LOD camera, F5 node boxes, R reset, P/F12 shot, Esc quit\n");
+}
+
+static bool parse_f(const char *s, float lo, float hi, float *out)
+{
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (errno || end == s || *end || !isfinite(v) || v < lo || v > hi)
+        return false;
+    *out = (float)v;
+    return true;
+}
+
+static bool parse_u(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
+{
+    char *end;
+    errno = 0;
+    unsigned long long v = strtoull(s, &end, 10);
+    if (errno || end == s || *end || s[0] == '-' || v < lo || v > hi)
+        return false;
+    *out = (uint32_t)v;
+    return true;
+}
+
+/* Growable list of strings we own (config tokens). */
+typedef struct strlist {
+    char **s;
+    size_t count, cap;
+} strlist;
+
+static bool strlist_add(strlist *l, const char *s)
+{
+    if (l->count == l->cap) {
+        size_t cap = l->cap ? 2 * l->cap : 16;
+        char **p = realloc(l->s, cap * sizeof *p);
+        if (!p)
+            return false;
+        l->s = p;
+        l->cap = cap;
+    }
+    char *d = strdup(s);
+    if (!d)
+        return false;
+    l->s[l->count++] = d;
+    return true;
+}
+
+static void strlist_free(strlist *l)
+{
+    for (size_t k = 0; k < l->count; k++)
+        free(l->s[k]);
+    free(l->s);
+    *l = (strlist){0};
+}
+
+static char *trim(char *s)
+{
+    while (isspace((unsigned char)*s))
+        s++;
+    size_t n = strlen(s);
+    while (n && isspace((unsigned char)s[n - 1]))
+        s[--n] = 0;
+    return s;
+}
+
+/* Reads `key = value` lines into "--key value" tokens. skip_source: the
+ * command line names the terrain itself, so --dem/--generate here are dropped
+ * (cli_parse refuses both at once). Returns 0 or 2 (message printed). */
+static int read_config(const char *file, strlist *out, bool skip_source)
+{
+    FILE *f = fopen(file, "r");
+    if (!f) {
+        fprintf(stderr, "horizon view: cannot open config %s: %s\n", file, strerror(errno));
+        return 2;
+    }
+    char line[1024];
+    int lineno = 0, rc = 0;
+    while (!rc && fgets(line, sizeof line, f)) {
+        lineno++;
+        if (!strchr(line, '\n') && !feof(f)) {
+            fprintf(stderr, "horizon view: %s:%d: line too long\n", file, lineno);
+            rc = 2;
+            break;
+        }
+        char *s = trim(line);
+        if (!*s || *s == '#' || *s == ';')
+            continue;
+        char *eq = strchr(s, '=');
+        if (!eq) {
+            fprintf(stderr, "horizon view: %s:%d: expected 'key = value', got '%s'\n", file, lineno, s);
+            rc = 2;
+            break;
+        }
+        *eq = 0;
+        char *key = trim(s), *val = trim(eq + 1);
+        /* A trailing comment after whitespace. */
+        for (char *h = val; *h; h++)
+            if (*h == '#' && h > val && isspace((unsigned char)h[-1])) {
+                *h = 0;
+                val = trim(val);
+                break;
+            }
+        size_t vl = strlen(val);
+        if (vl >= 2 && ((val[0] == '"' && val[vl - 1] == '"') || (val[0] == '\'' && val[vl - 1] == '\''))) {
+            val[vl - 1] = 0;
+            val++;
+        }
+        while (*key == '-')
+            key++;
+        if (!*key) {
+            fprintf(stderr, "horizon view: %s:%d: empty key\n", file, lineno);
+            rc = 2;
+            break;
+        }
+        if (!strcmp(key, "config")) {
+            fprintf(stderr, "horizon view: %s:%d: config files do not nest\n", file, lineno);
+            rc = 2;
+            break;
+        }
+        if (skip_source && (!strcmp(key, "dem") || !strcmp(key, "generate")))
+            continue;
+        char opt[128];
+        snprintf(opt, sizeof opt, "--%s", key);
+        if (is_flag(key)) {
+            if (!strcmp(val, "true") || !strcmp(val, "yes") || !strcmp(val, "on") || !strcmp(val, "1")) {
+                if (!strlist_add(out, opt))
+                    rc = 1;
+            } else if (strcmp(val, "false") && strcmp(val, "no") && strcmp(val, "off") && strcmp(val, "0")) {
+                fprintf(stderr, "horizon view: %s:%d: '%s' takes true or false, got '%s'\n", file, lineno, key, val);
+                rc = 2;
+            }
+            continue;
+        }
+        if (!*val) {
+            fprintf(stderr, "horizon view: %s:%d: '%s' needs a value\n", file, lineno, key);
+            rc = 2;
+            break;
+        }
+        if (!strlist_add(out, opt) || !strlist_add(out, val))
+            rc = 1;
+    }
+    if (rc == 1)
+        fprintf(stderr, "horizon view: out of memory reading %s\n", file);
+    fclose(f);
+    return rc;
+}
+
+/* Takes our options out of args, leaves the rest (argv[0], "view", ...) in
+ * rest for cli_parse. Later occurrences win. Returns 0, or 2 (message printed). */
+static int split_view_opts(int n, char **args, view_opts *vo, char **rest, int *nrest)
+{
+    for (int i = 2; i < n; i++) {
+        const char *a = args[i], *v = i + 1 < n ? args[i + 1] : NULL;
+        if (!strcmp(a, "--walk")) { vo->walk = true; continue; }
+        if (!strcmp(a, "--free")) { vo->free_cam = true; continue; }
+        if (!strcmp(a, "--fans")) { vo->fans = true; continue; }
+        if (!strcmp(a, "--boxes")) { vo->boxes = true; continue; }
+        if (!strcmp(a, "--no-hud")) { vo->no_hud = true; continue; }
+        if (!strcmp(a, "--no-vsync")) { vo->no_vsync = true; continue; }
+        static const char *const valued[] = {"--config", "--script", "--screenshot", "--shot-dir", "--path",
+                                             "--frames", "--dt", "--speed", "--walk-speed", "--eye-height",
+                                             "--hud-scale", "--mouse-sens"};
+        bool takes = false;
+        for (size_t k = 0; k < sizeof valued / sizeof valued[0]; k++)
+            takes = takes || !strcmp(a, valued[k]);
+        if (!takes) {
+            rest[(*nrest)++] = args[i];
+            continue;
+        }
+        if (!v) {
+            fprintf(stderr, "horizon view: option %s needs a value\n", a);
+            return 2;
+        }
+        i++;
+        bool ok = true;
+        const char *want = "";
+        if (!strcmp(a, "--config")) vo->config = v;
+        else if (!strcmp(a, "--script")) vo->script = v;
+        else if (!strcmp(a, "--screenshot")) vo->screenshot = v;
+        else if (!strcmp(a, "--shot-dir")) vo->shot_dir = v;
+        else if (!strcmp(a, "--path")) vo->path = v;
+        else if (!strcmp(a, "--frames")) { ok = parse_u(v, 1, 100000000, &vo->frames); want = "a count in [1, 1e8]"; }
+        else if (!strcmp(a, "--dt")) { ok = parse_f(v, 1e-4f, 10.0f, &vo->dt); want = "seconds in [0.0001, 10]"; }
+        else if (!strcmp(a, "--speed")) { ok = parse_f(v, 0.1f, 100000.0f, &vo->speed); want = "m/s in [0.1, 100000]"; }
+        else if (!strcmp(a, "--walk-speed")) { ok = parse_f(v, 0.1f, 100000.0f, &vo->walk_speed); want = "m/s in [0.1, 100000]"; }
+        else if (!strcmp(a, "--eye-height")) { ok = parse_f(v, 0.01f, 100000.0f, &vo->eye_height); want = "metres in [0.01, 100000]"; }
+        else if (!strcmp(a, "--hud-scale")) { ok = parse_f(v, 0.5f, 8.0f, &vo->hud_scale); want = "a number in [0.5, 8]"; }
+        else if (!strcmp(a, "--mouse-sens")) { ok = parse_f(v, 0.001f, 10.0f, &vo->mouse_sens); want = "degrees per pixel in [0.001, 10]"; }
+        if (!ok) {
+            fprintf(stderr, "horizon view: invalid value '%s' for %s: expected %s\n", v, a, want);
+            return 2;
+        }
+    }
+    return 0;
+}
+
+/* ---- scripts --------------------------------------------------------------- */
+
+typedef enum ev_kind {
+    EV_KEY,        /* key down/up */
+    EV_BUTTON,     /* mouse button down/up */
+    EV_MOUSE,      /* mouse motion, pixels */
+    EV_LOOK,       /* yaw/pitch delta, degrees */
+    EV_SCROLL,
+    EV_RESIZE,
+    EV_CAMERA,     /* x y z yaw pitch */
+    EV_SCREENSHOT,
+    EV_QUIT
+} ev_kind;
+
+typedef struct script_event {
+    uint32_t frame;
+    uint32_t seq;  /* file order, for a stable sort */
+    ev_kind kind;
+    int code;      /* key or button */
+    bool down;
+    float v[5];
+    char *file;    /* screenshot (owned) */
+} script_event;
+
+typedef struct script {
+    script_event *ev;
+    size_t count, cap, next;
+} script;
+
+static void script_free(script *s)
+{
+    for (size_t k = 0; k < s->count; k++)
+        free(s->ev[k].file);
+    free(s->ev);
+    *s = (script){0};
+}
+
+static script_event *script_push(script *s)
+{
+    if (s->count == s->cap) {
+        size_t cap = s->cap ? 2 * s->cap : 64;
+        script_event *p = realloc(s->ev, cap * sizeof *p);
+        if (!p)
+            return NULL;
+        s->ev = p;
+        s->cap = cap;
+    }
+    script_event *e = &s->ev[s->count];
+    memset(e, 0, sizeof *e);
+    e->seq = (uint32_t)s->count++;
+    return e;
+}
+
+static int cmp_event(const void *a, const void *b)
+{
+    const script_event *x = a, *y = b;
+    if (x->frame != y->frame)
+        return x->frame < y->frame ? -1 : 1;
+    return (x->seq > y->seq) - (x->seq < y->seq);
+}
+
+static int button_from_name(const char *s)
+{
+    if (!strcmp(s, "left")) return HZ_MOUSE_LEFT;
+    if (!strcmp(s, "right")) return HZ_MOUSE_RIGHT;
+    if (!strcmp(s, "middle")) return HZ_MOUSE_MIDDLE;
+    return -1;
+}
+
+/* Parses floats tok[0..n) into v. */
+static bool floats(char **tok, int n, float *v)
+{
+    for (int k = 0; k < n; k++)
+        if (!tok[k] || !parse_f(tok[k], -1e8f, 1e8f, &v[k]))
+            return false;
+    return true;
+}
+
+/* Reads a script: "WHEN VERB ARGS" per line, WHEN = frame number or seconds
+ * with an 's' suffix (converted with dt). Returns 0 or 2 (message printed). */
+static int load_script(const char *file, float dt, script *s)
+{
+    FILE *f = fopen(file, "r");
+    if (!f) {
+        fprintf(stderr, "horizon view: cannot open script %s: %s\n", file, strerror(errno));
+        return 2;
+    }
+    char line[1024];
+    int lineno = 0, rc = 0;
+    while (!rc && fgets(line, sizeof line, f)) {
+        lineno++;
+        char *hash = strchr(line, '#');
+        if (hash)
+            *hash = 0;
+        char *tok[8] = {0}, *save = NULL;
+        int nt = 0;
+        for (char *t = strtok_r(line, " \t\r\n", &save); t && nt < 8; t = strtok_r(NULL, " \t\r\n", &save))
+            tok[nt++] = t;
+        if (nt == 0)
+            continue;
+        const char *why = NULL;
+        uint32_t frame = 0;
+        size_t tl = strlen(tok[0]);
+        float secs;
+        if (tl > 1 && tok[0][tl - 1] == 's') {
+            tok[0][tl - 1] = 0;
+            if (!parse_f(tok[0], 0, 1e7f, &secs))
+                why = "bad time (a frame number, or seconds like 1.5s)";
+            else
+                frame = (uint32_t)lround((double)secs / (double)dt);
+        } else if (!parse_u(tok[0], 0, 100000000, &frame)) {
+            why = "bad frame number (a frame number, or seconds like 1.5s)";
+        }
+        script_event *e = why ? NULL : script_push(s);
+        if (!why && !e) {
+            rc = 1;
+            break;
+        }
+        if (e)
+            e->frame = frame;
+        const char *verb = nt > 1 ? tok[1] : "";
+        if (why) {
+        } else if (!strcmp(verb, "key") || !strcmp(verb, "button")) {
+            bool key = !strcmp(verb, "key");
+            e->kind = key ? EV_KEY : EV_BUTTON;
+            e->code = nt > 2 ? (key ? hz_key_from_name(tok[2]) : button_from_name(tok[2])) : -1;
+            const char *act = nt > 3 ? tok[3] : "";
+            if (e->code < 0)
+                why = key ? "unknown key name (e.g. W, TAB, F3, SHIFT, ESC, UP)" : "unknown button (left, right, middle)";
+            else if (nt != 4 || (strcmp(act, "down") && strcmp(act, "up") && strcmp(act, "press")))
+                why = "expected: WHEN key|button NAME down|up|press";
+            else if (!strcmp(act, "press")) {
+                /* Down this frame, up the next. NOTE: script_push may move
+                 * the array, so e is not used after it. */
+                e->down = true;
+                const ev_kind kind = e->kind;
+                const int code = e->code;
+                script_event *u = script_push(s);
+                if (!u) {
+                    rc = 1;
+                    break;
+                }
+                u->kind = kind;
+                u->code = code;
+                u->frame = frame + 1;
+                u->down = false;
+            } else {
+                e->down = !strcmp(act, "down");
+            }
+        } else if (!strcmp(verb, "mouse") || !strcmp(verb, "look")) {
+            e->kind = verb[0] == 'm' ? EV_MOUSE : EV_LOOK;
+            if (nt != 4 || !floats(tok + 2, 2, e->v))
+                why = "expected: WHEN mouse DX DY (pixels) or WHEN look DYAW DPITCH (degrees)";
+        } else if (!strcmp(verb, "scroll")) {
+            e->kind = EV_SCROLL;
+            if (nt != 3 || !floats(tok + 2, 1, e->v))
+                why = "expected: WHEN scroll NOTCHES";
+        } else if (!strcmp(verb, "resize")) {
+            e->kind = EV_RESIZE;
+            if (nt != 4 || !floats(tok + 2, 2, e->v) || e->v[0] < 16 || e->v[1] < 16 || e->v[0] > 8192 ||
+                e->v[1] > 8192)
+                why = "expected: WHEN resize W H (16..8192 pixels)";
+        } else if (!strcmp(verb, "camera")) {
+            e->kind = EV_CAMERA;
+            if (nt != 7 || !floats(tok + 2, 5, e->v))
+                why = "expected: WHEN camera X Y Z YAW PITCH";
+        } else if (!strcmp(verb, "screenshot")) {
+            e->kind = EV_SCREENSHOT;
+            if (nt != 3 || !(e->file = strdup(tok[2])))
+                why = "expected: WHEN screenshot FILE.png";
+        } else if (!strcmp(verb, "quit")) {
+            e->kind = EV_QUIT;
+            if (nt != 2)
+                why = "expected: WHEN quit";
+        } else {
+            why = "unknown event (key, button, mouse, look, scroll, resize, camera, screenshot, quit)";
+        }
+        if (why) {
+            fprintf(stderr, "horizon view: %s:%d: %s\n", file, lineno, why);
+            rc = 2;
+        }
+    }
+    fclose(f);
+    if (rc == 1)
+        fprintf(stderr, "horizon view: out of memory reading %s\n", file);
+    if (!rc && s->count)
+        qsort(s->ev, s->count, sizeof *s->ev, cmp_event);
+    return rc;
+}
+
+/* ---- the viewer ------------------------------------------------------------ */
+
+typedef struct view {
+    view_opts vo;
+    cli_opts o;
+    hz_window *win;
+    hz_overlay *ov;
+    hz_renderer *ren;
+    hz_terrain *t;
+    hz_flycam fc;
+    hz_camera start_cam;
+    float base_znear;
+    float fly_speed, walk_speed; /* the speed of the other mode, kept while in one */
+    hz_camera lod_cam;           /* the frozen LOD camera */
+    hz_lod_params lod;
+    bool frozen, wire, fans, boxes, hud, help;
+    hz_index_list il;
+    hz_node_list leaves, culled;
+    hz_lod_stats st;
+    hz_draw_stats ds;
+    uint32_t width, height;
+    float hud_scale;
+    float hud_w, hud_h;          /* HUD panel this frame (0 when hidden) */
+    /* Timing. */
+    double last_ms, fps_t0, fps, frame_ms;
+    uint32_t fps_n;
+    double *frame_times;
+    size_t frame_times_n, frame_times_cap;
+    double run_t0;
+    uint32_t frame;
+    float dt_fixed;
+    /* Scripted input. */
+    script sc;
+    float look_yaw, look_pitch;
+    hz_path path;
+    bool have_path, path_active;
+    double path_t;
+    uint32_t shots;
+    char message[256];
+    double message_until;
+    hz_err err;
+} view;
+
+static void set_message(view *v, double seconds, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static void set_message(view *v, double seconds, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(v->message, sizeof v->message, fmt, ap);
+    va_end(ap);
+    v->message_until = hz_time_ms() + seconds * 1000.0;
+}
+
+/* Ground under (x, z): bilinear over the four nearest samples (the eye moves
+ * smoothly in walk mode), clamped to the map. World metres. */
+static float ground_at(void *user, float x, float z)
+{
+    const hz_terrain *t = user;
+    const uint32_t n = t->hm.size;
+    const float m = (float)(n - 1);
+    float fi = x / t->spacing, fj = z / t->spacing;
+    fi = fi < 0 ? 0 : fi > m ? m : fi;
+    fj = fj < 0 ? 0 : fj > m ? m : fj;
+    uint32_t i0 = (uint32_t)fi, j0 = (uint32_t)fj;
+    if (i0 >= n - 1)
+        i0 = n - 2;
+    if (j0 >= n - 1)
+        j0 = n - 2;
+    float fx = fi - (float)i0, fz = fj - (float)j0;
+    float h00 = hz_heightmap_get(&t->hm, i0, j0), h10 = hz_heightmap_get(&t->hm, i0 + 1, j0);
+    float h01 = hz_heightmap_get(&t->hm, i0, j0 + 1), h11 = hz_heightmap_get(&t->hm, i0 + 1, j0 + 1);
+    float h = (h00 * (1 - fx) + h10 * fx) * (1 - fz) + (h01 * (1 - fx) + h11 * fx) * fz;
+    return h * t->zscale;
+}
+
+static const float C_WHITE[4] = {1, 1, 1, 1};
+static const float C_SHADOW[4] = {0, 0, 0, 0.85f};
+static const float C_PANEL[4] = {0.02f, 0.03f, 0.06f, 0.55f};
+static const float C_ON[4] = {1.0f, 0.85f, 0.25f, 1};
+static const float C_DIM[4] = {0.75f, 0.78f, 0.82f, 1};
+
+/* Text with a 1-unit drop shadow, legible over sky and snow alike. */
+static void text(view *v, float x, float y, const float rgba[4], const char *s)
+{
+    float sc = v->hud_scale;
+    hz_overlay_text(v->ov, x + sc, y + sc, sc, C_SHADOW, s);
+    hz_overlay_text(v->ov, x, y, sc, rgba, s);
+}
+
+/* ---- loading screen ------------------------------------------------------- */
+
+typedef struct loading {
+    view *v;
+    const char *what;
+    double last;
+    bool closed;
+} loading;
+
+static void draw_loading(loading *l, const char *label, uint64_t done, uint64_t total)
+{
+    view *v = l->v;
+    hz_window_input in;
+    hz_window_poll(v->win, &in);
+    for (uint32_t k = 0; k < in.press_count; k++)
+        if (in.presses[k] == HZ_KEY_ESCAPE)
+            l->closed = true;
+    if (in.close_requested)
+        l->closed = true;
+    if (in.fb_width == 0 || in.fb_height == 0)
+        return;
+    float W = (float)in.fb_width, H = (float)in.fb_height;
+    float sc = in.fb_height >= 600 ? 2.0f : 1.0f;
+    if (v->vo.hud_scale > 0)
+        sc = v->vo.hud_scale;
+    v->hud_scale = sc;
+    char buf[512];
+    snprintf(buf, sizeof buf, "Loading %s", l->what);
+    float tw, th;
+    hz_overlay_text_size(buf, sc * 1.5f, &tw, &th);
+    hz_overlay_text(v->ov, (W - tw) * 0.5f, H * 0.42f, sc * 1.5f, C_WHITE, buf);
+    double frac = total ? (double)done / (double)total : 0.0;
+    snprintf(buf, sizeof buf, "%s  %3.0f%%", label ? label : "", 100.0 * frac);
+    hz_overlay_text_size(buf, sc, &tw, &th);
+    hz_overlay_text(v->ov, (W - tw) * 0.5f, H * 0.42f + 24 * sc, sc, C_DIM, buf);
+    float bw = W * 0.5f, bh = 6 * sc, bx = W * 0.25f, by = H * 0.42f + 40 * sc;
+    static const float track[4] = {1, 1, 1, 0.15f}, fill[4] = {0.45f, 0.70f, 1.0f, 1};
+    hz_overlay_rect(v->ov, bx, by, bw, bh, track);
+    hz_overlay_rect(v->ov, bx, by, bw * (float)frac, bh, fill);
+    hz_overlay_frame fr = {.width = in.fb_width, .height = in.fb_height, .clear = true,
+                           .clear_rgb = {0.10f, 0.13f, 0.18f}};
+    hz_err err = {0};
+    if (hz_overlay_draw(v->ov, &fr, &err) == HZ_OK)
+        hz_window_swap(v->win);
+}
+
+static void loading_progress(void *user, const char *label, uint64_t done, uint64_t total)
+{
+    loading *l = user;
+    if (!l->v->o.quiet)
+        hz_progress_stderr(NULL, label, done, total);
+    double now = hz_time_ms();
+    if (done < total && done > 0 && now - l->last < 50.0)
+        return;
+    l->last = now;
+    draw_loading(l, label, done, total);
+}
+
+/* ---- per-frame work ------------------------------------------------------- */
+
+static void apply_walk_speed(view *v, bool walk)
+{
+    if (walk == v->fc.walk)
+        return;
+    if (walk) {
+        v->fly_speed = v->fc.speed;
+        v->fc.speed = v->walk_speed;
+    } else {
+        v->walk_speed = v->fc.speed;
+        v->fc.speed = v->fly_speed;
+    }
+}
+
+static void set_walk(view *v, bool walk)
+{
+    if (walk && v->fc.mode != HZ_FLYCAM_VIEWER)
+        hz_flycam_set_mode(&v->fc, HZ_FLYCAM_VIEWER);
+    apply_walk_speed(v, walk);
+    hz_flycam_set_walk(&v->fc, walk);
+}
+
+static bool write_shot(view *v, const char *file)
+{
+    size_t n = (size_t)v->width * v->height * 3;
+    uint8_t *rgb = malloc(n);
+    hz_err err = {0};
+    bool ok = rgb && hz_renderer_read_rgb(v->ren, rgb, &err) == HZ_OK &&
+              hz_image_write_png(file, rgb, v->width, v->height, &err) == HZ_OK;
+    free(rgb);
+    if (ok) {
+        v->shots++;
+        if (!v->o.quiet)
+            fprintf(stderr, "horizon view: wrote %s (%ux%u)\n", file, v->width, v->height);
+        set_message(v, 3.0, "saved %s", file);
+    } else {
+        fprintf(stderr, "horizon view: screenshot %s failed: %s\n", file, err.msg[0] ? err.msg : "out of memory");
+        set_message(v, 5.0, "screenshot failed: %s", err.msg);
+    }
+    return ok;
+}
+
+static void interactive_shot(view *v)
+{
+    char file[1024];
+    time_t now = time(NULL);
+    struct tm tmv;
+    localtime_r(&now, &tmv);
+    char stamp[32];
+    strftime(stamp, sizeof stamp, "%Y%m%d_%H%M%S", &tmv);
+    snprintf(file, sizeof file, "%s/horizon_%s_%u.png", v->vo.shot_dir ? v->vo.shot_dir : ".", stamp, v->shots + 1);
+    write_shot(v, file);
+}
+
+static void scale_lod(float *val, float def, float f)
+{
+    float cur = *val > 0 ? *val : def;
+    cur *= f;
+    *val = cur < 0.05f ? 0.05f : cur > 100000.0f ? 100000.0f : cur;
+}
+
+/* Toggles and one-shot keys. Returns false to quit. */
+static bool handle_press(view *v, int key)
+{
+    switch (key) {
+    case HZ_KEY_ESCAPE:
+        return false;
+    case HZ_KEY_TAB:
+        if (v->fc.mode == HZ_FLYCAM_VIEWER) {
+            apply_walk_speed(v, false);
+            hz_flycam_set_mode(&v->fc, HZ_FLYCAM_FREE);
+        } else {
+            hz_flycam_set_mode(&v->fc, HZ_FLYCAM_VIEWER);
+        }
+        set_message(v, 1.5, "%s camera", v->fc.mode == HZ_FLYCAM_FREE ? "free" : "viewer");
+        break;
+    case HZ_KEY_A + ('G' - 'A'):
+        set_walk(v, !v->fc.walk);
+        set_message(v, 1.5, "walk mode %s", v->fc.walk ? "on" : "off");
+        break;
+    case HZ_KEY_A + ('M' - 'A'):
+        hz_window_capture_mouse(v->win, !hz_window_mouse_captured(v->win));
+        break;
+    case HZ_KEY_A + ('R' - 'A'): {
+        bool walk = v->fc.walk;
+        hz_camera c = v->fc.cam;
+        glm_vec3_copy(v->start_cam.pos, c.pos);
+        c.yaw = v->start_cam.yaw;
+        c.pitch = v->start_cam.pitch;
+        v->fc.cam = c;
+        hz_flycam_set_walk(&v->fc, walk);
+        hz_flycam_set_mode(&v->fc, v->fc.mode);
+        break;
+    }
+    case HZ_KEY_A + ('K' - 'A'):
+        v->lod.no_cull = !v->lod.no_cull;
+        set_message(v, 1.5, "frustum culling %s", v->lod.no_cull ? "off" : "on");
+        break;
+    case HZ_KEY_A + ('H' - 'A'):
+        v->help = !v->help;
+        break;
+    case HZ_KEY_A + ('P' - 'A'):
+    case HZ_KEY_F1 + 11:
+        interactive_shot(v);
+        break;
+    case HZ_KEY_F1:
+        v->hud = !v->hud;
+        break;
+    case HZ_KEY_F1 + 1:
+        v->wire = !v->wire;
+        break;
+    case HZ_KEY_F1 + 2:
+        v->fans = !v->fans;
+        break;
+    case HZ_KEY_F1 + 3:
+        v->frozen = !v->frozen;
+        if (v->frozen)
+            v->lod_cam = v->fc.cam;
+        set_message(v, 2.0, v->frozen ? "LOD camera frozen: fly away to see what it selected and culled"
+                                       : "LOD camera follows the view again");
+        break;
+    case HZ_KEY_F1 + 4:
+        v->boxes = !v->boxes;
+        break;
+    case HZ_KEY_0 + 1:
+        scale_lod(&v->lod.c, 25.0f, 1.0f / 1.25f);
+        break;
+    case HZ_KEY_0 + 2:
+        scale_lod(&v->lod.c, 25.0f, 1.25f);
+        break;
+    case HZ_KEY_0 + 3:
+        scale_lod(&v->lod.c2, 2.5f, 1.0f / 1.25f);
+        break;
+    case HZ_KEY_0 + 4:
+        scale_lod(&v->lod.c2, 2.5f, 1.25f);
+        break;
+    default:
+        break;
+    }
+    return true;
+}
+
+/* Applies this frame's script events. Returns false on a quit event. */
+static bool run_script(view *v, bool *shot_after, const char **shot_file)
+{
+    bool go = true;
+    while (v->sc.next < v->sc.count && v->sc.ev[v->sc.next].frame <= v->frame) {
+        script_event *e = &v->sc.ev[v->sc.next++];
+        switch (e->kind) {
+        case EV_KEY: hz_window_inject_key(v->win, e->code, e->down); break;
+        case EV_BUTTON: hz_window_inject_mouse_button(v->win, e->code, e->down); break;
+        case EV_MOUSE: hz_window_inject_mouse_move(v->win, e->v[0], e->v[1]); break;
+        case EV_LOOK:
+            v->look_yaw += e->v[0];
+            v->look_pitch += e->v[1];
+            break;
+        case EV_SCROLL: hz_window_inject_scroll(v->win, e->v[0]); break;
+        case EV_RESIZE: hz_window_set_size(v->win, (uint32_t)e->v[0], (uint32_t)e->v[1]); break;
+        case EV_CAMERA:
+            v->fc.cam.pos[0] = e->v[0];
+            v->fc.cam.pos[1] = e->v[1];
+            v->fc.cam.pos[2] = e->v[2];
+            v->fc.cam.yaw = e->v[3];
+            v->fc.cam.pitch = e->v[4];
+            hz_flycam_set_mode(&v->fc, v->fc.mode); /* re-applies the ground clamp */
+            v->path_active = false;
+            break;
+        case EV_SCREENSHOT:
+            *shot_after = true;
+            *shot_file = e->file;
+            break;
+        case EV_QUIT: go = false; break;
+        }
+    }
+    return go;
+}
+
+/* The seed's fan view: every LOD triangle is (centre, rim, rim) of its leaf's
+ * fan; centre red, rim white; leaves of the finest level (half-size 1, all
+ * rim samples adjacent to the centre) blue. */
+static void queue_fans(view *v)
+{
+    const hz_terrain *t = v->t;
+    const uint32_t n = t->hm.size;
+    const size_t tris = v->il.count / 3;
+    float *xyz;
+    uint8_t *rgba;
+    if (!tris || !hz_overlay_triangles(v->ov, tris, &xyz, &rgba)) {
+        if (tris)
+            set_message(v, 2.0, "fan view: out of memory");
+        return;
+    }
+    static const uint8_t red[4] = {225, 35, 30, 255}, blue[4] = {40, 90, 235, 255}, white[4] = {255, 255, 255, 255};
+    for (size_t k = 0; k < tris; k++) {
+        const uint32_t *tri = v->il.data + 3 * k;
+        uint32_t ci = tri[0] % n, cj = tri[0] / n;
+        bool finest = true;
+        for (int q = 1; q < 3; q++) {
+            uint32_t i = tri[q] % n, j = tri[q] / n;
+            if ((i > ci ? i - ci : ci - i) > 1 || (j > cj ? j - cj : cj - j) > 1)
+                finest = false;
+        }
+        for (int q = 0; q < 3; q++) {
+            uint32_t i = tri[q] % n, j = tri[q] / n;
+            float *p = xyz + 9 * k + 3 * q;
+            p[0] = (float)i * t->spacing;
+            p[1] = hz_heightmap_get(&t->hm, i, j) * t->zscale;
+            p[2] = (float)j * t->spacing;
+            memcpy(rgba + 12 * k + 4 * q, q == 0 ? (finest ? blue : red) : white, 4);
+        }
+    }
+}
+
+static void queue_boxes(view *v, const hz_node_list *nodes, const float rgba[4], uint32_t *drawn)
+{
+    for (size_t k = 0; k < nodes->count && *drawn < MAX_BOXES; k++) {
+        const hz_lod_node *nd = &nodes->data[k];
+        vec3 box[2];
+        if (hz_lod_node_box(v->t->lod, nd->x, nd->z, nd->half, box)) {
+            hz_overlay_box(v->ov, box, rgba);
+            (*drawn)++;
+        }
+    }
+}
+
+static void queue_hud(view *v, uint32_t boxes_drawn, size_t boxes_wanted)
+{
+    const float sc = v->hud_scale, lh = 12.0f * sc, x0 = 8.0f * sc;
+    char lines[10][256];
+    int nl = 0;
+    const hz_terrain *t = v->t;
+    const hz_camera *c = &v->fc.cam;
+    float g = hz_flycam_ground(&v->fc);
+    snprintf(lines[nl++], 256, "horizon view  %s  %ux%u @ %.3g m  window %ux%u", t->source, t->hm.size, t->hm.size,
+             (double)t->spacing, v->width, v->height);
+    snprintf(lines[nl++], 256, "FPS %.1f   frame %.2f ms   LOD %.2f ms   draw %.2f ms", v->fps, v->frame_ms,
+             v->st.ms, v->ds.upload_ms + v->ds.draw_ms);
+    snprintf(lines[nl++], 256, "triangles %u   nodes %u visited, %u culled, %u drawn", v->st.triangles,
+             v->st.nodes_visited, v->st.nodes_culled, v->st.leaves);
+    snprintf(lines[nl++], 256, "C %.2f   C2 %.3f   (1/2: C -/+, 3/4: C2 -/+)  %s%s",
+             (double)(v->lod.c > 0 ? v->lod.c : 25.0f), (double)(v->lod.c2 > 0 ? v->lod.c2 : 2.5f),
+             v->lod.criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped", v->lod.no_cull ? "  NO CULLING" : "");
+    snprintf(lines[nl++], 256, "camera %s  pos %.1f %.1f %.1f  yaw %.1f  pitch %.1f  speed %.3g m/s",
+             hz_flycam_mode_name(&v->fc), (double)c->pos[0], (double)c->pos[1], (double)c->pos[2], (double)c->yaw,
+             (double)c->pitch, (double)v->fc.speed);
+    snprintf(lines[nl++], 256, "ground %.1f m   above ground %.1f m%s", (double)g, (double)(c->pos[1] - g),
+             v->path_active ? "   (on camera path)" : "");
+    if (boxes_wanted > boxes_drawn)
+        snprintf(lines[nl++], 256, "boxes: the first %u of %zu shown", boxes_drawn, boxes_wanted);
+    int views_line = nl;
+    lines[nl++][0] = 0;
+    float w = 0;
+    for (int k = 0; k < nl; k++) {
+        float tw;
+        hz_overlay_text_size(lines[k], sc, &tw, NULL);
+        w = tw > w ? tw : w;
+    }
+    /* Debug-view line: each toggle lit when on. */
+    struct {
+        const char *label;
+        bool on;
+    } views[] = {{"F2 wire", v->wire}, {"F3 fans", v->fans}, {"F4 freeze", v->frozen}, {"F5 boxes", v->boxes},
+                 {"H help", v->help}};
+    float vw = 0;
+    for (size_t k = 0; k < sizeof views / sizeof views[0]; k++) {
+        float tw;
+        hz_overlay_text_size(views[k].label, sc, &tw, NULL);
+        vw += tw + 10 * sc;
+    }
+    w = vw > w ? vw : w;
+    v->hud_w = w + 2 * x0;
+    v->hud_h = (float)nl * lh + 2 * x0;
+    hz_overlay_rect(v->ov, 0, 0, v->hud_w, v->hud_h, C_PANEL);
+    for (int k = 0; k < nl; k++)
+        if (k != views_line)
+            text(v, x0, x0 + (float)k * lh, C_WHITE, lines[k]);
+    float x = x0;
+    for (size_t k = 0; k < sizeof views / sizeof views[0]; k++) {
+        text(v, x, x0 + (float)views_line * lh, views[k].on ? C_ON : C_DIM, views[k].label);
+        float tw;
+        hz_overlay_text_size(views[k].label, sc, &tw, NULL);
+        x += tw + 10 * sc;
+    }
+}
+
+static void queue_help(view *v)
+{
+    static const char *help =
+        "W A S D      move (viewer: level, free: along the view)\n"
+        "Q E          down / up (walk mode: eye height)\n"
+        "shift ctrl   fast / slow          scroll   speed\n"
+        "mouse drag   look (M: capture)    arrows   turn\n"
+        "Tab          viewer / free camera\n"
+        "G            walk mode (viewer camera)\n"
+        "1 2 / 3 4    C - + / C2 - +       K  culling on/off\n"
+        "F1 HUD   F2 wireframe   F3 fans (centre red, rim white,\n"
+        "         finest blue)   F4 freeze LOD camera   F5 boxes\n"
+        "R reset camera   P or F12 screenshot   H help   Esc quit";
+    const float sc = v->hud_scale;
+    float tw, th;
+    hz_overlay_text_size(help, sc, &tw, &th);
+    float x = (float)v->width - tw - 8 * sc, y = 8 * sc;
+    if (x - 8 * sc < v->hud_w) {
+        /* No room beside the HUD: below it. */
+        x = 8 * sc;
+        y = v->hud_h + 8 * sc;
+    }
+    hz_overlay_rect(v->ov, x - 8 * sc, y - 8 * sc, tw + 16 * sc, th + 16 * sc, C_PANEL);
+    text(v, x, y, C_WHITE, help);
+}
+
+static void frame_stats(view *v, double now)
+{
+    double ms = now - v->last_ms;
+    v->last_ms = now;
+    if (v->frame > 0) {
+        v->frame_ms = v->frame_ms > 0 ? 0.8 * v->frame_ms + 0.2 * ms : ms;
+        if (v->frame_times_n == v->frame_times_cap) {
+            size_t cap = v->frame_times_cap ? 2 * v->frame_times_cap : 256;
+            double *p = realloc(v->frame_times, cap * sizeof *p);
+            if (p) {
+                v->frame_times = p;
+                v->frame_times_cap = cap;
+            }
+        }
+        if (v->frame_times_n < v->frame_times_cap)
+            v->frame_times[v->frame_times_n++] = ms;
+    }
+    v->fps_n++;
+    if (v->fps == 0.0 && v->frame_ms > 0)
+        v->fps = 1000.0 / v->frame_ms; /* until the first half second is measured */
+    if (now - v->fps_t0 >= 500.0) {
+        v->fps = 1000.0 * v->fps_n / (now - v->fps_t0);
+        v->fps_n = 0;
+        v->fps_t0 = now;
+        char title[256];
+        snprintf(title, sizeof title, "horizon view - %s - %.0f FPS", v->t->source, v->fps);
+        hz_window_set_title(v->win, title);
+    }
+}
+
+/* One frame: input -> camera -> LOD -> terrain -> overlays -> (screenshot).
+ * Returns false when the viewer should stop after this frame. */
+static bool frame(view *v, bool *render_failed)
+{
+    bool go = true, shot = false;
+    const char *shot_file = NULL;
+    go = run_script(v, &shot, &shot_file) && go;
+
+    hz_window_input in;
+    hz_window_poll(v->win, &in);
+    if (in.close_requested)
+        go = false;
+    for (uint32_t k = 0; k < in.press_count; k++)
+        go = handle_press(v, in.presses[k]) && go;
+    if (in.fb_width == 0 || in.fb_height == 0) {
+        /* Minimised: nothing to draw into. */
+        if (go)
+            hz_window_wait(v->win, 0.1);
+        return go;
+    }
+    if (in.fb_width != v->width || in.fb_height != v->height) {
+        if (hz_renderer_resize(v->ren, in.fb_width, in.fb_height, &v->err) != HZ_OK) {
+            *render_failed = true;
+            return false;
+        }
+        v->width = in.fb_width;
+        v->height = in.fb_height;
+    }
+    v->hud_scale = v->vo.hud_scale > 0 ? v->vo.hud_scale : v->height >= 600 ? 2.0f : 1.0f;
+
+    double now = hz_time_ms();
+    float dt = v->dt_fixed > 0 ? v->dt_fixed : (float)fmin(fmax((now - v->last_ms) / 1000.0, 0.0), 0.25);
+    frame_stats(v, now);
+
+    /* Camera. */
+    v->fc.cam.aspect = (float)v->width / (float)v->height;
+    if (in.scroll != 0.0f)
+        hz_flycam_scroll_speed(&v->fc, in.scroll);
+    if (v->path_active) {
+        v->path_t += dt;
+        hz_path_sample(&v->path, (float)v->path_t, &v->fc.cam);
+        if (v->path_t >= (double)hz_path_duration(&v->path))
+            v->path_active = false;
+    } else {
+        hz_window *w = v->win;
+        hz_flycam_input fi = {0};
+#define K(c) (hz_window_key_down(w, HZ_KEY_A + ((c) - 'A')) ? 1.0f : 0.0f)
+        fi.forward = K('W') - K('S');
+        fi.right = K('D') - K('A');
+        fi.up = K('E') - K('Q') + (hz_window_key_down(w, HZ_KEY_PAGE_UP) ? 1.0f : 0.0f) -
+                (hz_window_key_down(w, HZ_KEY_PAGE_DOWN) ? 1.0f : 0.0f);
+#undef K
+        fi.fast = hz_window_key_down(w, HZ_KEY_LEFT_SHIFT) || hz_window_key_down(w, HZ_KEY_RIGHT_SHIFT);
+        fi.slow = hz_window_key_down(w, HZ_KEY_LEFT_CONTROL) || hz_window_key_down(w, HZ_KEY_RIGHT_CONTROL);
+        float turn = (hz_window_key_down(w, HZ_KEY_RIGHT) ? 1.0f : 0.0f) - (hz_window_key_down(w, HZ_KEY_LEFT) ? 1.0f : 0.0f);
+        float tilt = (hz_window_key_down(w, HZ_KEY_UP) ? 1.0f : 0.0f) - (hz_window_key_down(w, HZ_KEY_DOWN) ? 1.0f : 0.0f);
+        fi.yaw_deg = 90.0f * turn * dt + v->look_yaw;
+        fi.pitch_deg = 60.0f * tilt * dt + v->look_pitch;
+        if (hz_window_mouse_captured(w) || hz_window_mouse_down(w, HZ_MOUSE_LEFT) ||
+            hz_window_mouse_down(w, HZ_MOUSE_RIGHT)) {
+            fi.yaw_deg += in.mouse_dx * v->vo.mouse_sens;
+            fi.pitch_deg -= in.mouse_dy * v->vo.mouse_sens;
+        }
+        hz_flycam_update(&v->fc, &fi, dt);
+    }
+    v->look_yaw = v->look_pitch = 0.0f;
+    /* Walking needs a near plane closer than the eye height. */
+    v->fc.cam.znear = v->fc.walk ? fminf(v->base_znear, 0.25f * v->fc.eye_height) : v->base_znear;
+
+    /* LOD with the LOD camera (the view camera unless frozen). */
+    const hz_camera *lod_cam = v->frozen ? &v->lod_cam : &v->fc.cam;
+    bool want_leaves = v->boxes, want_culled = v->frozen;
+    if (hz_lod_select(v->t->lod, lod_cam, &v->lod, &v->il, want_leaves ? &v->leaves : NULL,
+                      want_culled ? &v->culled : NULL, &v->st) != HZ_OK) {
+        hz_err_set(&v->err, HZ_ERR_MEMORY, "out of memory in LOD selection");
+        *render_failed = true;
+        return false;
+    }
+
+    /* Terrain (sky only in the fan view: the fans replace the shading). */
+    hz_scene_params sp = {.wireframe = v->wire};
+    uint32_t count = v->fans ? 0 : (uint32_t)v->il.count;
+    if (hz_renderer_draw(v->ren, &v->fc.cam, &sp, v->il.data, count, &v->ds, &v->err) != HZ_OK) {
+        *render_failed = true;
+        return false;
+    }
+
+    /* Overlays. */
+    if (v->fans)
+        queue_fans(v);
+    uint32_t boxes_drawn = 0;
+    size_t boxes_wanted = 0;
+    if (v->frozen) {
+        static const float culled_c[4] = {1.0f, 0.25f, 0.2f, 0.8f}, frustum_c[4] = {1.0f, 0.9f, 0.2f, 1.0f};
+        hz_overlay_frustum(v->ov, &v->lod_cam, frustum_c);
+        queue_boxes(v, &v->culled, culled_c, &boxes_drawn);
+        boxes_wanted += v->culled.count;
+    }
+    if (v->boxes) {
+        static const float leaf_c[4] = {0.3f, 1.0f, 0.45f, 0.7f};
+        queue_boxes(v, &v->leaves, leaf_c, &boxes_drawn);
+        boxes_wanted += v->leaves.count;
+    }
+    v->hud_w = v->hud_h = 0;
+    if (v->hud)
+        queue_hud(v, boxes_drawn, boxes_wanted);
+    if (v->help)
+        queue_help(v);
+    if (v->message[0] && now < v->message_until) {
+        float th;
+        hz_overlay_text_size(v->message, v->hud_scale, NULL, &th);
+        text(v, 8 * v->hud_scale, (float)v->height - th - 8 * v->hud_scale, C_ON, v->message);
+    }
+    hz_overlay_frame fr = {.cam = &v->fc.cam, .width = v->width, .height = v->height,
+                           .shade_triangles = true, .wire_triangles = v->fans && v->wire};
+    if (hz_overlay_draw(v->ov, &fr, &v->err) != HZ_OK) {
+        *render_failed = true;
+        return false;
+    }
+
+    v->frame++;
+    if (v->vo.frames && v->frame >= v->vo.frames)
+        go = false;
+    if (shot && shot_file)
+        write_shot(v, shot_file);
+    if (!go && v->vo.screenshot && !write_shot(v, v->vo.screenshot))
+        *render_failed = true;
+    hz_window_swap(v->win);
+    return go;
+}
+
+static int cmp_d(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static void print_json(view *v)
+{
+    double med = 0, p95 = 0, total = 0;
+    if (v->frame_times_n) {
+        for (size_t k = 0; k < v->frame_times_n; k++)
+            total += v->frame_times[k];
+        qsort(v->frame_times, v->frame_times_n, sizeof *v->frame_times, cmp_d);
+        med = v->frame_times[v->frame_times_n / 2];
+        size_t k95 = (size_t)ceil(0.95 * (double)v->frame_times_n);
+        p95 = v->frame_times[(k95 ? k95 : 1) - 1];
+    }
+    const hz_camera *c = &v->fc.cam;
+    printf("{\"terrain\":\"%s\",\"heightmap_size\":%u,\"frames\":%u,\"width\":%u,\"height\":%u,"
+           "\"fps_mean\":%.2f,\"frame_ms_median\":%.3f,\"frame_ms_p95\":%.3f,\"triangles\":%u,"
+           "\"nodes_visited\":%u,\"nodes_culled\":%u,\"lod_ms\":%.3f,\"draw_ms\":%.3f,\"lod_c\":%g,\"lod_c2\":%g,"
+           "\"camera_mode\":\"%s\",\"camera\":[%.3f,%.3f,%.3f,%.3f,%.3f],\"ground\":%.3f,\"speed\":%g,"
+           "\"eye_height\":%g,\"wireframe\":%s,\"fans\":%s,\"frozen\":%s,\"boxes\":%s,\"no_cull\":%s,"
+           "\"screenshots\":%u,\"gl\":\"%s\"}\n",
+           v->t->source, v->t->hm.size, v->frame, v->width, v->height, total > 0 ? 1000.0 * (double)v->frame_times_n / total : 0.0,
+           med, p95, v->st.triangles, v->st.nodes_visited, v->st.nodes_culled, v->st.ms, v->ds.draw_ms,
+           (double)(v->lod.c > 0 ? v->lod.c : 25.0f), (double)(v->lod.c2 > 0 ? v->lod.c2 : 2.5f),
+           hz_flycam_mode_name(&v->fc), (double)c->pos[0], (double)c->pos[1], (double)c->pos[2], (double)c->yaw,
+           (double)c->pitch, (double)hz_flycam_ground(&v->fc), (double)v->fc.speed, (double)v->fc.eye_height,
+           v->wire ? "true" : "false", v->fans ? "true" : "false", v->frozen ? "true" : "false",
+           v->boxes ? "true" : "false", v->lod.no_cull ? "true" : "false", v->shots, hz_window_describe(v->win));
+}
+
+static bool ends_with(const char *s, const char *suf)
+{
+    size_t a = strlen(s), b = strlen(suf);
+    return a >= b && !strcmp(s + a - b, suf);
+}
+
+int cmd_view(int argc, char **argv)
+{
+    for (int i = 2; i < argc; i++)
+        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+            usage();
+            return 0;
+        }
+    view *v = calloc(1, sizeof *v);
+    if (!v)
+        return 1;
+    int rc = 2;
+    strlist cfg = {0};
+    char **args = NULL, **rest = NULL;
+
+    /* Config first, then the command line, so the command line wins. */
+    const char *config = NULL;
+    bool cmd_source = false;
+    for (int i = 2; i < argc; i++) {
+        if (!strcmp(argv[i], "--config") && i + 1 < argc)
+            config = argv[i + 1];
+        if (!strcmp(argv[i], "--dem") || !strcmp(argv[i], "--generate"))
+            cmd_source = true;
+    }
+    if (config && read_config(config, &cfg, cmd_source))
+        goto out;
+    int nargs = 0;
+    args = calloc((size_t)argc + cfg.count + 1, sizeof *args);
+    rest = calloc((size_t)argc + cfg.count + 1, sizeof *rest);
+    if (!args || !rest) {
+        rc = 1;
+        goto out;
+    }
+    args[nargs++] = argv[0];
+    args[nargs++] = argv[1];
+    for (size_t k = 0; k < cfg.count; k++)
+        args[nargs++] = cfg.s[k];
+    for (int i = 2; i < argc; i++)
+        args[nargs++] = argv[i];
+    int nrest = 0;
+    rest[nrest++] = argv[0];
+    rest[nrest++] = argv[1];
+    if (split_view_opts(nargs, args, &v->vo, rest, &nrest))
+        goto out;
+    if (cli_parse(nrest, rest, 2, &v->o, "view"))
+        goto out;
+    if (v->o.out || v->o.dump_mesh) {
+        fprintf(stderr, "horizon view: --out/--dump-mesh belong to render; use --screenshot FILE.png\n");
+        goto out;
+    }
+    view_opts *vo = &v->vo;
+    if (vo->mouse_sens <= 0)
+        vo->mouse_sens = 0.15f;
+    bool scripted = vo->script || vo->path || vo->frames;
+    v->dt_fixed = vo->dt > 0 ? vo->dt : scripted ? 1.0f / 30.0f : 0.0f;
+    if (vo->script && load_script(vo->script, v->dt_fixed > 0 ? v->dt_fixed : 1.0f / 30.0f, &v->sc))
+        goto out;
+    if (vo->path && ends_with(vo->path, ".csv")) {
+        if (hz_path_load_csv(vo->path, &v->path, &v->err) != HZ_OK) {
+            fprintf(stderr, "horizon view: %s\n", v->err.msg);
+            goto out;
+        }
+        v->have_path = true;
+    }
+
+    /* Window first: it shows the loading progress. But a DEM that is not
+     * there is reported before a window flashes up. */
+    rc = 1;
+    if (v->o.terrain.dem_path) {
+        FILE *probe = fopen(v->o.terrain.dem_path, "rb");
+        if (!probe) {
+            fprintf(stderr, "horizon view: cannot open '%s': %s\n", v->o.terrain.dem_path, strerror(errno));
+            goto out;
+        }
+        fclose(probe);
+    }
+    char title[256];
+    snprintf(title, sizeof title, "horizon view");
+    v->win = hz_window_create(&(hz_window_desc){.width = v->o.width, .height = v->o.height, .title = title,
+                                                .no_vsync = vo->no_vsync},
+                              &v->err);
+    if (!v->win) {
+        fprintf(stderr, "horizon view: %s\n", v->err.msg);
+        goto out;
+    }
+    v->ov = hz_overlay_create(&v->err);
+    if (!v->ov) {
+        fprintf(stderr, "horizon view: %s\n", v->err.msg);
+        goto out;
+    }
+
+    char what[300];
+    if (v->o.terrain.dem_path)
+        snprintf(what, sizeof what, "%s", v->o.terrain.dem_path);
+    else
+        snprintf(what, sizeof what, "%s %u seed %llu", v->o.terrain.generate == HZ_GEN_DIAMOND ? "diamond" : "perlin",
+                 v->o.terrain.gen_size ? v->o.terrain.gen_size : 4097, (unsigned long long)v->o.terrain.seed);
+    loading ld = {.v = v, .what = what};
+    draw_loading(&ld, "reading", 0, 1);
+    hz_terrain_desc td = v->o.terrain;
+    td.progress = loading_progress;
+    td.progress_user = &ld;
+    v->t = hz_terrain_create(&td, &v->err);
+    if (!v->t) {
+        fprintf(stderr, "horizon view: %s\n", v->err.msg);
+        goto out;
+    }
+    if (v->t->note[0] && !v->o.quiet)
+        fprintf(stderr, "horizon view: %s\n", v->t->note);
+    if (v->t->voids_filled && !v->o.quiet)
+        fprintf(stderr, "horizon view: filled %llu void samples from their neighbours\n",
+                (unsigned long long)v->t->voids_filled);
+    if (ld.closed) {
+        rc = 0;
+        goto out;
+    }
+    if (vo->path && !v->have_path) {
+        if (hz_terrain_path(v->t, vo->path, &v->path, &v->err) != HZ_OK) {
+            fprintf(stderr, "horizon view: %s\n", v->err.msg);
+            rc = 2;
+            goto out;
+        }
+        v->have_path = true;
+    }
+    draw_loading(&ld, "uploading heights to the GPU", 1, 1);
+
+    hz_window_framebuffer_size(v->win, &v->width, &v->height);
+    if (v->width == 0 || v->height == 0) {
+        v->width = v->o.width;
+        v->height = v->o.height;
+    }
+    v->ren = hz_renderer_create(&(hz_renderer_desc){.width = v->width, .height = v->height,
+                                                    .to_default_framebuffer = true},
+                                &v->err);
+    if (!v->ren || hz_renderer_set_heightmap(v->ren, &v->t->hm, v->t->spacing, v->t->zscale, &v->err) != HZ_OK) {
+        fprintf(stderr, "horizon view: %s\n", v->err.msg);
+        goto out;
+    }
+
+    /* Cameras. */
+    hz_camera cam = cli_camera(&v->o, v->t);
+    cam.aspect = (float)v->width / (float)v->height;
+    v->start_cam = cam;
+    v->base_znear = cam.znear;
+    float ext = hz_terrain_extent(v->t);
+    v->fly_speed = vo->speed > 0 ? vo->speed : fmaxf(5.0f, ext / 200.0f);
+    v->walk_speed = vo->walk_speed > 0 ? vo->walk_speed : 10.0f;
+    hz_flycam_init(&v->fc, &(hz_flycam_desc){.start = cam, .mode = vo->free_cam ? HZ_FLYCAM_FREE : HZ_FLYCAM_VIEWER,
+                                             .speed = v->fly_speed, .eye_height = vo->eye_height,
+                                             .height = ground_at, .height_user = v->t});
+    if (vo->walk)
+        set_walk(v, true);
+    v->lod = v->o.lod;
+    v->wire = v->o.wireframe;
+    v->fans = vo->fans;
+    v->boxes = vo->boxes;
+    v->hud = !vo->no_hud;
+    if (v->have_path) {
+        v->path_active = true;
+        hz_path_sample(&v->path, 0.0f, &v->fc.cam);
+    }
+    if (!v->o.quiet)
+        fprintf(stderr, "horizon view: %s, %ux%u, on %s\n", v->t->source, v->t->hm.size, v->t->hm.size,
+                hz_window_describe(v->win));
+
+    v->run_t0 = v->last_ms = v->fps_t0 = hz_time_ms();
+    bool failed = false;
+    while (frame(v, &failed)) {
+    }
+    if (failed) {
+        fprintf(stderr, "horizon view: %s\n", v->err.msg[0] ? v->err.msg : "rendering failed");
+        goto out;
+    }
+    if (v->o.json)
+        print_json(v);
+    rc = 0;
+
+out:
+    if (v->win)
+        hz_window_make_current(v->win);
+    hz_renderer_destroy(v->ren);
+    hz_overlay_destroy(v->ov);
+    hz_window_destroy(v->win);
+    hz_terrain_destroy(v->t);
+    free(v->il.data);
+    free(v->leaves.data);
+    free(v->culled.data);
+    free(v->frame_times);
+    hz_path_free(&v->path);
+    script_free(&v->sc);
+    strlist_free(&cfg);
+    free(args);
+    free(rest);
+    free(v);
+    return rc;
+}
