@@ -39,12 +39,40 @@ hz_result hz_renderer_resize(hz_renderer *r, uint32_t width, uint32_t height, hz
 hz_result hz_renderer_set_heightmap(hz_renderer *r, const hz_heightmap *hm, float spacing,
                                     float zscale, hz_err *err);
 
+/* Scene passes: the main view, and (with water) a mirrored reflection view. */
+typedef enum hz_pass {
+    HZ_PASS_MAIN = 0,
+    HZ_PASS_REFLECTION = 1
+} hz_pass;
+
+/* What a draw hook gets for each scene pass. Depth is reverse-Z (clear 0,
+ * GL_GREATER, clip depth [0, 1] via glClipControl), the pass's framebuffer
+ * and viewport are bound, depth test and writes are on. */
+typedef struct hz_pass_info {
+    hz_pass pass;
+    const hz_camera *cam;    /* the camera of this pass (mirrored for reflections) */
+    mat4 view, proj, viewproj;
+    vec4 clip_plane;         /* world space; keep points where dot(plane, (p, 1)) >= 0
+                                (write gl_ClipDistance[0]); all zero = no plane */
+    vec3 sun_dir;            /* resolved scene parameters, for consistent shading */
+    vec3 sky_color;
+    float fog_density;       /* per metre, 0 = no fog */
+    float ambient;
+    uint32_t width, height;  /* target size in pixels */
+} hz_pass_info;
+
+/* Draws extra opaque objects (trees, buildings...) into a scene pass, after
+ * the terrain. Must leave: program 0, VAO 0, blending off, depth writes on. */
+typedef void (*hz_draw_hook_fn)(void *user, const hz_pass_info *pass);
+
 typedef struct hz_scene_params {
     vec3 sun_dir;       /* unit vector toward the sun; all 0 -> default (afternoon sun) */
     vec3 sky_color;     /* horizon colour the fog fades to; all 0 -> pale blue */
     float fog_density;  /* per metre, f = exp(-density * dist); 0 -> 3/zfar, < 0 -> no fog */
     float ambient;      /* Ie, 0 -> 0.3 */
     bool wireframe;     /* draw lines on top of shaded terrain */
+    hz_draw_hook_fn draw_objects; /* optional: called in every scene pass after the terrain */
+    void *draw_objects_user;
 } hz_scene_params;
 
 typedef struct hz_draw_stats {
@@ -67,9 +95,6 @@ hz_result hz_renderer_read_rgb(hz_renderer *r, uint8_t *rgb, hz_err *err);
  * to_default_framebuffer). */
 hz_result hz_renderer_read_sky_mask(hz_renderer *r, uint8_t *mask, hz_err *err);
 
-/* Per-pixel sky mask of the last frame (1 = no terrain drawn there), top row
- * first, width*height bytes. Needs the internal FBO. */
-hz_result hz_renderer_read_sky_mask(hz_renderer *r, uint8_t *mask, hz_err *err);
 
 /* Writes RGB8 (top row first) as PNG. */
 hz_result hz_image_write_png(const char *path, const uint8_t *rgb, uint32_t width,

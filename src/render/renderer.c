@@ -639,6 +639,22 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         }
         glBindTexture(GL_TEXTURE_BUFFER, 0);
     }
+    if (sp.draw_objects) {
+        hz_pass_info pi = {.pass = HZ_PASS_MAIN, .cam = cam, .fog_density = sp.fog_density,
+                           .ambient = sp.ambient, .width = r->width, .height = r->height};
+        glm_mat4_copy(view, pi.view);
+        glm_mat4_copy(proj, pi.proj);
+        glm_mat4_copy(viewproj, pi.viewproj);
+        memcpy(pi.sun_dir, sp.sun_dir, sizeof pi.sun_dir);
+        memcpy(pi.sky_color, sp.sky_color, sizeof pi.sky_color);
+        glEnable(GL_DEPTH_TEST);
+        glDepthFunc(GL_GREATER);
+        glDepthMask(GL_TRUE);
+        glUseProgram(0);
+        glBindVertexArray(0);
+        sp.draw_objects(sp.draw_objects_user, &pi);
+        glBindVertexArray(r->vao);
+    }
     glUseProgram(0);
     glBindVertexArray(0);
     /* Leave the clip convention as GL's default for any other drawing code

@@ -11,6 +11,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <epoxy/gl.h>
+
 #include "horizon/render.h"
 
 #define W 480u
@@ -597,6 +599,62 @@ static void test_two_contexts(void **state)
     /* teardown's hz_renderer_destroy(fx->r) without its context only frees memory. */
 }
 
+/* The object hook runs once per frame in the main pass, after the terrain,
+ * with the camera's matrices; what it draws lands in the frame (here: a
+ * scissored red clear in the lower-left corner). */
+typedef struct hook_log {
+    int calls;
+    hz_pass pass;
+    mat4 viewproj;
+    uint32_t w, h;
+    float fog;
+} hook_log;
+
+static void paint_hook(void *user, const hz_pass_info *pi)
+{
+    hook_log *lg = user;
+    lg->calls++;
+    lg->pass = pi->pass;
+    glm_mat4_copy((vec4 *)pi->viewproj, lg->viewproj);
+    lg->w = pi->width;
+    lg->h = pi->height;
+    lg->fog = pi->fog_density;
+    glEnable(GL_SCISSOR_TEST);
+    glScissor(0, 0, 40, 30);
+    glClearColor(1.0f, 0.0f, 0.0f, 1.0f);
+    glClear(GL_COLOR_BUFFER_BIT);
+    glDisable(GL_SCISSOR_TEST);
+}
+
+static void test_object_hook(void **state)
+{
+    fixture *fx = *state;
+    hz_camera cam = horizon_camera();
+    hook_log lg = {0};
+    hz_scene_params sp = {.draw_objects = paint_hook, .draw_objects_user = &lg, .fog_density = 0.001f};
+    draw_read(fx, &cam, &sp, fx->idx, fx->count, NULL);
+    assert_int_equal(lg.calls, 1);
+    assert_int_equal(lg.pass, HZ_PASS_MAIN);
+    assert_int_equal(lg.w, W);
+    assert_int_equal(lg.h, H);
+    assert_true(fabsf(lg.fog - 0.001f) < 1e-9f);
+    mat4 view, proj, vp;
+    hz_camera_view(&cam, view);
+    hz_camera_proj_reverse_z(&cam, proj);
+    glm_mat4_mul(proj, view, vp);
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++)
+            assert_true(fabsf(vp[i][j] - lg.viewproj[i][j]) < 1e-6f * (1.0f + fabsf(vp[i][j])));
+    /* Bottom-left 40x30 is red (the image is top row first), the pixel next to it is not. */
+    const uint8_t *in = fx->rgb + ((size_t)(H - 1) * W + 5) * 3;
+    assert_true(in[0] == 255 && in[1] == 0 && in[2] == 0);
+    const uint8_t *out = fx->rgb + ((size_t)(H - 1) * W + 45) * 3;
+    assert_false(out[0] == 255 && out[1] == 0 && out[2] == 0);
+    /* Without the hook, the corner is terrain again. */
+    draw_read(fx, &cam, NULL, fx->idx, fx->count, NULL);
+    assert_false(in[0] == 255 && in[1] == 0 && in[2] == 0);
+}
+
 int main(int argc, char **argv)
 {
     if (argc > 1)
@@ -608,6 +666,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_look_down_sees_no_sky),
         cmocka_unit_test(test_empty_draw_is_sky),
         cmocka_unit_test(test_custom_sky_and_fog),
+        cmocka_unit_test(test_object_hook),
         cmocka_unit_test(test_wireframe_changes_pixels),
         cmocka_unit_test(test_blocked_layout_same_image),
         cmocka_unit_test(test_resize),
