@@ -41,11 +41,44 @@ typedef enum hz_lod_criterion {
     HZ_LOD_UNCLAMPED    /* the seed's form: split when l / (d C C2 d2) < 1 */
 } hz_lod_criterion;
 
+/* Level-of-detail methods (SPEC T6, G2 and beyond). All emit one crack-free
+ * triangle list into the full-resolution sample grid. */
+typedef enum hz_lod_mode {
+    HZ_LOD_QUADTREE = 0,   /* seed 000: restricted quadtree, breadth-first, fans skip
+                              the edge midpoints toward coarser neighbours (T6a) */
+    HZ_LOD_REMEDY,         /* seed 003: recursive, any level difference; fans insert
+                              the finer neighbours' edge vertices (T6b) */
+    HZ_LOD_BIDIRECTIONAL,  /* seed 001: free selection, then where neighbours differ by
+                              >= 2 levels coarsen the fine side beyond distance m, else
+                              split the coarse side (T6c) */
+    HZ_LOD_ROAM,           /* seed 002: binary triangle tree with split and merge queues,
+                              forced splits, frame-to-frame coherence (G2) */
+    HZ_LOD_CDLOD,          /* screen-space error bound in pixels, restricted quadtree with
+                              forced splits and per-vertex geomorphing (no popping) */
+    HZ_LOD_MODE_COUNT
+} hz_lod_mode;
+
+/* "quadtree", "remedy", "bidirectional", "roam", "cdlod". */
+const char *hz_lod_mode_name(hz_lod_mode mode);
+/* False if the name is unknown. */
+bool hz_lod_mode_from_name(const char *name, hz_lod_mode *mode);
+
 typedef struct hz_lod_params {
-    float c;   /* distance factor C; 0 -> 25 */
-    float c2;  /* roughness factor C2; 0 -> 2.5 */
+    hz_lod_mode mode;     /* 0 -> quadtree */
+    float c;              /* distance factor C; 0 -> 25 */
+    float c2;             /* roughness factor C2; 0 -> 2.5 */
     hz_lod_criterion criterion;
-    bool no_cull; /* keep every node regardless of the frustum (tests, references) */
+    bool no_cull;         /* keep every node regardless of the frustum (tests, references) */
+    float pixel_error;    /* screen-space error bound tau in pixels. > 0: quadtree, remedy
+                             and bidirectional split when the projected d2 error
+                             d2 * d * K / l > tau (K = viewport_height / (2 tan(fov/2)))
+                             instead of using C and C2. roam and cdlod always use it;
+                             0 -> 1 px for them */
+    uint32_t viewport_height; /* pixels, for pixel_error; 0 -> 720 */
+    float bidir_distance; /* bidirectional: m in metres; 0 -> 0.25 x the camera's far distance */
+    uint32_t roam_budget; /* roam: at most this many triangles; 0 -> no budget */
+    float morph_start;    /* cdlod: fraction of a vertex's range where morphing starts,
+                             clamped to [0.5, 0.95]; 0 -> 0.6 */
 } hz_lod_params;
 
 /* A growable array the caller owns; free with free(list->data). */
@@ -71,17 +104,42 @@ typedef struct hz_lod_stats {
     uint32_t restricted;    /* splits refused because a neighbour was coarser */
     uint32_t triangles;
     uint32_t max_level;
+    uint32_t forced;        /* cdlod / roam: splits forced to keep the mesh crack-free;
+                               bidirectional: coarse nodes split */
+    uint32_t merged;        /* bidirectional: fine subtrees coarsened; roam: merges */
+    float morph_scale;      /* cdlod: metres of morph range per h16 step of a vertex's
+                               morph error (0: no morphing this frame) */
+    float morph_start;      /* cdlod: morph starts at this fraction of the range */
     double ms;              /* CPU time of the selection */
 } hz_lod_stats;
 
-/* Selects the nodes for a camera and writes the triangle list into out
- * (cleared first, grown as needed). leaves / culled (may be NULL) receive the
- * drawn leaf nodes / the culled nodes. stats may be NULL. Not thread-safe on
- * the same hz_lod (it keeps the per-node flag array, never cleared).
- * Returns HZ_ERR_MEMORY if a list cannot grow. */
+/* Selects the level of detail for a camera with params->mode and writes the
+ * triangle list into out (cleared first, grown as needed). leaves / culled
+ * (may be NULL) receive the drawn leaf nodes / the culled nodes of the quadtree
+ * modes (roam leaves them empty: its leaves are triangles). stats may be NULL.
+ * roam keeps its mesh in the hz_lod from frame to frame (coherence); the other
+ * modes start from the root every frame. Not thread-safe on the same hz_lod.
+ * Returns HZ_ERR_MEMORY if a list cannot grow, HZ_ERR_VALUE on a bad mode. */
 hz_result hz_lod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params,
                         hz_index_list *out, hz_node_list *leaves, hz_node_list *culled,
                         hz_lod_stats *stats);
+
+/* Per-sample morph errors for cdlod (row-major, size*size values, h16 steps;
+ * 65535 = never morphs), built on first use (may take a moment: progress goes
+ * to the desc's callback). NULL on out of memory. A vertex's morph range in
+ * metres is stats.morph_scale * value. */
+const uint16_t *hz_lod_morph_errors(hz_lod *lod);
+
+/* The height (metres, zscale applied) the viewer sees at sample index
+ * (j * size + i) in a cdlod frame: the true height moved toward its coarser
+ * neighbours by the vertex's morph factor. stats from that frame's selection
+ * (morph_scale 0: the true height). The renderer's vertex shader computes the
+ * same. */
+float hz_lod_morph_height(hz_lod *lod, const hz_camera *cam, const hz_lod_stats *stats, uint32_t index);
+
+/* Morph factor in [0, 1] of sample index (0 = true height, 1 = fully on the
+ * coarser level's surface). */
+float hz_lod_morph_factor(hz_lod *lod, const hz_camera *cam, const hz_lod_stats *stats, uint32_t index);
 
 /* Every cell of the grid as two triangles (the full-resolution reference mesh),
  * counter-clockwise seen from above. */

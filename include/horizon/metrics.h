@@ -33,6 +33,14 @@ hz_result hz_metrics_px_error(const hz_heightmap *hm, float spacing, float zscal
                               const uint32_t *indices, size_t count, const hz_camera *cam,
                               uint32_t image_height, hz_float_buf *scratch, hz_px_error *out);
 
+/* The same, for a mesh whose vertices are not at the true heights (cdlod's
+ * geomorphing): vertex_height(user, index) gives the height in metres, zscale
+ * applied, of sample index j * size + i as drawn. NULL = the true heights. */
+typedef float (*hz_vertex_height_fn)(void *user, uint32_t index);
+hz_result hz_metrics_px_error_ex(const hz_heightmap *hm, float spacing, float zscale, const uint32_t *indices,
+                                 size_t count, hz_vertex_height_fn vertex_height, void *user, const hz_camera *cam,
+                                 uint32_t image_height, hz_float_buf *scratch, hz_px_error *out);
+
 /* PSNR in dB of two RGB8 images of n pixels (INFINITY when identical). */
 double hz_metrics_psnr(const uint8_t *a, const uint8_t *b, size_t n);
 

@@ -4,66 +4,7 @@
  * one flag byte, in one compact array per level: about (size-1)^2 / 3 nodes in
  * all. The flag array is never cleared; see select() for why stale flags are
  * never read. */
-#include "horizon/lod.h"
-
-#include <math.h>
-#include <stdlib.h>
-#include <string.h>
-
-enum {
-    DIR_W = 0, /* -x */
-    DIR_E = 1, /* +x */
-    DIR_N = 2, /* -z (row 0 is north) */
-    DIR_S = 3  /* +z */
-};
-
-/* Flag byte: bits 0-1 state, bits 2-5 "don't care" per direction (the
- * neighbour across that edge is off the map or inside a culled node). */
-enum {
-    ST_NONE = 0,
-    ST_LEAF = 1,
-    ST_SPLIT = 2,
-    ST_CULLED = 3,
-    ST_MASK = 3,
-    DC_SHIFT = 2
-};
-
-/* Neighbour status seen from a node. */
-enum { NB_EXISTS = 0, NB_ABSENT = 1, NB_DONTCARE = 2 };
-
-typedef struct qnode {
-    uint32_t x, z;
-} qnode;
-
-struct hz_lod {
-    const hz_heightmap *hm;
-    uint32_t size, levels;
-    float spacing, zscale;
-    size_t nodes;
-    size_t *level_offset; /* levels entries */
-    float *d2;
-    uint16_t *mn, *mx;
-    uint8_t *flags;
-    qnode *q[2];
-    size_t qcap;
-};
-
-static inline uint32_t half_of(const hz_lod *lod, uint32_t level)
-{
-    return 1u << (lod->levels - 1 - level);
-}
-
-static inline size_t node_index(const hz_lod *lod, uint32_t level, uint32_t x, uint32_t z)
-{
-    uint32_t s = half_of(lod, level);
-    uint32_t m = 1u << level; /* nodes per side */
-    return lod->level_offset[level] + (size_t)(z / (2 * s)) * m + x / (2 * s);
-}
-
-static inline uint16_t h16(const hz_lod *lod, uint32_t x, uint32_t z)
-{
-    return hz_heightmap_get16(lod->hm, x, z);
-}
+#include "lod_internal.h"
 
 static float err16(uint16_t mid, uint16_t a, uint16_t b)
 {
@@ -99,6 +40,7 @@ hz_lod *hz_lod_create(const hz_lod_desc *desc, hz_err *err)
     if (!lod)
         goto oom;
     lod->hm = hm;
+    lod->desc = *desc;
     lod->size = hm->size;
     lod->levels = hm->levels;
     lod->spacing = spacing;
@@ -187,6 +129,7 @@ void hz_lod_destroy(hz_lod *lod)
 {
     if (!lod)
         return;
+    hz__lod_roam_free(lod);
     free(lod->level_offset);
     free(lod->d2);
     free(lod->mn);
@@ -194,17 +137,49 @@ void hz_lod_destroy(hz_lod *lod)
     free(lod->flags);
     free(lod->q[0]);
     free(lod->q[1]);
+    free(lod->stamp);
+    free(lod->stack);
+    free(lod->stack_lv);
+    free(lod->cd_err);
+    free(lod->morph_err);
+    for (int l = 0; l < 32; l++)
+        free(lod->lv[l]);
     free(lod);
 }
 
 size_t hz_lod_memory_bytes(const hz_lod *lod)
 {
-    return lod->hm->size_bytes + lod->nodes * (sizeof(float) + 2 * sizeof(uint16_t) + 1);
+    size_t b = lod->hm->size_bytes + lod->nodes * (sizeof(float) + 2 * sizeof(uint16_t) + 1);
+    if (lod->stamp)
+        b += lod->nodes;
+    if (lod->cd_err)
+        b += lod->nodes * sizeof(float);
+    if (lod->morph_err)
+        b += (size_t)lod->size * lod->size * sizeof(uint16_t);
+    return b + hz__lod_roam_bytes(lod);
 }
 
 double hz_lod_bytes_per_sample(const hz_lod *lod)
 {
     return (double)hz_lod_memory_bytes(lod) / ((double)lod->size * lod->size);
+}
+
+static const char *const mode_names[HZ_LOD_MODE_COUNT] = {"quadtree", "remedy", "bidirectional", "roam",
+                                                          "cdlod"};
+
+const char *hz_lod_mode_name(hz_lod_mode mode)
+{
+    return (unsigned)mode < HZ_LOD_MODE_COUNT ? mode_names[mode] : "?";
+}
+
+bool hz_lod_mode_from_name(const char *name, hz_lod_mode *mode)
+{
+    for (int m = 0; m < HZ_LOD_MODE_COUNT; m++)
+        if (name && !strcmp(name, mode_names[m])) {
+            *mode = (hz_lod_mode)m;
+            return true;
+        }
+    return false;
 }
 
 static bool lookup(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t half, size_t *idx,
@@ -241,17 +216,6 @@ bool hz_lod_query_node(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t half,
     return true;
 }
 
-static void box_of(const hz_lod *lod, size_t i, uint32_t x, uint32_t z, uint32_t s, vec3 box[2])
-{
-    const hz_heightmap *hm = lod->hm;
-    box[0][0] = (float)(x - s) * lod->spacing;
-    box[1][0] = (float)(x + s) * lod->spacing;
-    box[0][2] = (float)(z - s) * lod->spacing;
-    box[1][2] = (float)(z + s) * lod->spacing;
-    box[0][1] = (hm->offset + hm->scale * lod->mn[i]) * lod->zscale;
-    box[1][1] = (hm->offset + hm->scale * lod->mx[i]) * lod->zscale;
-}
-
 bool hz_lod_node_box(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t half, vec3 box[2])
 {
     size_t i;
@@ -262,50 +226,10 @@ bool hz_lod_node_box(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t half, v
     return true;
 }
 
-static hz_result list_reserve(void **data, size_t *cap, size_t need, size_t elem)
-{
-    if (need <= *cap)
-        return HZ_OK;
-    size_t n = *cap ? *cap : 1024;
-    while (n < need)
-        n *= 2;
-    void *p = realloc(*data, n * elem);
-    if (!p)
-        return HZ_ERR_MEMORY;
-    *data = p;
-    *cap = n;
-    return HZ_OK;
-}
-
-static hz_result push_node(hz_node_list *list, uint32_t x, uint32_t z, uint32_t s, uint32_t level)
-{
-    if (!list)
-        return HZ_OK;
-    if (list_reserve((void **)&list->data, &list->cap, list->count + 1, sizeof *list->data))
-        return HZ_ERR_MEMORY;
-    list->data[list->count++] = (hz_lod_node){x, z, s, level};
-    return HZ_OK;
-}
-
-/* Box outside the frustum? p-vertex test against each plane (conservative:
- * a box is only dropped when it is entirely behind one plane, by more than
- * margin metres, so float rounding never drops a box that touches the frustum). */
-static bool box_outside(const vec3 box[2], const vec4 planes[6], float margin)
-{
-    for (int p = 0; p < 6; p++) {
-        const float *pl = planes[p];
-        float dp = pl[0] * box[pl[0] > 0.0f][0] + pl[1] * box[pl[1] > 0.0f][1] +
-                   pl[2] * box[pl[2] > 0.0f][2];
-        if (dp < -pl[3] - margin)
-            return true;
-    }
-    return false;
-}
-
 /* Appends a fan around (x, z) with half-size s; an edge midpoint is skipped when
  * the neighbour across it is coarser. Triangles are counter-clockwise seen from
  * above (+y). */
-static uint32_t emit_fan(uint32_t *dst, uint32_t n, uint32_t x, uint32_t z, uint32_t s,
+uint32_t hz__emit_fan(uint32_t *dst, uint32_t n, uint32_t x, uint32_t z, uint32_t s,
                          const uint8_t nb[4])
 {
     const uint32_t c = z * n + x;
@@ -339,7 +263,7 @@ static uint32_t emit_fan(uint32_t *dst, uint32_t n, uint32_t x, uint32_t z, uint
  * Q's flag is only read when P saw Q exist (P's don't-care bit clear), so Q was
  * visited this frame and its flag is fresh: the flag array never needs
  * clearing. A culled Q means nothing is drawn there: don't care. */
-static uint8_t neighbour(const hz_lod *lod, uint32_t l, uint32_t x, uint32_t z, uint32_t s, int dir)
+uint8_t hz__neighbour(const hz_lod *lod, uint32_t l, uint32_t x, uint32_t z, uint32_t s, int dir)
 {
     const uint32_t n = lod->size;
     switch (dir) {
@@ -374,35 +298,23 @@ static uint8_t neighbour(const hz_lod *lod, uint32_t l, uint32_t x, uint32_t z, 
     return NB_ABSENT;
 }
 
-hz_result hz_lod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params,
-                        hz_index_list *out, hz_node_list *leaves, hz_node_list *culled,
-                        hz_lod_stats *stats)
+hz_result hz__lod_select_quadtree(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params,
+                                  hz_index_list *out, hz_node_list *leaves, hz_node_list *culled,
+                                  hz_lod_stats *stats)
 {
-    double t0 = hz_time_ms();
-    hz_lod_params p = params ? *params : (hz_lod_params){0};
-    const float C = p.c > 0 ? p.c : 25.0f;
-    const float C2 = p.c2 > 0 ? p.c2 : 2.5f;
-    const hz_heightmap *hm = lod->hm;
+    const hz_lod_params p = *params;
     const uint32_t n = lod->size;
     hz_lod_stats st = {0};
     vec4 planes[6];
     hz_camera_frustum(cam, planes);
-    const float ex = cam->pos[0], ey = cam->pos[1], ez = cam->pos[2];
-    const float sp = lod->spacing, zs = lod->zscale;
-    const float margin = 1e-4f * ((cam->zfar > 0 ? cam->zfar : 1e5f) + fabsf(ex) + fabsf(ey) + fabsf(ez)) + 1e-2f;
-
-    out->count = 0;
-    if (leaves)
-        leaves->count = 0;
-    if (culled)
-        culled->count = 0;
+    const split_rule rule = split_rule_make(cam, &p);
+    const float margin = frustum_margin(cam);
 
     qnode *cur = lod->q[0], *next = lod->q[1];
     size_t ncur = 1;
     cur[0] = (qnode){(n - 1) / 2, (n - 1) / 2};
     for (uint32_t l = 0; l < lod->levels && ncur > 0; l++) {
         const uint32_t s = half_of(lod, l);
-        const float d = 2.0f * (float)s * sp;
         const bool can_split = l + 1 < lod->levels;
         size_t nnext = 0;
         /* Worst case this level emits 8 triangles per node. */
@@ -426,18 +338,12 @@ hz_result hz_lod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_params *
             uint8_t nb[4];
             bool blocked = false;
             for (int dir = 0; dir < 4; dir++) {
-                nb[dir] = neighbour(lod, l, x, z, s, dir);
+                nb[dir] = hz__neighbour(lod, l, x, z, s, dir);
                 blocked |= nb[dir] == NB_ABSENT;
             }
             bool split = false;
             if (can_split) {
-                const float cx = (float)x * sp - ex;
-                const float cy = (hm->offset + hm->scale * (float)hz_heightmap_get16(hm, x, z)) * zs - ey;
-                const float cz = (float)z * sp - ez;
-                const float dist = sqrtf(cx * cx + cy * cy + cz * cz);
-                const float r = C2 * lod->d2[idx];
-                const float denom = d * C * (p.criterion == HZ_LOD_UNCLAMPED ? r : fmaxf(r, 1.0f));
-                split = dist < denom; /* f = dist / denom < 1 */
+                split = split_rule_test(lod, &rule, x, z, s, idx);
                 if (split && blocked) {
                     st.restricted++;
                     split = false;
@@ -456,7 +362,7 @@ hz_result hz_lod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_params *
                 next[nnext++] = (qnode){x + h, z + h};
             } else {
                 lod->flags[idx] = ST_LEAF;
-                uint32_t tris = emit_fan(out->data + out->count, n, x, z, s, nb);
+                uint32_t tris = hz__emit_fan(out->data + out->count, n, x, z, s, nb);
                 out->count += 3 * tris;
                 st.triangles += tris;
                 st.leaves++;
@@ -471,10 +377,34 @@ hz_result hz_lod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_params *
         next = t;
         ncur = nnext;
     }
+    *stats = st;
+    return HZ_OK;
+}
+
+hz_result hz_lod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params, hz_index_list *out,
+                        hz_node_list *leaves, hz_node_list *culled, hz_lod_stats *stats)
+{
+    double t0 = hz_time_ms();
+    hz_lod_params p = params ? *params : (hz_lod_params){0};
+    hz_lod_stats st = {0};
+    out->count = 0;
+    if (leaves)
+        leaves->count = 0;
+    if (culled)
+        culled->count = 0;
+    hz_result r;
+    switch (p.mode) {
+    case HZ_LOD_QUADTREE: r = hz__lod_select_quadtree(lod, cam, &p, out, leaves, culled, &st); break;
+    case HZ_LOD_REMEDY: r = hz__lod_select_remedy(lod, cam, &p, out, leaves, culled, &st); break;
+    case HZ_LOD_BIDIRECTIONAL: r = hz__lod_select_bidir(lod, cam, &p, out, leaves, culled, &st); break;
+    case HZ_LOD_ROAM: r = hz__lod_select_roam(lod, cam, &p, out, &st); break;
+    case HZ_LOD_CDLOD: r = hz__lod_select_cdlod(lod, cam, &p, out, leaves, culled, &st); break;
+    default: return HZ_ERR_VALUE;
+    }
     st.ms = hz_time_ms() - t0;
     if (stats)
         *stats = st;
-    return HZ_OK;
+    return r;
 }
 
 hz_result hz_lod_full_mesh(const hz_heightmap *hm, hz_index_list *out)

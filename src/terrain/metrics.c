@@ -14,6 +14,13 @@ hz_result hz_metrics_px_error(const hz_heightmap *hm, float spacing, float zscal
                               const uint32_t *indices, size_t count, const hz_camera *cam,
                               uint32_t image_height, hz_float_buf *scratch, hz_px_error *out)
 {
+    return hz_metrics_px_error_ex(hm, spacing, zscale, indices, count, NULL, NULL, cam, image_height, scratch, out);
+}
+
+hz_result hz_metrics_px_error_ex(const hz_heightmap *hm, float spacing, float zscale, const uint32_t *indices,
+                                 size_t count, hz_vertex_height_fn vertex_height, void *user, const hz_camera *cam,
+                                 uint32_t image_height, hz_float_buf *scratch, hz_px_error *out)
+{
     memset(out, 0, sizeof *out);
     const uint32_t n = hm->size;
     vec4 planes[6];
@@ -32,7 +39,8 @@ hz_result hz_metrics_px_error(const hz_heightmap *hm, float spacing, float zscal
         for (int c = 0; c < 3; c++) {
             xs[c] = v[c] % n;
             zs[c] = v[c] / n;
-            hs[c] = hz_heightmap_get(hm, (uint32_t)xs[c], (uint32_t)zs[c]);
+            hs[c] = vertex_height ? (double)vertex_height(user, v[c]) / zscale
+                                  : hz_heightmap_get(hm, (uint32_t)xs[c], (uint32_t)zs[c]);
         }
         int64_t area2 = (zs[1] - zs[0]) * (xs[2] - xs[0]) - (xs[1] - xs[0]) * (zs[2] - zs[0]);
         if (area2 == 0)

@@ -1,0 +1,252 @@
+/* Shared internals of the LOD modes (lod.c: precomputation + quadtree,
+ * lod_free.c: remedy + bidirectional, lod_roam.c, lod_cdlod.c). No GL. */
+#ifndef HZ_LOD_INTERNAL_H
+#define HZ_LOD_INTERNAL_H
+
+#include "horizon/lod.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum {
+    DIR_W = 0, /* -x */
+    DIR_E = 1, /* +x */
+    DIR_N = 2, /* -z (row 0 is north) */
+    DIR_S = 3  /* +z */
+};
+
+/* Flag byte: bits 0-1 state, bits 2-5 "don't care" per direction (the
+ * neighbour across that edge is off the map or inside a culled node). */
+enum {
+    ST_NONE = 0,
+    ST_LEAF = 1,
+    ST_SPLIT = 2,
+    ST_CULLED = 3,
+    ST_MASK = 3,
+    DC_SHIFT = 2
+};
+
+/* Neighbour status seen from a node. */
+enum { NB_EXISTS = 0, NB_ABSENT = 1, NB_DONTCARE = 2 };
+
+typedef struct qnode {
+    uint32_t x, z;
+} qnode;
+
+typedef struct roam_state roam_state;
+
+struct hz_lod {
+    const hz_heightmap *hm;
+    hz_lod_desc desc;
+    uint32_t size, levels;
+    float spacing, zscale;
+    size_t nodes;
+    size_t *level_offset; /* levels entries */
+    float *d2;
+    uint16_t *mn, *mx;
+    uint8_t *flags;
+    qnode *q[2];
+    size_t qcap;
+
+    /* remedy / bidirectional: frame stamp per node (a node's flag is valid
+     * when its stamp equals epoch), allocated on first use. */
+    uint8_t *stamp;
+    uint8_t epoch;
+    qnode *stack;        /* work list, qcap * 4 entries */
+    uint32_t *stack_lv;
+
+    /* cdlod, built on first use: per node the nested error bound delta' of
+     * its fan (h16 steps, float), per sample the morph error (h16 steps). */
+    float *cd_err;
+    uint16_t *morph_err;
+    /* cdlod per-level node lists (forced splits add to earlier levels). */
+    qnode *lv[32];
+    size_t lv_n[32], lv_cap[32];
+
+    /* roam, built on first use. */
+    roam_state *roam;
+};
+
+static inline uint32_t half_of(const hz_lod *lod, uint32_t level)
+{
+    return 1u << (lod->levels - 1 - level);
+}
+
+static inline uint32_t level_of(const hz_lod *lod, uint32_t half)
+{
+    uint32_t l = lod->levels - 1;
+    while (half > 1) {
+        half >>= 1;
+        l--;
+    }
+    return l;
+}
+
+static inline size_t node_index(const hz_lod *lod, uint32_t level, uint32_t x, uint32_t z)
+{
+    uint32_t s = half_of(lod, level);
+    uint32_t m = 1u << level; /* nodes per side */
+    return lod->level_offset[level] + (size_t)(z / (2 * s)) * m + x / (2 * s);
+}
+
+static inline uint16_t h16(const hz_lod *lod, uint32_t x, uint32_t z)
+{
+    return hz_heightmap_get16(lod->hm, x, z);
+}
+
+/* World metres (zscale applied) of a sample. */
+static inline float hworld(const hz_lod *lod, uint32_t x, uint32_t z)
+{
+    return (lod->hm->offset + lod->hm->scale * (float)h16(lod, x, z)) * lod->zscale;
+}
+
+static inline void box_of(const hz_lod *lod, size_t i, uint32_t x, uint32_t z, uint32_t s, vec3 box[2])
+{
+    const hz_heightmap *hm = lod->hm;
+    box[0][0] = (float)(x - s) * lod->spacing;
+    box[1][0] = (float)(x + s) * lod->spacing;
+    box[0][2] = (float)(z - s) * lod->spacing;
+    box[1][2] = (float)(z + s) * lod->spacing;
+    box[0][1] = (hm->offset + hm->scale * lod->mn[i]) * lod->zscale;
+    box[1][1] = (hm->offset + hm->scale * lod->mx[i]) * lod->zscale;
+}
+
+/* Box outside the frustum? p-vertex test against each plane (conservative:
+ * a box is only dropped when it is entirely behind one plane, by more than
+ * margin metres, so float rounding never drops a box that touches the frustum). */
+static inline bool box_outside(const vec3 box[2], const vec4 planes[6], float margin)
+{
+    for (int p = 0; p < 6; p++) {
+        const float *pl = planes[p];
+        float dp = pl[0] * box[pl[0] > 0.0f][0] + pl[1] * box[pl[1] > 0.0f][1] + pl[2] * box[pl[2] > 0.0f][2];
+        if (dp < -pl[3] - margin)
+            return true;
+    }
+    return false;
+}
+
+/* Distance from p to the nearest point of the box (0 inside). */
+static inline float box_distance(const vec3 box[2], const float p[3])
+{
+    float d2 = 0.0f;
+    for (int k = 0; k < 3; k++) {
+        float v = p[k] < box[0][k] ? box[0][k] - p[k] : (p[k] > box[1][k] ? p[k] - box[1][k] : 0.0f);
+        d2 += v * v;
+    }
+    return sqrtf(d2);
+}
+
+static inline hz_result list_reserve(void **data, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap)
+        return HZ_OK;
+    size_t n = *cap ? *cap : 1024;
+    while (n < need)
+        n *= 2;
+    void *p = realloc(*data, n * elem);
+    if (!p)
+        return HZ_ERR_MEMORY;
+    *data = p;
+    *cap = n;
+    return HZ_OK;
+}
+
+static inline hz_result push_node(hz_node_list *list, uint32_t x, uint32_t z, uint32_t s, uint32_t level)
+{
+    if (!list)
+        return HZ_OK;
+    if (list_reserve((void **)&list->data, &list->cap, list->count + 1, sizeof *list->data))
+        return HZ_ERR_MEMORY;
+    list->data[list->count++] = (hz_lod_node){x, z, s, level};
+    return HZ_OK;
+}
+
+static inline hz_result push_tri(hz_index_list *out, uint32_t a, uint32_t b, uint32_t c)
+{
+    if (list_reserve((void **)&out->data, &out->cap, out->count + 3, sizeof(uint32_t)))
+        return HZ_ERR_MEMORY;
+    out->data[out->count++] = a;
+    out->data[out->count++] = b;
+    out->data[out->count++] = c;
+    return HZ_OK;
+}
+
+/* The per-frame split test shared by the quadtree modes: C/C2 (clamped or
+ * not) or, with a pixel error, the projected d2 error. */
+typedef struct split_rule {
+    float ex, ey, ez;  /* eye */
+    float C, C2;
+    bool unclamped;
+    float k_over_tau;  /* > 0: pixel mode */
+} split_rule;
+
+static inline split_rule split_rule_make(const hz_camera *cam, const hz_lod_params *p)
+{
+    split_rule r = {.ex = cam->pos[0], .ey = cam->pos[1], .ez = cam->pos[2]};
+    r.C = p->c > 0 ? p->c : 25.0f;
+    r.C2 = p->c2 > 0 ? p->c2 : 2.5f;
+    r.unclamped = p->criterion == HZ_LOD_UNCLAMPED;
+    if (p->pixel_error > 0) {
+        float h = (float)(p->viewport_height ? p->viewport_height : 720u);
+        float fov = cam->fov_y > 0 ? cam->fov_y : 60.0f;
+        r.k_over_tau = h / (2.0f * tanf(glm_rad(fov) * 0.5f)) / p->pixel_error;
+    }
+    return r;
+}
+
+/* Screen-space constant K = viewport_height / (2 tan(fov/2)): pixels per
+ * metre of error at one metre of distance. */
+static inline float pixel_k(const hz_camera *cam, const hz_lod_params *p)
+{
+    float h = (float)(p->viewport_height ? p->viewport_height : 720u);
+    float fov = cam->fov_y > 0 ? cam->fov_y : 60.0f;
+    return h / (2.0f * tanf(glm_rad(fov) * 0.5f));
+}
+
+static inline bool split_rule_test(const hz_lod *lod, const split_rule *r, uint32_t x, uint32_t z, uint32_t s,
+                                   size_t idx)
+{
+    const float sp = lod->spacing;
+    const float cx = (float)x * sp - r->ex;
+    const float cy = hworld(lod, x, z) - r->ey;
+    const float cz = (float)z * sp - r->ez;
+    const float dist = sqrtf(cx * cx + cy * cy + cz * cz);
+    const float d = 2.0f * (float)s * sp;
+    if (r->k_over_tau > 0)
+        return dist < d * lod->d2[idx] * r->k_over_tau;
+    const float rr = r->C2 * lod->d2[idx];
+    return dist < d * r->C * (r->unclamped ? rr : fmaxf(rr, 1.0f));
+}
+
+static inline float frustum_margin(const hz_camera *cam)
+{
+    return 1e-4f * ((cam->zfar > 0 ? cam->zfar : 1e5f) + fabsf(cam->pos[0]) + fabsf(cam->pos[1]) +
+                    fabsf(cam->pos[2])) +
+           1e-2f;
+}
+
+/* Mode entry points (lod.c dispatches). */
+hz_result hz__lod_select_quadtree(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, hz_index_list *out,
+                                  hz_node_list *leaves, hz_node_list *culled, hz_lod_stats *st);
+hz_result hz__lod_select_remedy(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, hz_index_list *out,
+                                hz_node_list *leaves, hz_node_list *culled, hz_lod_stats *st);
+hz_result hz__lod_select_bidir(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, hz_index_list *out,
+                               hz_node_list *leaves, hz_node_list *culled, hz_lod_stats *st);
+hz_result hz__lod_select_roam(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, hz_index_list *out,
+                              hz_lod_stats *st);
+hz_result hz__lod_select_cdlod(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, hz_index_list *out,
+                               hz_node_list *leaves, hz_node_list *culled, hz_lod_stats *st);
+void hz__lod_roam_free(hz_lod *lod);
+size_t hz__lod_roam_bytes(const hz_lod *lod);
+
+/* Status (NB_*) of the same-level neighbour of node (x, z, s) at level l across
+ * dir, for the quadtree-with-flags modes (quadtree, cdlod); see lod.c. */
+uint8_t hz__neighbour(const hz_lod *lod, uint32_t l, uint32_t x, uint32_t z, uint32_t s, int dir);
+
+/* Fan emission with the skip rule (T6a): nb[dir] == NB_ABSENT skips that edge
+ * midpoint. Counter-clockwise seen from above. Returns triangles written
+ * (dst needs room for 8 * 3 indices). */
+uint32_t hz__emit_fan(uint32_t *dst, uint32_t n, uint32_t x, uint32_t z, uint32_t s, const uint8_t nb[4]);
+
+#endif
