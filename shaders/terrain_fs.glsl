@@ -8,6 +8,9 @@ uniform float u_fog_density; // per metre; 0 disables
 uniform float u_ambient;
 uniform vec2 u_hrange;    // min, max world height of the heightmap
 uniform int u_wire;       // 1: wireframe overlay pass
+uniform sampler2D u_normals; // per-sample normals (x, z), bilinear: full-resolution shading
+uniform int u_normal_tex;    // 1: use u_normals, 0: the interpolated vertex normal
+uniform vec2 u_nrm_scale;    // uv = world.xz * x + y
 
 in vec3 v_world;
 in vec3 v_normal;
@@ -31,7 +34,13 @@ vec3 ground_color(float t, float slope)
 
 void main()
 {
-    vec3 n = normalize(v_normal);
+    vec3 n;
+    if (u_normal_tex != 0) {
+        vec2 nxz = texture(u_normals, v_world.xz * u_nrm_scale.x + u_nrm_scale.y).rg;
+        n = normalize(vec3(nxz.x, sqrt(max(1.0 - dot(nxz, nxz), 0.0)), nxz.y));
+    } else {
+        n = normalize(v_normal);
+    }
     float range = max(u_hrange.y - u_hrange.x, 1e-6);
     float t = clamp((v_world.y - u_hrange.x) / range, 0.0, 1.0);
     vec3 albedo = ground_color(t, 1.0 - n.y);

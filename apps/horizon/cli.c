@@ -45,9 +45,15 @@ void cli_usage_terrain(void)
             "  --spacing M             metres between samples (default: SRTM 90/30, generated 10)\n"
             "  --zscale Z              height multiplier (default 1)\n"
             "LOD:\n"
+            "  --lod MODE              quadtree (default), remedy, bidirectional, roam or cdlod\n"
+            "  --pixel-error TAU       screen-space error bound in pixels (roam and cdlod: default 1;\n"
+            "                          quadtree, remedy, bidirectional: replaces C and C2)\n"
             "  --lod-c C --lod-c2 C2   distance and roughness factors (default 25, 2.5)\n"
             "  --criterion clamped|unclamped  Roettger's clamped form (default) or the seed's\n"
             "  --no-cull               disable frustum culling\n"
+            "  --bidir-distance M      bidirectional: coarsen beyond M metres, split nearer (default far/4)\n"
+            "  --roam-budget N         roam: at most N triangles (default: no budget)\n"
+            "  --morph-start A         cdlod: morphing starts at this fraction of a range, 0.8..0.95 (0.8)\n"
             "view:\n"
             "  --camera X,Y,Z,YAW,PITCH  metres and degrees (default: above the centre)\n"
             "  --fov DEG               vertical field of view (default 60)\n"
@@ -157,6 +163,26 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             else return bad(cmd, a, v, "clamped or unclamped");
         } else if (!strcmp(a, "--no-cull")) {
             o->lod.no_cull = true;
+        } else if (!strcmp(a, "--lod")) {
+            NEEDV();
+            if (!hz_lod_mode_from_name(v, &o->lod.mode))
+                return bad(cmd, a, v, "quadtree, remedy, bidirectional, roam or cdlod");
+        } else if (!strcmp(a, "--pixel-error")) {
+            NEEDV();
+            if (!parse_float(v, 0.01f, 1000, &o->lod.pixel_error))
+                return bad(cmd, a, v, "pixels in [0.01, 1000]");
+        } else if (!strcmp(a, "--bidir-distance")) {
+            NEEDV();
+            if (!parse_float(v, 0.001f, 1e8f, &o->lod.bidir_distance))
+                return bad(cmd, a, v, "metres in (0, 1e8]");
+        } else if (!strcmp(a, "--roam-budget")) {
+            NEEDV();
+            if (!parse_u32(v, 16, 100000000, &o->lod.roam_budget))
+                return bad(cmd, a, v, "triangles in [16, 1e8]");
+        } else if (!strcmp(a, "--morph-start")) {
+            NEEDV();
+            if (!parse_float(v, 0.8f, 0.95f, &o->lod.morph_start))
+                return bad(cmd, a, v, "a fraction in [0.8, 0.95]");
         } else if (!strcmp(a, "--camera")) {
             NEEDV();
             char buf[256], *save = NULL;
@@ -210,6 +236,7 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
         fprintf(stderr, "horizon %s: give either --dem or --generate, not both\n", cmd);
         return 2;
     }
+    o->lod.viewport_height = o->height; /* pixel errors are measured at the target's height */
     return 0;
 }
 
@@ -228,7 +255,29 @@ hz_terrain *cli_load_terrain(const cli_opts *o)
     if (t->voids_filled && !o->quiet)
         fprintf(stderr, "horizon: filled %llu void samples from their neighbours\n",
                 (unsigned long long)t->voids_filled);
+    if (hz_lod_prepare(t->lod, o->lod.mode) != HZ_OK) {
+        fprintf(stderr, "horizon: out of memory preparing the %s LOD data\n", hz_lod_mode_name(o->lod.mode));
+        hz_terrain_destroy(t);
+        return NULL;
+    }
     return t;
+}
+
+hz_result cli_renderer_setup(hz_renderer *r, hz_terrain *t, const cli_opts *o, hz_err *err)
+{
+    hz_result res = hz_renderer_set_heightmap(r, &t->hm, t->spacing, t->zscale, err);
+    if (res != HZ_OK || o->lod.mode != HZ_LOD_CDLOD)
+        return res;
+    const uint16_t *me = hz_lod_morph_errors(t->lod);
+    if (!me)
+        return hz_err_set(err, HZ_ERR_MEMORY, "out of memory for the cdlod morph data");
+    return hz_renderer_set_morph(r, me, err);
+}
+
+void cli_scene_lod(hz_scene_params *sp, const hz_lod_stats *st)
+{
+    sp->morph_scale = st->morph_scale;
+    sp->morph_start = st->morph_start;
 }
 
 hz_camera cli_camera(const cli_opts *o, const hz_terrain *t)

@@ -27,6 +27,10 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd);
 void cli_usage_terrain(void);
 /* Loads the terrain with a progress bar; NULL after printing the error. */
 hz_terrain *cli_load_terrain(const cli_opts *o);
+/* Uploads the heights (and, for cdlod, the morph data) to a renderer. */
+hz_result cli_renderer_setup(hz_renderer *r, hz_terrain *t, const cli_opts *o, hz_err *err);
+/* Copies a frame's LOD figures the renderer needs (cdlod morphing) into sp. */
+void cli_scene_lod(hz_scene_params *sp, const hz_lod_stats *st);
 /* The camera: --camera or the terrain's default, with --fov/--far applied. */
 hz_camera cli_camera(const cli_opts *o, const hz_terrain *t);
 

@@ -16,6 +16,7 @@ typedef struct frame_row {
     double px_p99, px_max;
     uint64_t uncovered;
     double psnr, silhouette, popping;
+    double pop_px_max, pop_px_mean; /* geometric popping: drawn surface change since the last frame */
     uint32_t ref_triangles;
 } frame_row;
 
@@ -62,6 +63,18 @@ static void json_num(FILE *f, double v)
         fprintf(f, "%.6g", v);
     else
         fputs("null", f);
+}
+
+typedef struct morph_user {
+    hz_lod *lod;
+    const hz_camera *cam;
+    const hz_lod_stats *st;
+} morph_user;
+
+static float morph_height(void *user, uint32_t index)
+{
+    const morph_user *u = user;
+    return hz_lod_morph_height(u->lod, u->cam, u->st, index);
 }
 
 static void usage(void)
@@ -178,17 +191,27 @@ int cmd_bench(int argc, char **argv)
     uint8_t *sky_l = malloc(npx), *sky_r = malloc(npx);
     hz_index_list il = {0}, rl = {0};
     hz_float_buf scratch = {0};
+    float *surf[2] = {NULL, NULL};
     hz_renderer *ren = NULL;
     hz_gl *gl = NULL;
     if (!rows || !img[0] || !img[1] || !ref[0] || !ref[1] || !sky_l || !sky_r) {
         hz_err_set(&err, HZ_ERR_MEMORY, "out of memory");
         goto done;
     }
+    if (reference) {
+        const size_t ns = (size_t)t->hm.size * t->hm.size;
+        surf[0] = malloc(ns * sizeof(float));
+        surf[1] = malloc(ns * sizeof(float));
+        if (!surf[0] || !surf[1]) {
+            hz_err_set(&err, HZ_ERR_MEMORY, "out of memory for the surface buffers (use --reference off)");
+            goto done;
+        }
+    }
     gl = hz_gl_create_headless(&err);
     if (!gl)
         goto done;
     ren = hz_renderer_create(&(hz_renderer_desc){.width = o.width, .height = o.height}, &err);
-    if (!ren || hz_renderer_set_heightmap(ren, &t->hm, t->spacing, t->zscale, &err) != HZ_OK)
+    if (!ren || cli_renderer_setup(ren, t, &o, &err) != HZ_OK)
         goto done;
 
     hz_camera cam = cli_camera(&o, t);
@@ -197,8 +220,12 @@ int cmd_bench(int argc, char **argv)
     /* One untimed warm-up frame: buffer allocation and shader compilation in
      * llvmpipe happen on the first draw, not in steady state. */
     hz_path_sample(&path, 0.0f, &cam);
-    if (hz_lod_select(t->lod, &cam, &o.lod, &il, NULL, NULL, NULL) != HZ_OK ||
-        hz_renderer_draw(ren, &cam, NULL, il.data, (uint32_t)il.count, NULL, &err) != HZ_OK)
+    hz_lod_stats st0;
+    hz_scene_params sp0 = {0};
+    if (hz_lod_select(t->lod, &cam, &o.lod, &il, NULL, NULL, &st0) != HZ_OK)
+        goto done;
+    cli_scene_lod(&sp0, &st0);
+    if (hz_renderer_draw(ren, &cam, &sp0, il.data, (uint32_t)il.count, NULL, &err) != HZ_OK)
         goto done;
     double t_start = hz_time_ms(), last_progress = t_start;
     for (uint32_t f = 0; f < frames; f++) {
@@ -212,7 +239,9 @@ int cmd_bench(int argc, char **argv)
             goto done;
         }
         hz_draw_stats ds;
-        if (hz_renderer_draw(ren, &cam, NULL, il.data, (uint32_t)il.count, &ds, &err) != HZ_OK)
+        hz_scene_params sp = {0};
+        cli_scene_lod(&sp, &st);
+        if (hz_renderer_draw(ren, &cam, &sp, il.data, (uint32_t)il.count, &ds, &err) != HZ_OK)
             goto done;
         row->frame_ms = hz_time_ms() - f0;
         row->triangles = st.triangles;
@@ -226,8 +255,10 @@ int cmd_bench(int argc, char **argv)
         if (hz_renderer_read_rgb(ren, cur, &err) != HZ_OK || hz_renderer_read_sky_mask(ren, sky_l, &err) != HZ_OK)
             goto done;
         hz_px_error pe;
-        if (hz_metrics_px_error(&t->hm, t->spacing, t->zscale, il.data, il.count, &cam, o.height, &scratch, &pe) !=
-            HZ_OK) {
+        morph_user mu = {t->lod, &cam, &st};
+        if (hz_metrics_px_error_ex(&t->hm, t->spacing, t->zscale, il.data, il.count,
+                                   st.morph_scale > 0 ? morph_height : NULL, &mu, &cam, o.height, &scratch,
+                                   &pe) != HZ_OK) {
             hz_err_set(&err, HZ_ERR_MEMORY, "pixel error out of memory");
             goto done;
         }
@@ -252,6 +283,15 @@ int cmd_bench(int argc, char **argv)
                 hz_renderer_read_rgb(ren, rcur, &err) != HZ_OK ||
                 hz_renderer_read_sky_mask(ren, sky_r, &err) != HZ_OK)
                 goto done;
+            float *scur = surf[f & 1], *sprev = surf[(f + 1) & 1];
+            hz_metrics_surface(&t->hm, t->zscale, il.data, il.count, st.morph_scale > 0 ? morph_height : NULL, &mu,
+                               scur);
+            if (f) {
+                hz_pop_stats ps;
+                hz_metrics_surface_change(&t->hm, t->spacing, t->zscale, sprev, scur, &cam, o.height, &ps);
+                row->pop_px_max = ps.max_px;
+                row->pop_px_mean = ps.mean_px;
+            }
             row->psnr = hz_metrics_psnr(cur, rcur, npx);
             row->silhouette = hz_metrics_silhouette(sky_l, sky_r, npx);
             row->popping = f ? hz_metrics_popping(prev, cur, rprev, rcur, npx) : 0.0;
@@ -294,9 +334,11 @@ int cmd_bench(int argc, char **argv)
         {"psnr_db", OFF(psnr), false, rows, n},
         {"silhouette_frac", OFF(silhouette), false, rows, n},
         {"popping", OFF(popping), false, pop_rows, pop_n},
+        {"pop_px_max", OFF(pop_px_max), false, pop_rows, pop_n},
+        {"pop_px_mean", OFF(pop_px_mean), false, pop_rows, pop_n},
     };
     const size_t ncols = reference ? sizeof cols / sizeof *cols : 9;
-    double summ[12][3];
+    double summ[sizeof cols / sizeof *cols][3];
     for (size_t c = 0; c < ncols; c++) {
         double (*fn)(const frame_row *, size_t, size_t, double) = cols[c].u32 ? pct_u32 : pct;
         summ[c][0] = fn(cols[c].r, cols[c].n, cols[c].off, 0.5);
@@ -304,9 +346,15 @@ int cmd_bench(int argc, char **argv)
         summ[c][2] = fn(cols[c].r, cols[c].n, cols[c].off, 1.0);
     }
     if (!o.quiet || !json_out) {
-        printf("horizon bench: %s (%ux%u, %.1f m), path %s, %u frames at %ux%u, C=%g C2=%g%s\n", t->source,
-               t->hm.size, t->hm.size, (double)t->spacing, path.name, frames, o.width, o.height,
-               (double)(o.lod.c > 0 ? o.lod.c : 25), (double)(o.lod.c2 > 0 ? o.lod.c2 : 2.5f),
+        char lodtxt[128];
+        if (o.lod.pixel_error > 0 || o.lod.mode == HZ_LOD_ROAM || o.lod.mode == HZ_LOD_CDLOD)
+            snprintf(lodtxt, sizeof lodtxt, "%s, pixel error %g", hz_lod_mode_name(o.lod.mode),
+                     (double)(o.lod.pixel_error > 0 ? o.lod.pixel_error : 1.0f));
+        else
+            snprintf(lodtxt, sizeof lodtxt, "%s, C=%g C2=%g", hz_lod_mode_name(o.lod.mode),
+                     (double)(o.lod.c > 0 ? o.lod.c : 25), (double)(o.lod.c2 > 0 ? o.lod.c2 : 2.5f));
+        printf("horizon bench: %s (%ux%u, %.1f m), path %s, %u frames at %ux%u, %s%s\n", t->source, t->hm.size,
+               t->hm.size, (double)t->spacing, path.name, frames, o.width, o.height, lodtxt,
                reference ? "" : ", no reference");
         printf("%-18s %12s %12s %12s\n", "", "median", "p95", "max");
         for (size_t c = 0; c < ncols; c++)
@@ -319,10 +367,11 @@ int cmd_bench(int argc, char **argv)
             hz_err_set(&err, HZ_ERR_IO, "cannot write '%s'", json_out);
             goto done;
         }
-        fprintf(jf, "{\"frames\":%u,\"terrain\":\"%s\",\"size\":%u,\"spacing\":%g,\"lod_mode\":\"quadtree\","
-                    "\"criterion\":\"%s\",\"lod_c\":%g,\"lod_c2\":%g,\"path\":\"%s\",\"fps\":%g,\"width\":%u,"
-                    "\"height\":%u,\"fov\":%g,\"far\":%g,\"reference\":%s,",
-                frames, t->source, t->hm.size, (double)t->spacing,
+        fprintf(jf, "{\"frames\":%u,\"terrain\":\"%s\",\"size\":%u,\"spacing\":%g,\"lod_mode\":\"%s\","
+                    "\"pixel_error\":%g,\"criterion\":\"%s\",\"lod_c\":%g,\"lod_c2\":%g,\"path\":\"%s\",\"fps\":%g,"
+                    "\"width\":%u,\"height\":%u,\"fov\":%g,\"far\":%g,\"reference\":%s,",
+                frames, t->source, t->hm.size, (double)t->spacing, hz_lod_mode_name(o.lod.mode),
+                (double)o.lod.pixel_error,
                 o.lod.criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped",
                 (double)(o.lod.c > 0 ? o.lod.c : 25), (double)(o.lod.c2 > 0 ? o.lod.c2 : 2.5f), path.name,
                 (double)fps, o.width, o.height, (double)cam.fov_y, (double)cam.zfar, reference ? "true" : "false");
@@ -349,7 +398,7 @@ int cmd_bench(int argc, char **argv)
             fputc(',', jf);
         }
         if (!reference)
-            fputs("\"psnr_db_median\":null,\"silhouette_frac\":null,\"popping\":null,", jf);
+            fputs("\"psnr_db_median\":null,\"silhouette_frac\":null,\"popping\":null,\"pop_px_max_median\":null,", jf);
         /* px_error_p99 / px_error_max as top-level keys (p95 over frames of the
          * per-frame p99, and the max over all frames). */
         fprintf(jf, "\"px_error_p99\":");
@@ -367,7 +416,8 @@ int cmd_bench(int argc, char **argv)
             if (reference) {
                 fprintf(jf, ",\"ref_triangles\":%u,\"psnr_db\":", r->ref_triangles);
                 json_num(jf, r->psnr);
-                fprintf(jf, ",\"silhouette_frac\":%.6g,\"popping\":%.6g", r->silhouette, r->popping);
+                fprintf(jf, ",\"silhouette_frac\":%.6g,\"popping\":%.6g,\"pop_px_max\":%.6g,\"pop_px_mean\":%.6g",
+                        r->silhouette, r->popping, r->pop_px_max, r->pop_px_mean);
             }
             fputc('}', jf);
         }
@@ -418,6 +468,8 @@ done:
     free(il.data);
     free(rl.data);
     free(scratch.data);
+    free(surf[0]);
+    free(surf[1]);
     hz_path_free(&path);
     hz_terrain_destroy(t);
     return rc;

@@ -32,7 +32,9 @@ static size_t count_vertices(const hz_index_list *il, uint32_t n)
     return c;
 }
 
-static int write_obj(const char *path, const hz_terrain *t, const hz_index_list *il)
+/* The mesh as drawn: cdlod vertices at their morphed heights. */
+static int write_obj(const char *path, const hz_terrain *t, const hz_index_list *il, const hz_camera *cam,
+                     const hz_lod_stats *st)
 {
     const uint32_t n = t->hm.size;
     FILE *f = fopen(path, "w");
@@ -46,15 +48,18 @@ static int write_obj(const char *path, const hz_terrain *t, const hz_index_list 
         fprintf(stderr, "horizon render: out of memory writing %s\n", path);
         return 1;
     }
-    fprintf(f, "# horizon LOD mesh: %s, %zu triangles, world metres, y up\n", t->source, il->count / 3);
+    fprintf(f, "# horizon LOD mesh: %s, %zu triangles, world metres, y up%s\n", t->source, il->count / 3,
+            st->morph_scale > 0 ? ", cdlod morph applied" : "");
     uint32_t next = 1;
     for (size_t k = 0; k < il->count; k++) {
         uint32_t v = il->data[k];
         if (!remap[v]) {
             remap[v] = next++;
             uint32_t i = v % n, j = v / n;
-            fprintf(f, "v %.3f %.3f %.3f\n", (double)((float)i * t->spacing),
-                    (double)(hz_heightmap_get(&t->hm, i, j) * t->zscale), (double)((float)j * t->spacing));
+            float y = st->morph_scale > 0 ? hz_lod_morph_height(t->lod, cam, st, v)
+                                          : hz_heightmap_get(&t->hm, i, j) * t->zscale;
+            fprintf(f, "v %.3f %.3f %.3f\n", (double)((float)i * t->spacing), (double)y,
+                    (double)((float)j * t->spacing));
         }
     }
     for (size_t k = 0; k < il->count; k += 3)
@@ -105,6 +110,9 @@ int cmd_render(int argc, char **argv)
         }
         lod_ms[r] = st.ms;
     }
+    /* roam refines from its previous mesh: the first selection builds it,
+     * later ones from the same camera change nothing. */
+    double lod_first = lod_ms[0];
     double lod_med = median(lod_ms, o.repeat);
     free(lod_ms);
 
@@ -115,9 +123,10 @@ int cmd_render(int argc, char **argv)
     if (!gl)
         goto done;
     ren = hz_renderer_create(&(hz_renderer_desc){.width = o.width, .height = o.height}, &err);
-    if (!ren || hz_renderer_set_heightmap(ren, &t->hm, t->spacing, t->zscale, &err) != HZ_OK)
+    if (!ren || cli_renderer_setup(ren, t, &o, &err) != HZ_OK)
         goto done;
     hz_scene_params sp = {.wireframe = o.wireframe};
+    cli_scene_lod(&sp, &st);
     double draw[3];
     hz_draw_stats ds = {0};
     for (int k = 0; k < 3; k++) {
@@ -134,20 +143,23 @@ int cmd_render(int argc, char **argv)
         goto done;
     }
     free(rgb);
-    if (o.dump_mesh && write_obj(o.dump_mesh, t, &il))
+    if (o.dump_mesh && write_obj(o.dump_mesh, t, &il, &cam, &st))
         goto done;
 
     if (o.json) {
         printf("{\"terrain\":\"%s\",\"heightmap_size\":%u,\"spacing\":%g,\"zscale\":%g,"
-               "\"layout\":\"%s\",\"lod_c\":%g,\"lod_c2\":%g,\"criterion\":\"%s\","
+               "\"layout\":\"%s\",\"lod_mode\":\"%s\",\"pixel_error\":%g,\"lod_c\":%g,\"lod_c2\":%g,"
+               "\"criterion\":\"%s\",\"forced\":%u,\"merged\":%u,\"lod_ms_first\":%.4f,"
                "\"camera\":[%g,%g,%g,%g,%g],\"fov\":%g,\"far\":%g,\"width\":%u,\"height\":%u,"
                "\"triangles\":%u,\"vertices\":%zu,\"nodes_visited\":%u,\"nodes_culled\":%u,"
                "\"leaves\":%u,\"restricted\":%u,\"lod_ms\":%.4f,\"lod_runs\":%u,\"upload_ms\":%.3f,"
                "\"draw_ms\":%.3f,\"draw_ms_first\":%.3f,\"bytes_per_sample\":%.3f,"
                "\"lod_bytes\":%zu,\"load_ms\":%.1f,\"prep_ms\":%.1f,\"peak_rss_mb\":%.1f,\"out\":\"%s\"}\n",
                t->source, t->hm.size, (double)t->spacing, (double)t->zscale, hz_layout_name(t->hm.layout),
+               hz_lod_mode_name(o.lod.mode), (double)o.lod.pixel_error,
                (double)(o.lod.c > 0 ? o.lod.c : 25), (double)(o.lod.c2 > 0 ? o.lod.c2 : 2.5f),
-               o.lod.criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped", (double)cam.pos[0],
+               o.lod.criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped", st.forced, st.merged, lod_first,
+               (double)cam.pos[0],
                (double)cam.pos[1], (double)cam.pos[2], (double)cam.yaw, (double)cam.pitch,
                (double)cam.fov_y, (double)cam.zfar, o.width, o.height, st.triangles,
                count_vertices(&il, t->hm.size), st.nodes_visited, st.nodes_culled, st.leaves,
@@ -160,9 +172,16 @@ int cmd_render(int argc, char **argv)
         printf("camera        %.0f,%.0f,%.0f yaw %.1f pitch %.1f fov %.0f far %.0f m\n", (double)cam.pos[0],
                (double)cam.pos[1], (double)cam.pos[2], (double)cam.yaw, (double)cam.pitch,
                (double)cam.fov_y, (double)cam.zfar);
+        if (o.lod.pixel_error > 0 || o.lod.mode == HZ_LOD_ROAM || o.lod.mode == HZ_LOD_CDLOD)
+            printf("LOD mode      %s, pixel error %g px\n", hz_lod_mode_name(o.lod.mode),
+                   (double)(o.lod.pixel_error > 0 ? o.lod.pixel_error : 1.0f));
+        else
+            printf("LOD mode      %s, C %g, C2 %g (%s)\n", hz_lod_mode_name(o.lod.mode),
+                   (double)(o.lod.c > 0 ? o.lod.c : 25), (double)(o.lod.c2 > 0 ? o.lod.c2 : 2.5f),
+                   o.lod.criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped");
         printf("triangles     %u\n", st.triangles);
         printf("nodes         %u visited, %u culled, %u drawn\n", st.nodes_visited, st.nodes_culled, st.leaves);
-        printf("LOD           %.3f ms (median of %u)\n", lod_med, o.repeat);
+        printf("LOD           %.3f ms (median of %u; first %.3f ms)\n", lod_med, o.repeat, lod_first);
         printf("draw          %.1f ms (median of 3; first %.1f ms) on %s\n", draw_med, draw_first,
                hz_gl_describe(gl));
         printf("LOD memory    %.2f bytes/sample (%.1f MB)\n", hz_lod_bytes_per_sample(t->lod),

@@ -477,6 +477,7 @@ typedef struct view {
     float fly_speed, walk_speed; /* the speed of the other mode, kept while in one */
     hz_camera lod_cam;           /* the frozen LOD camera */
     hz_lod_params lod;
+    bool morph_uploaded;         /* cdlod morph data is on the GPU */
     bool frozen, wire, fans, boxes, hud, help;
     hz_index_list il;
     hz_node_list leaves, culled;
@@ -671,6 +672,27 @@ static void scale_lod(float *val, float def, float f)
     *val = cur < 0.05f ? 0.05f : cur > 100000.0f ? 100000.0f : cur;
 }
 
+/* Switches the LOD mode, preparing its data (and cdlod's morph data on the
+ * GPU) on first use. False (mode unchanged, message shown) on failure. */
+static bool set_lod_mode(view *v, hz_lod_mode mode)
+{
+    if (hz_lod_prepare(v->t->lod, mode) != HZ_OK) {
+        set_message(v, 3.0, "LOD mode %s: out of memory", hz_lod_mode_name(mode));
+        return false;
+    }
+    if (mode == HZ_LOD_CDLOD && !v->morph_uploaded) {
+        const uint16_t *me = hz_lod_morph_errors(v->t->lod);
+        hz_err err = {0};
+        if (!me || hz_renderer_set_morph(v->ren, me, &err) != HZ_OK) {
+            set_message(v, 3.0, "cdlod: %s", me ? err.msg : "out of memory");
+            return false;
+        }
+        v->morph_uploaded = true;
+    }
+    v->lod.mode = mode;
+    return true;
+}
+
 /* Toggles and one-shot keys. Returns false to quit. */
 static bool handle_press(view *v, int key)
 {
@@ -746,6 +768,18 @@ static bool handle_press(view *v, int key)
     case HZ_KEY_0 + 4:
         scale_lod(&v->lod.c2, 2.5f, 1.25f);
         break;
+    case HZ_KEY_0 + 5:
+        scale_lod(&v->lod.pixel_error, 1.0f, 1.0f / 1.25f);
+        break;
+    case HZ_KEY_0 + 6:
+        scale_lod(&v->lod.pixel_error, 1.0f, 1.25f);
+        break;
+    case HZ_KEY_A + ('L' - 'A'): {
+        hz_lod_mode next = (hz_lod_mode)((v->lod.mode + 1) % HZ_LOD_MODE_COUNT);
+        if (set_lod_mode(v, next))
+            set_message(v, 2.0, "LOD mode %s", hz_lod_mode_name(next));
+        break;
+    }
     default:
         break;
     }
@@ -816,7 +850,8 @@ static void queue_fans(view *v)
             uint32_t i = tri[q] % n, j = tri[q] / n;
             float *p = xyz + 9 * k + 3 * q;
             p[0] = (float)i * t->spacing;
-            p[1] = hz_heightmap_get(&t->hm, i, j) * t->zscale;
+            p[1] = v->st.morph_scale > 0 ? hz_lod_morph_height(t->lod, &v->fc.cam, &v->st, tri[q])
+                                         : hz_heightmap_get(&t->hm, i, j) * t->zscale;
             p[2] = (float)j * t->spacing;
             memcpy(rgba + 12 * k + 4 * q, q == 0 ? (finest ? blue : red) : white, 4);
         }
@@ -849,9 +884,15 @@ static void queue_hud(view *v, uint32_t boxes_drawn, size_t boxes_wanted)
              v->st.ms, v->ds.upload_ms + v->ds.draw_ms);
     snprintf(lines[nl++], 256, "triangles %u   nodes %u visited, %u culled, %u drawn", v->st.triangles,
              v->st.nodes_visited, v->st.nodes_culled, v->st.leaves);
-    snprintf(lines[nl++], 256, "C %.2f   C2 %.3f   (1/2: C -/+, 3/4: C2 -/+)  %s%s",
-             (double)(v->lod.c > 0 ? v->lod.c : 25.0f), (double)(v->lod.c2 > 0 ? v->lod.c2 : 2.5f),
-             v->lod.criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped", v->lod.no_cull ? "  NO CULLING" : "");
+    if (v->lod.pixel_error > 0 || v->lod.mode == HZ_LOD_ROAM || v->lod.mode == HZ_LOD_CDLOD)
+        snprintf(lines[nl++], 256, "LOD %s (L)   pixel error %.3g px (5/6: -/+)%s", hz_lod_mode_name(v->lod.mode),
+                 (double)(v->lod.pixel_error > 0 ? v->lod.pixel_error : 1.0f),
+                 v->lod.no_cull ? "  NO CULLING" : "");
+    else
+        snprintf(lines[nl++], 256, "LOD %s (L)   C %.2f   C2 %.3f   (1/2: C -/+, 3/4: C2 -/+)  %s%s",
+                 hz_lod_mode_name(v->lod.mode), (double)(v->lod.c > 0 ? v->lod.c : 25.0f),
+                 (double)(v->lod.c2 > 0 ? v->lod.c2 : 2.5f),
+                 v->lod.criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped", v->lod.no_cull ? "  NO CULLING" : "");
     snprintf(lines[nl++], 256, "camera %s  pos %.1f %.1f %.1f  yaw %.1f  pitch %.1f  speed %.3g m/s",
              hz_flycam_mode_name(&v->fc), (double)c->pos[0], (double)c->pos[1], (double)c->pos[2], (double)c->yaw,
              (double)c->pitch, (double)v->fc.speed);
@@ -1023,6 +1064,7 @@ static bool frame(view *v, bool *render_failed)
     /* LOD with the LOD camera (the view camera unless frozen). */
     const hz_camera *lod_cam = v->frozen ? &v->lod_cam : &v->fc.cam;
     bool want_leaves = v->boxes, want_culled = v->frozen;
+    v->lod.viewport_height = v->height;
     if (hz_lod_select(v->t->lod, lod_cam, &v->lod, &v->il, want_leaves ? &v->leaves : NULL,
                       want_culled ? &v->culled : NULL, &v->st) != HZ_OK) {
         hz_err_set(&v->err, HZ_ERR_MEMORY, "out of memory in LOD selection");
@@ -1032,6 +1074,7 @@ static bool frame(view *v, bool *render_failed)
 
     /* Terrain (sky only in the fan view: the fans replace the shading). */
     hz_scene_params sp = {.wireframe = v->wire};
+    cli_scene_lod(&sp, &v->st);
     uint32_t count = v->fans ? 0 : (uint32_t)v->il.count;
     if (hz_renderer_draw(v->ren, &v->fc.cam, &sp, v->il.data, count, &v->ds, &v->err) != HZ_OK) {
         *render_failed = true;
@@ -1102,12 +1145,14 @@ static void print_json(view *v)
     const hz_camera *c = &v->fc.cam;
     printf("{\"terrain\":\"%s\",\"heightmap_size\":%u,\"frames\":%u,\"width\":%u,\"height\":%u,"
            "\"fps_mean\":%.2f,\"frame_ms_median\":%.3f,\"frame_ms_p95\":%.3f,\"triangles\":%u,"
-           "\"nodes_visited\":%u,\"nodes_culled\":%u,\"lod_ms\":%.3f,\"draw_ms\":%.3f,\"lod_c\":%g,\"lod_c2\":%g,"
+           "\"nodes_visited\":%u,\"nodes_culled\":%u,\"lod_ms\":%.3f,\"draw_ms\":%.3f,\"lod_mode\":\"%s\","
+           "\"pixel_error\":%g,\"lod_c\":%g,\"lod_c2\":%g,"
            "\"camera_mode\":\"%s\",\"camera\":[%.3f,%.3f,%.3f,%.3f,%.3f],\"ground\":%.3f,\"speed\":%g,"
            "\"eye_height\":%g,\"wireframe\":%s,\"fans\":%s,\"frozen\":%s,\"boxes\":%s,\"no_cull\":%s,"
            "\"screenshots\":%u,\"gl\":\"%s\"}\n",
            v->t->source, v->t->hm.size, v->frame, v->width, v->height, total > 0 ? 1000.0 * (double)v->frame_times_n / total : 0.0,
            med, p95, v->st.triangles, v->st.nodes_visited, v->st.nodes_culled, v->st.ms, v->ds.draw_ms,
+           hz_lod_mode_name(v->lod.mode), (double)v->lod.pixel_error,
            (double)(v->lod.c > 0 ? v->lod.c : 25.0f), (double)(v->lod.c2 > 0 ? v->lod.c2 : 2.5f),
            hz_flycam_mode_name(&v->fc), (double)c->pos[0], (double)c->pos[1], (double)c->pos[2], (double)c->yaw,
            (double)c->pitch, (double)hz_flycam_ground(&v->fc), (double)v->fc.speed, (double)v->fc.eye_height,
@@ -1273,6 +1318,15 @@ int cmd_view(int argc, char **argv)
     if (vo->walk)
         set_walk(v, true);
     v->lod = v->o.lod;
+    /* Mode data built later (the L key) reports progress on the terminal:
+     * the loading screen's state lives on this function's stack. */
+    hz_lod_set_progress(v->t->lod, v->o.quiet ? NULL : hz_progress_stderr, NULL);
+    v->lod.mode = HZ_LOD_QUADTREE;
+    if (!set_lod_mode(v, v->o.lod.mode)) {
+        fprintf(stderr, "horizon view: cannot prepare LOD mode %s: %s\n", hz_lod_mode_name(v->o.lod.mode),
+                v->message);
+        goto out;
+    }
     v->wire = v->o.wireframe;
     v->fans = vo->fans;
     v->boxes = vo->boxes;

@@ -78,7 +78,7 @@ typedef struct hz_lod_params {
     float bidir_distance; /* bidirectional: m in metres; 0 -> 0.25 x the camera's far distance */
     uint32_t roam_budget; /* roam: at most this many triangles; 0 -> no budget */
     float morph_start;    /* cdlod: fraction of a vertex's range where morphing starts,
-                             clamped to [0.5, 0.95]; 0 -> 0.6 */
+                             clamped to [0.8, 0.95]; 0 -> 0.8 */
 } hz_lod_params;
 
 /* A growable array the caller owns; free with free(list->data). */
@@ -112,6 +112,16 @@ typedef struct hz_lod_stats {
     float morph_start;      /* cdlod: morph starts at this fraction of the range */
     double ms;              /* CPU time of the selection */
 } hz_lod_stats;
+
+/* Replaces the progress callback given in the desc (e.g. when its user data
+ * goes out of scope); NULL for none. */
+void hz_lod_set_progress(hz_lod *lod, hz_progress_fn progress, void *user);
+
+/* Builds a mode's own precomputed data now (cdlod: nested error bounds and
+ * per-sample morph errors, 2 bytes/sample more; roam: diamond error bounds
+ * and its mesh), with progress; otherwise the first hz_lod_select in that mode
+ * does it. HZ_ERR_MEMORY on failure. */
+hz_result hz_lod_prepare(hz_lod *lod, hz_lod_mode mode);
 
 /* Selects the level of detail for a camera with params->mode and writes the
  * triangle list into out (cleared first, grown as needed). leaves / culled

@@ -41,6 +41,23 @@ hz_result hz_metrics_px_error_ex(const hz_heightmap *hm, float spacing, float zs
                                  size_t count, hz_vertex_height_fn vertex_height, void *user, const hz_camera *cam,
                                  uint32_t image_height, hz_float_buf *scratch, hz_px_error *out);
 
+/* The drawn surface's height (metres, zscale applied) at every sample, NAN
+ * where no triangle covers it; out holds size*size floats. vertex_height as
+ * above (NULL = true heights). */
+hz_result hz_metrics_surface(const hz_heightmap *hm, float zscale, const uint32_t *indices, size_t count,
+                             hz_vertex_height_fn vertex_height, void *user, float *out);
+
+/* Geometric popping: how much the drawn surface moved between two frames
+ * (hz_metrics_surface of each), at the samples inside cam's frustum that both
+ * cover, projected to pixels at cam: |cur - prev| * H / (2 dist tan(fov/2)).
+ * The full-resolution reference never moves, so all of it is LOD change. */
+typedef struct hz_pop_stats {
+    double max_px, mean_px;
+    uint64_t samples;
+} hz_pop_stats;
+void hz_metrics_surface_change(const hz_heightmap *hm, float spacing, float zscale, const float *prev,
+                               const float *cur, const hz_camera *cam, uint32_t image_height, hz_pop_stats *out);
+
 /* PSNR in dB of two RGB8 images of n pixels (INFINITY when identical). */
 double hz_metrics_psnr(const uint8_t *a, const uint8_t *b, size_t n);
 

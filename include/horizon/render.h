@@ -65,12 +65,20 @@ typedef struct hz_pass_info {
  * the terrain. Must leave: program 0, VAO 0, blending off, depth writes on. */
 typedef void (*hz_draw_hook_fn)(void *user, const hz_pass_info *pass);
 
+/* cdlod geomorphing: per-sample morph errors (hz_lod_morph_errors: h16 steps,
+ * 65535 = never morphs, row-major) uploaded once as a GL_R16 texture buffer
+ * (2 bytes/sample). NULL releases them. Call after hz_renderer_set_heightmap. */
+hz_result hz_renderer_set_morph(hz_renderer *r, const uint16_t *morph_err, hz_err *err);
+
 typedef struct hz_scene_params {
     vec3 sun_dir;       /* unit vector toward the sun; all 0 -> default (afternoon sun) */
     vec3 sky_color;     /* horizon colour the fog fades to; all 0 -> pale blue */
     float fog_density;  /* per metre, f = exp(-density * dist); 0 -> 3/zfar, < 0 -> no fog */
     float ambient;      /* Ie, 0 -> 0.3 */
     bool wireframe;     /* draw lines on top of shaded terrain */
+    float morph_scale;  /* cdlod geomorphing (hz_lod_stats.morph_scale / morph_start of the
+                           frame's selection); 0 = no morphing. Needs hz_renderer_set_morph */
+    float morph_start;
     hz_draw_hook_fn draw_objects; /* optional: called in every scene pass after the terrain */
     void *draw_objects_user;
 } hz_scene_params;

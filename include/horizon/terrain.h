@@ -53,6 +53,10 @@ float hz_terrain_extent(const hz_terrain *t);
 /* Height in metres (times zscale) of the sample nearest to world (x, z),
  * clamped to the map. */
 float hz_terrain_height_at(const hz_terrain *t, float x, float z);
+/* Height in metres (times zscale) of the full-resolution surface at world
+ * (x, z): the two triangles of the cell, as the reference mesh draws them;
+ * clamped to the map. */
+float hz_terrain_surface_at(const hz_terrain *t, float x, float z);
 /* The default camera: above the centre, looking toward the horizon. */
 hz_camera hz_terrain_default_camera(const hz_terrain *t, uint32_t width, uint32_t height);
 

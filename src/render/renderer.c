@@ -28,6 +28,8 @@ typedef struct sky_uniforms {
 typedef struct terrain_uniforms {
     GLint heights, size, spacing, hscale, hoffset, viewproj;
     GLint sun_dir, horizon, eye, fog_density, ambient, hrange, wire;
+    GLint morph, morph_scale, morph_start;
+    GLint normals, normal_tex, nrm_scale;
 } terrain_uniforms;
 
 struct hz_renderer {
@@ -43,6 +45,10 @@ struct hz_renderer {
     size_t ibo_cap;     /* bytes allocated in ibo */
     GLuint height_buf;  /* GL_TEXTURE_BUFFER storage, uint16 per sample */
     GLuint height_tex;  /* GL_R16 view of height_buf */
+    GLuint normal_tex;  /* GL_RG8_SNORM 2D texture of per-sample normals (x, z), 0: none */
+    GLint max_tex;      /* GL_MAX_TEXTURE_SIZE */
+    GLuint morph_buf;   /* cdlod morph errors, uint16 per sample (0: none) */
+    GLuint morph_tex;
 
     GLuint sky_prog, terrain_prog;
     sky_uniforms su;
@@ -231,6 +237,12 @@ static hz_result make_programs(hz_renderer *r, hz_err *err)
     r->tu.ambient = glGetUniformLocation(p, "u_ambient");
     r->tu.hrange = glGetUniformLocation(p, "u_hrange");
     r->tu.wire = glGetUniformLocation(p, "u_wire");
+    r->tu.morph = glGetUniformLocation(p, "u_morph");
+    r->tu.morph_scale = glGetUniformLocation(p, "u_morph_scale");
+    r->tu.morph_start = glGetUniformLocation(p, "u_morph_start");
+    r->tu.normals = glGetUniformLocation(p, "u_normals");
+    r->tu.normal_tex = glGetUniformLocation(p, "u_normal_tex");
+    r->tu.nrm_scale = glGetUniformLocation(p, "u_nrm_scale");
     return gl_check(err, "shader setup");
 }
 
@@ -315,6 +327,7 @@ hz_renderer *hz_renderer_create(const hz_renderer_desc *desc, hz_err *err)
     r->clip_control = ver >= 45 || epoxy_has_gl_extension("GL_ARB_clip_control");
     gl_drain();
     glGetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &r->max_tbo);
+    glGetIntegerv(GL_MAX_TEXTURE_SIZE, &r->max_tex);
 
     if (make_programs(r, err) != HZ_OK)
         goto fail;
@@ -350,6 +363,9 @@ void hz_renderer_destroy(hz_renderer *r)
     glDeleteBuffers(1, &r->ibo);
     glDeleteTextures(1, &r->height_tex);
     glDeleteBuffers(1, &r->height_buf);
+    glDeleteTextures(1, &r->morph_tex);
+    glDeleteBuffers(1, &r->morph_buf);
+    glDeleteTextures(1, &r->normal_tex);
     glDeleteFramebuffers(1, &r->fbo);
     glDeleteRenderbuffers(1, &r->color_rb);
     glDeleteRenderbuffers(1, &r->depth_rb);
@@ -400,6 +416,61 @@ static void copy_rows(const hz_heightmap *hm, uint16_t *dst, uint16_t *lo, uint1
     }
     *lo = mn;
     *hi = mx;
+}
+
+/* Per-sample normals (central differences, one-sided at the borders, as the
+ * vertex shader's), bilinearly filtered per fragment: the shading is that of
+ * the full-resolution surface whatever the LOD, so detail does not pop with
+ * the triangles. 2 bytes/sample. Maps larger than GL_MAX_TEXTURE_SIZE keep
+ * per-vertex normals. */
+static hz_result make_normal_texture(hz_renderer *r, const hz_heightmap *hm, hz_err *err)
+{
+    const uint32_t n = hm->size;
+    if (r->normal_tex) {
+        glDeleteTextures(1, &r->normal_tex);
+        r->normal_tex = 0;
+    }
+    if (r->max_tex <= 0 || n > (uint32_t)r->max_tex)
+        return HZ_OK;
+    int8_t *nx = malloc((size_t)n * n * 2);
+    if (!nx)
+        return hz_err_set(err, HZ_ERR_MEMORY, "renderer: out of memory for the %ux%u normal map", n, n);
+    for (uint32_t j = 0; j < n; j++) {
+        const uint32_t jd = j ? j - 1 : 0, ju = j + 1 < n ? j + 1 : n - 1;
+        for (uint32_t i = 0; i < n; i++) {
+            const uint32_t il = i ? i - 1 : 0, ir = i + 1 < n ? i + 1 : n - 1;
+            const float dx = r->hscale *
+                             ((float)hz_heightmap_get16(hm, ir, j) - (float)hz_heightmap_get16(hm, il, j)) /
+                             ((float)(ir - il) * r->spacing);
+            const float dz = r->hscale *
+                             ((float)hz_heightmap_get16(hm, i, ju) - (float)hz_heightmap_get16(hm, i, jd)) /
+                             ((float)(ju - jd) * r->spacing);
+            const float inv = 1.0f / sqrtf(dx * dx + 1.0f + dz * dz);
+            int8_t *o = nx + ((size_t)j * n + i) * 2;
+            o[0] = (int8_t)lrintf(-dx * inv * 127.0f);
+            o[1] = (int8_t)lrintf(-dz * inv * 127.0f);
+        }
+    }
+    glGenTextures(1, &r->normal_tex);
+    glBindTexture(GL_TEXTURE_2D, r->normal_tex);
+    glTexStorage2D(GL_TEXTURE_2D, 1, GL_RG8_SNORM, (GLsizei)n, (GLsizei)n);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, (GLsizei)n, (GLsizei)n, GL_RG, GL_BYTE, nx);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    glBindTexture(GL_TEXTURE_2D, 0);
+    free(nx);
+    hz_result res = gl_check(err, "normal map upload (GL_RG8_SNORM)");
+    if (res != HZ_OK) {
+        glDeleteTextures(1, &r->normal_tex);
+        r->normal_tex = 0;
+        gl_drain();
+        return HZ_OK; /* per-vertex normals still work */
+    }
+    return HZ_OK;
 }
 
 hz_result hz_renderer_set_heightmap(hz_renderer *r, const hz_heightmap *hm, float spacing,
@@ -468,6 +539,9 @@ hz_result hz_renderer_set_heightmap(hz_renderer *r, const hz_heightmap *hm, floa
     r->spacing = spacing;
     r->hscale = hm->scale * zscale;
     r->hoffset = hm->offset * zscale;
+    res = make_normal_texture(r, hm, err);
+    if (res != HZ_OK)
+        return res;
     float a = r->hoffset + r->hscale * (float)lo, b = r->hoffset + r->hscale * (float)hi;
     r->hmin = a < b ? a : b;
     r->hmax = a < b ? b : a;
@@ -479,6 +553,37 @@ hz_result hz_renderer_set_heightmap(hz_renderer *r, const hz_heightmap *hm, floa
     const uint32_t tri[3] = {0, r->size, 1};
     hz_camera cam = {.pos = {spacing * 0.5f, r->hmax + 10.0f * spacing, spacing * 0.5f}, .pitch = -89.0f};
     return hz_renderer_draw(r, &cam, NULL, tri, 3, NULL, err);
+}
+
+hz_result hz_renderer_set_morph(hz_renderer *r, const uint16_t *morph_err, hz_err *err)
+{
+    HZ_ASSERT(r);
+    hz_result ctx_res = check_context(r, err, "hz_renderer_set_morph");
+    if (ctx_res != HZ_OK)
+        return ctx_res;
+    gl_drain();
+    if (!morph_err) {
+        if (r->morph_tex)
+            glDeleteTextures(1, &r->morph_tex);
+        if (r->morph_buf)
+            glDeleteBuffers(1, &r->morph_buf);
+        r->morph_tex = r->morph_buf = 0;
+        return gl_check(err, "morph buffer release");
+    }
+    if (!r->has_heights)
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: hz_renderer_set_morph before hz_renderer_set_heightmap");
+    if (!r->morph_buf) {
+        glGenBuffers(1, &r->morph_buf);
+        glGenTextures(1, &r->morph_tex);
+    }
+    const GLsizeiptr bytes = (GLsizeiptr)((size_t)r->size * r->size * sizeof(uint16_t));
+    glBindBuffer(GL_TEXTURE_BUFFER, r->morph_buf);
+    glBufferData(GL_TEXTURE_BUFFER, bytes, morph_err, GL_STATIC_DRAW);
+    glBindTexture(GL_TEXTURE_BUFFER, r->morph_tex);
+    glTexBuffer(GL_TEXTURE_BUFFER, GL_R16, r->morph_buf);
+    glBindTexture(GL_TEXTURE_BUFFER, 0);
+    glBindBuffer(GL_TEXTURE_BUFFER, 0);
+    return gl_check(err, "morph texture buffer upload (GL_R16)");
 }
 
 static bool vec3_is_zero(const float *v)
@@ -621,6 +726,18 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         glUniform1f(r->tu.ambient, sp.ambient);
         glUniform2f(r->tu.hrange, r->hmin, r->hmax);
         glUniform1i(r->tu.wire, 0);
+        const bool morph = r->morph_tex && sp.morph_scale > 0.0f;
+        glActiveTexture(GL_TEXTURE1);
+        glBindTexture(GL_TEXTURE_BUFFER, morph ? r->morph_tex : r->height_tex);
+        glUniform1i(r->tu.morph, 1);
+        glUniform1f(r->tu.morph_scale, morph ? sp.morph_scale : 0.0f);
+        glUniform1f(r->tu.morph_start, sp.morph_start);
+        glActiveTexture(GL_TEXTURE2);
+        glBindTexture(GL_TEXTURE_2D, r->normal_tex);
+        glUniform1i(r->tu.normals, 2);
+        glUniform1i(r->tu.normal_tex, r->normal_tex != 0);
+        glUniform2f(r->tu.nrm_scale, 1.0f / (r->spacing * (float)r->size), 0.5f / (float)r->size);
+        glActiveTexture(GL_TEXTURE0);
         glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
 
         if (sp.wireframe) {
@@ -638,6 +755,11 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
             glDepthMask(GL_TRUE);
         }
         glBindTexture(GL_TEXTURE_BUFFER, 0);
+        glActiveTexture(GL_TEXTURE1);
+        glBindTexture(GL_TEXTURE_BUFFER, 0);
+        glActiveTexture(GL_TEXTURE2);
+        glBindTexture(GL_TEXTURE_2D, 0);
+        glActiveTexture(GL_TEXTURE0);
     }
     if (sp.draw_objects) {
         hz_pass_info pi = {.pass = HZ_PASS_MAIN, .cam = cam, .fog_density = sp.fog_density,

@@ -381,6 +381,21 @@ hz_result hz__lod_select_quadtree(hz_lod *lod, const hz_camera *cam, const hz_lo
     return HZ_OK;
 }
 
+void hz_lod_set_progress(hz_lod *lod, hz_progress_fn fn, void *user)
+{
+    lod->desc.progress = fn;
+    lod->desc.progress_user = user;
+}
+
+hz_result hz_lod_prepare(hz_lod *lod, hz_lod_mode mode)
+{
+    if (mode == HZ_LOD_CDLOD)
+        return hz__lod_cdlod_prepare(lod);
+    if (mode == HZ_LOD_ROAM)
+        return hz__lod_roam_prepare(lod);
+    return (unsigned)mode < HZ_LOD_MODE_COUNT ? HZ_OK : HZ_ERR_VALUE;
+}
+
 hz_result hz_lod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params, hz_index_list *out,
                         hz_node_list *leaves, hz_node_list *culled, hz_lod_stats *stats)
 {

@@ -8,9 +8,9 @@
  * sample under P: delta'(P) = max over children c of delta'(c) + max over c's
  * nine vertices v of |h(v) - S_P(v)| (the difference of two piecewise linear
  * surfaces peaks at the vertices of their common refinement, which are those
- * nine points). It is then dilated so that it at least doubles from a node to
- * the coarser nodes around it (see cdlod_prepare), so it is monotone:
- * delta'(parent) >= 2 delta'(child).
+ * nine points). It is then dilated so that it grows by at least CD_GROW from
+ * a node to the coarser nodes around it (see cdlod_prepare), so it is
+ * monotone: delta'(parent) >= CD_GROW delta'(child).
  *
  * Selection: P splits when the distance from the eye to P's box is below its
  * range R(P) = lambda * delta'(P), lambda = K / tau (K = pixels per metre at
@@ -33,6 +33,12 @@
 #include "lod_internal.h"
 
 #include <float.h>
+
+/* Ranges grow at least this much per level (see the dilation below); morph
+ * zones of consecutive levels then do not overlap for morph_start >= 1 / CD_GROW. */
+#ifndef CD_GROW
+#define CD_GROW 1.25f
+#endif
 
 /* ---- precomputation ------------------------------------------------------- */
 
@@ -131,14 +137,15 @@ static hz_result cdlod_prepare(hz_lod *lod)
                 prep_progress(lod, done, total * 2);
         }
     }
-    /* Dilation: a node's bound is at least twice that of every node one
-     * level finer that touches it. The vertices a split introduces morph
-     * toward vertices that coarser nodes introduce; with ranges at least
-     * doubling per level, those coarser vertices have not started to morph
-     * (morph_start >= 0.5) while the finer ones move, so every vertex morphs
-     * toward fixed points. Without it, a merge would snap a vertex from the
-     * midpoint of its neighbours' true heights to that of their morphed
-     * heights. */
+    /* Dilation: a node's bound is at least CD_GROW times that of every node
+     * one level finer that touches it. The vertices a split introduces morph
+     * toward vertices that coarser nodes introduce; with ranges growing by
+     * CD_GROW per level, those coarser vertices have not started to morph
+     * (morph_start >= 1 / CD_GROW) while the finer ones move, so every vertex
+     * morphs toward fixed points. Without it, a merge would snap a vertex from
+     * the midpoint of its neighbours' true heights to that of their morphed
+     * heights. A larger CD_GROW allows longer morph zones but splits earlier
+     * (more triangles for the same error): 1.25 measured best. */
     for (uint32_t l = lod->levels - 1; l-- > 0;) {
         const uint32_t s = half_of(lod, l), m = 1u << l, cm = 2u * m;
         for (uint32_t zi = 0; zi < m; zi++)
@@ -150,7 +157,7 @@ static hz_result cdlod_prepare(hz_lod *lod)
                     for (int64_t cx = c0x; cx <= c0x + 3; cx++) {
                         if (cx < 0 || cz < 0 || cx >= (int64_t)cm || cz >= (int64_t)cm)
                             continue;
-                        d = fmaxf(d, 2.0f * e[lod->level_offset[l + 1] + (size_t)cz * cm + (size_t)cx]);
+                        d = fmaxf(d, CD_GROW * e[lod->level_offset[l + 1] + (size_t)cz * cm + (size_t)cx]);
                     }
                 e[lod->level_offset[l] + (size_t)zi * m + xi] = d;
             }
@@ -187,6 +194,11 @@ static hz_result cdlod_prepare(hz_lod *lod)
     lod->cd_err = e;
     lod->morph_err = me;
     return HZ_OK;
+}
+
+hz_result hz__lod_cdlod_prepare(hz_lod *lod)
+{
+    return cdlod_prepare(lod);
 }
 
 const uint16_t *hz_lod_morph_errors(hz_lod *lod)
@@ -340,10 +352,10 @@ hz_result hz__lod_select_cdlod(hz_lod *lod, const hz_camera *cam, const hz_lod_p
     const float tau = p->pixel_error > 0 ? p->pixel_error : 1.0f;
     const float lambda = pixel_k(cam, p) / tau;
     const float hsw = lod->hm->scale * lod->zscale; /* metres per h16 step */
-    /* The dilation doubles ranges per level: morph zones of consecutive
-     * levels do not overlap for a >= 0.5. */
-    float a = p->morph_start > 0.0f ? p->morph_start : 0.6f;
-    a = a < 0.5f ? 0.5f : (a > 0.95f ? 0.95f : a);
+    /* The dilation grows ranges by CD_GROW per level: morph zones of
+     * consecutive levels do not overlap for a >= 1 / CD_GROW. */
+    float a = p->morph_start > 0.0f ? p->morph_start : 1.0f / CD_GROW;
+    a = a < 1.0f / CD_GROW ? 1.0f / CD_GROW : (a > 0.95f ? 0.95f : a);
     cd_ctx c = {.lod = lod, .margin = frustum_margin(cam), .no_cull = p->no_cull, .culled = culled, .st = st};
     hz_camera_frustum(cam, c.planes);
     st->morph_scale = lambda * hsw;

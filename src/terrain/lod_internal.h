@@ -238,6 +238,8 @@ hz_result hz__lod_select_roam(hz_lod *lod, const hz_camera *cam, const hz_lod_pa
 hz_result hz__lod_select_cdlod(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, hz_index_list *out,
                                hz_node_list *leaves, hz_node_list *culled, hz_lod_stats *st);
 void hz__lod_roam_free(hz_lod *lod);
+hz_result hz__lod_roam_prepare(hz_lod *lod);
+hz_result hz__lod_cdlod_prepare(hz_lod *lod);
 size_t hz__lod_roam_bytes(const hz_lod *lod);
 
 /* Status (NB_*) of the same-level neighbour of node (x, z, s) at level l across

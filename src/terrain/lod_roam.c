@@ -343,6 +343,11 @@ static hz_result roam_init(hz_lod *lod)
     return HZ_OK;
 }
 
+hz_result hz__lod_roam_prepare(hz_lod *lod)
+{
+    return lod->roam ? HZ_OK : roam_init(lod);
+}
+
 void hz__lod_roam_free(hz_lod *lod)
 {
     roam_state *R = lod->roam;

@@ -152,3 +152,81 @@ double hz_metrics_silhouette(const uint8_t *sky_a, const uint8_t *sky_b, size_t 
         d += (sky_a[i] != 0) != (sky_b[i] != 0);
     return n ? (double)d / (double)n : 0;
 }
+
+hz_result hz_metrics_surface(const hz_heightmap *hm, float zscale, const uint32_t *indices, size_t count,
+                             hz_vertex_height_fn vertex_height, void *user, float *out)
+{
+    const uint32_t n = hm->size;
+    for (size_t i = 0; i < (size_t)n * n; i++)
+        out[i] = NAN;
+    for (size_t t = 0; t + 2 < count; t += 3) {
+        int64_t xs[3], zs[3];
+        double hs[3];
+        for (int c = 0; c < 3; c++) {
+            const uint32_t v = indices[t + c];
+            xs[c] = v % n;
+            zs[c] = v / n;
+            hs[c] = vertex_height ? (double)vertex_height(user, v)
+                                  : (double)hz_heightmap_get(hm, (uint32_t)xs[c], (uint32_t)zs[c]) * zscale;
+        }
+        const int64_t area2 = (zs[1] - zs[0]) * (xs[2] - xs[0]) - (xs[1] - xs[0]) * (zs[2] - zs[0]);
+        if (area2 == 0)
+            continue;
+        int64_t x0 = xs[0], x1 = xs[0], z0 = zs[0], z1 = zs[0];
+        for (int c = 1; c < 3; c++) {
+            x0 = xs[c] < x0 ? xs[c] : x0;
+            x1 = xs[c] > x1 ? xs[c] : x1;
+            z0 = zs[c] < z0 ? zs[c] : z0;
+            z1 = zs[c] > z1 ? zs[c] : z1;
+        }
+        const double a = (double)llabs(area2);
+        for (int64_t z = z0; z <= z1; z++)
+            for (int64_t x = x0; x <= x1; x++) {
+                int64_t w0 = (zs[2] - zs[1]) * (x - xs[1]) - (xs[2] - xs[1]) * (z - zs[1]);
+                int64_t w1 = (zs[0] - zs[2]) * (x - xs[2]) - (xs[0] - xs[2]) * (z - zs[2]);
+                int64_t w2 = (zs[1] - zs[0]) * (x - xs[0]) - (xs[1] - xs[0]) * (z - zs[0]);
+                if (area2 < 0) {
+                    w0 = -w0;
+                    w1 = -w1;
+                    w2 = -w2;
+                }
+                if (w0 < 0 || w1 < 0 || w2 < 0)
+                    continue;
+                out[(size_t)z * n + (size_t)x] =
+                    (float)(((double)w0 * hs[0] + (double)w1 * hs[1] + (double)w2 * hs[2]) / a);
+            }
+    }
+    return HZ_OK;
+}
+
+void hz_metrics_surface_change(const hz_heightmap *hm, float spacing, float zscale, const float *prev,
+                               const float *cur, const hz_camera *cam, uint32_t image_height, hz_pop_stats *out)
+{
+    memset(out, 0, sizeof *out);
+    const uint32_t n = hm->size;
+    vec4 planes[6];
+    hz_camera_frustum(cam, planes);
+    const double k = (double)image_height / (2.0 * tan(glm_rad(cam->fov_y > 0 ? cam->fov_y : 60.0f) * 0.5));
+    double sum = 0;
+    for (uint32_t z = 0; z < n; z++)
+        for (uint32_t x = 0; x < n; x++) {
+            const size_t i = (size_t)z * n + x;
+            if (isnan(prev[i]) || isnan(cur[i]))
+                continue;
+            const double wx = (double)x * spacing, wz = (double)z * spacing,
+                         wy = (double)hz_heightmap_get(hm, x, z) * zscale;
+            int inside = 1;
+            for (int p = 0; p < 6 && inside; p++)
+                inside = planes[p][0] * wx + planes[p][1] * wy + planes[p][2] * wz + planes[p][3] >= 0;
+            if (!inside)
+                continue;
+            const double dx = wx - cam->pos[0], dy = wy - cam->pos[1], dz = wz - cam->pos[2];
+            const double dist = sqrt(dx * dx + dy * dy + dz * dz);
+            const double dh = fabs((double)cur[i] - (double)prev[i]);
+            const double px = dist > 1e-6 ? dh * k / dist : 0.0;
+            sum += px;
+            out->max_px = px > out->max_px ? px : out->max_px;
+            out->samples++;
+        }
+    out->mean_px = out->samples ? sum / (double)out->samples : 0.0;
+}

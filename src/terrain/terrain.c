@@ -97,6 +97,25 @@ float hz_terrain_height_at(const hz_terrain *t, float x, float z)
     return hz_heightmap_get(&t->hm, (uint32_t)lroundf(fi), (uint32_t)lroundf(fj)) * t->zscale;
 }
 
+float hz_terrain_surface_at(const hz_terrain *t, float x, float z)
+{
+    const float m = (float)(t->hm.size - 1);
+    float fi = x / t->spacing, fj = z / t->spacing;
+    fi = fi < 0 ? 0 : fi > m ? m : fi;
+    fj = fj < 0 ? 0 : fj > m ? m : fj;
+    uint32_t i = (uint32_t)fi, j = (uint32_t)fj;
+    if (i >= t->hm.size - 1)
+        i = t->hm.size - 2;
+    if (j >= t->hm.size - 1)
+        j = t->hm.size - 2;
+    const float u = fi - (float)i, v = fj - (float)j;
+    const float a = hz_heightmap_get(&t->hm, i, j), b = hz_heightmap_get(&t->hm, i, j + 1);
+    const float c = hz_heightmap_get(&t->hm, i + 1, j), d = hz_heightmap_get(&t->hm, i + 1, j + 1);
+    /* The cell's two triangles share the diagonal (i, j+1)-(i+1, j). */
+    const float h = u + v <= 1.0f ? a + u * (c - a) + v * (b - a) : d + (1.0f - u) * (b - d) + (1.0f - v) * (c - d);
+    return h * t->zscale;
+}
+
 hz_camera hz_terrain_default_camera(const hz_terrain *t, uint32_t width, uint32_t height)
 {
     float ext = hz_terrain_extent(t);
@@ -111,7 +130,7 @@ hz_camera hz_terrain_default_camera(const hz_terrain *t, uint32_t width, uint32_
     c.pitch = -10.0f;
     c.fov_y = 60.0f;
     c.aspect = height ? (float)width / (float)height : 16.0f / 9.0f;
-    c.znear = fmaxf(0.5f, 0.2f * t->spacing);
+    c.znear = 0.25f; /* reverse-Z float depth: a near plane this close costs no precision */
     c.zfar = 1.5f * ext;
     return c;
 }
@@ -128,7 +147,7 @@ static float max_ground_near(const hz_terrain *t, float x, float z, float radius
 
 hz_result hz_terrain_path(const hz_terrain *t, const char *name, hz_path *out, hz_err *err)
 {
-    enum { MAXK = 128 };
+    enum { MAXK = 160 };
     hz_path_key k[MAXK];
     size_t n = 0;
     const float E = hz_terrain_extent(t), c = 0.5f * E;
@@ -153,10 +172,32 @@ hz_result hz_terrain_path(const hz_terrain *t, const char *name, hz_path *out, h
             k[n] = (hz_path_key){duration * (float)n / 72.0f, x, y, z, yaw, pitch};
         }
     } else if (!strcmp(name, "ground")) {
-        const float speed = 5.0f, step = duration * speed / 100.0f;
-        for (n = 0; n < 101; n++) {
-            float x = c + step * (float)n;
-            k[n] = (hz_path_key){duration * (float)n / 100.0f, x, hz_terrain_height_at(t, x, c) + 2.0f, c, 90.0f, 0.0f};
+        /* Walk from the centre along the most open of 16 headings (the one
+         * whose terrain rises least above the eye within half the map), so the
+         * view reaches the horizon instead of a hillside. Keys every 2.5 m; the
+         * eye 2 m above the highest point of the full-resolution surface within
+         * 4 m, so the spline between keys stays above the ground. */
+        const float speed = 5.0f, step = duration * speed / 120.0f;
+        const float eye0 = hz_terrain_surface_at(t, c, c) + 2.0f;
+        float best = INFINITY, best_yaw = 90.0f;
+        for (int h = 0; h < 16; h++) {
+            const float yaw = 22.5f * (float)h, dx = sinf(glm_rad(yaw)), dz = -cosf(glm_rad(yaw));
+            float worst = -INFINITY;
+            for (float d = 20.0f; d < 0.5f * E; d *= 1.15f)
+                worst = fmaxf(worst, (hz_terrain_surface_at(t, c + d * dx, c + d * dz) - eye0) / d);
+            if (worst < best) {
+                best = worst;
+                best_yaw = yaw;
+            }
+        }
+        const float dx = sinf(glm_rad(best_yaw)), dz = -cosf(glm_rad(best_yaw));
+        for (n = 0; n < 121; n++) {
+            const float x = c + dx * step * (float)n, z = c + dz * step * (float)n;
+            float g = -INFINITY;
+            for (int q = -4; q <= 4; q++)
+                for (int r = -4; r <= 4; r++)
+                    g = fmaxf(g, hz_terrain_surface_at(t, x + 1.0f * (float)q, z + 1.0f * (float)r));
+            k[n] = (hz_path_key){duration * (float)n / 120.0f, x, g + 2.0f, z, best_yaw, 0.0f};
         }
     } else {
         return hz_err_set(err, HZ_ERR_VALUE, "unknown path '%s': use flyover, orbit, ground or a CSV file", name);

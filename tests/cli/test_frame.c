@@ -139,11 +139,105 @@ static void test_more_detail_closer_to_reference(void **state)
     free(img);
 }
 
+/* Every LOD mode at a 1 px bound draws an image close to the reference. */
+static void test_modes_close_to_reference(void **state)
+{
+    ctx *c = *state;
+    hz_camera cam = hz_terrain_default_camera(c->t, W, H);
+    cam.pitch = -15;
+    uint8_t *ref = malloc(W * H * 3), *img = malloc(W * H * 3), *sref = malloc(W * H), *simg = malloc(W * H);
+    draw(c, &cam, 1e30f, 1e30f, ref, sref);
+    hz_err err = {0};
+    hz_index_list il = {0};
+    for (int m = 0; m < HZ_LOD_MODE_COUNT; m++) {
+        assert_int_equal(hz_lod_prepare(c->t->lod, (hz_lod_mode)m), HZ_OK);
+        if (m == HZ_LOD_CDLOD)
+            assert_int_equal(hz_renderer_set_morph(c->r, hz_lod_morph_errors(c->t->lod), &err), HZ_OK);
+        hz_lod_params p = {.mode = (hz_lod_mode)m, .pixel_error = 1.0f, .viewport_height = H};
+        hz_lod_stats st;
+        assert_int_equal(hz_lod_select(c->t->lod, &cam, &p, &il, NULL, NULL, &st), HZ_OK);
+        hz_scene_params sp = {.morph_scale = st.morph_scale, .morph_start = st.morph_start};
+        assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, il.data, (uint32_t)il.count, NULL, &err), HZ_OK);
+        assert_int_equal(hz_renderer_read_rgb(c->r, img, &err), HZ_OK);
+        assert_int_equal(hz_renderer_read_sky_mask(c->r, simg, &err), HZ_OK);
+        double psnr = hz_metrics_psnr(img, ref, W * H), sil = hz_metrics_silhouette(simg, sref, W * H);
+        fprintf(stderr, "%-13s tau 1 px: %6u triangles, PSNR %.2f dB, silhouette %.5f\n",
+                hz_lod_mode_name((hz_lod_mode)m), st.triangles, psnr, sil);
+        assert_true(psnr > 38);
+        assert_true(sil < 0.002);
+    }
+    free(il.data);
+    free(ref);
+    free(img);
+    free(sref);
+    free(simg);
+}
+
+/* The vertex shader morphs exactly like hz_lod_morph_height: a cdlod frame
+ * drawn with GPU morphing has the silhouette of the same triangles drawn over
+ * a heightmap that holds the CPU-morphed heights. */
+static void test_gpu_morph_matches_cpu(void **state)
+{
+    ctx *c = *state;
+    hz_err err = {0};
+    hz_terrain *t = c->t;
+    const uint32_t n = t->hm.size;
+    assert_int_equal(hz_lod_prepare(t->lod, HZ_LOD_CDLOD), HZ_OK);
+    assert_int_equal(hz_renderer_set_morph(c->r, hz_lod_morph_errors(t->lod), &err), HZ_OK);
+    hz_camera cam = hz_terrain_default_camera(t, W, H);
+    cam.pitch = -4;
+    hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = 12.0f, .viewport_height = H};
+    hz_index_list il = {0};
+    hz_lod_stats st;
+    assert_int_equal(hz_lod_select(t->lod, &cam, &p, &il, NULL, NULL, &st), HZ_OK);
+    assert_true(st.morph_scale > 0);
+    /* The CPU-morphed heights as a heightmap of their own. */
+    hz_grid g;
+    assert_int_equal(hz_grid_alloc(&g, n, n, &err), HZ_OK);
+    size_t moved = 0;
+    for (uint32_t k = 0; k < n * n; k++) {
+        g.z[k] = hz_lod_morph_height(t->lod, &cam, &st, k) / t->zscale;
+        moved += hz_lod_morph_factor(t->lod, &cam, &st, k) > 0.01f;
+    }
+    assert_true(moved > 1000);
+    hz_heightmap hm2;
+    assert_int_equal(hz_heightmap_create(&hm2, &g, HZ_LAYOUT_LINEAR, &err), HZ_OK);
+    hz_renderer *r2 = hz_renderer_create(&(hz_renderer_desc){.width = W, .height = H}, &err);
+    assert_non_null(r2);
+    assert_int_equal(hz_renderer_set_heightmap(r2, &hm2, t->spacing, t->zscale, &err), HZ_OK);
+
+    uint8_t *rgb = malloc(W * H * 3), *gpu = malloc(W * H), *cpu = malloc(W * H), *flat = malloc(W * H);
+    hz_scene_params sp = {.morph_scale = st.morph_scale, .morph_start = st.morph_start};
+    assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, il.data, (uint32_t)il.count, NULL, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_sky_mask(c->r, gpu, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_rgb(c->r, rgb, &err), HZ_OK);
+    hz_image_write_png(HZ_TEST_TMP "/frame_cdlod_morph.png", rgb, W, H, NULL);
+    assert_int_equal(hz_renderer_draw(c->r, &cam, NULL, il.data, (uint32_t)il.count, NULL, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_sky_mask(c->r, flat, &err), HZ_OK);
+    assert_int_equal(hz_renderer_draw(r2, &cam, NULL, il.data, (uint32_t)il.count, NULL, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_sky_mask(r2, cpu, &err), HZ_OK);
+    const double d_cpu = hz_metrics_silhouette(gpu, cpu, W * H), d_flat = hz_metrics_silhouette(gpu, flat, W * H);
+    fprintf(stderr, "morphed silhouette vs CPU morph %.6f, vs unmorphed %.6f (%zu vertices morphing)\n", d_cpu,
+            d_flat, moved);
+    assert_true(d_flat > 0.0005);      /* the morph is visible at this bound */
+    assert_true(d_cpu * 20 < d_flat);  /* and it is the CPU's morph */
+    hz_renderer_destroy(r2);
+    hz_heightmap_destroy(&hm2);
+    hz_grid_free(&g);
+    free(il.data);
+    free(rgb);
+    free(gpu);
+    free(cpu);
+    free(flat);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sky_above_lit_terrain_below),
         cmocka_unit_test(test_more_detail_closer_to_reference),
+        cmocka_unit_test(test_modes_close_to_reference),
+        cmocka_unit_test(test_gpu_morph_matches_cpu),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
