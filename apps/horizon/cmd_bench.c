@@ -1,5 +1,10 @@
 /* horizon bench: fly a camera path headless, measure the LOD against a
- * full-resolution reference, print a summary table and write JSON. */
+ * full-resolution reference, print a summary table and write JSON.
+ *
+ * With several modes (--lod quadtree,cdlod,...) every mode flies the same
+ * path and is compared with the same reference frames, rendered once; with
+ * --tune-p99 PX each mode first searches the largest pixel error bound whose
+ * 99th-percentile screen-space error stays within PX. */
 #include "cli.h"
 
 #include <math.h>
@@ -26,33 +31,29 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* Percentile q in [0, 1] of n values (nearest rank); INFINITY sorts last. */
-static double pct(const frame_row *rows, size_t n, size_t off, double q)
+/* Percentile q in [0, 1] of n values (nearest rank; the median of an even
+ * count is the mean of the middle two); INFINITY sorts last. */
+static double pct_values(double *v, size_t n, double q)
 {
-    double *v = malloc(n * sizeof *v);
-    if (!v || n == 0) {
-        free(v);
+    if (n == 0)
         return 0;
-    }
-    for (size_t i = 0; i < n; i++)
-        v[i] = *(const double *)((const char *)&rows[i] + off);
     qsort(v, n, sizeof *v, cmp_double);
     size_t k = (size_t)ceil(q * (double)n);
     k = k ? k - 1 : 0;
-    double r = q >= 0.5 && q < 0.51 && n % 2 == 0 ? 0.5 * (v[n / 2 - 1] + v[n / 2]) : v[k < n ? k : n - 1];
-    free(v);
-    return r;
+    return q >= 0.5 && q < 0.51 && n % 2 == 0 ? 0.5 * (v[n / 2 - 1] + v[n / 2]) : v[k < n ? k : n - 1];
 }
 
-static double pct_u32(const frame_row *rows, size_t n, size_t off, double q)
+static double pct(const frame_row *rows, size_t n, size_t off, bool u32, double q)
 {
-    frame_row *tmp = malloc(n * sizeof *tmp);
-    if (!tmp)
+    double *v = malloc((n ? n : 1) * sizeof *v);
+    if (!v)
         return 0;
-    for (size_t i = 0; i < n; i++)
-        tmp[i].t = (double)*(const uint32_t *)((const char *)&rows[i] + off);
-    double r = pct(tmp, n, offsetof(frame_row, t), q);
-    free(tmp);
+    for (size_t i = 0; i < n; i++) {
+        const char *p = (const char *)&rows[i] + off;
+        v[i] = u32 ? (double)*(const uint32_t *)p : *(const double *)p;
+    }
+    double r = pct_values(v, n, q);
+    free(v);
     return r;
 }
 
@@ -87,10 +88,424 @@ static void usage(void)
             "  --path flyover|orbit|ground|FILE.csv  camera path (CSV: t,x,y,z,yaw,pitch; default flyover)\n"
             "  --frames N              frames to measure (default 60)\n"
             "  --fps F                 path time per frame is 1/F s (default 30)\n"
+            "  --lod M1,M2,...         compare several LOD modes on the same path and reference frames\n"
+            "  --tune-p99 PX           per mode, use the largest --pixel-error whose 99th-percentile\n"
+            "                          screen-space error (p95 over frames) stays <= PX\n"
             "  --reference on|off      full-resolution reference frames for PSNR/popping (default on)\n"
             "  --json FILE             write the summary and per-frame figures as JSON\n"
             "  --plot FILE.png         chart of triangles, frame ms and pixel error (needs gnuplot)\n"
             "  --save-frames DIR       write every LOD (and reference) frame as PNG\n");
+}
+
+typedef struct bench {
+    cli_opts o;
+    hz_terrain *t;
+    hz_path path;
+    uint32_t frames;
+    float fps;
+    bool reference, quiet;
+    const char *save_dir;
+    hz_renderer *ren;
+    size_t npx;
+    /* Reference frames, rendered once when several modes share them. */
+    bool cache_ref;
+    uint8_t **ref_rgb, **ref_sky;
+    uint32_t *ref_tris;
+    /* Scratch. */
+    uint8_t *img[2], *ref[2], *sky_l, *sky_r;
+    hz_index_list il, rl;
+    hz_float_buf scratch;
+    float *surf[2];
+    hz_err err;
+} bench;
+
+static hz_result reference_frame(bench *b, const hz_camera *cam, uint8_t *rgb, uint8_t *sky, uint32_t *tris)
+{
+    /* Full resolution inside the frustum: every node splits down to 3x3. */
+    const hz_lod_params refp = {.c = 1e30f, .c2 = 1e30f, .criterion = HZ_LOD_CLAMPED};
+    hz_lod_stats rs;
+    if (hz_lod_select(b->t->lod, cam, &refp, &b->rl, NULL, NULL, &rs) != HZ_OK)
+        return hz_err_set(&b->err, HZ_ERR_MEMORY, "reference selection out of memory");
+    *tris = rs.triangles;
+    hz_result r = hz_renderer_draw(b->ren, cam, NULL, b->rl.data, (uint32_t)b->rl.count, NULL, &b->err);
+    if (r == HZ_OK)
+        r = hz_renderer_read_rgb(b->ren, rgb, &b->err);
+    if (r == HZ_OK)
+        r = hz_renderer_read_sky_mask(b->ren, sky, &b->err);
+    return r;
+}
+
+static void progress(bench *b, const char *label, uint32_t done, uint32_t total, double t_start, double *last)
+{
+    double now = hz_time_ms();
+    if (!b->quiet && (now - *last > 200 || done == total) && now - t_start > 1000) {
+        hz_progress_stderr(NULL, label, done, total);
+        *last = now;
+    }
+}
+
+static hz_result cache_references(bench *b)
+{
+    b->ref_rgb = calloc(b->frames, sizeof *b->ref_rgb);
+    b->ref_sky = calloc(b->frames, sizeof *b->ref_sky);
+    b->ref_tris = calloc(b->frames, sizeof *b->ref_tris);
+    if (!b->ref_rgb || !b->ref_sky || !b->ref_tris)
+        return hz_err_set(&b->err, HZ_ERR_MEMORY, "out of memory for the reference frames");
+    double t0 = hz_time_ms(), last = t0;
+    for (uint32_t f = 0; f < b->frames; f++) {
+        b->ref_rgb[f] = malloc(b->npx * 3);
+        b->ref_sky[f] = malloc(b->npx);
+        if (!b->ref_rgb[f] || !b->ref_sky[f])
+            return hz_err_set(&b->err, HZ_ERR_MEMORY, "out of memory for %u reference frames (fewer --frames?)",
+                              b->frames);
+        hz_camera cam = cli_camera(&b->o, b->t);
+        hz_path_sample(&b->path, (float)f / b->fps, &cam);
+        hz_result r = reference_frame(b, &cam, b->ref_rgb[f], b->ref_sky[f], &b->ref_tris[f]);
+        if (r != HZ_OK)
+            return r;
+        if (b->save_dir) {
+            char name[1024];
+            snprintf(name, sizeof name, "%s/ref_%04u.png", b->save_dir, f);
+            if (hz_image_write_png(name, b->ref_rgb[f], b->o.width, b->o.height, &b->err) != HZ_OK)
+                return HZ_ERR_IO;
+        }
+        progress(b, "reference frames", f + 1, b->frames, t0, &last);
+    }
+    return HZ_OK;
+}
+
+/* Screen-space error of one frame (per-frame p99), for the tuning. */
+static hz_result frame_p99(bench *b, const hz_lod_params *lod, const hz_camera *cam, double *p99)
+{
+    hz_lod_stats st;
+    if (hz_lod_select(b->t->lod, cam, lod, &b->il, NULL, NULL, &st) != HZ_OK)
+        return hz_err_set(&b->err, HZ_ERR_MEMORY, "LOD selection out of memory");
+    morph_user mu = {b->t->lod, cam, &st};
+    hz_px_error pe;
+    if (hz_metrics_px_error_ex(&b->t->hm, b->t->spacing, b->t->zscale, b->il.data, b->il.count,
+                               st.morph_scale > 0 ? morph_height : NULL, &mu, cam, b->o.height, &b->scratch,
+                               &pe) != HZ_OK)
+        return hz_err_set(&b->err, HZ_ERR_MEMORY, "pixel error out of memory");
+    *p99 = pe.p99_px;
+    return HZ_OK;
+}
+
+/* The largest pixel error bound (bisection in log space, 8 steps over
+ * 0.02..64 px: 3 % resolution) whose px_error_p99 (p95 over up to 8 frames
+ * spread along the run of the per-frame p99) stays <= target. */
+static hz_result tune(bench *b, hz_lod_params *lod, double target, double *found)
+{
+    const uint32_t K = b->frames < 8 ? b->frames : 8;
+    double lo = log(0.02), hi = log(64.0), best = 0.02, vals[8];
+    double t0 = hz_time_ms(), last = t0;
+    const int iters = 8;
+    for (int it = 0; it < iters; it++) {
+        const double mid = 0.5 * (lo + hi);
+        lod->pixel_error = (float)exp(mid);
+        for (uint32_t k = 0; k < K; k++) {
+            const uint32_t f = K > 1 ? (uint32_t)((uint64_t)k * (b->frames - 1) / (K - 1)) : 0;
+            hz_camera cam = cli_camera(&b->o, b->t);
+            hz_path_sample(&b->path, (float)f / b->fps, &cam);
+            hz_result r = frame_p99(b, lod, &cam, &vals[k]);
+            if (r != HZ_OK)
+                return r;
+        }
+        const double m = pct_values(vals, K, 0.95);
+        if (m <= target) {
+            lo = mid;
+            best = exp(mid);
+        } else {
+            hi = mid;
+        }
+        progress(b, "tuning the pixel error", (uint32_t)it + 1, iters, t0, &last);
+    }
+    lod->pixel_error = (float)best;
+    *found = best;
+    return HZ_OK;
+}
+
+/* Flies the path with one LOD setting; fills rows[frames]. */
+static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
+{
+    const cli_opts *o = &b->o;
+    hz_camera cam = cli_camera(o, b->t);
+    /* One untimed warm-up frame: buffer allocation and shader compilation in
+     * llvmpipe happen on the first draw, not in steady state. */
+    hz_path_sample(&b->path, 0.0f, &cam);
+    hz_lod_stats st0;
+    if (hz_lod_select(b->t->lod, &cam, lod, &b->il, NULL, NULL, &st0) != HZ_OK)
+        return hz_err_set(&b->err, HZ_ERR_MEMORY, "LOD selection out of memory");
+    hz_scene_params sp0 = {0};
+    cli_scene_lod(&sp0, &st0);
+    if (hz_renderer_draw(b->ren, &cam, &sp0, b->il.data, (uint32_t)b->il.count, NULL, &b->err) != HZ_OK)
+        return HZ_ERR_GL;
+    double t_start = hz_time_ms(), last = t_start;
+    char name[1024];
+    for (uint32_t f = 0; f < b->frames; f++) {
+        frame_row *row = &rows[f];
+        memset(row, 0, sizeof *row);
+        row->t = (double)f / b->fps;
+        hz_path_sample(&b->path, (float)row->t, &cam);
+        double f0 = hz_time_ms();
+        hz_lod_stats st;
+        if (hz_lod_select(b->t->lod, &cam, lod, &b->il, NULL, NULL, &st) != HZ_OK)
+            return hz_err_set(&b->err, HZ_ERR_MEMORY, "LOD selection out of memory");
+        hz_draw_stats ds;
+        hz_scene_params sp = {0};
+        cli_scene_lod(&sp, &st);
+        if (hz_renderer_draw(b->ren, &cam, &sp, b->il.data, (uint32_t)b->il.count, &ds, &b->err) != HZ_OK)
+            return HZ_ERR_GL;
+        row->frame_ms = hz_time_ms() - f0;
+        row->triangles = st.triangles;
+        row->nodes_visited = st.nodes_visited;
+        row->nodes_culled = st.nodes_culled;
+        row->restricted = st.restricted;
+        row->lod_ms = st.ms;
+        row->upload_ms = ds.upload_ms;
+        row->draw_ms = ds.draw_ms;
+        uint8_t *cur = b->img[f & 1], *prev = b->img[(f + 1) & 1];
+        if (hz_renderer_read_rgb(b->ren, cur, &b->err) != HZ_OK ||
+            hz_renderer_read_sky_mask(b->ren, b->sky_l, &b->err) != HZ_OK)
+            return HZ_ERR_GL;
+        morph_user mu = {b->t->lod, &cam, &st};
+        hz_px_error pe;
+        if (hz_metrics_px_error_ex(&b->t->hm, b->t->spacing, b->t->zscale, b->il.data, b->il.count,
+                                   st.morph_scale > 0 ? morph_height : NULL, &mu, &cam, o->height, &b->scratch,
+                                   &pe) != HZ_OK)
+            return hz_err_set(&b->err, HZ_ERR_MEMORY, "pixel error out of memory");
+        row->px_p99 = pe.p99_px;
+        row->px_max = pe.max_px;
+        row->uncovered = pe.uncovered;
+        if (b->save_dir) {
+            snprintf(name, sizeof name, "%s/%s_%04u.png", b->save_dir, hz_lod_mode_name(lod->mode), f);
+            if (hz_image_write_png(name, cur, o->width, o->height, &b->err) != HZ_OK)
+                return HZ_ERR_IO;
+        }
+        if (b->reference) {
+            uint8_t *rcur, *rprev, *rsky;
+            if (b->cache_ref) {
+                rcur = b->ref_rgb[f];
+                rprev = b->ref_rgb[f ? f - 1 : 0];
+                rsky = b->ref_sky[f];
+                row->ref_triangles = b->ref_tris[f];
+            } else {
+                rcur = b->ref[f & 1];
+                rprev = b->ref[(f + 1) & 1];
+                rsky = b->sky_r;
+                hz_result r = reference_frame(b, &cam, rcur, rsky, &row->ref_triangles);
+                if (r != HZ_OK)
+                    return r;
+            }
+            float *scur = b->surf[f & 1], *sprev = b->surf[(f + 1) & 1];
+            hz_metrics_surface(&b->t->hm, b->t->zscale, b->il.data, b->il.count,
+                               st.morph_scale > 0 ? morph_height : NULL, &mu, scur);
+            if (f) {
+                hz_pop_stats ps;
+                hz_metrics_surface_change(&b->t->hm, b->t->spacing, b->t->zscale, sprev, scur, &cam, o->height,
+                                          &ps);
+                row->pop_px_max = ps.max_px;
+                row->pop_px_mean = ps.mean_px;
+            }
+            row->psnr = hz_metrics_psnr(cur, rcur, b->npx);
+            row->silhouette = hz_metrics_silhouette(b->sky_l, rsky, b->npx);
+            row->popping = f ? hz_metrics_popping(prev, cur, rprev, rcur, b->npx) : 0.0;
+            if (b->save_dir && !b->cache_ref) {
+                snprintf(name, sizeof name, "%s/ref_%04u.png", b->save_dir, f);
+                if (hz_image_write_png(name, rcur, o->width, o->height, &b->err) != HZ_OK)
+                    return HZ_ERR_IO;
+            }
+        }
+        progress(b, "bench frames", f + 1, b->frames, t_start, &last);
+    }
+    return HZ_OK;
+}
+
+#define OFF(f) offsetof(frame_row, f)
+typedef struct col {
+    const char *name;
+    size_t off;
+    bool u32;
+    bool pop; /* from the second frame on */
+} col;
+static const col COLS[] = {
+    {"triangles", OFF(triangles), true, false},
+    {"nodes_visited", OFF(nodes_visited), true, false},
+    {"nodes_culled", OFF(nodes_culled), true, false},
+    {"lod_ms", OFF(lod_ms), false, false},
+    {"upload_ms", OFF(upload_ms), false, false},
+    {"draw_ms", OFF(draw_ms), false, false},
+    {"frame_ms", OFF(frame_ms), false, false},
+    {"px_error_p99", OFF(px_p99), false, false},
+    {"px_error_max", OFF(px_max), false, false},
+    {"psnr_db", OFF(psnr), false, false},
+    {"silhouette_frac", OFF(silhouette), false, false},
+    {"popping", OFF(popping), false, true},
+    {"pop_px_max", OFF(pop_px_max), false, true},
+    {"pop_px_mean", OFF(pop_px_mean), false, true},
+};
+enum { NCOLS = sizeof COLS / sizeof *COLS, NCOLS_NOREF = 9 };
+
+typedef struct summary {
+    double v[NCOLS][3]; /* median, p95, max */
+    double mean_sil, mean_pop;
+} summary;
+
+static void summarize(const bench *b, const frame_row *rows, summary *s)
+{
+    const size_t n = b->frames;
+    /* Popping is defined from the second frame on. */
+    const frame_row *pop_rows = n > 1 ? rows + 1 : rows;
+    const size_t pop_n = n > 1 ? n - 1 : n;
+    const size_t ncols = b->reference ? NCOLS : NCOLS_NOREF;
+    for (size_t c = 0; c < ncols; c++) {
+        const frame_row *r = COLS[c].pop ? pop_rows : rows;
+        const size_t m = COLS[c].pop ? pop_n : n;
+        s->v[c][0] = pct(r, m, COLS[c].off, COLS[c].u32, 0.5);
+        s->v[c][1] = pct(r, m, COLS[c].off, COLS[c].u32, 0.95);
+        s->v[c][2] = pct(r, m, COLS[c].off, COLS[c].u32, 1.0);
+    }
+    double sil = 0, pop = 0;
+    for (size_t i = 0; i < n; i++)
+        sil += rows[i].silhouette;
+    for (size_t i = 0; i < pop_n; i++)
+        pop += pop_rows[i].popping;
+    s->mean_sil = n ? sil / (double)n : 0;
+    s->mean_pop = pop_n ? pop / (double)pop_n : 0;
+}
+
+static void lod_text(const hz_lod_params *lod, char *buf, size_t len)
+{
+    if (lod->pixel_error > 0 || lod->mode == HZ_LOD_ROAM || lod->mode == HZ_LOD_CDLOD)
+        snprintf(buf, len, "%s, pixel error %.3g", hz_lod_mode_name(lod->mode),
+                 (double)(lod->pixel_error > 0 ? lod->pixel_error : 1.0f));
+    else
+        snprintf(buf, len, "%s, C=%g C2=%g", hz_lod_mode_name(lod->mode), (double)(lod->c > 0 ? lod->c : 25),
+                 (double)(lod->c2 > 0 ? lod->c2 : 2.5f));
+}
+
+static void print_table(const bench *b, const hz_lod_params *lod, const summary *s, double tuned_for)
+{
+    char lt[128];
+    lod_text(lod, lt, sizeof lt);
+    printf("horizon bench: %s (%ux%u, %.1f m), path %s, %u frames at %ux%u, %s%s", b->t->source, b->t->hm.size,
+           b->t->hm.size, (double)b->t->spacing, b->path.name, b->frames, b->o.width, b->o.height, lt,
+           b->reference ? "" : ", no reference");
+    if (tuned_for > 0)
+        printf(" (tuned for p99 <= %g px)", tuned_for);
+    printf("\n%-18s %12s %12s %12s\n", "", "median", "p95", "max");
+    const size_t ncols = b->reference ? NCOLS : NCOLS_NOREF;
+    for (size_t c = 0; c < ncols; c++)
+        printf("%-18s %12.4g %12.4g %12.4g\n", COLS[c].name, s->v[c][0], s->v[c][1], s->v[c][2]);
+    printf("%-18s %12.3f\n%-18s %12.1f\n", "bytes_per_sample", hz_lod_bytes_per_sample(b->t->lod), "peak_rss_mb",
+           (double)hz_peak_rss_bytes() / 1048576.0);
+}
+
+static void write_json(FILE *jf, const bench *b, const hz_lod_params *lod, const frame_row *rows, const summary *s,
+                       double tuned_for)
+{
+    const hz_camera cam = cli_camera(&b->o, b->t);
+    fprintf(jf, "{\"frames\":%u,\"terrain\":\"%s\",\"size\":%u,\"spacing\":%g,\"lod_mode\":\"%s\",\"pixel_error\":%g,"
+                "\"tuned_for_p99\":%g,\"criterion\":\"%s\",\"lod_c\":%g,\"lod_c2\":%g,\"path\":\"%s\",\"fps\":%g,"
+                "\"width\":%u,\"height\":%u,\"fov\":%g,\"far\":%g,\"reference\":%s,",
+            b->frames, b->t->source, b->t->hm.size, (double)b->t->spacing, hz_lod_mode_name(lod->mode),
+            (double)lod->pixel_error, tuned_for, lod->criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped",
+            (double)(lod->c > 0 ? lod->c : 25), (double)(lod->c2 > 0 ? lod->c2 : 2.5f), b->path.name,
+            (double)b->fps, b->o.width, b->o.height, (double)cam.fov_y, (double)cam.zfar,
+            b->reference ? "true" : "false");
+    const size_t ncols = b->reference ? NCOLS : NCOLS_NOREF;
+    for (size_t c = 0; c < ncols; c++) {
+        const char *nm = COLS[c].name;
+        if (!strcmp(nm, "silhouette_frac") || !strcmp(nm, "popping")) {
+            /* the issue's keys: mean over frames */
+            fprintf(jf, "\"%s\":", nm);
+            json_num(jf, !strcmp(nm, "popping") ? s->mean_pop : s->mean_sil);
+            fprintf(jf, ",\"%s_max\":", nm);
+            json_num(jf, s->v[c][2]);
+            fputc(',', jf);
+            continue;
+        }
+        fprintf(jf, "\"%s_median\":", nm);
+        json_num(jf, s->v[c][0]);
+        fprintf(jf, ",\"%s_p95\":", nm);
+        json_num(jf, s->v[c][1]);
+        fprintf(jf, ",\"%s_max\":", nm);
+        json_num(jf, s->v[c][2]);
+        fputc(',', jf);
+    }
+    if (!b->reference)
+        fputs("\"psnr_db_median\":null,\"silhouette_frac\":null,\"popping\":null,\"pop_px_max_median\":null,", jf);
+    /* px_error_p99 / px_error_max as top-level keys (p95 over frames of the
+     * per-frame p99, and the max over all frames). */
+    fprintf(jf, "\"px_error_p99\":");
+    json_num(jf, s->v[7][1]);
+    fprintf(jf, ",\"px_error_max\":");
+    json_num(jf, s->v[8][2]);
+    fprintf(jf, ",\"bytes_per_sample\":%.4f,\"peak_rss_mb\":%.1f,\"per_frame\":[", hz_lod_bytes_per_sample(b->t->lod),
+            (double)hz_peak_rss_bytes() / 1048576.0);
+    for (size_t i = 0; i < b->frames; i++) {
+        const frame_row *r = &rows[i];
+        fprintf(jf, "%s{\"t\":%.4f,\"triangles\":%u,\"nodes_visited\":%u,\"nodes_culled\":%u,"
+                    "\"restricted\":%u,\"lod_ms\":%.4f,\"upload_ms\":%.4f,\"draw_ms\":%.3f,\"frame_ms\":%.3f,"
+                    "\"px_error_p99\":%.5g,\"px_error_max\":%.5g,\"uncovered\":%llu",
+                i ? "," : "", r->t, r->triangles, r->nodes_visited, r->nodes_culled, r->restricted, r->lod_ms,
+                r->upload_ms, r->draw_ms, r->frame_ms, r->px_p99, r->px_max, (unsigned long long)r->uncovered);
+        if (b->reference) {
+            fprintf(jf, ",\"ref_triangles\":%u,\"psnr_db\":", r->ref_triangles);
+            json_num(jf, r->psnr);
+            fprintf(jf, ",\"silhouette_frac\":%.6g,\"popping\":%.6g,\"pop_px_max\":%.6g,\"pop_px_mean\":%.6g",
+                    r->silhouette, r->popping, r->pop_px_max, r->pop_px_mean);
+        }
+        fputc('}', jf);
+    }
+    fputs("]}", jf);
+}
+
+static hz_result plot(const bench *b, const char *plot_out, const frame_row *rows, hz_err *err)
+{
+    char dat[1100];
+    snprintf(dat, sizeof dat, "%s.dat", plot_out);
+    FILE *df = fopen(dat, "w");
+    if (!df)
+        return hz_err_set(err, HZ_ERR_IO, "cannot write '%s'", dat);
+    for (size_t i = 0; i < b->frames; i++)
+        fprintf(df, "%u %u %.3f %.4f\n", (unsigned)i, rows[i].triangles, rows[i].frame_ms, rows[i].px_p99);
+    fclose(df);
+    char cmd[4096];
+    snprintf(cmd, sizeof cmd,
+             "gnuplot -e \"set terminal pngcairo size 1000,700 noenhanced; set output '%s'; set multiplot layout 3,1 "
+             "title '%s %s'; set xlabel 'frame'; set ylabel 'triangles'; plot '%s' using 1:2 with lines notitle; "
+             "set ylabel 'frame ms'; plot '%s' using 1:3 with lines notitle; "
+             "set ylabel 'px error p99'; plot '%s' using 1:4 with lines notitle; unset multiplot\"",
+             plot_out, b->t->source, b->path.name, dat, dat, dat);
+    if (system(cmd) != 0)
+        return hz_err_set(err, HZ_ERR_IO, "gnuplot failed or is not installed (apt-get install gnuplot-nox); data in %s",
+                          dat);
+    remove(dat);
+    return HZ_OK;
+}
+
+/* Splits "--lod a,b,c" off argv: modes[] receives them. Returns the count
+ * (0 if no --lod), -1 on a bad name (message printed). */
+static int parse_modes(const char *v, hz_lod_mode *modes, int cap)
+{
+    char buf[256];
+    snprintf(buf, sizeof buf, "%s", v);
+    int n = 0;
+    char *save = NULL;
+    for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
+        if (n == cap || !hz_lod_mode_from_name(tok, &modes[n])) {
+            fprintf(stderr, "horizon bench: invalid value '%s' for --lod: expected quadtree, remedy, bidirectional, "
+                            "roam or cdlod, or a comma-separated list of them\n",
+                    v);
+            return -1;
+        }
+        n++;
+    }
+    if (n == 0) {
+        fprintf(stderr, "horizon bench: --lod needs a mode\n");
+        return -1;
+    }
+    return n;
 }
 
 int cmd_bench(int argc, char **argv)
@@ -98,8 +513,10 @@ int cmd_bench(int argc, char **argv)
     /* Split off bench-only options, pass the rest to the common parser. */
     const char *path_name = "flyover", *json_out = NULL, *plot_out = NULL, *save_dir = NULL;
     uint32_t frames = 60;
-    float fps = 30.0f;
+    float fps = 30.0f, tune_p99 = 0.0f;
     bool reference = true;
+    hz_lod_mode modes[HZ_LOD_MODE_COUNT * 2];
+    int nmodes = 0;
     char **rest = calloc((size_t)argc + 1, sizeof *rest);
     int nrest = 0;
     if (!rest)
@@ -115,6 +532,7 @@ int cmd_bench(int argc, char **argv)
         }
         bool takes = !strcmp(a, "--path") || !strcmp(a, "--frames") || !strcmp(a, "--fps") ||
                      !strcmp(a, "--reference") || !strcmp(a, "--plot") || !strcmp(a, "--save-frames") ||
+                     !strcmp(a, "--tune-p99") || (!strcmp(a, "--lod") && v && strchr(v, ',')) ||
                      (!strcmp(a, "--json") && v && v[0] != '-');
         if (!takes) {
             rest[nrest++] = argv[i];
@@ -135,7 +553,13 @@ int cmd_bench(int argc, char **argv)
             plot_out = v;
         else if (!strcmp(a, "--save-frames"))
             save_dir = v;
-        else if (!strcmp(a, "--reference")) {
+        else if (!strcmp(a, "--lod")) {
+            nmodes = parse_modes(v, modes, (int)(sizeof modes / sizeof *modes));
+            if (nmodes < 0) {
+                free(rest);
+                return 2;
+            }
+        } else if (!strcmp(a, "--reference")) {
             if (strcmp(v, "on") && strcmp(v, "off")) {
                 fprintf(stderr, "horizon bench: --reference takes on or off\n");
                 free(rest);
@@ -150,327 +574,160 @@ int cmd_bench(int argc, char **argv)
                 return 2;
             }
             frames = (uint32_t)f;
-        } else if (!strcmp(a, "--fps")) {
+        } else if (!strcmp(a, "--fps") || !strcmp(a, "--tune-p99")) {
             double f = strtod(v, &end);
-            if (*end || end == v || !(f >= 0.1 && f <= 10000)) {
-                fprintf(stderr, "horizon bench: invalid value '%s' for --fps: expected 0.1..10000\n", v);
+            const bool is_fps = !strcmp(a, "--fps");
+            if (*end || end == v || !(f >= (is_fps ? 0.1 : 0.01) && f <= (is_fps ? 10000 : 1000))) {
+                fprintf(stderr, "horizon bench: invalid value '%s' for %s: expected %s\n", v, a,
+                        is_fps ? "0.1..10000" : "pixels in 0.01..1000");
                 free(rest);
                 return 2;
             }
-            fps = (float)f;
+            if (is_fps)
+                fps = (float)f;
+            else
+                tune_p99 = (float)f;
         }
     }
-    cli_opts o;
-    int rc = cli_parse(nrest, rest, 2, &o, "bench");
+    bench b = {.frames = frames, .fps = fps, .reference = reference, .save_dir = save_dir};
+    int rc = cli_parse(nrest, rest, 2, &b.o, "bench");
     free(rest);
     if (rc)
         return rc;
-    if (o.out || o.dump_mesh) {
+    if (b.o.out || b.o.dump_mesh) {
         fprintf(stderr, "horizon bench: --out/--dump-mesh belong to render; use --save-frames DIR\n");
         return 2;
     }
+    if (nmodes == 0)
+        modes[nmodes++] = b.o.lod.mode;
+    b.quiet = b.o.quiet;
 
-    hz_terrain *t = cli_load_terrain(&o);
-    if (!t)
+    b.t = cli_load_terrain(&b.o);
+    if (!b.t)
         return 1;
-    hz_err err = {0};
-    hz_path path = {0};
+    for (int m = 0; m < nmodes; m++)
+        if (hz_lod_prepare(b.t->lod, modes[m]) != HZ_OK) {
+            fprintf(stderr, "horizon bench: out of memory preparing the %s LOD data\n", hz_lod_mode_name(modes[m]));
+            hz_terrain_destroy(b.t);
+            return 1;
+        }
     size_t plen = strlen(path_name);
-    hz_result pr = plen > 4 && !strcmp(path_name + plen - 4, ".csv") ? hz_path_load_csv(path_name, &path, &err)
-                                                                     : hz_terrain_path(t, path_name, &path, &err);
+    hz_result pr = plen > 4 && !strcmp(path_name + plen - 4, ".csv") ? hz_path_load_csv(path_name, &b.path, &b.err)
+                                                                     : hz_terrain_path(b.t, path_name, &b.path, &b.err);
     if (pr != HZ_OK) {
-        fprintf(stderr, "horizon bench: %s\n", err.msg);
-        hz_terrain_destroy(t);
-        return pr == HZ_ERR_VALUE && strstr(err.msg, "unknown path") ? 2 : 1;
+        fprintf(stderr, "horizon bench: %s\n", b.err.msg);
+        hz_terrain_destroy(b.t);
+        return pr == HZ_ERR_VALUE && strstr(b.err.msg, "unknown path") ? 2 : 1;
     }
 
     rc = 1;
-    const size_t npx = (size_t)o.width * o.height;
-    frame_row *rows = calloc(frames, sizeof *rows);
-    uint8_t *img[2] = {malloc(npx * 3), malloc(npx * 3)}, *ref[2] = {malloc(npx * 3), malloc(npx * 3)};
-    uint8_t *sky_l = malloc(npx), *sky_r = malloc(npx);
-    hz_index_list il = {0}, rl = {0};
-    hz_float_buf scratch = {0};
-    float *surf[2] = {NULL, NULL};
-    hz_renderer *ren = NULL;
     hz_gl *gl = NULL;
-    if (!rows || !img[0] || !img[1] || !ref[0] || !ref[1] || !sky_l || !sky_r) {
-        hz_err_set(&err, HZ_ERR_MEMORY, "out of memory");
+    FILE *jf = NULL;
+    frame_row *rows = NULL;
+    b.npx = (size_t)b.o.width * b.o.height;
+    b.cache_ref = reference && nmodes > 1;
+    rows = calloc(frames, sizeof *rows);
+    for (int k = 0; k < 2; k++) {
+        b.img[k] = malloc(b.npx * 3);
+        b.ref[k] = malloc(b.npx * 3);
+    }
+    b.sky_l = malloc(b.npx);
+    b.sky_r = malloc(b.npx);
+    if (!rows || !b.img[0] || !b.img[1] || !b.ref[0] || !b.ref[1] || !b.sky_l || !b.sky_r) {
+        hz_err_set(&b.err, HZ_ERR_MEMORY, "out of memory");
         goto done;
     }
     if (reference) {
-        const size_t ns = (size_t)t->hm.size * t->hm.size;
-        surf[0] = malloc(ns * sizeof(float));
-        surf[1] = malloc(ns * sizeof(float));
-        if (!surf[0] || !surf[1]) {
-            hz_err_set(&err, HZ_ERR_MEMORY, "out of memory for the surface buffers (use --reference off)");
+        const size_t ns = (size_t)b.t->hm.size * b.t->hm.size;
+        b.surf[0] = malloc(ns * sizeof(float));
+        b.surf[1] = malloc(ns * sizeof(float));
+        if (!b.surf[0] || !b.surf[1]) {
+            hz_err_set(&b.err, HZ_ERR_MEMORY, "out of memory for the surface buffers (use --reference off)");
             goto done;
         }
     }
-    gl = hz_gl_create_headless(&err);
+    gl = hz_gl_create_headless(&b.err);
     if (!gl)
         goto done;
-    ren = hz_renderer_create(&(hz_renderer_desc){.width = o.width, .height = o.height}, &err);
-    if (!ren || cli_renderer_setup(ren, t, &o, &err) != HZ_OK)
+    b.ren = hz_renderer_create(&(hz_renderer_desc){.width = b.o.width, .height = b.o.height}, &b.err);
+    if (!b.ren || hz_renderer_set_heightmap(b.ren, &b.t->hm, b.t->spacing, b.t->zscale, &b.err) != HZ_OK)
         goto done;
-
-    hz_camera cam = cli_camera(&o, t);
-    /* Full resolution inside the frustum: every node splits down to 3x3. */
-    hz_lod_params refp = {.c = 1e30f, .c2 = 1e30f, .criterion = HZ_LOD_CLAMPED};
-    /* One untimed warm-up frame: buffer allocation and shader compilation in
-     * llvmpipe happen on the first draw, not in steady state. */
-    hz_path_sample(&path, 0.0f, &cam);
-    hz_lod_stats st0;
-    hz_scene_params sp0 = {0};
-    if (hz_lod_select(t->lod, &cam, &o.lod, &il, NULL, NULL, &st0) != HZ_OK)
+    for (int m = 0; m < nmodes; m++)
+        if (modes[m] == HZ_LOD_CDLOD) {
+            if (hz_renderer_set_morph(b.ren, hz_lod_morph_errors(b.t->lod), &b.err) != HZ_OK)
+                goto done;
+            break;
+        }
+    if (b.cache_ref && cache_references(&b) != HZ_OK)
         goto done;
-    cli_scene_lod(&sp0, &st0);
-    if (hz_renderer_draw(ren, &cam, &sp0, il.data, (uint32_t)il.count, NULL, &err) != HZ_OK)
-        goto done;
-    double t_start = hz_time_ms(), last_progress = t_start;
-    for (uint32_t f = 0; f < frames; f++) {
-        frame_row *row = &rows[f];
-        row->t = (double)f / fps;
-        hz_path_sample(&path, (float)row->t, &cam);
-        double f0 = hz_time_ms();
-        hz_lod_stats st;
-        if (hz_lod_select(t->lod, &cam, &o.lod, &il, NULL, NULL, &st) != HZ_OK) {
-            hz_err_set(&err, HZ_ERR_MEMORY, "LOD selection out of memory");
-            goto done;
-        }
-        hz_draw_stats ds;
-        hz_scene_params sp = {0};
-        cli_scene_lod(&sp, &st);
-        if (hz_renderer_draw(ren, &cam, &sp, il.data, (uint32_t)il.count, &ds, &err) != HZ_OK)
-            goto done;
-        row->frame_ms = hz_time_ms() - f0;
-        row->triangles = st.triangles;
-        row->nodes_visited = st.nodes_visited;
-        row->nodes_culled = st.nodes_culled;
-        row->restricted = st.restricted;
-        row->lod_ms = st.ms;
-        row->upload_ms = ds.upload_ms;
-        row->draw_ms = ds.draw_ms;
-        uint8_t *cur = img[f & 1], *prev = img[(f + 1) & 1];
-        if (hz_renderer_read_rgb(ren, cur, &err) != HZ_OK || hz_renderer_read_sky_mask(ren, sky_l, &err) != HZ_OK)
-            goto done;
-        hz_px_error pe;
-        morph_user mu = {t->lod, &cam, &st};
-        if (hz_metrics_px_error_ex(&t->hm, t->spacing, t->zscale, il.data, il.count,
-                                   st.morph_scale > 0 ? morph_height : NULL, &mu, &cam, o.height, &scratch,
-                                   &pe) != HZ_OK) {
-            hz_err_set(&err, HZ_ERR_MEMORY, "pixel error out of memory");
-            goto done;
-        }
-        row->px_p99 = pe.p99_px;
-        row->px_max = pe.max_px;
-        row->uncovered = pe.uncovered;
-        char name[1024];
-        if (save_dir) {
-            snprintf(name, sizeof name, "%s/lod_%04u.png", save_dir, f);
-            if (hz_image_write_png(name, cur, o.width, o.height, &err) != HZ_OK)
-                goto done;
-        }
-        if (reference) {
-            uint8_t *rcur = ref[f & 1], *rprev = ref[(f + 1) & 1];
-            hz_lod_stats rs;
-            if (hz_lod_select(t->lod, &cam, &refp, &rl, NULL, NULL, &rs) != HZ_OK) {
-                hz_err_set(&err, HZ_ERR_MEMORY, "reference selection out of memory");
-                goto done;
-            }
-            row->ref_triangles = rs.triangles;
-            if (hz_renderer_draw(ren, &cam, NULL, rl.data, (uint32_t)rl.count, NULL, &err) != HZ_OK ||
-                hz_renderer_read_rgb(ren, rcur, &err) != HZ_OK ||
-                hz_renderer_read_sky_mask(ren, sky_r, &err) != HZ_OK)
-                goto done;
-            float *scur = surf[f & 1], *sprev = surf[(f + 1) & 1];
-            hz_metrics_surface(&t->hm, t->zscale, il.data, il.count, st.morph_scale > 0 ? morph_height : NULL, &mu,
-                               scur);
-            if (f) {
-                hz_pop_stats ps;
-                hz_metrics_surface_change(&t->hm, t->spacing, t->zscale, sprev, scur, &cam, o.height, &ps);
-                row->pop_px_max = ps.max_px;
-                row->pop_px_mean = ps.mean_px;
-            }
-            row->psnr = hz_metrics_psnr(cur, rcur, npx);
-            row->silhouette = hz_metrics_silhouette(sky_l, sky_r, npx);
-            row->popping = f ? hz_metrics_popping(prev, cur, rprev, rcur, npx) : 0.0;
-            if (save_dir) {
-                snprintf(name, sizeof name, "%s/ref_%04u.png", save_dir, f);
-                if (hz_image_write_png(name, rcur, o.width, o.height, &err) != HZ_OK)
-                    goto done;
-            }
-        }
-        double now = hz_time_ms();
-        if (!o.quiet && (now - last_progress > 200 || f + 1 == frames) && now - t_start > 1000) {
-            hz_progress_stderr(NULL, "bench frames", f + 1, frames);
-            last_progress = now;
-        }
-    }
-
-    /* Summary. */
-    const size_t n = frames;
-    /* Popping is defined from the second frame on. */
-    const frame_row *pop_rows = n > 1 ? rows + 1 : rows;
-    const size_t pop_n = n > 1 ? n - 1 : n;
-    double bps = hz_lod_bytes_per_sample(t->lod), rss = (double)hz_peak_rss_bytes() / 1048576.0;
-#define OFF(f) offsetof(frame_row, f)
-    struct {
-        const char *name;
-        size_t off;
-        bool u32;
-        const frame_row *r;
-        size_t n;
-    } cols[] = {
-        {"triangles", OFF(triangles), true, rows, n},
-        {"nodes_visited", OFF(nodes_visited), true, rows, n},
-        {"nodes_culled", OFF(nodes_culled), true, rows, n},
-        {"lod_ms", OFF(lod_ms), false, rows, n},
-        {"upload_ms", OFF(upload_ms), false, rows, n},
-        {"draw_ms", OFF(draw_ms), false, rows, n},
-        {"frame_ms", OFF(frame_ms), false, rows, n},
-        {"px_error_p99", OFF(px_p99), false, rows, n},
-        {"px_error_max", OFF(px_max), false, rows, n},
-        {"psnr_db", OFF(psnr), false, rows, n},
-        {"silhouette_frac", OFF(silhouette), false, rows, n},
-        {"popping", OFF(popping), false, pop_rows, pop_n},
-        {"pop_px_max", OFF(pop_px_max), false, pop_rows, pop_n},
-        {"pop_px_mean", OFF(pop_px_mean), false, pop_rows, pop_n},
-    };
-    const size_t ncols = reference ? sizeof cols / sizeof *cols : 9;
-    double summ[sizeof cols / sizeof *cols][3];
-    for (size_t c = 0; c < ncols; c++) {
-        double (*fn)(const frame_row *, size_t, size_t, double) = cols[c].u32 ? pct_u32 : pct;
-        summ[c][0] = fn(cols[c].r, cols[c].n, cols[c].off, 0.5);
-        summ[c][1] = fn(cols[c].r, cols[c].n, cols[c].off, 0.95);
-        summ[c][2] = fn(cols[c].r, cols[c].n, cols[c].off, 1.0);
-    }
-    if (!o.quiet || !json_out) {
-        char lodtxt[128];
-        if (o.lod.pixel_error > 0 || o.lod.mode == HZ_LOD_ROAM || o.lod.mode == HZ_LOD_CDLOD)
-            snprintf(lodtxt, sizeof lodtxt, "%s, pixel error %g", hz_lod_mode_name(o.lod.mode),
-                     (double)(o.lod.pixel_error > 0 ? o.lod.pixel_error : 1.0f));
-        else
-            snprintf(lodtxt, sizeof lodtxt, "%s, C=%g C2=%g", hz_lod_mode_name(o.lod.mode),
-                     (double)(o.lod.c > 0 ? o.lod.c : 25), (double)(o.lod.c2 > 0 ? o.lod.c2 : 2.5f));
-        printf("horizon bench: %s (%ux%u, %.1f m), path %s, %u frames at %ux%u, %s%s\n", t->source, t->hm.size,
-               t->hm.size, (double)t->spacing, path.name, frames, o.width, o.height, lodtxt,
-               reference ? "" : ", no reference");
-        printf("%-18s %12s %12s %12s\n", "", "median", "p95", "max");
-        for (size_t c = 0; c < ncols; c++)
-            printf("%-18s %12.4g %12.4g %12.4g\n", cols[c].name, summ[c][0], summ[c][1], summ[c][2]);
-        printf("%-18s %12.3f\n%-18s %12.1f\n", "bytes_per_sample", bps, "peak_rss_mb", rss);
-    }
     if (json_out) {
-        FILE *jf = fopen(json_out, "w");
+        jf = fopen(json_out, "w");
         if (!jf) {
-            hz_err_set(&err, HZ_ERR_IO, "cannot write '%s'", json_out);
+            hz_err_set(&b.err, HZ_ERR_IO, "cannot write '%s'", json_out);
             goto done;
         }
-        fprintf(jf, "{\"frames\":%u,\"terrain\":\"%s\",\"size\":%u,\"spacing\":%g,\"lod_mode\":\"%s\","
-                    "\"pixel_error\":%g,\"criterion\":\"%s\",\"lod_c\":%g,\"lod_c2\":%g,\"path\":\"%s\",\"fps\":%g,"
-                    "\"width\":%u,\"height\":%u,\"fov\":%g,\"far\":%g,\"reference\":%s,",
-                frames, t->source, t->hm.size, (double)t->spacing, hz_lod_mode_name(o.lod.mode),
-                (double)o.lod.pixel_error,
-                o.lod.criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped",
-                (double)(o.lod.c > 0 ? o.lod.c : 25), (double)(o.lod.c2 > 0 ? o.lod.c2 : 2.5f), path.name,
-                (double)fps, o.width, o.height, (double)cam.fov_y, (double)cam.zfar, reference ? "true" : "false");
-        for (size_t c = 0; c < ncols; c++) {
-            const char *nm = cols[c].name;
-            if (!strcmp(nm, "silhouette_frac") || !strcmp(nm, "popping")) {
-                /* the issue's keys: mean over frames */
-                double s = 0;
-                for (size_t i = 0; i < cols[c].n; i++)
-                    s += *(const double *)((const char *)&cols[c].r[i] + cols[c].off);
-                fprintf(jf, "\"%s\":", nm);
-                json_num(jf, cols[c].n ? s / (double)cols[c].n : 0);
-                fprintf(jf, ",\"%s_max\":", nm);
-                json_num(jf, summ[c][2]);
+        if (nmodes > 1)
+            fputs("{\"compare\":[", jf);
+    }
+    for (int m = 0; m < nmodes; m++) {
+        hz_lod_params lod = b.o.lod;
+        lod.mode = modes[m];
+        double tuned = 0;
+        if (tune_p99 > 0 && tune(&b, &lod, tune_p99, &tuned) != HZ_OK)
+            goto done;
+        if (run(&b, &lod, rows) != HZ_OK)
+            goto done;
+        summary s;
+        summarize(&b, rows, &s);
+        if (!b.quiet || !json_out)
+            print_table(&b, &lod, &s, tune_p99);
+        if (jf) {
+            if (m)
                 fputc(',', jf);
-                continue;
-            }
-            fprintf(jf, "\"%s_median\":", nm);
-            json_num(jf, summ[c][0]);
-            fprintf(jf, ",\"%s_p95\":", nm);
-            json_num(jf, summ[c][1]);
-            fprintf(jf, ",\"%s_max\":", nm);
-            json_num(jf, summ[c][2]);
-            fputc(',', jf);
+            write_json(jf, &b, &lod, rows, &s, tune_p99);
         }
-        if (!reference)
-            fputs("\"psnr_db_median\":null,\"silhouette_frac\":null,\"popping\":null,\"pop_px_max_median\":null,", jf);
-        /* px_error_p99 / px_error_max as top-level keys (p95 over frames of the
-         * per-frame p99, and the max over all frames). */
-        fprintf(jf, "\"px_error_p99\":");
-        json_num(jf, summ[7][1]);
-        fprintf(jf, ",\"px_error_max\":");
-        json_num(jf, summ[8][2]);
-        fprintf(jf, ",\"bytes_per_sample\":%.4f,\"peak_rss_mb\":%.1f,\"per_frame\":[", bps, rss);
-        for (size_t i = 0; i < n; i++) {
-            const frame_row *r = &rows[i];
-            fprintf(jf, "%s{\"t\":%.4f,\"triangles\":%u,\"nodes_visited\":%u,\"nodes_culled\":%u,"
-                        "\"restricted\":%u,\"lod_ms\":%.4f,\"upload_ms\":%.4f,\"draw_ms\":%.3f,\"frame_ms\":%.3f,"
-                        "\"px_error_p99\":%.5g,\"px_error_max\":%.5g,\"uncovered\":%llu",
-                    i ? "," : "", r->t, r->triangles, r->nodes_visited, r->nodes_culled, r->restricted, r->lod_ms,
-                    r->upload_ms, r->draw_ms, r->frame_ms, r->px_p99, r->px_max, (unsigned long long)r->uncovered);
-            if (reference) {
-                fprintf(jf, ",\"ref_triangles\":%u,\"psnr_db\":", r->ref_triangles);
-                json_num(jf, r->psnr);
-                fprintf(jf, ",\"silhouette_frac\":%.6g,\"popping\":%.6g,\"pop_px_max\":%.6g,\"pop_px_mean\":%.6g",
-                        r->silhouette, r->popping, r->pop_px_max, r->pop_px_mean);
-            }
-            fputc('}', jf);
-        }
-        fputs("]}\n", jf);
-        if (fclose(jf) != 0) {
-            hz_err_set(&err, HZ_ERR_IO, "cannot write '%s'", json_out);
+        if (plot_out && nmodes == 1 && plot(&b, plot_out, rows, &b.err) != HZ_OK)
+            goto done;
+    }
+    if (jf) {
+        fputs(nmodes > 1 ? "]}\n" : "\n", jf);
+        int closed = fclose(jf);
+        jf = NULL;
+        if (closed != 0) {
+            hz_err_set(&b.err, HZ_ERR_IO, "cannot write '%s'", json_out);
             goto done;
         }
     }
-    if (plot_out) {
-        char dat[1100];
-        snprintf(dat, sizeof dat, "%s.dat", plot_out);
-        FILE *df = fopen(dat, "w");
-        if (!df) {
-            hz_err_set(&err, HZ_ERR_IO, "cannot write '%s'", dat);
-            goto done;
-        }
-        for (size_t i = 0; i < n; i++)
-            fprintf(df, "%u %u %.3f %.4f\n", (unsigned)i, rows[i].triangles, rows[i].frame_ms, rows[i].px_p99);
-        fclose(df);
-        char cmd[4096];
-        snprintf(cmd, sizeof cmd,
-                 "gnuplot -e \"set terminal pngcairo size 1000,700 noenhanced; set output '%s'; set multiplot layout 3,1 title '%s %s'; "
-                 "set xlabel 'frame'; set ylabel 'triangles'; plot '%s' using 1:2 with lines notitle; "
-                 "set ylabel 'frame ms'; plot '%s' using 1:3 with lines notitle; "
-                 "set ylabel 'px error p99'; plot '%s' using 1:4 with lines notitle; unset multiplot\"",
-                 plot_out, t->source, path.name, dat, dat, dat);
-        if (system(cmd) != 0) {
-            hz_err_set(&err, HZ_ERR_IO, "gnuplot failed or is not installed (apt-get install gnuplot-nox); data in %s",
-                       dat);
-            goto done;
-        }
-        remove(dat);
-    }
+    if (plot_out && nmodes > 1)
+        fprintf(stderr, "horizon bench: --plot charts a single mode; skipped for %d modes\n", nmodes);
     rc = 0;
 done:
     if (rc)
-        fprintf(stderr, "horizon bench: %s\n", err.msg[0] ? err.msg : "failed");
-    hz_renderer_destroy(ren);
+        fprintf(stderr, "horizon bench: %s\n", b.err.msg[0] ? b.err.msg : "failed");
+    if (jf)
+        fclose(jf);
+    hz_renderer_destroy(b.ren);
     hz_gl_destroy(gl);
+    if (b.ref_rgb)
+        for (uint32_t f = 0; f < frames; f++) {
+            free(b.ref_rgb[f]);
+            free(b.ref_sky[f]);
+        }
+    free(b.ref_rgb);
+    free(b.ref_sky);
+    free(b.ref_tris);
     free(rows);
-    free(img[0]);
-    free(img[1]);
-    free(ref[0]);
-    free(ref[1]);
-    free(sky_l);
-    free(sky_r);
-    free(il.data);
-    free(rl.data);
-    free(scratch.data);
-    free(surf[0]);
-    free(surf[1]);
-    hz_path_free(&path);
-    hz_terrain_destroy(t);
+    for (int k = 0; k < 2; k++) {
+        free(b.img[k]);
+        free(b.ref[k]);
+        free(b.surf[k]);
+    }
+    free(b.sky_l);
+    free(b.sky_r);
+    free(b.il.data);
+    free(b.rl.data);
+    free(b.scratch.data);
+    hz_path_free(&b.path);
+    hz_terrain_destroy(b.t);
     return rc;
 }

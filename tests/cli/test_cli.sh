@@ -101,5 +101,45 @@ $HZ bench --quiet --generate perlin --size 257 --frames 3 --width 160 --height 9
 expect_fail "bench unknown path"    "unknown path"            $HZ bench --quiet --size 257 --path nowhere
 expect_fail "bench bad frames"      "invalid value"           $HZ bench --quiet --size 257 --frames 0
 
+# LOD modes: every mode renders with its figures; bad mode options are refused.
+for m in quadtree remedy bidirectional roam cdlod; do
+  j=$($R --generate diamond --size 513 --seed 2 --lod $m --pixel-error 2 --json --out "$TMP/m_$m.png" --dump-mesh "$TMP/m_$m.obj" 2>"$TMP/m_$m.err")
+  rc=$?
+  if [ $rc -eq 0 ] && python3 - "$j" "$TMP/m_$m.obj" "$m" <<'PY'
+import json, sys
+j = json.loads(sys.argv[1]); mode = sys.argv[3]
+assert j["lod_mode"] == mode and j["pixel_error"] == 2 and j["triangles"] > 100, j
+f = sum(1 for l in open(sys.argv[2]) if l.startswith("f "))
+assert f == j["triangles"], (f, j["triangles"])
+head = open(sys.argv[2]).readline()
+assert ("cdlod morph applied" in head) == (mode == "cdlod"), head
+PY
+  then ok "render --lod $m"; else bad "render --lod $m (exit $rc): $j $(cat "$TMP/m_$m.err")"; fi
+done
+expect_fail "unknown LOD mode"      "invalid value.*--lod"    $R --lod rottger
+expect_fail "bad pixel error"       "invalid value"           $R --pixel-error 0
+expect_fail "bad morph start"       "invalid value"           $R --morph-start 0.3
+expect_fail "bad roam budget"       "invalid value"           $R --roam-budget 3
+expect_fail "bad bidir distance"    "invalid value"           $R --bidir-distance -5
+expect_fail "bench bad mode list"   "invalid value.*--lod"    $HZ bench --quiet --size 257 --lod quadtree,nope
+expect_fail "bench bad tune target" "invalid value"           $HZ bench --quiet --size 257 --tune-p99 0
+
+# bench compares modes on shared reference frames, each tuned to a p99 target.
+if $HZ bench --quiet --generate perlin --size 257 --frames 4 --width 320 --height 180 --lod quadtree,roam,cdlod \
+      --tune-p99 1 --json "$TMP/cmp.json" >/dev/null 2>"$TMP/cmp.err" &&
+   python3 - "$TMP/cmp.json" <<'PY'
+import json, sys
+j = json.load(open(sys.argv[1]))
+runs = j["compare"]
+assert [r["lod_mode"] for r in runs] == ["quadtree", "roam", "cdlod"], runs
+for r in runs:
+    assert r["tuned_for_p99"] == 1 and r["pixel_error"] > 0, r
+    assert r["px_error_p99"] <= 1.0 + 1e-9, (r["lod_mode"], r["px_error_p99"])
+    assert "pop_px_max_median" in r and len(r["per_frame"]) == 4
+    # the same reference frames for every mode
+    assert [f["ref_triangles"] for f in r["per_frame"]] == [f["ref_triangles"] for f in runs[0]["per_frame"]]
+PY
+then ok "bench --lod list --tune-p99"; else bad "bench compare: $(cat "$TMP/cmp.err")"; fi
+
 echo "$passes passed, $fails failed"
 [ $fails -eq 0 ]
