@@ -27,6 +27,8 @@ typedef struct rtri {
     int32_t ln, rn, bn;  /* neighbours across a-l, a-r, l-r (-1: map border) */
     uint32_t gen;        /* bumped when the slot is freed or its children change */
     float prio;          /* this frame's priority, pixels */
+    float err_m;         /* nested error bound, metres (0: cannot split) */
+    float box[2][3];     /* wedgie box: the vertices' extent, heights +- err_m */
 } rtri;
 
 typedef struct heap_item {
@@ -42,6 +44,7 @@ typedef struct heap {
 } heap;
 
 struct roam_state {
+    const hz_lod *lod;
     uint16_t *err;       /* per sample, h16 steps */
     rtri *t;
     size_t n, cap;       /* slots used / allocated */
@@ -70,6 +73,28 @@ static inline bool can_split(uint32_t n, uint32_t l, uint32_t r)
 static inline uint32_t midpoint(uint32_t n, uint32_t l, uint32_t r)
 {
     return ((l / n + r / n) / 2) * n + (l % n + r % n) / 2;
+}
+
+/* Caches a new triangle's error (metres) and wedgie box. */
+static void tri_setup(const roam_state *R, rtri *T)
+{
+    const hz_lod *lod = R->lod;
+    const uint32_t n = lod->size;
+    T->err_m = can_split(n, T->l, T->r) ? (float)R->err[midpoint(n, T->l, T->r)] * lod->hm->scale * lod->zscale
+                                        : 0.0f;
+    const uint32_t v[3] = {T->a, T->l, T->r};
+    for (int k = 0; k < 3; k++) {
+        const uint32_t i = v[k] % n, j = v[k] / n;
+        const float p[3] = {(float)i * lod->spacing, hworld(lod, i, j), (float)j * lod->spacing};
+        for (int d = 0; d < 3; d++) {
+            if (k == 0 || p[d] < T->box[0][d])
+                T->box[0][d] = p[d];
+            if (k == 0 || p[d] > T->box[1][d])
+                T->box[1][d] = p[d];
+        }
+    }
+    T->box[0][1] -= T->err_m;
+    T->box[1][1] += T->err_m;
 }
 
 static float tri_err(err_ctx *c, uint32_t a, uint32_t l, uint32_t r)
@@ -185,6 +210,12 @@ static hz_result split_tri(roam_state *R, uint32_t n, int32_t ti, hz_lod_stats *
         R->t[L].rn = -1;
         R->t[Rr].ln = -1;
     }
+    tri_setup(R, &R->t[L]);
+    tri_setup(R, &R->t[Rr]);
+    if (b >= 0) {
+        tri_setup(R, &R->t[bk]);
+        tri_setup(R, &R->t[bk + 1]);
+    }
     if (born_push(nb, L) || born_push(nb, Rr))
         return HZ_ERR_MEMORY;
     return HZ_OK;
@@ -275,44 +306,13 @@ typedef struct frame_ctx {
     vec3 eye;
 } frame_ctx;
 
-/* Wedgie box of a triangle: its vertices' extent, heights +- its error. */
-static void tri_box(const frame_ctx *c, const rtri *T, float e_m, vec3 box[2])
-{
-    const hz_lod *lod = c->lod;
-    const uint32_t n = lod->size;
-    const uint32_t v[3] = {T->a, T->l, T->r};
-    for (int k = 0; k < 3; k++) {
-        const uint32_t i = v[k] % n, j = v[k] / n;
-        const float p[3] = {(float)i * lod->spacing, hworld(lod, i, j), (float)j * lod->spacing};
-        for (int d = 0; d < 3; d++) {
-            if (k == 0 || p[d] < box[0][d])
-                box[0][d] = p[d];
-            if (k == 0 || p[d] > box[1][d])
-                box[1][d] = p[d];
-        }
-    }
-    box[0][1] -= e_m;
-    box[1][1] += e_m;
-}
-
-static float tri_error_m(const frame_ctx *c, const rtri *T)
-{
-    const uint32_t n = c->lod->size;
-    if (!can_split(n, T->l, T->r))
-        return 0.0f;
-    return (float)c->R->err[midpoint(n, T->l, T->r)] * c->hsw;
-}
-
 static float priority(const frame_ctx *c, rtri *T, bool *outside)
 {
-    const float e = tri_error_m(c, T);
-    vec3 box[2];
-    tri_box(c, T, e, box);
-    *outside = !c->no_cull && box_outside((const vec3 *)box, (const vec4 *)c->planes, c->margin);
-    if (*outside || e <= 0.0f)
+    *outside = !c->no_cull && box_outside((const vec3 *)T->box, (const vec4 *)c->planes, c->margin);
+    if (*outside || T->err_m <= 0.0f)
         return 0.0f;
-    const float d = box_distance((const vec3 *)box, c->eye);
-    return e * c->k / fmaxf(d, 1e-3f);
+    const float d = box_distance((const vec3 *)T->box, c->eye);
+    return T->err_m * c->k / fmaxf(d, 1e-3f);
 }
 
 static hz_result roam_init(hz_lod *lod)
@@ -333,12 +333,15 @@ static hz_result roam_init(hz_lod *lod)
     if (lod->desc.progress)
         lod->desc.progress(lod->desc.progress_user, "roam error bounds", ec.total, ec.total);
     R->split.max = true;
+    R->lod = lod;
     lod->roam = R;
     int32_t k = alloc_pair(R);
     if (k < 0)
         return HZ_ERR_MEMORY;
     R->t[k] = (rtri){.a = B, .l = A, .r = C, .parent = -1, .child = -1, .ln = -1, .rn = -1, .bn = k + 1};
     R->t[k + 1] = (rtri){.a = D, .l = C, .r = A, .parent = -1, .child = -1, .ln = -1, .rn = -1, .bn = k};
+    tri_setup(R, &R->t[k]);
+    tri_setup(R, &R->t[k + 1]);
     R->leaves = 2;
     return HZ_OK;
 }
@@ -390,12 +393,14 @@ hz_result hz__lod_select_roam(hz_lod *lod, const hz_camera *cam, const hz_lod_pa
 
     /* Priorities of everything alive; candidate queues. */
     R->split.n = R->merge.n = 0;
+    /* Only leaves (split candidates) and parents of two leaves (merge
+     * candidates) need this frame's priority. */
     for (size_t i = 0; i < R->n; i++) {
         rtri *T = &R->t[i];
-        if (T->child == -2)
-            continue;
-        bool outside;
-        T->prio = priority(&c, T, &outside);
+        if (T->child == -1 || (T->child >= 0 && children_leaves(R, (int32_t)i))) {
+            bool outside;
+            T->prio = priority(&c, T, &outside);
+        }
     }
     for (size_t i = 0; i < R->n; i++) {
         rtri *T = &R->t[i];
@@ -477,9 +482,7 @@ hz_result hz__lod_select_roam(hz_lod *lod, const hz_camera *cam, const hz_lod_pa
             continue;
         st->nodes_visited++;
         if (!p->no_cull) {
-            vec3 box[2];
-            tri_box(&c, T, tri_error_m(&c, T), box);
-            if (box_outside((const vec3 *)box, (const vec4 *)c.planes, c.margin)) {
+            if (box_outside((const vec3 *)T->box, (const vec4 *)c.planes, c.margin)) {
                 st->nodes_culled++;
                 continue;
             }
