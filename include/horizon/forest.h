@@ -108,6 +108,8 @@ typedef struct hz_forest_params {
     bool enlarge;        /* F4 on */
     bool node_culling;   /* per-node frustum culling within detailed trees */
     float hull_dist;     /* trees beyond this are drawn as crown hull + trunk; 0 -> far_m */
+    bool fixed_rate;     /* every node uses `fixed` instead of F3 (previews, measurements) */
+    float fixed;
 } hz_forest_params;
 
 /* What to draw for one tree this frame. */
@@ -132,6 +134,7 @@ typedef struct hz_forest_frame {
     uint64_t triangles_drawn;  /* leaves kept * 2 + bark + hulls */
     uint64_t leaves_drawn;
     double select_ms;
+    uint64_t serial;     /* increases with every update (lets drawers cache per frame) */
 } hz_forest_frame;
 
 /* The forest keeps the trees and per-node state (rates, timers) for F6.

@@ -215,6 +215,7 @@ struct hz_forest {
     hz_forest_draw *draws;
     uint32_t *counts;
     float *scales;
+    uint64_t serial;
 };
 
 hz_forest *hz_forest_create(const hz_tree *const *models, uint32_t model_count, const hz_forest_tree *trees,
@@ -359,7 +360,8 @@ hz_result hz_forest_update(hz_forest *f, const hz_camera *cam, const hz_forest_p
     hz_forest_params P = params ? *params : (hz_forest_params){.simplify = true, .enlarge = true};
     P.rate = hz_rate_params_defaults(&P.rate);
     const float hull_dist = P.hull_dist > 0 ? P.hull_dist : P.rate.far_m;
-    *fr = (hz_forest_frame){.draws = f->draws, .counts = f->counts, .scales = f->scales, .trees = f->tree_count};
+    *fr = (hz_forest_frame){.draws = f->draws, .counts = f->counts, .scales = f->scales, .trees = f->tree_count,
+                            .serial = ++f->serial};
     vec4 planes[6];
     hz_camera_frustum(cam, planes);
     const float *eye = cam->pos;
@@ -417,7 +419,9 @@ hz_result hz_forest_update(hz_forest *f, const hz_camera *cam, const hz_forest_p
             xform_dir(m, br->dir, gdir);
             float *cur = &f->rate[sb + n], *since = &f->since[sb + n];
             float kept_frac = *cur >= 0.0f ? 1.0f - *cur : 1.0f;
-            float Rs = hz_rate_node(&P.rate, nd->bsl, br->level, nd_dist, nd->ld * kept_frac, ld0, v3_dot(los, gdir));
+            float Rs = P.fixed_rate ? fminf(fmaxf(P.fixed, 0.0f), 0.999f)
+                                    : hz_rate_node(&P.rate, nd->bsl, br->level, nd_dist, nd->ld * kept_frac, ld0,
+                                                   v3_dot(los, gdir));
             if (*cur < 0.0f) {
                 *cur = Rs;
                 *since = (float)now_s;
