@@ -85,7 +85,7 @@ typedef struct hz_tree {
 typedef struct hz_tree_desc {
     const char *species;   /* "oak", "maple", "birch", "conifer"; NULL -> "oak" */
     uint64_t seed;
-    uint32_t leaves;       /* target leaf count (approximate, +-15%); 0 -> the species' own
+    uint32_t leaves;       /* target leaf count (within ~10% from 1 000 leaves up); 0 -> the species' own
                               (50 000 .. 300 000) */
 } hz_tree_desc;
 

@@ -463,6 +463,82 @@ static void drop_small_components(mt_out *o, double frac)
     free(cnt);
 }
 
+typedef struct tcorner {
+    uint32_t v, b, c, tri, slot;
+} tcorner;
+
+static int cmp_tcorner(const void *a, const void *b)
+{
+    const tcorner *x = a, *y = b;
+    return (x->v > y->v) - (x->v < y->v);
+}
+
+/* A vertex where two fans of triangles touch (a pinch) gets one copy per
+ * fan, which makes it manifold without moving anything. Vertices are
+ * appended to *pos (capacity grown as needed). false on out of memory. */
+static bool split_pinched_vertices(uint32_t *idx, size_t ni, float **pos, uint32_t *nv, uint32_t *cap)
+{
+    size_t nc = ni;
+    tcorner *cn = malloc((nc ? nc : 1) * sizeof *cn);
+    if (!cn)
+        return false;
+    for (size_t t = 0; t < ni / 3; t++)
+        for (uint32_t k = 0; k < 3; k++)
+            cn[t * 3 + k] = (tcorner){idx[t * 3 + k], idx[t * 3 + (k + 1) % 3], idx[t * 3 + (k + 2) % 3],
+                                      (uint32_t)t, k};
+    qsort(cn, nc, sizeof *cn, cmp_tcorner);
+    bool ok = true;
+    uint32_t fan[256];
+    for (size_t s0 = 0; s0 < nc && ok;) {
+        size_t s1 = s0;
+        while (s1 < nc && cn[s1].v == cn[s0].v)
+            s1++;
+        size_t deg = s1 - s0;
+        if (deg <= 256) {
+            for (size_t i = 0; i < deg; i++)
+                fan[i] = (uint32_t)i;
+            /* union corners that share a link edge endpoint in chain order */
+            bool changed = true;
+            while (changed) {
+                changed = false;
+                for (size_t i = 0; i < deg; i++)
+                    for (size_t j = 0; j < deg; j++)
+                        if (cn[s0 + i].c == cn[s0 + j].b && fan[i] != fan[j]) {
+                            uint32_t m = fan[i] < fan[j] ? fan[i] : fan[j];
+                            fan[i] = fan[j] = m;
+                            changed = true;
+                        }
+            }
+            for (size_t i = 0; i < deg; i++) {
+                if (fan[i] == fan[0])
+                    continue;
+                /* first corner of a later fan: new vertex for the whole fan */
+                uint32_t f = fan[i];
+                if (*nv == *cap) {
+                    uint32_t ncap = *cap * 2 + 16;
+                    float *np = realloc(*pos, (size_t)ncap * 3 * sizeof *np);
+                    if (!np) {
+                        ok = false;
+                        break;
+                    }
+                    *pos = np;
+                    *cap = ncap;
+                }
+                uint32_t nvid = (*nv)++;
+                memcpy(*pos + (size_t)nvid * 3, *pos + (size_t)cn[s0].v * 3, 3 * sizeof(float));
+                for (size_t j = i; j < deg; j++)
+                    if (fan[j] == f) {
+                        idx[cn[s0 + j].tri * 3 + cn[s0 + j].slot] = nvid;
+                        fan[j] = fan[0]; /* handled */
+                    }
+            }
+        }
+        s0 = s1;
+    }
+    free(cn);
+    return ok;
+}
+
 static int cmp_float(const void *a, const void *b)
 {
     float x = *(const float *)a, y = *(const float *)b;
@@ -542,6 +618,7 @@ hz_result hz_hull_build(hz_tree *t, const hz_hull_desc *desc, hz_hull_stats *sta
      * from afar tolerates a few percent. */
     simp = malloc(o.ni * sizeof *simp);
     remap = malloc((size_t)o.nv * sizeof *remap);
+    size_t remap_cap = o.nv;
     if (!simp || !remap) {
         res = hz_err_set(err, HZ_ERR_MEMORY, "hull: out of memory");
         goto done;
@@ -551,9 +628,13 @@ hz_result hz_hull_build(hz_tree *t, const hz_hull_desc *desc, hz_hull_stats *sta
     size_t ni = o.ni;
     bool simplified = false;
     /* meshoptimizer's collapses can pinch a thin part of the crown into a
-     * non-manifold edge or vertex; then retry with a larger target, and keep
-     * the raw surface if none works, so far trees never show holes. */
-    for (int attempt = 0; attempt < 8 && o.ni > target && !simplified; attempt++) {
+     * non-manifold vertex (split it: one copy per fan) or edge (retry with
+     * targets around the asked one); should all fail, keep the raw surface,
+     * so that far trees never show holes. */
+    static const float factors[10] = {1.0f, 0.9f, 1.1f, 0.8f, 1.25f, 0.7f, 1.4f, 0.6f, 1.6f, 2.0f};
+    const size_t base_target = target;
+    for (int attempt = 0; attempt < 10 && o.ni > base_target && !simplified; attempt++) {
+        target = (size_t)((float)base_target * factors[attempt]) / 3 * 3;
         float rerr = 0.0f;
         ni = meshopt_simplify(simp, o.idx, o.ni, o.pos, o.nv, 3 * sizeof(float), target, 0.08f, 0, &rerr);
         hz_mesh_topology topo;
@@ -561,12 +642,31 @@ hz_result hz_hull_build(hz_tree *t, const hz_hull_desc *desc, hz_hull_stats *sta
             res = HZ_ERR_MEMORY;
             goto done;
         }
+        if (topo.bad_vertices && !topo.bad_edges && !topo.degenerate) {
+            /* Pinched vertices only: split them (appends vertices). */
+            if (!split_pinched_vertices(simp, ni, &o.pos, &o.nv, &o.cap_v)) {
+                res = hz_err_set(err, HZ_ERR_MEMORY, "hull: out of memory");
+                goto done;
+            }
+            if (o.nv > remap_cap) {
+                unsigned int *nr = realloc(remap, (size_t)o.nv * sizeof *nr);
+                if (!nr) {
+                    res = hz_err_set(err, HZ_ERR_MEMORY, "hull: out of memory");
+                    goto done;
+                }
+                remap = nr;
+                remap_cap = o.nv;
+            }
+            if (hz_mesh_check(simp, (uint32_t)ni, o.nv, &topo, err) != HZ_OK) {
+                res = HZ_ERR_MEMORY;
+                goto done;
+            }
+        }
         simplified = ni > 0 && !topo.bad_edges && !topo.bad_vertices && !topo.degenerate;
         if (getenv("HZ_HULL_DEBUG"))
             fprintf(stderr, "hull: simplified %zu -> %zu tris err %g bad e %lu v %lu deg %lu\n", o.ni / 3, ni / 3,
                     (double)rerr, (unsigned long)topo.bad_edges, (unsigned long)topo.bad_vertices,
                     (unsigned long)topo.degenerate);
-        target = target * 5 / 4 / 3 * 3;
     }
     if (!simplified) {
         memcpy(simp, o.idx, o.ni * sizeof *simp);

@@ -219,7 +219,9 @@ static void grow_stem(grow_ctx *g, uint32_t k, uint32_t parent, const float *sta
         /* Children: level k+1 stems. */
         const level_params *cp = &sp->lv[k + 1];
         float n_f = lp->children * (k + 2 == sp->levels ? g->twig_mul : 1.0f);
-        uint32_t n = (uint32_t)lrintf(n_f * (0.85f + 0.3f * rng_unit(&g->rng)));
+        /* Stochastic rounding keeps small multipliers meaningful. */
+        float nf = n_f * (0.85f + 0.3f * rng_unit(&g->rng));
+        uint32_t n = (uint32_t)nf + (rng_unit(&g->rng) < nf - floorf(nf) ? 1u : 0u);
         float rot = rng_unit(&g->rng) * 360.0f;
         for (uint32_t c = 0; c < n && !g->oom; c++) {
             float t;
@@ -255,7 +257,8 @@ static void grow_stem(grow_ctx *g, uint32_t k, uint32_t parent, const float *sta
         }
     } else {
         /* Last level: leaves, one leaf node for this stem. */
-        uint32_t m = (uint32_t)lrintf(sp->leaves * g->leaf_mul * (0.8f + 0.4f * rng_unit(&g->rng)));
+        float mf = sp->leaves * g->leaf_mul * (0.8f + 0.4f * rng_unit(&g->rng));
+        uint32_t m = (uint32_t)mf + (rng_unit(&g->rng) < mf - floorf(mf) ? 1u : 0u);
         if (m == 0)
             m = 1;
         if (g->leaves.n + m > g->max_leaves) {
@@ -527,15 +530,20 @@ hz_tree *hz_tree_grow(const hz_tree_desc *desc, hz_err *err)
             leaf_mul = sqrtf(f / 0.25f);
             twig_mul = f / leaf_mul;
         }
-        for (int pass = 0; pass < 3 && t; pass++) {
+        for (int pass = 0; pass < 6 && t; pass++) {
             float ratio = (float)t->leaf_count / (float)d.leaves;
-            if (ratio > 0.9f && ratio < 1.1f)
+            if (ratio > 0.92f && ratio < 1.08f)
                 break;
+            if (pass > 0)
+                twig_mul *= fminf(fmaxf(1.0f / fmaxf(ratio, 1e-3f), 0.25f), 4.0f);
             hz_tree_destroy(t);
             t = grow_once(sp, d.seed, leaf_mul, twig_mul, err);
-            if (t)
-                twig_mul *= (float)d.leaves / (float)(t->leaf_count ? t->leaf_count : 1);
         }
+    }
+    if (t && t->leaf_count == 0) {
+        hz_err_set(err, HZ_ERR_VALUE, "tree: %s grew no leaves (asked for %u)", name, d.leaves);
+        hz_tree_destroy(t);
+        t = NULL;
     }
     if (t)
         t->seed = d.seed;

@@ -302,7 +302,9 @@ hz_result hz_vmi_rank(const hz_vmi_input *in, uint32_t *order, hz_vmi_stats *sta
             if (stats)
                 stats->candidates++;
             uint64_t vis = c.tr_n[x];
-            if (cost < best_cost || (cost == best_cost && vis < best_vis)) {
+            /* Costs equal up to rounding are ties: fewer visible pixels go first. */
+            double tol = 1e-12 * (1.0 + fabs(best_cost));
+            if (best == n || cost < best_cost - tol || (fabs(cost - best_cost) <= tol && vis < best_vis)) {
                 best = x;
                 best_cost = cost;
                 best_vis = vis;
