@@ -25,8 +25,8 @@ void cli_usage_forest(void)
             "  --no-hysteresis         update every node's rate every frame (no F6)\n"
             "  --no-enlarge            no leaf enlargement (F4)\n"
             "  --no-node-cull          no per-node frustum culling\n"
-            "  --tree-near M --tree-far M  F3 distances near/far (default 5, 150)\n"
-            "  --hull-dist M           trees beyond are crown hulls (default: --tree-far)\n"
+            "  --tree-near M --tree-far M  F3 distances near/far (default 5, 80)\n"
+            "  --hull-dist M           trees beyond are crown hulls (default: half of --tree-far)\n"
             "  --rate-weights W1,..,W5 F3 weights (default 0.2,0.1,0.2,0.3,0.2)\n");
 }
 
@@ -64,7 +64,7 @@ static hz_tree *species_model(const cli_opts *o, const char *name, hz_err *err)
             cache = false;
     }
     if (cache) {
-        snprintf(file, sizeof file, "%s/%s-s1-l%u-v1.hzt", dir, name, o->forest_leaves);
+        snprintf(file, sizeof file, "%s/%s-s1-l%u-v2.hzt", dir, name, o->forest_leaves);
         struct stat sb;
         if (stat(file, &sb) == 0) {
             hz_tree *t = hz_tree_load(file, err);

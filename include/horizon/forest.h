@@ -17,7 +17,7 @@ extern "C" {
 typedef struct hz_rate_params {
     float w[5];        /* weights of f1..f5; all 0 -> 0.2, 0.1, 0.2, 0.3, 0.2 */
     float near_m;      /* finest LOD distance, metres; 0 -> 5 */
-    float far_m;       /* coarsest LOD distance (also where trees become hulls); 0 -> 150 */
+    float far_m;       /* coarsest LOD distance, metres; 0 -> 80 */
     float h;           /* log base of f2; 0 -> 10 (k1 keeps f2 <= 0.5 whatever h) */
     uint32_t bl_max;   /* largest branch level carrying leaves; 0 -> 4 */
     float max_rate;    /* Rs is clamped to [0, max_rate]; 0 -> 0.98 */
@@ -107,7 +107,7 @@ typedef struct hz_forest_params {
     bool hysteresis;     /* F6 on */
     bool enlarge;        /* F4 on */
     bool node_culling;   /* per-node frustum culling within detailed trees */
-    float hull_dist;     /* trees beyond this are drawn as crown hull + trunk; 0 -> far_m */
+    float hull_dist;     /* trees beyond this are drawn as crown hull + trunk; 0 -> far_m / 2 */
     bool fixed_rate;     /* every node uses `fixed` instead of F3 (previews, measurements) */
     float fixed;
 } hz_forest_params;

@@ -19,7 +19,7 @@ hz_rate_params hz_rate_params_defaults(const hz_rate_params *p)
     if (d.near_m <= 0)
         d.near_m = 5.0f;
     if (d.far_m <= 0)
-        d.far_m = 150.0f;
+        d.far_m = 80.0f;
     if (d.far_m <= d.near_m * 1.01f)
         d.far_m = d.near_m * 1.01f + 1.0f;
     if (d.h <= 0 || d.h == 1.0f)
@@ -359,7 +359,7 @@ hz_result hz_forest_update(hz_forest *f, const hz_camera *cam, const hz_forest_p
     double t0 = hz_time_ms();
     hz_forest_params P = params ? *params : (hz_forest_params){.simplify = true, .enlarge = true};
     P.rate = hz_rate_params_defaults(&P.rate);
-    const float hull_dist = P.hull_dist > 0 ? P.hull_dist : P.rate.far_m;
+    const float hull_dist = P.hull_dist > 0 ? P.hull_dist : 0.5f * P.rate.far_m;
     *fr = (hz_forest_frame){.draws = f->draws, .counts = f->counts, .scales = f->scales, .trees = f->tree_count,
                             .serial = ++f->serial};
     vec4 planes[6];

@@ -542,8 +542,9 @@ static void test_select(void **state)
     assert_int_equal(hz_hull_build(t, NULL, NULL, &err), HZ_OK);
     /* A row of trees along -z from the camera, and one behind it. */
     hz_forest_tree trees[6];
+    const float zs[5] = {-12, -21, -30, -200, -260};
     for (int k = 0; k < 5; k++)
-        trees[k] = (hz_forest_tree){.pos = {0, 0, -20.0f - 60.0f * (float)k}, .scale = 1};
+        trees[k] = (hz_forest_tree){.pos = {0, 0, zs[k]}, .scale = 1};
     trees[5] = (hz_forest_tree){.pos = {0, 0, 200}, .scale = 1};
     const hz_tree *models[1] = {t};
     hz_forest *f = hz_forest_create(models, 1, trees, 6, &err);
@@ -560,7 +561,7 @@ static void test_select(void **state)
     hz_forest_params simp = {.simplify = true, .enlarge = true, .hysteresis = false, .node_culling = true};
     assert_int_equal(hz_forest_update(f, &cam, &simp, 0, &fr, &err), HZ_OK);
     assert_true(fr.triangles_drawn < fr.triangles_full);
-    assert_true(fr.trees_hull >= 2); /* 200 m and more: beyond far = 150 m */
+    assert_int_equal(fr.trees_hull, 2); /* 200 m and more: beyond far / 2 = 40 m */
     /* Farther detailed trees keep fewer leaves. */
     uint64_t kept[5] = {0};
     for (uint32_t d = 0; d < fr.draw_count; d++)
