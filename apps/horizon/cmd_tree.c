@@ -145,6 +145,17 @@ int cmd_tree(int argc, char **argv)
         bool flag = !strcmp(a, "--json") || !strcmp(a, "--quiet") || !strcmp(a, "-q") || !strcmp(a, "--no-rank") ||
                     !strcmp(a, "--rank") || !strcmp(a, "--no-hull") || !strcmp(a, "--pr") ||
                     !strcmp(a, "--hull-preview");
+        static const char *const valued[] = {"--species", "--seed", "--leaves", "--import", "--leaf-match", "--up",
+                                             "--scale", "--node-leaves", "--in", "--out", "--preview", "--views",
+                                             "--rank-res", "--layers", "--hull-grid", "--hull-triangles", "--rate",
+                                             "--size", "--pr-views", "--pr-res"};
+        bool is_known = flag;
+        for (size_t k = 0; k < sizeof valued / sizeof valued[0] && !is_known; k++)
+            is_known = !strcmp(a, valued[k]);
+        if (!is_known) {
+            fprintf(stderr, "horizon tree: unknown option '%s' (see horizon tree --help)\n", a);
+            return 2;
+        }
         if (!flag && !v) {
             fprintf(stderr, "horizon tree: option %s needs a value (see horizon tree --help)\n", a);
             return 2;
