@@ -90,8 +90,9 @@ typedef struct hz_forest_desc {
     void *height_user;
 } hz_forest_desc;
 
-/* Places up to desc->count trees in a square around the centre sized for the
- * density (grown by up to 4x when slope/height rejects too many), on ground
+/* Places up to desc->count trees in a disc around the centre sized for the
+ * density (grown when slope/height/noise reject too many), thinned by
+ * low-frequency noise toward the rim (ragged edges, clearings), on ground
  * no steeper than max_slope, at least 0.6 / sqrt(density) apart. out holds
  * desc->count entries; *placed gets how many were placed (fewer only when
  * the ground does not allow more). Deterministic per seed. */

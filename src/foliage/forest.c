@@ -100,6 +100,26 @@ bool hz_hysteresis_allows(const hz_rate_params *p, float dist, float delta_rate,
 
 /* ---- placement -------------------------------------------------------------- */
 
+static float lattice2(uint64_t seed, int x, int z)
+{
+    uint64_t h = seed ^ ((uint64_t)(uint32_t)x * 0x9E3779B97F4A7C15ULL) ^ ((uint64_t)(uint32_t)z * 0xC2B2AE3D27D4EB4FULL);
+    h = (h ^ (h >> 31)) * 0xBF58476D1CE4E5B9ULL;
+    h ^= h >> 29;
+    return (float)(h >> 40) / 16777216.0f;
+}
+
+/* Smooth 2D value noise in [0, 1]. */
+static float vnoise2(uint64_t seed, float x, float z)
+{
+    float fx = floorf(x), fz = floorf(z), tx = x - fx, tz = z - fz;
+    int ix = (int)fx, iz = (int)fz;
+    tx = tx * tx * (3 - 2 * tx);
+    tz = tz * tz * (3 - 2 * tz);
+    float a = lattice2(seed, ix, iz), b = lattice2(seed, ix + 1, iz), c = lattice2(seed, ix, iz + 1),
+          d = lattice2(seed, ix + 1, iz + 1);
+    return (a + (b - a) * tx) * (1 - tz) + (c + (d - c) * tx) * tz;
+}
+
 hz_result hz_forest_place(const hz_forest_desc *desc, hz_forest_tree *out, uint32_t *placed, hz_err *err)
 {
     *placed = 0;
@@ -138,8 +158,15 @@ hz_result hz_forest_place(const hz_forest_desc *desc, hz_forest_tree *out, uint3
     for (int round = 0; round < 4 && n < d.count; round++, side *= 1.4142f) {
         uint64_t attempts = (uint64_t)d.count * 40;
         for (uint64_t a = 0; a < attempts && n < d.count; a++) {
-            float x = d.center[0] + (rng_unit(&rng) - 0.5f) * side;
-            float z = d.center[1] + (rng_unit(&rng) - 0.5f) * side;
+            /* A disc of the square's area, thinned by low-frequency noise
+             * toward its rim: ragged edges and a few clearings. */
+            const float R = 0.5642f * side;
+            float ang = rng_unit(&rng) * 6.2831853f, rr = R * sqrtf(rng_unit(&rng));
+            float x = d.center[0] + rr * cosf(ang), z = d.center[1] + rr * sinf(ang);
+            float keep = 1.3f * vnoise2(d.seed, x / (7.0f * spacing), z / (7.0f * spacing)) + 0.35f -
+                         0.9f * (rr / R) * (rr / R);
+            if (rng_unit(&rng) > keep)
+                continue;
             if (d.extent_limit > 0 && (x < 0 || z < 0 || x > d.extent_limit || z > d.extent_limit))
                 continue;
             int cx = (int)floorf(x / min_dist), cz = (int)floorf(z / min_dist);
