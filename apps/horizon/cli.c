@@ -226,6 +226,11 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             NEEDV();
             if (!parse_u32(v, 1, 1000000, &o->forest_n))
                 return bad(cmd, a, v, "a tree count in [1, 1000000]");
+        } else if (!strcmp(a, "--forest-file")) {
+            NEEDV();
+            o->forest_file = v;
+            if (!o->forest_n)
+                o->forest_n = 1; /* the real count comes from the file */
         } else if (!strcmp(a, "--forest-trees")) {
             NEEDV();
             o->forest_trees = v;

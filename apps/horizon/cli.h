@@ -22,6 +22,7 @@ typedef struct cli_opts {
     uint32_t repeat; /* LOD selections to time; median reported */
     /* forest (SPEC F) */
     uint32_t forest_n;          /* trees; 0 = no forest */
+    const char *forest_file;    /* CSV x,z,model,scale,yaw (instead of placing forest_n trees) */
     const char *forest_trees;   /* comma-separated .hzt files; NULL -> the four species */
     const char *tree_cache;     /* where generated trees are kept; NULL -> ~/.cache/horizon/trees */
     uint32_t forest_leaves;     /* leaves per generated tree; 0 -> the species' own */

@@ -20,6 +20,8 @@ void cli_usage_forest(void)
             "  --tree-cache DIR        cache of generated trees (default ~/.cache/horizon/trees)\n"
             "  --forest-density D      trees per hectare (default 400)\n"
             "  --forest-at X,Z         forest centre, metres\n"
+            "  --forest-file F.csv     trees from a file instead: x,z,model,scale,yaw_degrees per line\n"
+            "                          (model: 0-based index into the models; y from the terrain)\n"
             "  --forest-seed S         placement seed (default 1)\n"
             "  --no-simplify           every tree in the frustum at full detail (reference)\n"
             "  --no-hysteresis         update every node's rate every frame (no F6)\n"
@@ -95,6 +97,63 @@ static hz_tree *species_model(const cli_opts *o, const char *name, hz_err *err)
     return t;
 }
 
+/* x,z,model,scale,yaw lines ('#' comments, blank lines skipped). */
+static bool read_forest_file(const char *file, const hz_terrain *t, uint32_t models, hz_forest_tree **out,
+                             uint32_t *n, hz_err *err)
+{
+    FILE *f = fopen(file, "r");
+    if (!f) {
+        hz_err_set(err, HZ_ERR_IO, "cannot open forest file '%s': %s", file, strerror(errno));
+        return false;
+    }
+    char line[512];
+    uint32_t cap = 0, ln = 0;
+    *out = NULL;
+    *n = 0;
+    while (fgets(line, sizeof line, f)) {
+        ln++;
+        char *p = line;
+        while (*p == ' ' || *p == '\t')
+            p++;
+        if (*p == '#' || *p == '\n' || *p == '\r' || !*p)
+            continue;
+        double x, z, sc, yaw;
+        unsigned m;
+        char extra;
+        if (sscanf(p, "%lf,%lf,%u,%lf,%lf %c", &x, &z, &m, &sc, &yaw, &extra) != 5 || !isfinite(x) ||
+            !isfinite(z) || !isfinite(yaw) || !(sc > 0 && sc <= 100) || m >= models) {
+            hz_err_set(err, HZ_ERR_FORMAT,
+                       "%s:%u: expected x,z,model,scale,yaw with model < %u and scale in (0, 100]", file, ln,
+                       models);
+            fclose(f);
+            free(*out);
+            *out = NULL;
+            return false;
+        }
+        if (*n == cap) {
+            cap = cap ? cap * 2 : 256;
+            hz_forest_tree *np = realloc(*out, cap * sizeof *np);
+            if (!np || cap > 1000000) {
+                free(np ? np : *out);
+                *out = NULL;
+                fclose(f);
+                hz_err_set(err, HZ_ERR_MEMORY, "%s: too many trees", file);
+                return false;
+            }
+            *out = np;
+        }
+        (*out)[(*n)++] = (hz_forest_tree){.pos = {(float)x, hz_terrain_height_at(t, (float)x, (float)z), (float)z},
+                                          .yaw = (float)(yaw * 0.017453292519943295), .scale = (float)sc,
+                                          .model = m};
+    }
+    fclose(f);
+    if (*n == 0) {
+        hz_err_set(err, HZ_ERR_FORMAT, "forest file '%s' lists no tree", file);
+        return false;
+    }
+    return true;
+}
+
 static float ground(void *user, float x, float z)
 {
     return hz_terrain_height_at(user, x, z);
@@ -160,6 +219,20 @@ cli_forest *cli_forest_create(const cli_opts *o, const hz_terrain *t)
     float ext = hz_terrain_extent(t);
     cli_forest_area(o, t, cf->center, &cf->side);
     float density = o->forest_density > 0 ? o->forest_density : 400.0f;
+    uint32_t placed = 0;
+    if (o->forest_file) {
+        if (!read_forest_file(o->forest_file, t, cf->model_count, &trees, &placed, &err))
+            goto fail;
+        float lo2[2] = {INFINITY, INFINITY}, hi2[2] = {-INFINITY, -INFINITY};
+        for (uint32_t k = 0; k < placed; k++) {
+            lo2[0] = fminf(lo2[0], trees[k].pos[0]), hi2[0] = fmaxf(hi2[0], trees[k].pos[0]);
+            lo2[1] = fminf(lo2[1], trees[k].pos[2]), hi2[1] = fmaxf(hi2[1], trees[k].pos[2]);
+        }
+        cf->center[0] = 0.5f * (lo2[0] + hi2[0]);
+        cf->center[1] = 0.5f * (lo2[1] + hi2[1]);
+        cf->side = fmaxf(fmaxf(hi2[0] - lo2[0], hi2[1] - lo2[1]), 10.0f);
+        goto have_trees;
+    }
     trees = malloc(o->forest_n * sizeof *trees);
     if (!trees) {
         hz_err_set(&err, HZ_ERR_MEMORY, "out of memory");
@@ -170,12 +243,12 @@ cli_forest *cli_forest_create(const cli_opts *o, const hz_terrain *t)
                          .density = density, .min_h = lo - 1.0f, .max_h = lo + 0.8f * (hi - lo) + 1.0f,
                          .extent_limit = ext, .model_count = cf->model_count, .model_high = high,
                          .height = ground, .height_user = (void *)t};
-    uint32_t placed = 0;
     if (hz_forest_place(&fd, trees, &placed, &err) != HZ_OK)
         goto fail;
     if (placed < o->forest_n && !o->quiet)
         fprintf(stderr, "horizon: placed %u of %u trees (the ground around the centre is too steep or high)\n",
                 placed, o->forest_n);
+have_trees:
     cf->forest = hz_forest_create((const hz_tree *const *)cf->models, cf->model_count, trees, placed, &err);
     if (!cf->forest)
         goto fail;

@@ -4,6 +4,7 @@
  * renderer's object hook so fog and reflections apply. */
 #include "horizon/forest_render.h"
 
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -202,7 +203,19 @@ static hz_result build_lists(hz_forest_gpu *g, const hz_forest *f, const hz_fore
         }
         g->draw_cap = fr->draw_count;
     }
-    size_t need = (size_t)fr->leaves_drawn * 6;
+    /* Trees drawn in full need no list: one glDrawArrays over all leaves. */
+    size_t need = 0;
+    for (uint32_t d = 0; d < fr->draw_count; d++) {
+        const hz_forest_draw *dr = &fr->draws[d];
+        if (dr->hull)
+            continue;
+        const hz_tree *t = hz_forest_model(f, dr->model);
+        size_t kept = 0;
+        for (uint32_t n = 0; n < t->node_count; n++)
+            kept += fr->counts[dr->node_base + n];
+        if (kept < t->leaf_count)
+            need += kept * 6;
+    }
     if (need > g->idx_cap) {
         free(g->idx);
         g->idx_cap = need + need / 4 + 1024;
@@ -220,6 +233,14 @@ static hz_result build_lists(hz_forest_gpu *g, const hz_forest *f, const hz_fore
         if (dr->hull)
             continue;
         const hz_tree *t = hz_forest_model(f, dr->model);
+        size_t kept = 0;
+        for (uint32_t n = 0; n < t->node_count; n++)
+            kept += fr->counts[dr->node_base + n];
+        if (kept >= t->leaf_count) {
+            g->draw_off[d] = SIZE_MAX; /* all leaves, no list */
+            g->draw_cnt[d] = (size_t)t->leaf_count * 6;
+            continue;
+        }
         for (uint32_t n = 0; n < t->node_count; n++) {
             uint32_t c = fr->counts[dr->node_base + n];
             uint32_t v = t->nodes[n].first * 6;
@@ -314,8 +335,11 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
         hz_forest_tree_matrix(f, dr->tree, model);
         glUniformMatrix4fv(g->lu.model, 1, GL_FALSE, model);
         glUniform1i(g->lu.scale_base, (GLint)dr->node_base);
-        glDrawElements(GL_TRIANGLES, (GLsizei)g->draw_cnt[d], GL_UNSIGNED_INT,
-                       (const void *)(g->draw_off[d] * sizeof(uint32_t)));
+        if (g->draw_off[d] == SIZE_MAX)
+            glDrawArrays(GL_TRIANGLES, 0, (GLsizei)g->draw_cnt[d]);
+        else
+            glDrawElements(GL_TRIANGLES, (GLsizei)g->draw_cnt[d], GL_UNSIGNED_INT,
+                           (const void *)(g->draw_off[d] * sizeof(uint32_t)));
     }
     glBindTexture(GL_TEXTURE_BUFFER, 0);
     glActiveTexture(GL_TEXTURE1);

@@ -207,6 +207,12 @@ for s in j["species"]:
     for k in ["vmi_precision","vmi_recall","random_precision","random_recall"]:
         assert 0 <= s[k] <= 1, (k, s)
 PY
+printf '# x,z,model,scale,yaw\n2500,2500,0,1,0\n2510,2500,1,1.2,45\n' > "$TMP/forest.csv"
+ffj=$($R --size 513 --forest-file "$TMP/forest.csv" $F --camera 2505,2500,2500,0,-89 --json --out "$TMP/ff.png" 2>&1)
+python3 -c "import json,sys; j=json.loads(sys.argv[1]); assert j['forest_trees']==2 and j['trees_in_frustum']==2" "$ffj" &&
+  ok "render --forest-file" || bad "render --forest-file: $ffj"
+printf '2500,2500,7,1,0\n' > "$TMP/badforest.csv"
+expect_fail "forest file bad model" "badforest.csv:1"         $R --size 513 --forest-file "$TMP/badforest.csv" $F
 expect_fail "bench forest bad pr-res" "invalid value"         $HZ bench --quiet --size 257 --forest 5 --pr-res 3
 
 echo "$passes passed, $fails failed"
