@@ -129,13 +129,25 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
     double ms;
     if (!frame(ren, t, o, cf, &cam, &with, 0.0, &il, &ms, &err))
         goto done;
-    for (int run = 0; run < 2; run++) {
+    /* 2 frames per path second unless --fps was given: the camera moves a
+     * few metres between frames (across the forest in a 36-frame run), and
+     * the hysteresis still sees consecutive frames. */
+    const double dt = 1.0 / (bo->fps > 0 ? bo->fps : 2.0);
+    /* Run 0: simplified with hysteresis; 1: without; 2: unsimplified on
+     * every `every`-th frame. Separate runs, so that one does not disturb
+     * the other's caches. */
+    for (int run = 0; run < 3; run++) {
+        if (run == 2 && bo->no_full)
+            break;
         hz_forest_reset(cf->forest);
         for (uint32_t f = 0; f < frames; f++) {
             frow *r = &rows[f];
-            double now = (double)f / bo->fps;
+            if (run == 2 && f % every != 0)
+                continue;
+            double now = (double)f * dt;
             hz_path_sample(&path, (float)now, &cam);
-            if (!frame(ren, t, o, cf, &cam, run == 0 ? &with : &without, now, &il, &ms, &err))
+            const hz_forest_params *fp = run == 0 ? &with : run == 1 ? &without : &full;
+            if (!frame(ren, t, o, cf, &cam, fp, now, &il, &ms, &err))
                 goto done;
             const hz_forest_frame *fr = &cf->frame;
             if (run == 0) {
@@ -149,35 +161,25 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
                 r->tri_drawn = fr->triangles_drawn;
                 r->changed = fr->nodes_changed;
                 r->held = fr->nodes_held;
-                if (bo->save_dir) {
-                    char name[1024];
-                    snprintf(name, sizeof name, "%s/forest_%04u.png", bo->save_dir, f);
-                    if (hz_renderer_read_rgb(ren, rgb, &err) != HZ_OK ||
-                        hz_image_write_png(name, rgb, o->width, o->height, &err) != HZ_OK)
-                        goto done;
-                }
-                if (f % every == 0 && !bo->no_full) {
-                    /* The same view unsimplified; the F6 state is untouched. */
-                    r->frame_ms_at_full = ms;
-                    if (!frame(ren, t, o, cf, &cam, &full, now, &il, &r->frame_ms_full, &err))
-                        goto done;
-                    r->has_full = true;
-                    if (bo->save_dir) {
-                        char name[1024];
-                        snprintf(name, sizeof name, "%s/forest_full_%04u.png", bo->save_dir, f);
-                        if (hz_renderer_read_rgb(ren, rgb, &err) != HZ_OK ||
-                            hz_image_write_png(name, rgb, o->width, o->height, &err) != HZ_OK)
-                            goto done;
-                    }
-                }
-            } else {
+            } else if (run == 1) {
                 r->frame_ms_nohyst = ms;
                 r->tri_drawn_nohyst = fr->triangles_drawn;
                 r->changed_nohyst = fr->nodes_changed;
+            } else {
+                r->frame_ms_at_full = r->frame_ms;
+                r->frame_ms_full = ms;
+                r->has_full = true;
+            }
+            if (bo->save_dir && run != 1) {
+                char name[1024];
+                snprintf(name, sizeof name, "%s/forest_%s%04u.png", bo->save_dir, run == 2 ? "full_" : "", f);
+                if (hz_renderer_read_rgb(ren, rgb, &err) != HZ_OK ||
+                    hz_image_write_png(name, rgb, o->width, o->height, &err) != HZ_OK)
+                    goto done;
             }
             if (!o->quiet)
-                hz_progress_stderr(NULL, run == 0 ? "forest frames (hysteresis, + unsimplified)"
-                                                  : "forest frames (no hysteresis)",
+                hz_progress_stderr(NULL, run == 0 ? "forest frames (hysteresis)" : run == 1 ? "forest frames (no hysteresis)"
+                                                                                   : "forest frames (unsimplified)",
                                    f + 1, frames);
         }
     }

@@ -97,7 +97,7 @@ static void usage(void)
             "  --json FILE             write the summary and per-frame figures as JSON\n"
             "  --plot FILE.png         chart of triangles, frame ms and pixel error (needs gnuplot)\n"
             "  --save-frames DIR       write every LOD (and reference) frame as PNG\n"
-            "forest bench (with --forest N; path default: forest, low across the trees):\n"
+            "forest bench (with --forest N; path default: forest, just above the crowns; --fps default 2):\n"
             "  --full-every N          also draw every N-th frame unsimplified (default frames/6)\n"
             "  --no-full               no unsimplified frames\n"
             "  --no-pr                 skip the per-species precision/recall\n"
@@ -522,6 +522,7 @@ int cmd_bench(int argc, char **argv)
     bench_forest_opts bfo = {0};
     uint32_t frames = 60;
     float fps = 30.0f, tune_p99 = 0.0f;
+    bool fps_set = false;
     bool reference = true;
     hz_lod_mode modes[HZ_LOD_MODE_COUNT * 2];
     int nmodes = 0;
@@ -613,10 +614,12 @@ int cmd_bench(int argc, char **argv)
                 free(rest);
                 return 2;
             }
-            if (is_fps)
+            if (is_fps) {
                 fps = (float)f;
-            else
+                fps_set = true;
+            } else {
                 tune_p99 = (float)f;
+            }
         }
     }
     bench b = {.frames = frames, .fps = fps, .reference = reference, .save_dir = save_dir};
@@ -650,7 +653,7 @@ int cmd_bench(int argc, char **argv)
         b.o.lod.mode = modes[0];
         bfo.path = path_name ? path_name : "forest";
         bfo.frames = frames;
-        bfo.fps = fps;
+        bfo.fps = fps_set ? fps : 0.0f;
         bfo.json_out = json_out;
         bfo.save_dir = save_dir;
         rc = bench_forest(&b.o, b.t, &bfo);

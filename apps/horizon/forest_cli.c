@@ -356,10 +356,11 @@ hz_camera cli_forest_camera(const cli_opts *o, const hz_terrain *t)
 
 hz_result cli_forest_path(const cli_forest *cf, const hz_terrain *t, hz_path *out, hz_err *err)
 {
-    /* Straight across the forest's diagonal at 25 m above the ground (the
-     * highest ground within 30 m), looking ahead and a little down. */
+    /* Straight along the forest's diagonal, from inside its rim to inside
+     * the other, 22 m above the ground (the highest within 30 m): just above
+     * the crowns, looking ahead and down into them. */
     hz_path_key k[61];
-    const float half = 0.6f * cf->side;
+    const float half = 0.25f * cf->side;
     const float yaw = glm_deg(atan2f(1.0f, -1.0f)); /* toward +x +z */
     for (int n = 0; n < 61; n++) {
         float u = (float)n / 60.0f;
@@ -368,7 +369,7 @@ hz_result cli_forest_path(const cli_forest *cf, const hz_terrain *t, hz_path *ou
         for (int dz = -2; dz <= 2; dz++)
             for (int dx = -2; dx <= 2; dx++)
                 g = fmaxf(g, hz_terrain_height_at(t, x + 15.0f * (float)dx, z + 15.0f * (float)dz));
-        k[n] = (hz_path_key){60.0f * u, x, g + 25.0f, z, yaw, -12.0f};
+        k[n] = (hz_path_key){60.0f * u, x, g + 22.0f, z, yaw, -15.0f};
     }
     return hz_path_from_keys(k, 61, "forest", out, err);
 }
