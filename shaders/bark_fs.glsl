@@ -36,7 +36,7 @@ void main()
         // Clumps of foliage: two octaves of noise, darker underneath, light
         // wrapped round a little as through a crown's outer leaves.
         float m = 0.6 * vnoise(v_local * 1.8) + 0.4 * vnoise(v_local * 5.5);
-        albedo *= (0.4 + 0.7 * m) * (0.8 + 0.2 * n.y);
+        albedo *= (0.35 + 0.55 * m) * (0.8 + 0.2 * n.y);
         light = 0.2 + 0.8 * light;
     }
     vec3 c = albedo * (u_ambient + (1.0 - u_ambient) * light * vec3(1.0, 0.97, 0.90));
