@@ -77,14 +77,16 @@ static void mesh_upload(mesh_gpu *g, const hz_tree_mesh *m, uint32_t count)
         }
     }
     glBindBuffer(GL_ARRAY_BUFFER, g->vbo);
-    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(nv * 24 + 16), inter, GL_STATIC_DRAW);
+    /* Empty meshes still get a (tiny, undefined) store so the VAO is valid. */
+    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(nv ? nv * 24 : 16), nv ? inter : NULL, GL_STATIC_DRAW);
     free(inter);
     glEnableVertexAttribArray(0);
     glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 24, (const void *)0);
     glEnableVertexAttribArray(1);
     glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 24, (const void *)12);
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, g->ibo);
-    glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)((size_t)m->index_count * 4 + 16), m->idx, GL_STATIC_DRAW);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(m->index_count ? (size_t)m->index_count * 4 : 16),
+                 m->index_count ? m->idx : NULL, GL_STATIC_DRAW);
     glBindVertexArray(0);
     glBindBuffer(GL_ARRAY_BUFFER, 0);
     g->count = count;

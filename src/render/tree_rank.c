@@ -45,7 +45,7 @@ static void buffer_texture(GLuint *buf, GLuint *tex, GLenum fmt, const void *dat
     if (!*tex)
         glGenTextures(1, tex);
     glBindBuffer(GL_TEXTURE_BUFFER, *buf);
-    glBufferData(GL_TEXTURE_BUFFER, (GLsizeiptr)(bytes ? bytes : 16), data, GL_DYNAMIC_DRAW);
+    glBufferData(GL_TEXTURE_BUFFER, (GLsizeiptr)(bytes ? bytes : 16), bytes ? data : NULL, GL_DYNAMIC_DRAW);
     glBindTexture(GL_TEXTURE_BUFFER, *tex);
     glTexBuffer(GL_TEXTURE_BUFFER, fmt, *buf);
     glBindTexture(GL_TEXTURE_BUFFER, 0);
