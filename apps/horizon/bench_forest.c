@@ -59,13 +59,15 @@ static bool frame(hz_renderer *ren, const hz_terrain *t, cli_opts *o, cli_forest
                   const hz_forest_params *fp, double now, hz_index_list *il, double *ms, hz_err *err)
 {
     double t0 = hz_time_ms();
-    if (hz_lod_select(t->lod, cam, &o->lod, il, NULL, NULL, NULL) != HZ_OK) {
+    hz_lod_stats st;
+    if (hz_lod_select(t->lod, cam, &o->lod, il, NULL, NULL, &st) != HZ_OK) {
         hz_err_set(err, HZ_ERR_MEMORY, "LOD selection out of memory");
         return false;
     }
     if (hz_forest_update(cf->forest, cam, fp, now, &cf->frame, err) != HZ_OK)
         return false;
     hz_scene_params sp = {0};
+    cli_scene_lod(&sp, &st);
     cli_forest_hook(cf, &sp);
     if (hz_renderer_draw(ren, cam, &sp, il->data, (uint32_t)il->count, NULL, err) != HZ_OK)
         return false;
@@ -98,7 +100,7 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
     if (!gl)
         goto done;
     ren = hz_renderer_create(&(hz_renderer_desc){.width = o->width, .height = o->height}, &err);
-    if (!ren || hz_renderer_set_heightmap(ren, &t->hm, t->spacing, t->zscale, &err) != HZ_OK)
+    if (!ren || cli_renderer_setup(ren, t, o, &err) != HZ_OK)
         goto done;
     cf = cli_forest_create(o, t);
     if (!cf) {
