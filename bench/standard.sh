@@ -58,5 +58,12 @@ if [ "${COMPARE:-1}" != 0 ]; then
   done
 fi
 
+# Forests (SPEC F7): 1 660 trees of the four species (grown, VMI-ranked and cached on first use)
+# on the 4097^2 map, flown 25 m above the ground across the forest; simplified frames with and
+# without hysteresis, every 6th frame also unsimplified; precision/recall per species.
+fr=${F:-36}
+echo "== forest ($fr frames)" >&2
+"$HZ" bench --quiet --generate perlin --size 4097 --seed 1 --forest 1660 --frames "$fr" --json "$OUT/forest.json" >/dev/null
+
 python3 bench/summary.py "$OUT" > "$OUT/summary.md"
 cat "$OUT/summary.md"

@@ -57,3 +57,43 @@ if compares:
                 num(j["frame_ms_median"], ".1f"), num(j["px_error_p99"], ".2f"), num(j["px_error_max"], ".1f"),
                 num(j.get("psnr_db_median"), ".1f"), num(j.get("popping"), ".3f"),
                 num(j.get("pop_px_max_median"), ".3f"), num(j.get("pop_px_max_p95"), ".3f"), j["bytes_per_sample"]))
+
+# The forest table (SPEC F7), next to the seed's figures.
+fp = os.path.join(d, "forest.json")
+if os.path.exists(fp):
+    try:
+        f = json.load(open(fp))
+    except (OSError, ValueError):
+        f = None
+    if f:
+        print()
+        print("### Forest ({} trees on {}, path {}, {} frames at {}x{})".format(
+            f["trees"], f["terrain"], f["path"], f["frames"], f["width"], f["height"]))
+        print()
+        print("| figure | this run | seed (F7) |")
+        print("|---|---|---|")
+        frows = [
+            ("trees", "{}".format(f["trees"]), "1 660"),
+            ("trees in the frustum (median)", "{:.0f} ({:.0f} as crown hulls)".format(f["trees_in_frustum"], f["trees_hull"]), "621"),
+            ("triangles in the frustum, full", "{:.2f} M".format(f["triangles_full"] / 1e6), "42.51 M"),
+            ("triangles drawn", "{:.2f} M".format(f["triangles_drawn"] / 1e6), "2.00 M"),
+            ("drawn / full", "{:.1f} %".format(100 * f["drawn_ratio"]), "4.7 %"),
+            ("frame ms simplified, with / without hysteresis", "{:.0f} / {:.0f}".format(f["frame_ms"], f["frame_ms_no_hysteresis"]), "33.1 (30.21 FPS) / 57 (17.6 FPS)"),
+            ("frame ms unsimplified vs simplified, same {} frames".format(f["full_frames"]), "{:.0f} vs {:.0f}".format(f["frame_ms_full"], f["frame_ms_simplified_same_frames"]), ""),
+            ("speedup", "{:.2f}x".format(f["speedup"]), "15.18x"),
+        ]
+        for r in frows:
+            print("| {} | {} | {} |".format(*r))
+        print()
+        sp = f.get("species", [])
+        if sp and "vmi_precision" in sp[0]:
+            print("Image similarity at 50 % simplification ({} views at {} px), leaf coverage precision / recall:".format(sp[0]["pr_views"], sp[0]["pr_res"]))
+            print()
+            print("| species | leaves | triangles | hull tris | rank s | MB | VMI P/R | VMI enlarged P/R | random P/R | random enlarged P/R |")
+            print("|---|---|---|---|---|---|---|---|---|---|")
+            for s in sp:
+                print("| {} | {} | {} | {} | {:.1f} | {:.1f} | {:.3f} / {:.3f} | {:.3f} / {:.3f} | {:.3f} / {:.3f} | {:.3f} / {:.3f} |".format(
+                    s["name"], s["leaves"], s["triangles"], s["hull_triangles"], s["rank_ms"] / 1000, s["memory_mb"],
+                    s["vmi_precision"], s["vmi_recall"], s["vmi_enlarged_precision"], s["vmi_enlarged_recall"],
+                    s["random_precision"], s["random_recall"], s["random_enlarged_precision"], s["random_enlarged_recall"]))
+            print("| seed | 53 912 – 292 581 | 133 327 – 811 710 | 4 198 (oak) | | | 0.95 / 0.82 and 0.96 / 0.88 | | 0.90 / 0.71 and 0.92 / 0.78 | |")

@@ -13,6 +13,8 @@ PKGS=(
   python3              # CLI tests check JSON output
   libglfw3-dev libglx-mesa0   # horizon view: GLFW window, GLX on Mesa llvmpipe
   xvfb xauth           # horizon view tests run in a virtual X server (xvfb-run)
+  libmeshoptimizer-dev # crown hull simplification
+  libassimp-dev        # tree import (OBJ, glTF, ...)
 )
 # "bench": also gnuplot for horizon bench --plot
 if [ "${1:-}" = bench ]; then PKGS+=(gnuplot-nox); fi

@@ -74,6 +74,8 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
     o->height = 720;
     o->repeat = 20;
     o->terrain.seed = 1;
+    o->forest_seed = 1;
+    o->forest = (hz_forest_params){.simplify = true, .hysteresis = true, .enlarge = true, .node_culling = true};
     for (int i = first; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -220,6 +222,77 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             NEEDV();
             if (!parse_u32(v, 1, 100000, &o->repeat))
                 return bad(cmd, a, v, "a count in [1, 100000]");
+        } else if (!strcmp(a, "--forest")) {
+            NEEDV();
+            if (!parse_u32(v, 1, 1000000, &o->forest_n))
+                return bad(cmd, a, v, "a tree count in [1, 1000000]");
+        } else if (!strcmp(a, "--forest-file")) {
+            NEEDV();
+            o->forest_file = v;
+            if (!o->forest_n)
+                o->forest_n = 1; /* the real count comes from the file */
+        } else if (!strcmp(a, "--forest-trees")) {
+            NEEDV();
+            o->forest_trees = v;
+        } else if (!strcmp(a, "--tree-cache")) {
+            NEEDV();
+            o->tree_cache = v;
+        } else if (!strcmp(a, "--forest-leaves")) {
+            NEEDV();
+            if (!parse_u32(v, 16, 2000000, &o->forest_leaves))
+                return bad(cmd, a, v, "leaves per tree in [16, 2000000]");
+        } else if (!strcmp(a, "--forest-density")) {
+            NEEDV();
+            if (!parse_float(v, 1, 10000, &o->forest_density))
+                return bad(cmd, a, v, "trees per hectare in [1, 10000]");
+        } else if (!strcmp(a, "--forest-at")) {
+            NEEDV();
+            char buf[128], *comma;
+            snprintf(buf, sizeof buf, "%s", v);
+            comma = strchr(buf, ',');
+            if (!comma)
+                return bad(cmd, a, v, "X,Z in metres");
+            *comma = 0;
+            if (!parse_float(buf, -1e7f, 1e7f, &o->forest_at[0]) || !parse_float(comma + 1, -1e7f, 1e7f, &o->forest_at[1]))
+                return bad(cmd, a, v, "X,Z in metres");
+            o->forest_at_set = true;
+        } else if (!strcmp(a, "--forest-seed")) {
+            NEEDV();
+            char *end;
+            errno = 0;
+            o->forest_seed = strtoull(v, &end, 10);
+            if (errno || *end || end == v || v[0] == '-')
+                return bad(cmd, a, v, "a non-negative integer");
+        } else if (!strcmp(a, "--no-simplify")) {
+            o->forest.simplify = false;
+        } else if (!strcmp(a, "--no-hysteresis")) {
+            o->forest.hysteresis = false;
+        } else if (!strcmp(a, "--no-enlarge")) {
+            o->forest.enlarge = false;
+        } else if (!strcmp(a, "--no-node-cull")) {
+            o->forest.node_culling = false;
+        } else if (!strcmp(a, "--tree-near")) {
+            NEEDV();
+            if (!parse_float(v, 0.01f, 100000, &o->forest.rate.near_m))
+                return bad(cmd, a, v, "metres in (0, 100000]");
+        } else if (!strcmp(a, "--tree-far")) {
+            NEEDV();
+            if (!parse_float(v, 0.1f, 1000000, &o->forest.rate.far_m))
+                return bad(cmd, a, v, "metres in (0, 1000000]");
+        } else if (!strcmp(a, "--hull-dist")) {
+            NEEDV();
+            if (!parse_float(v, 0.1f, 1000000, &o->forest.hull_dist))
+                return bad(cmd, a, v, "metres in (0, 1000000]");
+        } else if (!strcmp(a, "--rate-weights")) {
+            NEEDV();
+            char buf[256], *save = NULL;
+            snprintf(buf, sizeof buf, "%s", v);
+            int k = 0;
+            for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save), k++)
+                if (k >= 5 || !parse_float(tok, 0, 10, &o->forest.rate.w[k]))
+                    return bad(cmd, a, v, "five weights W1,..,W5 in [0, 10]");
+            if (k != 5)
+                return bad(cmd, a, v, "five weights W1,..,W5 in [0, 10]");
         } else if (!strcmp(a, "--json")) {
             o->json = true;
         } else if (!strcmp(a, "--wireframe")) {
@@ -231,6 +304,10 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             return 2;
         }
 #undef NEEDV
+    }
+    if (o->forest.rate.near_m > 0 && o->forest.rate.far_m > 0 && o->forest.rate.far_m <= o->forest.rate.near_m) {
+        fprintf(stderr, "horizon %s: --tree-far must be larger than --tree-near\n", cmd);
+        return 2;
     }
     if (o->terrain.dem_path && o->terrain.generate) {
         fprintf(stderr, "horizon %s: give either --dem or --generate, not both\n", cmd);

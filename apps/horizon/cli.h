@@ -4,6 +4,7 @@
 
 #include "horizon/render.h"
 #include "horizon/terrain.h"
+#include "horizon/forest_render.h"
 
 typedef struct cli_opts {
     hz_terrain_desc terrain;
@@ -19,6 +20,17 @@ typedef struct cli_opts {
     bool wireframe;
     bool quiet;
     uint32_t repeat; /* LOD selections to time; median reported */
+    /* forest (SPEC F) */
+    uint32_t forest_n;          /* trees; 0 = no forest */
+    const char *forest_file;    /* CSV x,z,model,scale,yaw (instead of placing forest_n trees) */
+    const char *forest_trees;   /* comma-separated .hzt files; NULL -> the four species */
+    const char *tree_cache;     /* where generated trees are kept; NULL -> ~/.cache/horizon/trees */
+    uint32_t forest_leaves;     /* leaves per generated tree; 0 -> the species' own */
+    float forest_density;       /* trees per hectare; 0 -> 400 */
+    bool forest_at_set;
+    float forest_at[2];         /* world x, z of the forest centre; default the map centre */
+    uint64_t forest_seed;
+    hz_forest_params forest;    /* simplification switches and the F3 parameters */
 } cli_opts;
 
 /* Parses argv[first..argc). Returns 0 on success, 2 on bad usage (message
@@ -34,8 +46,38 @@ void cli_scene_lod(hz_scene_params *sp, const hz_lod_stats *st);
 /* The camera: --camera or the terrain's default, with --fov/--far applied. */
 hz_camera cli_camera(const cli_opts *o, const hz_terrain *t);
 
+/* A forest on the terrain, ready to draw through the renderer's hook. */
+typedef struct cli_forest {
+    hz_tree **models;
+    uint32_t model_count;
+    hz_forest *forest;
+    hz_forest_gpu *gpu;
+    hz_forest_frame frame;
+    hz_forest_hook hook;
+    float center[2], side;   /* where the trees stand */
+    double prep_ms;          /* growing/ranking/loading the models */
+} cli_forest;
+
+/* Loads or grows (and caches) the models, places o->forest_n trees and
+ * uploads them. Needs a current GL context (ranking, upload). NULL after
+ * printing the error. */
+cli_forest *cli_forest_create(const cli_opts *o, const hz_terrain *t);
+void cli_forest_destroy(cli_forest *cf);
+/* Selects the frame's trees/nodes for cam at time now_s; false after printing. */
+bool cli_forest_update(cli_forest *cf, const cli_opts *o, const hz_camera *cam, double now_s);
+/* Sets sp's object hook to draw the forest. */
+void cli_forest_hook(cli_forest *cf, hz_scene_params *sp);
+/* Where the forest stands (no GL needed). */
+void cli_forest_area(const cli_opts *o, const hz_terrain *t, float center[2], float *side);
+/* A camera at the forest's edge looking across it (no GL needed). */
+hz_camera cli_forest_camera(const cli_opts *o, const hz_terrain *t);
+/* The "forest" path: 60 s low over the forest, across and back. */
+hz_result cli_forest_path(const cli_forest *cf, const hz_terrain *t, hz_path *out, hz_err *err);
+void cli_usage_forest(void);
+
 int cmd_render(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
 int cmd_view(int argc, char **argv);
+int cmd_tree(int argc, char **argv);
 
 #endif

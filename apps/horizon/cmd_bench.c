@@ -12,6 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "bench_forest.h"
 #include "horizon/metrics.h"
 
 typedef struct frame_row {
@@ -83,6 +84,7 @@ static void usage(void)
     fprintf(stderr, "usage: horizon bench [terrain, LOD and view options as in render] [bench options]\n"
                     "Flies a camera path headless and measures every frame.\n");
     cli_usage_terrain();
+    cli_usage_forest();
     fprintf(stderr,
             "bench:\n"
             "  --path flyover|orbit|ground|FILE.csv  camera path (CSV: t,x,y,z,yaw,pitch; default flyover)\n"
@@ -94,7 +96,12 @@ static void usage(void)
             "  --reference on|off      full-resolution reference frames for PSNR/popping (default on)\n"
             "  --json FILE             write the summary and per-frame figures as JSON\n"
             "  --plot FILE.png         chart of triangles, frame ms and pixel error (needs gnuplot)\n"
-            "  --save-frames DIR       write every LOD (and reference) frame as PNG\n");
+            "  --save-frames DIR       write every LOD (and reference) frame as PNG\n"
+            "forest bench (with --forest N; path default: forest, just above the crowns; --fps default 2):\n"
+            "  --full-every N          also draw every N-th frame unsimplified (default frames/6)\n"
+            "  --no-full               no unsimplified frames\n"
+            "  --no-pr                 skip the per-species precision/recall\n"
+            "  --pr-views N --pr-res N views (default 16) and image size (default 512) for it\n");
 }
 
 typedef struct bench {
@@ -511,9 +518,11 @@ static int parse_modes(const char *v, hz_lod_mode *modes, int cap)
 int cmd_bench(int argc, char **argv)
 {
     /* Split off bench-only options, pass the rest to the common parser. */
-    const char *path_name = "flyover", *json_out = NULL, *plot_out = NULL, *save_dir = NULL;
+    const char *path_name = NULL, *json_out = NULL, *plot_out = NULL, *save_dir = NULL;
+    bench_forest_opts bfo = {0};
     uint32_t frames = 60;
     float fps = 30.0f, tune_p99 = 0.0f;
+    bool fps_set = false;
     bool reference = true;
     hz_lod_mode modes[HZ_LOD_MODE_COUNT * 2];
     int nmodes = 0;
@@ -530,7 +539,15 @@ int cmd_bench(int argc, char **argv)
             free(rest);
             return 0;
         }
+        if (!strcmp(a, "--no-full") || !strcmp(a, "--no-pr")) {
+            if (!strcmp(a, "--no-full"))
+                bfo.no_full = true;
+            else
+                bfo.no_pr = true;
+            continue;
+        }
         bool takes = !strcmp(a, "--path") || !strcmp(a, "--frames") || !strcmp(a, "--fps") ||
+                     !strcmp(a, "--full-every") || !strcmp(a, "--pr-views") || !strcmp(a, "--pr-res") ||
                      !strcmp(a, "--reference") || !strcmp(a, "--plot") || !strcmp(a, "--save-frames") ||
                      !strcmp(a, "--tune-p99") || (!strcmp(a, "--lod") && v && strchr(v, ',')) ||
                      (!strcmp(a, "--json") && v && v[0] != '-');
@@ -559,6 +576,20 @@ int cmd_bench(int argc, char **argv)
                 free(rest);
                 return 2;
             }
+        } else if (!strcmp(a, "--full-every") || !strcmp(a, "--pr-views") || !strcmp(a, "--pr-res")) {
+            unsigned long x = strtoul(v, &end, 10);
+            unsigned long hi = !strcmp(a, "--pr-res") ? 4096 : 100000, lo = !strcmp(a, "--pr-res") ? 16 : 1;
+            if (*end || end == v || v[0] == '-' || x < lo || x > hi) {
+                fprintf(stderr, "horizon bench: invalid value '%s' for %s: expected %lu..%lu\n", v, a, lo, hi);
+                free(rest);
+                return 2;
+            }
+            if (!strcmp(a, "--full-every"))
+                bfo.full_every = (uint32_t)x;
+            else if (!strcmp(a, "--pr-views"))
+                bfo.pr_views = (uint32_t)x;
+            else
+                bfo.pr_res = (uint32_t)x;
         } else if (!strcmp(a, "--reference")) {
             if (strcmp(v, "on") && strcmp(v, "off")) {
                 fprintf(stderr, "horizon bench: --reference takes on or off\n");
@@ -583,10 +614,12 @@ int cmd_bench(int argc, char **argv)
                 free(rest);
                 return 2;
             }
-            if (is_fps)
+            if (is_fps) {
                 fps = (float)f;
-            else
+                fps_set = true;
+            } else {
                 tune_p99 = (float)f;
+            }
         }
     }
     bench b = {.frames = frames, .fps = fps, .reference = reference, .save_dir = save_dir};
@@ -611,6 +644,24 @@ int cmd_bench(int argc, char **argv)
             hz_terrain_destroy(b.t);
             return 1;
         }
+    if (b.o.forest_n) {
+        if (nmodes > 1) {
+            fprintf(stderr, "horizon bench: --forest measures one --lod mode at a time\n");
+            hz_terrain_destroy(b.t);
+            return 2;
+        }
+        b.o.lod.mode = modes[0];
+        bfo.path = path_name ? path_name : "forest";
+        bfo.frames = frames;
+        bfo.fps = fps_set ? fps : 0.0f;
+        bfo.json_out = json_out;
+        bfo.save_dir = save_dir;
+        rc = bench_forest(&b.o, b.t, &bfo);
+        hz_terrain_destroy(b.t);
+        return rc;
+    }
+    if (!path_name)
+        path_name = "flyover";
     size_t plen = strlen(path_name);
     hz_result pr = plen > 4 && !strcmp(path_name + plen - 4, ".csv") ? hz_path_load_csv(path_name, &b.path, &b.err)
                                                                      : hz_terrain_path(b.t, path_name, &b.path, &b.err);

@@ -80,6 +80,7 @@ int cmd_render(int argc, char **argv)
             fprintf(stderr, "usage: horizon render [options]\n"
                             "Renders one frame headless (EGL, no window) and prints its figures.\n");
             cli_usage_terrain();
+            cli_usage_forest();
             fprintf(stderr, "output:\n"
                             "  --out FILE.png          image (default render.png)\n"
                             "  --dump-mesh FILE.obj    the frame's LOD mesh, world coordinates\n"
@@ -96,7 +97,8 @@ int cmd_render(int argc, char **argv)
     hz_terrain *t = cli_load_terrain(&o);
     if (!t)
         return 1;
-    hz_camera cam = cli_camera(&o, t);
+    hz_camera cam = o.forest_n && !o.have_camera ? cli_forest_camera(&o, t) : cli_camera(&o, t);
+    cli_forest *cf = NULL;
 
     hz_index_list il = {0};
     hz_lod_stats st = {0};
@@ -127,11 +129,25 @@ int cmd_render(int argc, char **argv)
         goto done;
     hz_scene_params sp = {.wireframe = o.wireframe};
     cli_scene_lod(&sp, &st);
+    if (o.forest_n) {
+        cf = cli_forest_create(&o, t);
+        if (!cf) {
+            hz_err_set(&err, HZ_ERR_VALUE, "no forest");
+            goto done;
+        }
+        if (!cli_forest_update(cf, &o, &cam, 0.0))
+            goto done;
+        cli_forest_hook(cf, &sp);
+    }
     double draw[3];
     hz_draw_stats ds = {0};
     for (int k = 0; k < 3; k++) {
         if (hz_renderer_draw(ren, &cam, &sp, il.data, (uint32_t)il.count, &ds, &err) != HZ_OK)
             goto done;
+        if (cf && cf->hook.failed) {
+            err = cf->hook.err;
+            goto done;
+        }
         draw[k] = ds.draw_ms;
     }
     double draw_first = draw[0];
@@ -154,7 +170,7 @@ int cmd_render(int argc, char **argv)
                "\"triangles\":%u,\"vertices\":%zu,\"nodes_visited\":%u,\"nodes_culled\":%u,"
                "\"leaves\":%u,\"restricted\":%u,\"lod_ms\":%.4f,\"lod_runs\":%u,\"upload_ms\":%.3f,"
                "\"draw_ms\":%.3f,\"draw_ms_first\":%.3f,\"bytes_per_sample\":%.3f,"
-               "\"lod_bytes\":%zu,\"load_ms\":%.1f,\"prep_ms\":%.1f,\"peak_rss_mb\":%.1f,\"out\":\"%s\"}\n",
+               "\"lod_bytes\":%zu,\"load_ms\":%.1f,\"prep_ms\":%.1f,\"peak_rss_mb\":%.1f,\"out\":\"%s\"",
                t->source, t->hm.size, (double)t->spacing, (double)t->zscale, hz_layout_name(t->hm.layout),
                hz_lod_mode_name(o.lod.mode), (double)o.lod.pixel_error,
                (double)(o.lod.c > 0 ? o.lod.c : 25), (double)(o.lod.c2 > 0 ? o.lod.c2 : 2.5f),
@@ -166,6 +182,17 @@ int cmd_render(int argc, char **argv)
                st.restricted, lod_med, o.repeat, ds.upload_ms, draw_med, draw_first,
                hz_lod_bytes_per_sample(t->lod), hz_lod_memory_bytes(t->lod), t->load_ms, t->prep_ms,
                (double)hz_peak_rss_bytes() / (1024.0 * 1024.0), out);
+        if (cf) {
+            const hz_forest_frame *fr = &cf->frame;
+            printf(",\"forest_trees\":%u,\"trees_in_frustum\":%u,\"trees_detailed\":%u,\"trees_hull\":%u,"
+                   "\"triangles_full\":%llu,\"triangles_drawn\":%llu,\"leaves_drawn\":%llu,\"nodes_culled\":%u,"
+                   "\"forest_draw_ms\":%.3f,\"forest_select_ms\":%.3f,\"forest_prep_ms\":%.1f",
+                   fr->trees, fr->trees_in_frustum, fr->trees_detailed, fr->trees_hull,
+                   (unsigned long long)fr->triangles_full, (unsigned long long)fr->triangles_drawn,
+                   (unsigned long long)fr->leaves_drawn, fr->nodes_culled, cf->hook.draw_ms, fr->select_ms,
+                   cf->prep_ms);
+        }
+        printf("}\n");
     } else {
         printf("terrain       %s (%ux%u, %.1f m spacing%s%s)\n", t->source, t->hm.size, t->hm.size,
                (double)t->spacing, t->note[0] ? "; " : "", t->note);
@@ -186,12 +213,22 @@ int cmd_render(int argc, char **argv)
                hz_gl_describe(gl));
         printf("LOD memory    %.2f bytes/sample (%.1f MB)\n", hz_lod_bytes_per_sample(t->lod),
                (double)hz_lod_memory_bytes(t->lod) / 1048576.0);
+        if (cf) {
+            const hz_forest_frame *fr = &cf->frame;
+            printf("forest        %u trees, %u in the frustum (%u detailed, %u crown hulls)\n", fr->trees,
+                   fr->trees_in_frustum, fr->trees_detailed, fr->trees_hull);
+            printf("forest tris   %llu drawn of %llu full (%.1f%%), %.1f ms draw, %.2f ms selection%s\n",
+                   (unsigned long long)fr->triangles_drawn, (unsigned long long)fr->triangles_full,
+                   fr->triangles_full ? 100.0 * (double)fr->triangles_drawn / (double)fr->triangles_full : 0.0,
+                   cf->hook.draw_ms, fr->select_ms, o.forest.simplify ? "" : " (unsimplified)");
+        }
         printf("image         %s (%ux%u)\n", out, o.width, o.height);
     }
     rc = 0;
 done:
     if (rc)
         fprintf(stderr, "horizon render: %s\n", err.msg[0] ? err.msg : "failed");
+    cli_forest_destroy(cf);
     hz_renderer_destroy(ren);
     hz_gl_destroy(gl);
     free(il.data);

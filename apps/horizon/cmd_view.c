@@ -34,8 +34,9 @@ typedef struct view_opts {
 } view_opts;
 
 /* Options that take no value: those of the shared parser and ours. */
-static const char *const flag_opts[] = {"no-cull", "json", "wireframe", "quiet", "walk",
-                                        "free",    "fans", "boxes",     "no-hud", "no-vsync"};
+static const char *const flag_opts[] = {"no-cull", "json",     "wireframe",     "quiet",      "walk",
+                                        "free",    "fans",     "boxes",         "no-hud",     "no-vsync",
+                                        "no-simplify", "no-hysteresis", "no-enlarge", "no-node-cull"};
 
 static bool is_flag(const char *name)
 {
@@ -50,6 +51,7 @@ static void usage(void)
     fprintf(stderr, "usage: horizon view [terrain, LOD and view options as in render] [view options]\n"
                     "Opens a window to fly over the terrain (X11; xvfb-run for none).\n");
     cli_usage_terrain();
+    cli_usage_forest();
     fprintf(stderr,
             "view:\n"
             "  --config FILE           settings as 'key = value' lines (keys are these long option\n"
@@ -67,7 +69,8 @@ static void usage(void)
             "  --shot-dir DIR          where P/F12 screenshots go (default .)\n"
             "scripted runs:\n"
             "  --script FILE           timed input events (see README: 'horizon view')\n"
-            "  --path NAME|FILE.csv    fly a camera path (flyover, orbit, ground or t,x,y,z,yaw,pitch CSV)\n"
+            "  --path NAME|FILE.csv    fly a camera path (flyover, orbit, ground, forest (with --forest)\n"
+            "                          or t,x,y,z,yaw,pitch CSV)\n"
             "  --frames N              quit after N frames\n"
             "  --dt S                  fixed seconds per frame (default: real time; 1/30 with\n"
             "                          --script, --path or --frames)\n"
@@ -75,7 +78,8 @@ static void usage(void)
             "  --json                  print a summary (frames, FPS, size, camera) as JSON on exit\n"
             "keys: WASD move, Q/E down/up, shift fast, ctrl slow, mouse drag (or M) look, arrows turn,\n"
             "      scroll speed, Tab viewer/free, G walk, 1/2 C, 3/4 C2, K culling, F1 HUD, H help,\n"
-            "      F2 wireframe, F3 fans, F4 freeze LOD camera, F5 node boxes, R reset, P/F12 shot, Esc quit\n");
+            "      F2 wireframe, F3 fans, F4 freeze LOD camera, F5 node boxes, R reset, P/F12 shot, Esc quit,\n"
+            "      with --forest: T tree simplification on/off, Y hysteresis on/off\n");
 }
 
 static bool parse_f(const char *s, float lo, float hi, float *out)
@@ -471,6 +475,7 @@ typedef struct view {
     hz_overlay *ov;
     hz_renderer *ren;
     hz_terrain *t;
+    cli_forest *cf;              /* --forest */
     hz_flycam fc;
     hz_camera start_cam;
     float base_znear;
@@ -715,6 +720,18 @@ static bool handle_press(view *v, int key)
     case HZ_KEY_A + ('M' - 'A'):
         hz_window_capture_mouse(v->win, !hz_window_mouse_captured(v->win));
         break;
+    case HZ_KEY_A + ('T' - 'A'):
+        if (v->cf) {
+            v->o.forest.simplify = !v->o.forest.simplify;
+            set_message(v, 1.5, "tree simplification %s", v->o.forest.simplify ? "on" : "off");
+        }
+        break;
+    case HZ_KEY_A + ('Y' - 'A'):
+        if (v->cf) {
+            v->o.forest.hysteresis = !v->o.forest.hysteresis;
+            set_message(v, 1.5, "LOD hysteresis %s", v->o.forest.hysteresis ? "on" : "off");
+        }
+        break;
     case HZ_KEY_A + ('R' - 'A'): {
         bool walk = v->fc.walk;
         hz_camera c = v->fc.cam;
@@ -873,7 +890,7 @@ static void queue_boxes(view *v, const hz_node_list *nodes, const float rgba[4],
 static void queue_hud(view *v, uint32_t boxes_drawn, size_t boxes_wanted)
 {
     const float sc = v->hud_scale, lh = 12.0f * sc, x0 = 8.0f * sc;
-    char lines[10][256];
+    char lines[12][256];
     int nl = 0;
     const hz_terrain *t = v->t;
     const hz_camera *c = &v->fc.cam;
@@ -898,6 +915,13 @@ static void queue_hud(view *v, uint32_t boxes_drawn, size_t boxes_wanted)
              (double)c->pitch, (double)v->fc.speed);
     snprintf(lines[nl++], 256, "ground %.1f m   above ground %.1f m%s", (double)g, (double)(c->pos[1] - g),
              v->path_active ? "   (on camera path)" : "");
+    if (v->cf) {
+        const hz_forest_frame *fr = &v->cf->frame;
+        snprintf(lines[nl++], 256, "forest %u trees, %u in view (%u hulls)  %.2f M of %.2f M tris  %.1f ms  %s%s",
+                 fr->trees, fr->trees_in_frustum, fr->trees_hull, (double)fr->triangles_drawn / 1e6,
+                 (double)fr->triangles_full / 1e6, v->cf->hook.draw_ms,
+                 v->o.forest.simplify ? "T simplified" : "T FULL", v->o.forest.hysteresis ? "  Y hyst." : "");
+    }
     if (boxes_wanted > boxes_drawn)
         snprintf(lines[nl++], 256, "boxes: the first %u of %zu shown", boxes_drawn, boxes_wanted);
     int views_line = nl;
@@ -1075,8 +1099,21 @@ static bool frame(view *v, bool *render_failed)
     /* Terrain (sky only in the fan view: the fans replace the shading). */
     hz_scene_params sp = {.wireframe = v->wire};
     cli_scene_lod(&sp, &v->st);
+    if (v->cf) {
+        if (!cli_forest_update(v->cf, &v->o, &v->fc.cam, (now - v->run_t0) / 1000.0)) {
+            hz_err_set(&v->err, HZ_ERR_MEMORY, "forest selection failed");
+            *render_failed = true;
+            return false;
+        }
+        cli_forest_hook(v->cf, &sp);
+    }
     uint32_t count = v->fans ? 0 : (uint32_t)v->il.count;
     if (hz_renderer_draw(v->ren, &v->fc.cam, &sp, v->il.data, count, &v->ds, &v->err) != HZ_OK) {
+        *render_failed = true;
+        return false;
+    }
+    if (v->cf && v->cf->hook.failed) {
+        v->err = v->cf->hook.err;
         *render_failed = true;
         return false;
     }
@@ -1149,7 +1186,7 @@ static void print_json(view *v)
            "\"pixel_error\":%g,\"lod_c\":%g,\"lod_c2\":%g,"
            "\"camera_mode\":\"%s\",\"camera\":[%.3f,%.3f,%.3f,%.3f,%.3f],\"ground\":%.3f,\"speed\":%g,"
            "\"eye_height\":%g,\"wireframe\":%s,\"fans\":%s,\"frozen\":%s,\"boxes\":%s,\"no_cull\":%s,"
-           "\"screenshots\":%u,\"gl\":\"%s\"}\n",
+           "\"screenshots\":%u,\"forest_trees\":%u,\"forest_triangles_drawn\":%llu,\"gl\":\"%s\"}\n",
            v->t->source, v->t->hm.size, v->frame, v->width, v->height, total > 0 ? 1000.0 * (double)v->frame_times_n / total : 0.0,
            med, p95, v->st.triangles, v->st.nodes_visited, v->st.nodes_culled, v->st.ms, v->ds.draw_ms,
            hz_lod_mode_name(v->lod.mode), (double)v->lod.pixel_error,
@@ -1157,7 +1194,9 @@ static void print_json(view *v)
            hz_flycam_mode_name(&v->fc), (double)c->pos[0], (double)c->pos[1], (double)c->pos[2], (double)c->yaw,
            (double)c->pitch, (double)hz_flycam_ground(&v->fc), (double)v->fc.speed, (double)v->fc.eye_height,
            v->wire ? "true" : "false", v->fans ? "true" : "false", v->frozen ? "true" : "false",
-           v->boxes ? "true" : "false", v->lod.no_cull ? "true" : "false", v->shots, hz_window_describe(v->win));
+           v->boxes ? "true" : "false", v->lod.no_cull ? "true" : "false", v->shots,
+           v->cf ? v->cf->frame.trees : 0u, v->cf ? (unsigned long long)v->cf->frame.triangles_drawn : 0ull,
+           hz_window_describe(v->win));
 }
 
 static bool ends_with(const char *s, const char *suf)
@@ -1281,7 +1320,7 @@ int cmd_view(int argc, char **argv)
         rc = 0;
         goto out;
     }
-    if (vo->path && !v->have_path) {
+    if (vo->path && !v->have_path && strcmp(vo->path, "forest") != 0) {
         if (hz_terrain_path(v->t, vo->path, &v->path, &v->err) != HZ_OK) {
             fprintf(stderr, "horizon view: %s\n", v->err.msg);
             rc = 2;
@@ -1304,8 +1343,24 @@ int cmd_view(int argc, char **argv)
         goto out;
     }
 
+    if (v->o.forest_n) {
+        draw_loading(&ld, "growing and ranking trees (cached after the first time)", 1, 1);
+        v->cf = cli_forest_create(&v->o, v->t);
+        if (!v->cf)
+            goto out;
+    }
+    if (vo->path && !v->have_path) {
+        /* "forest": low across the trees (needs --forest) */
+        if (!v->cf || cli_forest_path(v->cf, v->t, &v->path, &v->err) != HZ_OK) {
+            fprintf(stderr, "horizon view: %s\n", v->cf ? v->err.msg : "path 'forest' needs --forest N");
+            rc = 2;
+            goto out;
+        }
+        v->have_path = true;
+    }
+
     /* Cameras. */
-    hz_camera cam = cli_camera(&v->o, v->t);
+    hz_camera cam = v->cf && !v->o.have_camera ? cli_forest_camera(&v->o, v->t) : cli_camera(&v->o, v->t);
     cam.aspect = (float)v->width / (float)v->height;
     v->start_cam = cam;
     v->base_znear = cam.znear;
@@ -1354,6 +1409,7 @@ int cmd_view(int argc, char **argv)
 out:
     if (v->win)
         hz_window_make_current(v->win);
+    cli_forest_destroy(v->cf);
     hz_renderer_destroy(v->ren);
     hz_overlay_destroy(v->ov);
     hz_window_destroy(v->win);

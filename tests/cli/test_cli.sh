@@ -140,6 +140,80 @@ for r in runs:
     assert [f["ref_triangles"] for f in r["per_frame"]] == [f["ref_triangles"] for f in runs[0]["per_frame"]]
 PY
 then ok "bench --lod list --tune-p99"; else bad "bench compare: $(cat "$TMP/cmp.err")"; fi
+# ---- trees and forests ---------------------------------------------------------
+T="$HZ tree --quiet"
+expect_fail "tree unknown species"  "oak, maple"              $T --species baobab
+expect_fail "tree bad views"        "12, 42 or 162"           $T --species oak --leaves 500 --views 20
+expect_fail "tree NaN rate"         "invalid value"           $T --species oak --leaves 500 --rate nan
+expect_fail "tree two sources"      "one source"              $T --species oak --in x.hzt
+expect_fail "tree missing file"     "cannot open"             $T --in "$TMP/nope.hzt"
+expect_fail "tree missing import"   "cannot read"             $T --import "$TMP/nope.obj"
+expect_fail "tree not a tree file"  "not a horizon tree"      $T --in "$DATA/PROVENANCE.md"
+expect_fail "tree unknown option"   "unknown option"          $T --frob
+expect_fail "tree leaves 0"         "invalid value"           $T --leaves 0
+tj=$($T --species birch --seed 2 --leaves 800 --views 12 --rank-res 16 --out "$TMP/b.hzt" --json --pr --pr-views 4 --pr-res 64 --preview "$TMP/b.png" --size 96 2>"$TMP/tree.err")
+rc=$?
+if [ $rc -eq 0 ] && [ -s "$TMP/b.png" ] && python3 - "$tj" <<'PY'
+import json, sys
+j = json.loads(sys.argv[1])
+need = ["leaves","leaf_nodes","branch_nodes","levels","triangles","hull_triangles","rank_ms",
+        "vmi_precision","vmi_recall","random_precision","random_recall"]
+missing = [k for k in need if k not in j]
+assert not missing, missing
+assert 600 < j["leaves"] < 1000 and j["levels"] == 4 and j["ranked"] and j["hull_closed_manifold"], j
+assert j["triangles"] == 2 * j["leaves"] + j["bark_triangles"], j
+assert j["vmi_precision"] == 1.0 and 0 < j["vmi_recall"] < 1, j
+PY
+then ok "tree --json/--out/--pr/--preview"; else bad "tree (exit $rc): $tj $(cat "$TMP/tree.err")"; fi
+# The same tree read back: identical figures, no re-ranking.
+tj2=$($T --in "$TMP/b.hzt" --json)
+python3 -c "import json,sys; a=json.loads(sys.argv[1]); b=json.loads(sys.argv[2]); assert all(a[k]==b[k] for k in ['leaves','leaf_nodes','branch_nodes','hull_triangles','rank_ms'])" "$tj" "$tj2" &&
+  ok "tree file round trip" || bad "tree file round trip: $tj2"
+head -c 3000 "$TMP/b.hzt" > "$TMP/trunc.hzt"
+expect_fail "tree truncated file"   "truncated|corrupt"       $T --in "$TMP/trunc.hzt"
+python3 -c "
+import sys; d=bytearray(open(sys.argv[1],'rb').read()); d[200]^=0xff; open(sys.argv[2],'wb').write(d)" "$TMP/b.hzt" "$TMP/flip.hzt"
+expect_fail "tree flipped byte"     "corrupt|CRC"             $T --in "$TMP/flip.hzt"
+$T --import "$DATA/trees/white_birch.obj" --no-rank --json --out "$TMP/obj.hzt" > "$TMP/obj.json" 2>&1 &&
+  python3 -c "import json,sys; j=json.load(open(sys.argv[1])); assert j['leaves']==1295 and j['hull_triangles']>0" "$TMP/obj.json" &&
+  ok "tree --import OBJ (1295 leaves)" || bad "tree --import: $(cat "$TMP/obj.json")"
+F="--forest-trees $TMP/b.hzt,$TMP/obj.hzt"
+expect_fail "forest bad count"      "invalid value"           $R --size 257 --forest 0
+expect_fail "forest bad weights"    "five weights"            $R --size 257 --forest 5 --rate-weights 1,2
+expect_fail "forest near > far"     "larger than"             $R --size 257 --forest 5 --tree-near 50 --tree-far 10
+expect_fail "forest missing model"  "cannot open"             $R --size 257 --forest 5 --forest-trees "$TMP/nope.hzt"
+expect_fail "forest bad model"      "truncated|corrupt"       $R --size 257 --forest 5 --forest-trees "$TMP/trunc.hzt"
+fj=$($R --size 513 --forest 40 $F --json --out "$TMP/forest.png" 2>"$TMP/forest.err")
+rc=$?
+if [ $rc -eq 0 ] && python3 - "$fj" <<'PY'
+import json, sys
+j = json.loads(sys.argv[1])
+assert j["forest_trees"] == 40 and j["trees_in_frustum"] > 5, j
+assert 0 < j["triangles_drawn"] < j["triangles_full"], j
+PY
+then ok "render --forest figures"; else bad "render --forest (exit $rc): $fj $(cat "$TMP/forest.err")"; fi
+fu=$($R --size 513 --forest 40 $F --json --no-simplify --out "$TMP/forest_full.png" 2>&1)
+python3 -c "import json,sys; j=json.loads(sys.argv[1]); assert j['triangles_drawn']==j['triangles_full']>0" "$fu" &&
+  ok "render --forest --no-simplify draws everything" || bad "render --no-simplify: $fu"
+$HZ bench --quiet --generate perlin --size 513 --forest 40 $F --frames 4 --width 160 --height 90 --pr-views 2 --pr-res 32 --json "$TMP/fb.json" >/dev/null 2>"$TMP/fb.err" &&
+  python3 - "$TMP/fb.json" <<'PY' && ok "bench --forest JSON" || bad "bench --forest: $(cat "$TMP/fb.err")"
+import json, sys
+j = json.load(open(sys.argv[1]))
+for k in ["trees","trees_in_frustum","triangles_full","triangles_drawn","speedup","frame_ms","frame_ms_full",
+          "frame_ms_no_hysteresis"]:
+    assert k in j, k
+assert j["trees"] == 40 and j["speedup"] > 0 and len(j["species"]) == 2, j
+for s in j["species"]:
+    for k in ["vmi_precision","vmi_recall","random_precision","random_recall"]:
+        assert 0 <= s[k] <= 1, (k, s)
+PY
+printf '# x,z,model,scale,yaw\n2500,2500,0,1,0\n2510,2500,1,1.2,45\n' > "$TMP/forest.csv"
+ffj=$($R --size 513 --forest-file "$TMP/forest.csv" $F --camera 2505,2500,2500,0,-89 --json --out "$TMP/ff.png" 2>&1)
+python3 -c "import json,sys; j=json.loads(sys.argv[1]); assert j['forest_trees']==2 and j['trees_in_frustum']==2" "$ffj" &&
+  ok "render --forest-file" || bad "render --forest-file: $ffj"
+printf '2500,2500,7,1,0\n' > "$TMP/badforest.csv"
+expect_fail "forest file bad model" "badforest.csv:1"         $R --size 513 --forest-file "$TMP/badforest.csv" $F
+expect_fail "bench forest bad pr-res" "invalid value"         $HZ bench --quiet --size 257 --forest 5 --pr-res 3
 
 echo "$passes passed, $fails failed"
 [ $fails -eq 0 ]

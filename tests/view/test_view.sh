@@ -213,5 +213,13 @@ out=$(env -u DISPLAY "$HZ" view --quiet "${GEN[@]}" --frames 2 2>&1 >/dev/null);
 if [ $rc -ne 0 ] && [ $rc -lt 128 ] && echo "$out" | grep -Eqi "display|xvfb"; then ok "no X display (exit $rc)"
 else bad "no X display: exit $rc, stderr: $out"; fi
 
+# A forest in the window: small generated trees (cached in TMP), flown along the forest path.
+if run forest "${GEN[@]}" --size 513 --forest 60 --forest-leaves 600 --tree-cache "$TMP/trees" --path forest \
+       --frames 8 --width 480 --height 300 --screenshot "$TMP/forest.png"; then
+  judge "forest: trees selected and drawn" "$OUT" 'j["forest_trees"] == 60 and j["forest_triangles_drawn"] > 1000 and j["frames"] == 8'
+  [ -s "$TMP/forest.png" ] && ok "forest screenshot" || bad "forest screenshot missing"
+fi
+expect_fail "forest path without --forest" "needs --forest"     "${GEN[@]}" --size 257 --path forest --frames 2
+
 echo "test_view: $passes passed, $fails failed"
 [ $fails -eq 0 ]

@@ -1,0 +1,360 @@
+/* horizon tree: grow, import, rank (VMI), hull, inspect and preview trees. */
+#include "cli.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "horizon/forest_render.h"
+
+static void usage(void)
+{
+    fprintf(stderr,
+            "usage: horizon tree [source] [processing] [output]\n"
+            "Grows (or imports, or loads) a tree, ranks its leaves by VMI, builds its crown hull,\n"
+            "and writes a .hzt tree file.\n"
+            "source (one of):\n"
+            "  --species NAME          grow oak, maple, birch or conifer (default oak)\n"
+            "  --seed S                growth seed (default 1)\n"
+            "  --leaves N              target leaf count (default: the species', 50 000..100 000)\n"
+            "  --import FILE           OBJ/glTF/... through assimp; leaves are meshes named\n"
+            "                          leaf/leaves/foliage/needle (mesh, node or material name)\n"
+            "  --leaf-match TEXT       other name part that marks leaf meshes\n"
+            "  --up y|z                imported up axis (default: the longest extent)\n"
+            "  --scale F               imported units to metres (default 1)\n"
+            "  --node-leaves N         imported leaves per leaf node, at most (default 48)\n"
+            "  --in FILE.hzt           load a tree file\n"
+            "processing:\n"
+            "  --no-rank               skip the VMI ranking (done by default when not yet ranked)\n"
+            "  --rank                  rank again even if the tree is ranked\n"
+            "  --views 12|42|162       VMI viewpoints on the icosahedron (default 42)\n"
+            "  --rank-res PX           item-buffer pixels across a leaf node (default 32)\n"
+            "  --layers L              depth-peeled layers per pixel (default 4)\n"
+            "  --no-hull               skip the crown hull (built by default when missing)\n"
+            "  --hull-grid N           density grid voxels along the crown (default 40)\n"
+            "  --hull-triangles N      hull simplification target (default 3000)\n"
+            "output:\n"
+            "  --out FILE.hzt          write the tree\n"
+            "  --json                  figures as one JSON object on stdout\n"
+            "  --preview FILE.png      render the tree alone (leaves, bark) headless\n"
+            "  --rate R                simplification rate of every leaf node in the preview (default 0)\n"
+            "  --hull-preview          draw the crown hull instead of the leaves in the preview\n"
+            "  --size N                preview size in pixels (default 512)\n"
+            "  --pr                    precision/recall of foliage coverage at 50%% simplification,\n"
+            "                          VMI order vs random order, with and without enlargement\n"
+            "  --pr-views N --pr-res N views (default 16) and image size (default 512) for --pr\n"
+            "  --quiet                 no progress bars\n");
+}
+
+static int bad(const char *opt, const char *val, const char *want)
+{
+    fprintf(stderr, "horizon tree: invalid value '%s' for %s: expected %s\n", val ? val : "", opt, want);
+    return 2;
+}
+
+static bool parse_u(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
+{
+    char *end;
+    errno = 0;
+    unsigned long long v = strtoull(s, &end, 10);
+    if (errno || end == s || *end || s[0] == '-' || v < lo || v > hi)
+        return false;
+    *out = (uint32_t)v;
+    return true;
+}
+
+static bool parse_f(const char *s, float lo, float hi, float *out)
+{
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (errno || end == s || *end || !isfinite(v) || v < lo || v > hi)
+        return false;
+    *out = (float)v;
+    return true;
+}
+
+typedef struct pr_row {
+    const char *order;
+    bool enlarge;
+    hz_pr_result r;
+} pr_row;
+
+/* Renders the tree alone: a one-tree forest on no terrain, through the hook. */
+static int preview(const hz_tree *t, const char *file, uint32_t size, float rate, bool hull, hz_err *err)
+{
+    hz_forest_tree ft = {.pos = {0, 0, 0}, .yaw = 0, .scale = 1, .model = 0};
+    const hz_tree *models[1] = {t};
+    hz_forest *f = hz_forest_create(models, 1, &ft, 1, err);
+    if (!f)
+        return 1;
+    int rc = 1;
+    hz_renderer *ren = hz_renderer_create(&(hz_renderer_desc){.width = size, .height = size}, err);
+    hz_forest_gpu *gpu = ren ? hz_forest_gpu_create(f, err) : NULL;
+    uint8_t *rgb = malloc((size_t)size * size * 3);
+    if (!ren || !gpu || !rgb)
+        goto done;
+    float r = t->bound_radius;
+    hz_camera cam = {.pos = {t->bound_center[0] + 0.35f * r, t->bound_center[1] + 0.2f * r, t->bound_center[2] + 2.6f * r},
+                     .yaw = -7.7f, .pitch = -4.0f, .fov_y = 45.0f, .aspect = 1.0f, .znear = 0.05f, .zfar = 10.0f * r};
+    hz_forest_params fp = {.simplify = true, .enlarge = true, .fixed_rate = true, .fixed = rate,
+                           .hull_dist = hull ? 1e-3f : 1e9f};
+    hz_forest_frame fr;
+    if (hz_forest_update(f, &cam, &fp, 0.0, &fr, err) != HZ_OK)
+        goto done;
+    hz_forest_hook hook = {.gpu = gpu, .forest = f, .frame = &fr};
+    hz_scene_params sp = {.draw_objects = hz_forest_draw_hook, .draw_objects_user = &hook, .fog_density = -1};
+    if (hz_renderer_draw(ren, &cam, &sp, NULL, 0, NULL, err) != HZ_OK)
+        goto done;
+    if (hook.failed) {
+        *err = hook.err;
+        goto done;
+    }
+    if (hz_renderer_read_rgb(ren, rgb, err) != HZ_OK || hz_image_write_png(file, rgb, size, size, err) != HZ_OK)
+        goto done;
+    rc = 0;
+done:
+    free(rgb);
+    hz_forest_gpu_destroy(gpu);
+    hz_renderer_destroy(ren);
+    hz_forest_destroy(f);
+    return rc;
+}
+
+int cmd_tree(int argc, char **argv)
+{
+    hz_tree_desc gd = {.species = NULL, .seed = 1};
+    hz_tree_import_desc id = {0};
+    const char *in = NULL, *out = NULL, *preview_file = NULL;
+    bool json = false, quiet = false, no_rank = false, force_rank = false, no_hull = false, pr = false,
+         hull_preview = false, have_species = false;
+    hz_rank_desc rd = {0};
+    hz_hull_desc hd = {0};
+    hz_pr_desc prd = {.rate = 0.5f};
+    uint32_t size = 512;
+    float rate = 0.0f;
+    for (int i = 2; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            usage();
+            return 0;
+        }
+        bool flag = !strcmp(a, "--json") || !strcmp(a, "--quiet") || !strcmp(a, "-q") || !strcmp(a, "--no-rank") ||
+                    !strcmp(a, "--rank") || !strcmp(a, "--no-hull") || !strcmp(a, "--pr") ||
+                    !strcmp(a, "--hull-preview");
+        static const char *const valued[] = {"--species", "--seed", "--leaves", "--import", "--leaf-match", "--up",
+                                             "--scale", "--node-leaves", "--in", "--out", "--preview", "--views",
+                                             "--rank-res", "--layers", "--hull-grid", "--hull-triangles", "--rate",
+                                             "--size", "--pr-views", "--pr-res"};
+        bool is_known = flag;
+        for (size_t k = 0; k < sizeof valued / sizeof valued[0] && !is_known; k++)
+            is_known = !strcmp(a, valued[k]);
+        if (!is_known) {
+            fprintf(stderr, "horizon tree: unknown option '%s' (see horizon tree --help)\n", a);
+            return 2;
+        }
+        if (!flag && !v) {
+            fprintf(stderr, "horizon tree: option %s needs a value (see horizon tree --help)\n", a);
+            return 2;
+        }
+        if (!strcmp(a, "--json")) json = true;
+        else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) quiet = true;
+        else if (!strcmp(a, "--no-rank")) no_rank = true;
+        else if (!strcmp(a, "--rank")) force_rank = true;
+        else if (!strcmp(a, "--no-hull")) no_hull = true;
+        else if (!strcmp(a, "--pr")) pr = true;
+        else if (!strcmp(a, "--hull-preview")) hull_preview = true;
+        else {
+            i++;
+            if (!strcmp(a, "--species")) {
+                gd.species = v;
+                have_species = true;
+                bool known = false;
+                for (const char *const *n = hz_tree_species_names(); *n; n++)
+                    known |= !strcmp(*n, v);
+                if (!known)
+                    return bad(a, v, "oak, maple, birch or conifer");
+            } else if (!strcmp(a, "--seed")) {
+                char *end;
+                errno = 0;
+                gd.seed = strtoull(v, &end, 10);
+                if (errno || *end || end == v || v[0] == '-')
+                    return bad(a, v, "a non-negative integer");
+            } else if (!strcmp(a, "--leaves")) {
+                if (!parse_u(v, 1, 2000000, &gd.leaves))
+                    return bad(a, v, "a count in [1, 2000000]");
+            } else if (!strcmp(a, "--import")) id.path = v;
+            else if (!strcmp(a, "--leaf-match")) id.leaf_match = v;
+            else if (!strcmp(a, "--up")) {
+                if (strcmp(v, "y") && strcmp(v, "z"))
+                    return bad(a, v, "y or z");
+                id.up = v[0];
+            } else if (!strcmp(a, "--scale")) {
+                if (!parse_f(v, 1e-6f, 1e6f, &id.scale))
+                    return bad(a, v, "a factor in (0, 1e6]");
+            } else if (!strcmp(a, "--node-leaves")) {
+                if (!parse_u(v, 1, 4096, &id.node_leaves))
+                    return bad(a, v, "a count in [1, 4096]");
+            } else if (!strcmp(a, "--in")) in = v;
+            else if (!strcmp(a, "--out")) out = v;
+            else if (!strcmp(a, "--preview")) preview_file = v;
+            else if (!strcmp(a, "--views")) {
+                if (!parse_u(v, 12, 162, &rd.views) || (rd.views != 12 && rd.views != 42 && rd.views != 162))
+                    return bad(a, v, "12, 42 or 162");
+            } else if (!strcmp(a, "--rank-res")) {
+                if (!parse_u(v, 4, 256, &rd.res))
+                    return bad(a, v, "pixels in [4, 256]");
+            } else if (!strcmp(a, "--layers")) {
+                if (!parse_u(v, 1, 16, &rd.layers))
+                    return bad(a, v, "a count in [1, 16]");
+            } else if (!strcmp(a, "--hull-grid")) {
+                if (!parse_u(v, 8, 256, &hd.grid))
+                    return bad(a, v, "voxels in [8, 256]");
+            } else if (!strcmp(a, "--hull-triangles")) {
+                if (!parse_u(v, 16, 1000000, &hd.triangles))
+                    return bad(a, v, "a count in [16, 1000000]");
+            } else if (!strcmp(a, "--rate")) {
+                if (!parse_f(v, 0.0f, 0.99f, &rate))
+                    return bad(a, v, "a rate in [0, 0.99]");
+            } else if (!strcmp(a, "--size")) {
+                if (!parse_u(v, 16, 4096, &size))
+                    return bad(a, v, "pixels in [16, 4096]");
+            } else if (!strcmp(a, "--pr-views")) {
+                if (!parse_u(v, 1, 1024, &prd.views))
+                    return bad(a, v, "a count in [1, 1024]");
+            } else if (!strcmp(a, "--pr-res")) {
+                if (!parse_u(v, 16, 4096, &prd.res))
+                    return bad(a, v, "pixels in [16, 4096]");
+            } else {
+                fprintf(stderr, "horizon tree: unknown option '%s' (see horizon tree --help)\n", a);
+                return 2;
+            }
+        }
+    }
+    if ((in != NULL) + (id.path != NULL) + (have_species || gd.leaves) > 1) {
+        fprintf(stderr, "horizon tree: give one source: --species/--leaves, --import or --in\n");
+        return 2;
+    }
+    if (no_rank && force_rank) {
+        fprintf(stderr, "horizon tree: --rank and --no-rank contradict each other\n");
+        return 2;
+    }
+    hz_err err = {0};
+    double t0 = hz_time_ms();
+    hz_tree *t = in ? hz_tree_load(in, &err) : id.path ? hz_tree_import(&id, &err) : hz_tree_grow(&gd, &err);
+    if (!t) {
+        fprintf(stderr, "horizon tree: %s\n", err.msg);
+        return 1;
+    }
+    double source_ms = hz_time_ms() - t0;
+    int rc = 1;
+    hz_gl *gl = NULL;
+    hz_rank_stats rs = {0};
+    hz_hull_stats hs = {0};
+    pr_row rows[4] = {{.order = "vmi"}, {.order = "vmi", .enlarge = true}, {.order = "random"},
+                      {.order = "random", .enlarge = true}};
+    bool need_gl = (!no_rank && (!t->ranked || force_rank)) || preview_file || pr;
+    if (need_gl) {
+        gl = hz_gl_create_headless(&err);
+        if (!gl)
+            goto done;
+    }
+    if (!no_rank && (!t->ranked || force_rank)) {
+        rd.progress = quiet ? NULL : hz_progress_stderr;
+        if (hz_tree_rank(t, &rd, &rs, &err) != HZ_OK)
+            goto done;
+    }
+    if (!no_hull && t->hull.index_count == 0) {
+        if (hz_hull_build(t, &hd, &hs, &err) != HZ_OK)
+            goto done;
+    }
+    if (out && hz_tree_save(t, out, &err) != HZ_OK)
+        goto done;
+    if (preview_file && preview(t, preview_file, size, rate, hull_preview, &err))
+        goto done;
+    if (pr) {
+        hz_tree *rnd = hz_tree_shuffled(t, 12345, &err);
+        if (!rnd)
+            goto done;
+        for (int k = 0; k < 4; k++) {
+            hz_pr_desc d = prd;
+            d.enlarge = rows[k].enlarge;
+            if (hz_tree_pr(k < 2 ? t : rnd, &d, &rows[k].r, &err) != HZ_OK) {
+                hz_tree_destroy(rnd);
+                goto done;
+            }
+        }
+        hz_tree_destroy(rnd);
+    }
+    long long file_bytes = -1;
+    struct stat sb;
+    if (out && stat(out, &sb) == 0)
+        file_bytes = (long long)sb.st_size;
+    hz_mesh_topology topo = {0};
+    if (t->hull.index_count)
+        hz_mesh_check(t->hull.idx, t->hull.index_count, t->hull.vertex_count, &topo, &err);
+    uint32_t maxn = 0;
+    for (uint32_t n = 0; n < t->node_count; n++)
+        if (t->nodes[n].count > maxn)
+            maxn = t->nodes[n].count;
+    if (json) {
+        printf("{\"species\":\"%s\",\"seed\":%llu,\"leaves\":%u,\"leaf_nodes\":%u,\"branch_nodes\":%u,\"levels\":%u,"
+               "\"max_node_leaves\":%u,\"triangles\":%llu,\"bark_triangles\":%u,\"hull_triangles\":%u,"
+               "\"hull_raw_triangles\":%u,\"hull_closed_manifold\":%s,\"height_m\":%.2f,\"source_ms\":%.1f,"
+               "\"ranked\":%s,\"rank_ms\":%.1f,\"rank_render_ms\":%.1f,\"rank_vmi_ms\":%.1f,\"rank_views\":%u,"
+               "\"rank_res\":%u,\"rank_layers\":%u,\"rank_pixels\":%llu,\"rank_deep_pixel_frac\":%.4f,"
+               "\"hull_ms\":%.1f,\"memory_bytes\":%zu,\"file_bytes\":%lld,\"peak_rss_mb\":%.1f",
+               t->species, (unsigned long long)t->seed, t->leaf_count, t->node_count, t->branch_count, t->levels,
+               maxn, (unsigned long long)hz_tree_triangles(t), t->bark.index_count / 3, t->hull.index_count / 3,
+               hs.raw_triangles, t->hull.index_count && !topo.bad_edges && !topo.bad_vertices ? "true" : "false",
+               (double)t->height, source_ms, t->ranked ? "true" : "false", rs.nodes ? rs.ms : t->rank_ms,
+               rs.render_ms, rs.vmi_ms, t->rank_views, t->rank_res, t->rank_layers, (unsigned long long)rs.pixels,
+               rs.pixels ? (double)rs.deep_pixels / (double)rs.pixels : 0.0, hs.ms, hz_tree_memory_bytes(t),
+               file_bytes, (double)hz_peak_rss_bytes() / 1048576.0);
+        if (pr) {
+            printf(",\"pr_rate\":%g,\"pr_views\":%u,\"pr_res\":%u", (double)prd.rate, rows[0].r.views, rows[0].r.res);
+            for (int k = 0; k < 4; k++)
+                printf(",\"%s%s_precision\":%.4f,\"%s%s_recall\":%.4f,\"%s%s_f\":%.4f", rows[k].order,
+                       rows[k].enlarge ? "_enlarged" : "", rows[k].r.precision, rows[k].order,
+                       rows[k].enlarge ? "_enlarged" : "", rows[k].r.recall, rows[k].order,
+                       rows[k].enlarge ? "_enlarged" : "", rows[k].r.f_measure);
+        }
+        printf("}\n");
+    } else {
+        printf("tree          %s (seed %llu)\n", t->species, (unsigned long long)t->seed);
+        printf("hierarchy     %u branch nodes in %u levels, %u leaf nodes (<= %u leaves each)\n", t->branch_count,
+               t->levels, t->node_count, maxn);
+        printf("leaves        %u (%llu triangles with %u bark triangles), %.1f m tall\n", t->leaf_count,
+               (unsigned long long)hz_tree_triangles(t), t->bark.index_count / 3, (double)t->height);
+        if (t->ranked)
+            printf("VMI ranking   %u views, %u px, %u layers: %.0f ms%s\n", t->rank_views, t->rank_res,
+                   t->rank_layers, rs.nodes ? rs.ms : t->rank_ms, rs.nodes ? "" : " (stored)");
+        else
+            printf("VMI ranking   none\n");
+        if (t->hull.index_count)
+            printf("crown hull    %u triangles%s, %s\n", t->hull.index_count / 3,
+                   hs.raw_triangles ? "" : " (stored)",
+                   !topo.bad_edges && !topo.bad_vertices ? "closed and manifold" : "NOT closed/manifold");
+        printf("memory        %.1f MB\n", (double)hz_tree_memory_bytes(t) / 1048576.0);
+        if (pr) {
+            printf("precision/recall at %.0f%% simplification, %u views at %ux%u:\n", (double)prd.rate * 100,
+                   rows[0].r.views, rows[0].r.res, rows[0].r.res);
+            for (int k = 0; k < 4; k++)
+                printf("  %-7s %-13s P %.3f  R %.3f  F %.3f\n", rows[k].order,
+                       rows[k].enlarge ? "enlarged" : "not enlarged", rows[k].r.precision, rows[k].r.recall,
+                       rows[k].r.f_measure);
+        }
+        if (out)
+            printf("file          %s (%.1f MB)\n", out, (double)file_bytes / 1048576.0);
+    }
+    rc = 0;
+done:
+    if (rc)
+        fprintf(stderr, "horizon tree: %s\n", err.msg[0] ? err.msg : "failed");
+    hz_tree_destroy(t);
+    hz_gl_destroy(gl);
+    return rc;
+}

@@ -1,0 +1,375 @@
+/* --forest for render, bench and view: models (loaded, or grown, ranked and
+ * cached), placement on the terrain, per-frame selection, the draw hook. */
+#include "cli.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+void cli_usage_forest(void)
+{
+    fprintf(stderr,
+            "forest:\n"
+            "  --forest N              place N trees around --forest-at (default the map centre)\n"
+            "  --forest-trees A.hzt,B.hzt  tree models to use (default: oak, maple, birch, conifer,\n"
+            "                          grown, VMI-ranked and cached on first use)\n"
+            "  --forest-leaves N       leaves per generated tree (default: each species' own)\n"
+            "  --tree-cache DIR        cache of generated trees (default ~/.cache/horizon/trees)\n"
+            "  --forest-density D      trees per hectare (default 400)\n"
+            "  --forest-at X,Z         forest centre, metres\n"
+            "  --forest-file F.csv     trees from a file instead: x,z,model,scale,yaw_degrees per line\n"
+            "                          (model: 0-based index into the models; y from the terrain)\n"
+            "  --forest-seed S         placement seed (default 1)\n"
+            "  --no-simplify           every tree in the frustum at full detail (reference)\n"
+            "  --no-hysteresis         update every node's rate every frame (no F6)\n"
+            "  --no-enlarge            no leaf enlargement (F4)\n"
+            "  --no-node-cull          no per-node frustum culling\n"
+            "  --tree-near M --tree-far M  F3 distances near/far (default 5, 80)\n"
+            "  --hull-dist M           trees beyond are crown hulls (default: half of --tree-far)\n"
+            "  --rate-weights W1,..,W5 F3 weights (default 0.2,0.1,0.2,0.3,0.2)\n");
+}
+
+static const char *const SPECIES[] = {"oak", "maple", "birch", "conifer"};
+static const float SPECIES_HIGH[] = {0.0f, 0.3f, 0.55f, 1.0f};
+
+static bool mkdir_p(const char *dir)
+{
+    char buf[1024];
+    snprintf(buf, sizeof buf, "%s", dir);
+    for (char *p = buf + 1; *p; p++)
+        if (*p == '/') {
+            *p = 0;
+            if (mkdir(buf, 0755) != 0 && errno != EEXIST)
+                return false;
+            *p = '/';
+        }
+    return mkdir(buf, 0755) == 0 || errno == EEXIST;
+}
+
+/* A species from the cache, or grown + ranked + hulled and cached. */
+static hz_tree *species_model(const cli_opts *o, const char *name, hz_err *err)
+{
+    char dir[900], file[1024];
+    bool cache = !(o->tree_cache && !strcmp(o->tree_cache, "none"));
+    if (o->tree_cache)
+        snprintf(dir, sizeof dir, "%s", o->tree_cache);
+    else {
+        const char *xdg = getenv("XDG_CACHE_HOME"), *home = getenv("HOME");
+        if (xdg && *xdg)
+            snprintf(dir, sizeof dir, "%s/horizon/trees", xdg);
+        else if (home && *home)
+            snprintf(dir, sizeof dir, "%s/.cache/horizon/trees", home);
+        else
+            cache = false;
+    }
+    if (cache) {
+        snprintf(file, sizeof file, "%s/%s-s1-l%u-v2.hzt", dir, name, o->forest_leaves);
+        struct stat sb;
+        if (stat(file, &sb) == 0) {
+            hz_tree *t = hz_tree_load(file, err);
+            if (t && t->ranked && t->hull.index_count)
+                return t;
+            hz_tree_destroy(t);
+            if (!o->quiet)
+                fprintf(stderr, "horizon: regenerating %s (%s)\n", file, err->msg);
+        }
+    }
+    if (!o->quiet)
+        fprintf(stderr, "horizon: growing and ranking a %s tree (cached for next time)\n", name);
+    hz_tree *t = hz_tree_grow(&(hz_tree_desc){.species = name, .seed = 1, .leaves = o->forest_leaves}, err);
+    if (!t)
+        return NULL;
+    hz_rank_desc rd = {.progress = o->quiet ? NULL : hz_progress_stderr};
+    if (hz_tree_rank(t, &rd, NULL, err) != HZ_OK || hz_hull_build(t, NULL, NULL, err) != HZ_OK) {
+        hz_tree_destroy(t);
+        return NULL;
+    }
+    if (cache) {
+        hz_err e2 = {0};
+        if (!mkdir_p(dir) || hz_tree_save(t, file, &e2) != HZ_OK) {
+            if (!o->quiet)
+                fprintf(stderr, "horizon: cannot cache the tree in %s (%s)\n", dir, e2.msg[0] ? e2.msg : strerror(errno));
+        }
+    }
+    return t;
+}
+
+/* x,z,model,scale,yaw lines ('#' comments, blank lines skipped). */
+static bool read_forest_file(const char *file, const hz_terrain *t, uint32_t models, hz_forest_tree **out,
+                             uint32_t *n, hz_err *err)
+{
+    FILE *f = fopen(file, "r");
+    if (!f) {
+        hz_err_set(err, HZ_ERR_IO, "cannot open forest file '%s': %s", file, strerror(errno));
+        return false;
+    }
+    char line[512];
+    uint32_t cap = 0, ln = 0;
+    *out = NULL;
+    *n = 0;
+    while (fgets(line, sizeof line, f)) {
+        ln++;
+        char *p = line;
+        while (*p == ' ' || *p == '\t')
+            p++;
+        if (*p == '#' || *p == '\n' || *p == '\r' || !*p)
+            continue;
+        double x, z, sc, yaw;
+        unsigned m;
+        char extra;
+        if (sscanf(p, "%lf,%lf,%u,%lf,%lf %c", &x, &z, &m, &sc, &yaw, &extra) != 5 || !isfinite(x) ||
+            !isfinite(z) || !isfinite(yaw) || !(sc > 0 && sc <= 100) || m >= models) {
+            hz_err_set(err, HZ_ERR_FORMAT,
+                       "%s:%u: expected x,z,model,scale,yaw with model < %u and scale in (0, 100]", file, ln,
+                       models);
+            fclose(f);
+            free(*out);
+            *out = NULL;
+            return false;
+        }
+        if (*n == cap) {
+            cap = cap ? cap * 2 : 256;
+            hz_forest_tree *np = realloc(*out, cap * sizeof *np);
+            if (!np || cap > 1000000) {
+                free(np ? np : *out);
+                *out = NULL;
+                fclose(f);
+                hz_err_set(err, HZ_ERR_MEMORY, "%s: too many trees", file);
+                return false;
+            }
+            *out = np;
+        }
+        (*out)[(*n)++] = (hz_forest_tree){.pos = {(float)x, hz_terrain_height_at(t, (float)x, (float)z), (float)z},
+                                          .yaw = (float)(yaw * 0.017453292519943295), .scale = (float)sc,
+                                          .model = m};
+    }
+    fclose(f);
+    if (*n == 0) {
+        hz_err_set(err, HZ_ERR_FORMAT, "forest file '%s' lists no tree", file);
+        return false;
+    }
+    return true;
+}
+
+static float ground(void *user, float x, float z)
+{
+    return hz_terrain_height_at(user, x, z);
+}
+
+cli_forest *cli_forest_create(const cli_opts *o, const hz_terrain *t)
+{
+    hz_err err = {0};
+    cli_forest *cf = calloc(1, sizeof *cf);
+    hz_forest_tree *trees = NULL;
+    float *high = NULL;
+    if (!cf) {
+        fprintf(stderr, "horizon: out of memory\n");
+        return NULL;
+    }
+    double t0 = hz_time_ms();
+    if (o->forest_trees) {
+        char buf[4096];
+        snprintf(buf, sizeof buf, "%s", o->forest_trees);
+        uint32_t n = 1;
+        for (const char *p = buf; *p; p++)
+            n += *p == ',';
+        cf->models = calloc(n, sizeof *cf->models);
+        high = calloc(n, sizeof *high);
+        if (!cf->models || !high) {
+            hz_err_set(&err, HZ_ERR_MEMORY, "out of memory");
+            goto fail;
+        }
+        char *save = NULL;
+        for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
+            hz_tree *m = hz_tree_load(tok, &err);
+            if (!m)
+                goto fail;
+            if (!m->hull.index_count && hz_hull_build(m, NULL, NULL, &err) != HZ_OK) {
+                hz_tree_destroy(m);
+                goto fail;
+            }
+            if (!m->ranked && !o->quiet)
+                fprintf(stderr, "horizon: note: %s is not VMI-ranked; leaves are pruned in file order\n", tok);
+            high[cf->model_count] = !strcmp(m->species, "conifer") ? 1.0f : 0.3f;
+            cf->models[cf->model_count++] = m;
+        }
+        if (!cf->model_count) {
+            hz_err_set(&err, HZ_ERR_VALUE, "--forest-trees lists no file");
+            goto fail;
+        }
+    } else {
+        cf->models = calloc(4, sizeof *cf->models);
+        high = calloc(4, sizeof *high);
+        if (!cf->models || !high) {
+            hz_err_set(&err, HZ_ERR_MEMORY, "out of memory");
+            goto fail;
+        }
+        for (int k = 0; k < 4; k++) {
+            hz_tree *m = species_model(o, SPECIES[k], &err);
+            if (!m)
+                goto fail;
+            high[k] = SPECIES_HIGH[k];
+            cf->models[cf->model_count++] = m;
+        }
+    }
+    cf->prep_ms = hz_time_ms() - t0;
+    float ext = hz_terrain_extent(t);
+    cli_forest_area(o, t, cf->center, &cf->side);
+    float density = o->forest_density > 0 ? o->forest_density : 400.0f;
+    uint32_t placed = 0;
+    if (o->forest_file) {
+        if (!read_forest_file(o->forest_file, t, cf->model_count, &trees, &placed, &err))
+            goto fail;
+        float lo2[2] = {INFINITY, INFINITY}, hi2[2] = {-INFINITY, -INFINITY};
+        for (uint32_t k = 0; k < placed; k++) {
+            lo2[0] = fminf(lo2[0], trees[k].pos[0]), hi2[0] = fmaxf(hi2[0], trees[k].pos[0]);
+            lo2[1] = fminf(lo2[1], trees[k].pos[2]), hi2[1] = fmaxf(hi2[1], trees[k].pos[2]);
+        }
+        cf->center[0] = 0.5f * (lo2[0] + hi2[0]);
+        cf->center[1] = 0.5f * (lo2[1] + hi2[1]);
+        cf->side = fmaxf(fmaxf(hi2[0] - lo2[0], hi2[1] - lo2[1]), 10.0f);
+        goto have_trees;
+    }
+    trees = malloc(o->forest_n * sizeof *trees);
+    if (!trees) {
+        hz_err_set(&err, HZ_ERR_MEMORY, "out of memory");
+        goto fail;
+    }
+    float lo = t->min_h * t->zscale, hi = t->max_h * t->zscale;
+    hz_forest_desc fd = {.count = o->forest_n, .seed = o->forest_seed, .center = {cf->center[0], cf->center[1]},
+                         .density = density, .min_h = lo - 1.0f, .max_h = lo + 0.8f * (hi - lo) + 1.0f,
+                         .extent_limit = ext, .model_count = cf->model_count, .model_high = high,
+                         .height = ground, .height_user = (void *)t};
+    if (hz_forest_place(&fd, trees, &placed, &err) != HZ_OK)
+        goto fail;
+    if (placed < o->forest_n && !o->quiet)
+        fprintf(stderr, "horizon: placed %u of %u trees (the ground around the centre is too steep or high)\n",
+                placed, o->forest_n);
+have_trees:
+    cf->forest = hz_forest_create((const hz_tree *const *)cf->models, cf->model_count, trees, placed, &err);
+    if (!cf->forest)
+        goto fail;
+    cf->gpu = hz_forest_gpu_create(cf->forest, &err);
+    if (!cf->gpu)
+        goto fail;
+    free(trees);
+    free(high);
+    return cf;
+fail:
+    fprintf(stderr, "horizon: forest: %s\n", err.msg);
+    free(trees);
+    free(high);
+    cli_forest_destroy(cf);
+    return NULL;
+}
+
+void cli_forest_destroy(cli_forest *cf)
+{
+    if (!cf)
+        return;
+    hz_forest_gpu_destroy(cf->gpu);
+    hz_forest_destroy(cf->forest);
+    for (uint32_t k = 0; k < cf->model_count; k++)
+        hz_tree_destroy(cf->models[k]);
+    free(cf->models);
+    free(cf);
+}
+
+bool cli_forest_update(cli_forest *cf, const cli_opts *o, const hz_camera *cam, double now_s)
+{
+    hz_err err = {0};
+    if (hz_forest_update(cf->forest, cam, &o->forest, now_s, &cf->frame, &err) != HZ_OK) {
+        fprintf(stderr, "horizon: forest: %s\n", err.msg);
+        return false;
+    }
+    return true;
+}
+
+void cli_forest_hook(cli_forest *cf, hz_scene_params *sp)
+{
+    cf->hook = (hz_forest_hook){.gpu = cf->gpu, .forest = cf->forest, .frame = &cf->frame};
+    sp->draw_objects = hz_forest_draw_hook;
+    sp->draw_objects_user = &cf->hook;
+}
+
+void cli_forest_area(const cli_opts *o, const hz_terrain *t, float center[2], float *side)
+{
+    float ext = hz_terrain_extent(t);
+    float density = o->forest_density > 0 ? o->forest_density : 400.0f;
+    *side = sqrtf((float)o->forest_n) * 100.0f / sqrtf(density);
+    center[0] = o->forest_at_set ? o->forest_at[0] : 0.5f * ext;
+    center[1] = o->forest_at_set ? o->forest_at[1] : 0.5f * ext;
+    if (o->forest_at_set)
+        return;
+    /* The most plantable square: gentle slopes below the tree line, the
+     * nearest to the map centre among equals. */
+    const float lo = t->min_h * t->zscale, hi = t->max_h * t->zscale, line = lo + 0.8f * (hi - lo);
+    const float max_tan = tanf(35.0f * 0.0174532925f), e = 5.0f;
+    float best = -1.0f, best_d = INFINITY, half = fminf(0.5f * *side, 0.45f * ext);
+    for (int gz = 0; gz < 16; gz++)
+        for (int gx = 0; gx < 16; gx++) {
+            float cx = half + (ext - 2 * half) * ((float)gx + 0.5f) / 16.0f;
+            float cz = half + (ext - 2 * half) * ((float)gz + 0.5f) / 16.0f;
+            int ok = 0;
+            for (int sz = -3; sz <= 3; sz++)
+                for (int sx = -3; sx <= 3; sx++) {
+                    float x = cx + half * (float)sx / 3.0f, z = cz + half * (float)sz / 3.0f;
+                    float h = hz_terrain_height_at(t, x, z);
+                    float gxs = (hz_terrain_height_at(t, x + e, z) - hz_terrain_height_at(t, x - e, z)) / (2 * e);
+                    float gzs = (hz_terrain_height_at(t, x, z + e) - hz_terrain_height_at(t, x, z - e)) / (2 * e);
+                    ok += h <= line && sqrtf(gxs * gxs + gzs * gzs) <= 0.7f * max_tan;
+                }
+            float score = (float)ok / 49.0f;
+            float d = hypotf(cx - 0.5f * ext, cz - 0.5f * ext);
+            if (score > best + 1e-4f || (fabsf(score - best) <= 1e-4f && d < best_d)) {
+                best = score;
+                best_d = d;
+                center[0] = cx;
+                center[1] = cz;
+            }
+        }
+}
+
+hz_camera cli_forest_camera(const cli_opts *o, const hz_terrain *t)
+{
+    float ctr[2], side;
+    cli_forest_area(o, t, ctr, &side);
+    hz_camera c = hz_terrain_default_camera(t, o->width, o->height);
+    float x = ctr[0], z = ctr[1] + 0.5f * side + 25.0f;
+    c.pos[0] = x;
+    c.pos[2] = z;
+    c.pos[1] = hz_terrain_height_at(t, x, z) + 30.0f;
+    /* look toward -z, down to the forest's middle */
+    float dy = c.pos[1] - hz_terrain_height_at(t, ctr[0], ctr[1]);
+    c.yaw = 0.0f;
+    c.pitch = -glm_deg(atan2f(dy, 0.5f * side + 25.0f)) * 0.6f;
+    c.znear = 0.3f;
+    if (o->fov > 0)
+        c.fov_y = o->fov;
+    if (o->far > 0)
+        c.zfar = o->far;
+    return c;
+}
+
+hz_result cli_forest_path(const cli_forest *cf, const hz_terrain *t, hz_path *out, hz_err *err)
+{
+    /* Straight along the forest's diagonal, from inside its rim to inside
+     * the other, 22 m above the ground (the highest within 30 m): just above
+     * the crowns, looking ahead and down into them. */
+    hz_path_key k[61];
+    const float half = 0.25f * cf->side;
+    const float yaw = glm_deg(atan2f(1.0f, -1.0f)); /* toward +x +z */
+    for (int n = 0; n < 61; n++) {
+        float u = (float)n / 60.0f;
+        float x = cf->center[0] - half + 2.0f * half * u, z = cf->center[1] - half + 2.0f * half * u;
+        float g = -INFINITY;
+        for (int dz = -2; dz <= 2; dz++)
+            for (int dx = -2; dx <= 2; dx++)
+                g = fmaxf(g, hz_terrain_height_at(t, x + 15.0f * (float)dx, z + 15.0f * (float)dz));
+        k[n] = (hz_path_key){60.0f * u, x, g + 22.0f, z, yaw, -15.0f};
+    }
+    return hz_path_from_keys(k, 61, "forest", out, err);
+}

@@ -1,0 +1,97 @@
+/* horizon forest rendering (GL side of SPEC F2, F4, F7): the item buffers
+ * that rank leaves by VMI, foliage coverage for precision/recall, and the
+ * instanced forest drawn through the renderer's object hook.
+ * All functions need a current OpenGL 4.5 (3.3 for the item buffer) context. */
+#ifndef HORIZON_FOREST_RENDER_H
+#define HORIZON_FOREST_RENDER_H
+
+#include "horizon/forest.h"
+#include "horizon/render.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---- VMI ranking (F2) ------------------------------------------------------- */
+
+typedef struct hz_rank_desc {
+    uint32_t views;    /* viewpoints: 12, 42 or 162 (icosahedron, 0/1/2 subdivisions); 0 -> 42 */
+    uint32_t res;      /* item-buffer pixels across one leaf node's bounding sphere; 0 -> 32 */
+    uint32_t layers;   /* depth-peeled layers kept per pixel; 0 -> 4 */
+    hz_progress_fn progress; /* optional */
+    void *progress_user;
+} hz_rank_desc;
+
+typedef struct hz_rank_stats {
+    double ms, render_ms, vmi_ms;
+    uint64_t pixels;          /* covered item-buffer pixels (all views, all nodes) */
+    uint64_t deep_pixels;     /* pixels whose last kept layer was still a leaf */
+    uint64_t candidates;      /* e_VMI evaluations */
+    uint32_t nodes, batches;
+} hz_rank_stats;
+
+/* Ranks every leaf node's leaves by VMI and reorders them most important
+ * first (t->ranked, rank_views/res/layers/ms are set). Each leaf node is an
+ * object of its own (F2): its leaves are rendered alone, orthographically
+ * from `views` directions framing its bounding sphere, into tiles of an
+ * atlas (R32UI leaf ids, depth-peeled into `layers` layers), and ranked by
+ * hz_vmi_rank. stats may be NULL. */
+hz_result hz_tree_rank(hz_tree *t, const hz_rank_desc *desc, hz_rank_stats *stats, hz_err *err);
+
+/* ---- precision / recall of foliage coverage (F7) ------------------------------ */
+
+typedef struct hz_pr_desc {
+    uint32_t views;    /* 0 -> 16: 8 azimuths x elevations 0 and 35 degrees */
+    uint32_t res;      /* image side in pixels; 0 -> 512 */
+    float rate;        /* simplification rate of every leaf node; 0 -> none (the full tree) */
+    bool enlarge;      /* F4 on the simplified tree */
+} hz_pr_desc;
+
+typedef struct hz_pr_result {
+    double precision, recall, f_measure;
+    uint64_t tp, fp, fn;
+    uint32_t views, res;
+} hz_pr_result;
+
+/* Renders the tree's leaves (no bark) as coverage masks from each view, full
+ * and simplified (the first ceil((1-rate) n) leaves of every node, enlarged
+ * by F4 if asked), and sums TP (both), FP (simplified only), FN (full only).
+ * The order is the tree's current leaf order. */
+hz_result hz_tree_pr(const hz_tree *t, const hz_pr_desc *desc, hz_pr_result *out, hz_err *err);
+
+/* Copy of t whose leaves are in a random order within each node (the
+ * random-pruning baseline). NULL on out of memory. */
+hz_tree *hz_tree_shuffled(const hz_tree *t, uint64_t seed, hz_err *err);
+
+/* ---- forest drawing ------------------------------------------------------------ */
+
+typedef struct hz_forest_gpu hz_forest_gpu;
+
+/* Uploads the forest's models (leaves as texture buffers, bark and hull
+ * meshes). NULL + err on GL failure or a context older than 3.3. */
+hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err);
+void hz_forest_gpu_destroy(hz_forest_gpu *g);
+
+/* Draws a frame's selection with a pass's matrices, lighting and fog:
+ * detailed trees as leaf prefixes per node (one draw per tree, the per-frame
+ * index list built from the node counts), F4 enlargement in the vertex
+ * shader, bark by level, far trees as crown hulls. */
+hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_forest_frame *fr,
+                             const hz_pass_info *pass, hz_err *err);
+
+/* Ready-made hz_draw_hook_fn: set draw_objects = hz_forest_draw_hook and
+ * draw_objects_user = a hz_forest_hook. Errors land in hook->err/failed. */
+typedef struct hz_forest_hook {
+    hz_forest_gpu *gpu;
+    const hz_forest *forest;
+    const hz_forest_frame *frame;
+    bool failed;
+    hz_err err;
+    double draw_ms;  /* of the last main pass, bracketed by glFinish */
+} hz_forest_hook;
+void hz_forest_draw_hook(void *user, const hz_pass_info *pass);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,28 @@
+#version 330 core
+// Forest leaves: leaf-shaped cut-out, two-sided Lambert with some light
+// through the leaf, occlusion toward the crown centre, exponential fog.
+uniform vec3 u_color;
+uniform vec3 u_sun_dir, u_sky_horizon, u_eye;
+uniform float u_fog_density, u_ambient;
+in vec3 v_world;
+in vec3 v_normal;
+in vec2 v_uv;
+in float v_ao;
+flat in float v_tint;
+out vec4 o_color;
+
+void main()
+{
+    if (abs(v_uv.y) > 0.9 * (1.0 - v_uv.x * v_uv.x))
+        discard;
+    vec3 n = normalize(v_normal);
+    vec3 to_eye = u_eye - v_world;
+    if (dot(n, to_eye) < 0.0)
+        n = -n;
+    float ndl = dot(n, u_sun_dir);
+    float light = max(ndl, 0.0) + 0.35 * max(-ndl, 0.0);
+    vec3 albedo = u_color * (0.75 + 0.5 * v_tint);
+    vec3 c = albedo * (u_ambient + (1.0 - u_ambient) * light * vec3(1.0, 0.97, 0.90)) * v_ao;
+    float f = u_fog_density > 0.0 ? exp(-u_fog_density * length(to_eye)) : 1.0;
+    o_color = vec4(mix(u_sky_horizon, c, f), 1.0);
+}

@@ -1,0 +1,486 @@
+/* Forests: placement on the terrain, the per-node rate (F3), enlargement
+ * (F4), hysteresis (F6) and per-frame selection with culling. No GL. */
+#include "horizon/forest.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "foliage_internal.h"
+
+/* ---- rate function ---------------------------------------------------------- */
+
+hz_rate_params hz_rate_params_defaults(const hz_rate_params *p)
+{
+    hz_rate_params d = p ? *p : (hz_rate_params){0};
+    if (d.w[0] == 0 && d.w[1] == 0 && d.w[2] == 0 && d.w[3] == 0 && d.w[4] == 0) {
+        d.w[0] = 0.2f, d.w[1] = 0.1f, d.w[2] = 0.2f, d.w[3] = 0.3f, d.w[4] = 0.2f;
+    }
+    if (d.near_m <= 0)
+        d.near_m = 5.0f;
+    if (d.far_m <= 0)
+        d.far_m = 80.0f;
+    if (d.far_m <= d.near_m * 1.01f)
+        d.far_m = d.near_m * 1.01f + 1.0f;
+    if (d.h <= 0 || d.h == 1.0f)
+        d.h = 10.0f;
+    if (!d.bl_max)
+        d.bl_max = 4;
+    if (d.max_rate <= 0)
+        d.max_rate = 0.98f;
+    if (d.max_enlarge <= 0)
+        d.max_enlarge = 3.0f;
+    if (d.hyst_k1 <= 0)
+        d.hyst_k1 = 1.5f;
+    if (d.hyst_k2 <= 0)
+        d.hyst_k2 = 1.0f;
+    return d;
+}
+
+float hz_rate_f1(uint32_t bsl)
+{
+    return bsl <= 1 ? 0.0f : bsl == 2 ? 0.4f : 0.8f;
+}
+
+float hz_rate_f2(const hz_rate_params *p, uint32_t bl, float dist)
+{
+    if (dist <= p->near_m)
+        return 0.0f;
+    if (dist > p->far_m)
+        return 0.5f;
+    float lh = logf(p->h);
+    float k1 = 0.5f / ((float)p->bl_max * (logf(p->far_m) / lh));
+    return fminf(k1 * (float)bl * (logf(dist) / lh), 0.5f);
+}
+
+float hz_rate_f3(float LD, float ld0)
+{
+    if (!(ld0 > 0.0f))
+        return 0.0f;
+    return (LD - ld0) / ld0; /* k2 = 1 / ld0 */
+}
+
+float hz_rate_f4(const hz_rate_params *p, float dist)
+{
+    if (dist <= p->near_m)
+        return 0.0f;
+    if (dist >= p->far_m)
+        return 1.0f;
+    return log10f(dist) / log10f(p->far_m); /* k3 = 1 / log10(far) */
+}
+
+float hz_rate_f5(float cos_dir)
+{
+    return cos_dir > 0.0f ? fminf(cos_dir, 1.0f) : 0.0f;
+}
+
+float hz_rate_node(const hz_rate_params *p, uint32_t bsl, uint32_t bl, float dist, float LD, float ld0,
+                   float cos_dir)
+{
+    float r = p->w[0] * hz_rate_f1(bsl) + p->w[1] * hz_rate_f2(p, bl, dist) + p->w[2] * hz_rate_f3(LD, ld0) +
+              p->w[3] * hz_rate_f4(p, dist) + p->w[4] * hz_rate_f5(cos_dir);
+    return fminf(fmaxf(r, 0.0f), p->max_rate);
+}
+
+float hz_enlarge(const hz_rate_params *p, uint32_t n, uint32_t kept)
+{
+    if (kept == 0 || kept >= n)
+        return 1.0f;
+    return fminf(sqrtf((float)n / (float)kept), p->max_enlarge);
+}
+
+bool hz_hysteresis_allows(const hz_rate_params *p, float dist, float delta_rate, float held_s)
+{
+    if (dist <= p->near_m)
+        return true;
+    float x = fminf(dist, p->far_m) - p->near_m, span = p->far_m - p->near_m;
+    float d1 = 1.0f / powf(span, p->hyst_k1), d2 = 1.0f / powf(span, p->hyst_k2);
+    return fabsf(delta_rate) >= d1 * powf(x, p->hyst_k1) && held_s >= d2 * powf(x, p->hyst_k2);
+}
+
+/* ---- placement -------------------------------------------------------------- */
+
+static float lattice2(uint64_t seed, int x, int z)
+{
+    uint64_t h = seed ^ ((uint64_t)(uint32_t)x * 0x9E3779B97F4A7C15ULL) ^ ((uint64_t)(uint32_t)z * 0xC2B2AE3D27D4EB4FULL);
+    h = (h ^ (h >> 31)) * 0xBF58476D1CE4E5B9ULL;
+    h ^= h >> 29;
+    return (float)(h >> 40) / 16777216.0f;
+}
+
+/* Smooth 2D value noise in [0, 1]. */
+static float vnoise2(uint64_t seed, float x, float z)
+{
+    float fx = floorf(x), fz = floorf(z), tx = x - fx, tz = z - fz;
+    int ix = (int)fx, iz = (int)fz;
+    tx = tx * tx * (3 - 2 * tx);
+    tz = tz * tz * (3 - 2 * tz);
+    float a = lattice2(seed, ix, iz), b = lattice2(seed, ix + 1, iz), c = lattice2(seed, ix, iz + 1),
+          d = lattice2(seed, ix + 1, iz + 1);
+    return (a + (b - a) * tx) * (1 - tz) + (c + (d - c) * tx) * tz;
+}
+
+hz_result hz_forest_place(const hz_forest_desc *desc, hz_forest_tree *out, uint32_t *placed, hz_err *err)
+{
+    *placed = 0;
+    hz_forest_desc d = *desc;
+    if (!d.height || d.model_count == 0)
+        return hz_err_set(err, HZ_ERR_VALUE, "forest: needs a height function and at least one model");
+    if (d.count == 0)
+        return HZ_OK;
+    if (d.count > 1000000)
+        return hz_err_set(err, HZ_ERR_VALUE, "forest: %u trees is more than the 1 000 000 supported", d.count);
+    if (d.density <= 0)
+        d.density = 400.0f;
+    if (d.max_slope_deg <= 0)
+        d.max_slope_deg = 35.0f;
+    if (d.scale_min <= 0)
+        d.scale_min = 0.8f;
+    if (d.scale_max <= 0)
+        d.scale_max = 1.2f;
+    if (!(d.density < 100000.0f) || !isfinite(d.center[0]) || !isfinite(d.center[1]))
+        return hz_err_set(err, HZ_ERR_VALUE, "forest: bad density or centre");
+    const float spacing = 100.0f / sqrtf(d.density); /* metres between trees on average */
+    const float min_dist = 0.6f * spacing;
+    float side = sqrtf((float)d.count) * spacing;
+    const float max_tan = tanf(d.max_slope_deg * 0.0174532925f);
+    /* Spatial hash of placed trees for the minimum distance. */
+    const uint32_t hcap = 1u << 20;
+    uint32_t *head = malloc(hcap * sizeof *head), *next = malloc(d.count * sizeof *next);
+    if (!head || !next) {
+        free(head);
+        free(next);
+        return hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
+    }
+    memset(head, 0xff, hcap * sizeof *head);
+    hz_rng rng = {d.seed * 0x9E3779B97F4A7C15ULL + 0xF0E57ULL};
+    uint32_t n = 0;
+    for (int round = 0; round < 4 && n < d.count; round++, side *= 1.4142f) {
+        uint64_t attempts = (uint64_t)d.count * 40;
+        for (uint64_t a = 0; a < attempts && n < d.count; a++) {
+            /* A disc of the square's area, thinned by low-frequency noise
+             * toward its rim: ragged edges and a few clearings. */
+            const float R = 0.5642f * side;
+            float ang = rng_unit(&rng) * 6.2831853f, rr = R * sqrtf(rng_unit(&rng));
+            float x = d.center[0] + rr * cosf(ang), z = d.center[1] + rr * sinf(ang);
+            float keep = 1.3f * vnoise2(d.seed, x / (7.0f * spacing), z / (7.0f * spacing)) + 0.35f -
+                         0.9f * (rr / R) * (rr / R);
+            if (rng_unit(&rng) > keep)
+                continue;
+            if (d.extent_limit > 0 && (x < 0 || z < 0 || x > d.extent_limit || z > d.extent_limit))
+                continue;
+            int cx = (int)floorf(x / min_dist), cz = (int)floorf(z / min_dist);
+            bool close = false;
+            for (int dz = -1; dz <= 1 && !close; dz++)
+                for (int dx = -1; dx <= 1 && !close; dx++) {
+                    uint32_t hsh = ((uint32_t)(cx + dx) * 73856093u ^ (uint32_t)(cz + dz) * 19349663u) & (hcap - 1);
+                    for (uint32_t k = head[hsh]; k != 0xffffffffu && !close; k = next[k]) {
+                        float ex = out[k].pos[0] - x, ez = out[k].pos[2] - z;
+                        close = ex * ex + ez * ez < min_dist * min_dist;
+                    }
+                }
+            if (close)
+                continue;
+            const float e = 5.0f;
+            float h = d.height(d.height_user, x, z);
+            float gx = (d.height(d.height_user, x + e, z) - d.height(d.height_user, x - e, z)) / (2 * e);
+            float gz = (d.height(d.height_user, x, z + e) - d.height(d.height_user, x, z - e)) / (2 * e);
+            if (!isfinite(h) || sqrtf(gx * gx + gz * gz) > max_tan)
+                continue;
+            if ((d.min_h != 0 || d.max_h != 0) && (h < d.min_h || h > d.max_h))
+                continue;
+            uint32_t model = 0;
+            if (d.model_count > 1) {
+                float t = 0.5f;
+                if (d.max_h > d.min_h)
+                    t = (h - d.min_h) / (d.max_h - d.min_h);
+                float w[64], ws = 0.0f;
+                uint32_t mc = d.model_count < 64 ? d.model_count : 64;
+                for (uint32_t m = 0; m < mc; m++) {
+                    float pref = d.model_high ? d.model_high[m] : t;
+                    w[m] = fmaxf(0.05f, 1.0f - 1.6f * fabsf(pref - t));
+                    ws += w[m];
+                }
+                float u = rng_unit(&rng) * ws;
+                for (model = 0; model + 1 < mc && u >= w[model]; model++)
+                    u -= w[model];
+            }
+            hz_forest_tree *tr = &out[n];
+            v3_set(tr->pos, x, h, z);
+            tr->yaw = rng_unit(&rng) * 6.2831853f;
+            tr->scale = d.scale_min + (d.scale_max - d.scale_min) * rng_unit(&rng);
+            tr->model = model;
+            uint32_t hsh = ((uint32_t)cx * 73856093u ^ (uint32_t)cz * 19349663u) & (hcap - 1);
+            next[n] = head[hsh];
+            head[hsh] = n;
+            n++;
+        }
+    }
+    free(head);
+    free(next);
+    *placed = n;
+    return HZ_OK;
+}
+
+/* ---- the forest -------------------------------------------------------------- */
+
+typedef struct model_info {
+    float ld0;
+    uint64_t triangles;
+} model_info;
+
+struct hz_forest {
+    const hz_tree **models;
+    model_info *info;
+    uint32_t model_count;
+    hz_forest_tree *trees;
+    uint32_t tree_count;
+    uint32_t *state_base;   /* per tree: offset of its nodes in the state arrays */
+    float *rate;            /* per (tree, node): rate in use, < 0 = never seen */
+    float *since;           /* seconds: when it last changed */
+    size_t state_total;
+    hz_forest_draw *draws;
+    uint32_t *counts;
+    float *scales;
+    uint64_t serial;
+};
+
+hz_forest *hz_forest_create(const hz_tree *const *models, uint32_t model_count, const hz_forest_tree *trees,
+                            uint32_t tree_count, hz_err *err)
+{
+    if (model_count == 0) {
+        hz_err_set(err, HZ_ERR_VALUE, "forest: no tree models");
+        return NULL;
+    }
+    for (uint32_t k = 0; k < tree_count; k++)
+        if (trees[k].model >= model_count) {
+            hz_err_set(err, HZ_ERR_VALUE, "forest: tree %u uses model %u of %u", k, trees[k].model, model_count);
+            return NULL;
+        }
+    hz_forest *f = calloc(1, sizeof *f);
+    if (!f)
+        goto oom;
+    f->model_count = model_count;
+    f->tree_count = tree_count;
+    f->models = malloc(model_count * sizeof *f->models);
+    f->info = calloc(model_count, sizeof *f->info);
+    f->trees = malloc((tree_count ? tree_count : 1) * sizeof *f->trees);
+    f->state_base = malloc((tree_count ? tree_count : 1) * sizeof *f->state_base);
+    f->draws = malloc((tree_count ? tree_count : 1) * sizeof *f->draws);
+    if (!f->models || !f->info || !f->trees || !f->state_base || !f->draws)
+        goto oom;
+    memcpy(f->models, models, model_count * sizeof *f->models);
+    if (tree_count)
+        memcpy(f->trees, trees, tree_count * sizeof *f->trees);
+    for (uint32_t m = 0; m < model_count; m++) {
+        const hz_tree *t = models[m];
+        double sum = 0.0, mn = INFINITY;
+        for (uint32_t n = 0; n < t->node_count; n++) {
+            sum += t->nodes[n].ld;
+            mn = fmin(mn, t->nodes[n].ld);
+        }
+        double mean = t->node_count ? sum / t->node_count : 0.0;
+        f->info[m].ld0 = t->node_count ? (float)fmin(mn, 0.5 * mean) : 0.0f;
+        f->info[m].triangles = hz_tree_triangles(t);
+    }
+    size_t total = 0;
+    for (uint32_t k = 0; k < tree_count; k++) {
+        f->state_base[k] = (uint32_t)total;
+        total += models[trees[k].model]->node_count;
+        if (total > 0xffffffffu) {
+            hz_err_set(err, HZ_ERR_VALUE, "forest: too many nodes in all");
+            hz_forest_destroy(f);
+            return NULL;
+        }
+    }
+    f->state_total = total;
+    f->rate = malloc((total ? total : 1) * sizeof *f->rate);
+    f->since = malloc((total ? total : 1) * sizeof *f->since);
+    f->counts = malloc((total ? total : 1) * sizeof *f->counts);
+    f->scales = malloc((total ? total : 1) * sizeof *f->scales);
+    if (!f->rate || !f->since || !f->counts || !f->scales)
+        goto oom;
+    hz_forest_reset(f);
+    return f;
+oom:
+    hz_forest_destroy(f);
+    hz_err_set(err, HZ_ERR_MEMORY, "forest: out of memory");
+    return NULL;
+}
+
+void hz_forest_destroy(hz_forest *f)
+{
+    if (!f)
+        return;
+    free(f->models);
+    free(f->info);
+    free(f->trees);
+    free(f->state_base);
+    free(f->rate);
+    free(f->since);
+    free(f->draws);
+    free(f->counts);
+    free(f->scales);
+    free(f);
+}
+
+void hz_forest_reset(hz_forest *f)
+{
+    for (size_t k = 0; k < f->state_total; k++) {
+        f->rate[k] = -1.0f;
+        f->since[k] = 0.0f;
+    }
+}
+
+uint32_t hz_forest_tree_count(const hz_forest *f)
+{
+    return f->tree_count;
+}
+const hz_forest_tree *hz_forest_trees(const hz_forest *f)
+{
+    return f->trees;
+}
+const hz_tree *hz_forest_model(const hz_forest *f, uint32_t k)
+{
+    return k < f->model_count ? f->models[k] : NULL;
+}
+uint32_t hz_forest_model_count(const hz_forest *f)
+{
+    return f->model_count;
+}
+
+void hz_forest_tree_matrix(const hz_forest *f, uint32_t k, float m[16])
+{
+    const hz_forest_tree *t = &f->trees[k];
+    float c = cosf(t->yaw) * t->scale, s = sinf(t->yaw) * t->scale;
+    /* column-major: rotation about +y, uniform scale, translation */
+    const float mm[16] = {c, 0, -s, 0, 0, t->scale, 0, 0, s, 0, c, 0, t->pos[0], t->pos[1], t->pos[2], 1};
+    memcpy(m, mm, sizeof mm);
+}
+
+static void xform_point(const float m[16], const float *p, float *o)
+{
+    for (int r = 0; r < 3; r++)
+        o[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r];
+}
+
+static void xform_dir(const float m[16], const float *p, float *o)
+{
+    for (int r = 0; r < 3; r++)
+        o[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2];
+    v3_norm(o);
+}
+
+static bool sphere_visible(const vec4 planes[6], const float *c, float r)
+{
+    for (int k = 0; k < 6; k++)
+        if (planes[k][0] * c[0] + planes[k][1] * c[1] + planes[k][2] * c[2] + planes[k][3] < -r)
+            return false;
+    return true;
+}
+
+hz_result hz_forest_update(hz_forest *f, const hz_camera *cam, const hz_forest_params *params, double now_s,
+                           hz_forest_frame *fr, hz_err *err)
+{
+    (void)err;
+    double t0 = hz_time_ms();
+    hz_forest_params P = params ? *params : (hz_forest_params){.simplify = true, .enlarge = true};
+    P.rate = hz_rate_params_defaults(&P.rate);
+    const float hull_dist = P.hull_dist > 0 ? P.hull_dist : 0.5f * P.rate.far_m;
+    *fr = (hz_forest_frame){.draws = f->draws, .counts = f->counts, .scales = f->scales, .trees = f->tree_count,
+                            .serial = ++f->serial};
+    vec4 planes[6];
+    hz_camera_frustum(cam, planes);
+    const float *eye = cam->pos;
+    uint32_t nodes_used = 0;
+    for (uint32_t k = 0; k < f->tree_count; k++) {
+        const hz_forest_tree *tr = &f->trees[k];
+        const hz_tree *t = f->models[tr->model];
+        float m[16], c[3];
+        hz_forest_tree_matrix(f, k, m);
+        xform_point(m, t->bound_center, c);
+        if (!sphere_visible((const vec4 *)planes, c, t->bound_radius * tr->scale))
+            continue;
+        fr->trees_in_frustum++;
+        fr->triangles_full += f->info[tr->model].triangles;
+        float dist = v3_dist(c, eye);
+        hz_forest_draw *dr = &fr->draws[fr->draw_count++];
+        *dr = (hz_forest_draw){.tree = k, .model = tr->model, .bark_levels = t->levels, .node_base = nodes_used};
+        if (P.simplify && dist > hull_dist && t->hull.index_count) {
+            dr->hull = true;
+            dr->bark_levels = 1;
+            fr->trees_hull++;
+            fr->triangles_drawn += t->hull.index_count / 3 + t->bark_level_end[0] / 3;
+            continue;
+        }
+        fr->trees_detailed++;
+        if (P.simplify && dist > 0.5f * hull_dist && t->levels > 2)
+            dr->bark_levels = t->levels - 1; /* twigs are sub-pixel there */
+        fr->triangles_drawn += t->bark_level_end[dr->bark_levels - 1] / 3;
+        const uint32_t sb = f->state_base[k];
+        const float ld0 = f->info[tr->model].ld0;
+        for (uint32_t n = 0; n < t->node_count; n++) {
+            const hz_tree_node *nd = &t->nodes[n];
+            uint32_t *cnt = &f->counts[nodes_used + n];
+            float *sc = &f->scales[nodes_used + n];
+            fr->nodes_considered++;
+            if (!P.simplify) {
+                *cnt = nd->count;
+                *sc = 1.0f;
+                continue;
+            }
+            float nc[3];
+            xform_point(m, nd->center, nc);
+            if (P.node_culling && !sphere_visible((const vec4 *)planes, nc, nd->radius * tr->scale)) {
+                *cnt = 0;
+                *sc = 1.0f;
+                fr->nodes_culled++;
+                continue;
+            }
+            float los[3], gdir[3];
+            v3_sub(los, nc, eye);
+            float nd_dist = v3_len(los);
+            if (nd_dist > 0)
+                v3_scale(los, los, 1.0f / nd_dist);
+            const hz_tree_branch *br = &t->branches[nd->branch];
+            xform_dir(m, br->dir, gdir);
+            float *cur = &f->rate[sb + n], *since = &f->since[sb + n];
+            float kept_frac = *cur >= 0.0f ? 1.0f - *cur : 1.0f;
+            float Rs = P.fixed_rate ? fminf(fmaxf(P.fixed, 0.0f), 0.999f)
+                                    : hz_rate_node(&P.rate, nd->bsl, br->level, nd_dist, nd->ld * kept_frac, ld0,
+                                                   v3_dot(los, gdir));
+            if (*cur < 0.0f) {
+                *cur = Rs;
+                *since = (float)now_s;
+            } else if (Rs != *cur) {
+                if (!P.hysteresis || hz_hysteresis_allows(&P.rate, nd_dist, Rs - *cur, (float)(now_s - *since))) {
+                    *cur = Rs;
+                    *since = (float)now_s;
+                    fr->nodes_changed++;
+                } else {
+                    fr->nodes_held++;
+                }
+            }
+            uint32_t kept = (uint32_t)ceilf((1.0f - *cur) * (float)nd->count - 1e-4f);
+            if (kept < 1)
+                kept = 1;
+            if (kept > nd->count)
+                kept = nd->count;
+            *cnt = kept;
+            *sc = P.enlarge ? hz_enlarge(&P.rate, nd->count, kept) : 1.0f;
+        }
+        nodes_used += t->node_count;
+    }
+    fr->node_total = nodes_used;
+    uint64_t leaves = 0;
+    for (uint32_t d = 0; d < fr->draw_count; d++)
+        if (!fr->draws[d].hull) {
+            const hz_tree *t = f->models[fr->draws[d].model];
+            for (uint32_t n = 0; n < t->node_count; n++)
+                leaves += fr->counts[fr->draws[d].node_base + n];
+        }
+    fr->leaves_drawn = leaves;
+    fr->triangles_drawn += 2 * leaves;
+    fr->select_ms = hz_time_ms() - t0;
+    return HZ_OK;
+}

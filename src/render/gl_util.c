@@ -1,0 +1,91 @@
+/* Internal GL helpers: program building and error checks. */
+#include "gl_util.h"
+
+#include <dlfcn.h>
+#include <epoxy/egl.h>
+#include <stdio.h>
+#include <string.h>
+
+void hz_gl_drain(void)
+{
+    for (int k = 0; k < 16 && glGetError() != GL_NO_ERROR; k++) {
+    }
+}
+
+hz_result hz_gl_check(hz_err *err, const char *what)
+{
+    GLenum e = glGetError();
+    if (e == GL_NO_ERROR)
+        return HZ_OK;
+    hz_gl_drain();
+    return hz_err_set(err, HZ_ERR_GL, "GL: %s failed: error 0x%04x", what, (unsigned)e);
+}
+
+bool hz_gl_has_context(void)
+{
+    if (eglGetCurrentContext() != EGL_NO_CONTEXT)
+        return true;
+    static const char *const libs[] = {"libGLX.so.0", "libGL.so.1"};
+    for (size_t k = 0; k < sizeof libs / sizeof libs[0]; k++) {
+        void *lib = dlopen(libs[k], RTLD_LAZY | RTLD_NOLOAD);
+        if (!lib)
+            continue;
+        void *(*get_current)(void) = (void *(*)(void))dlsym(lib, "glXGetCurrentContext");
+        void *glx = get_current ? get_current() : NULL;
+        dlclose(lib);
+        if (glx)
+            return true;
+    }
+    return false;
+}
+
+static GLuint compile(GLenum type, const char *src, const char *name, hz_err *err)
+{
+    GLuint s = glCreateShader(type);
+    glShaderSource(s, 1, &src, NULL);
+    glCompileShader(s);
+    GLint ok = GL_FALSE;
+    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+        char log[400] = "";
+        glGetShaderInfoLog(s, (GLsizei)sizeof log, NULL, log);
+        size_t n = strlen(log);
+        while (n && (log[n - 1] == '\n' || log[n - 1] == ' '))
+            log[--n] = 0;
+        hz_err_set(err, HZ_ERR_GL, "GL: shader %s failed to compile: %s", name, log);
+        glDeleteShader(s);
+        return 0;
+    }
+    return s;
+}
+
+GLuint hz_gl_program(const char *vs_src, const char *fs_src, const char *name, hz_err *err)
+{
+    char vn[64], fn[64];
+    snprintf(vn, sizeof vn, "%s_vs.glsl", name);
+    snprintf(fn, sizeof fn, "%s_fs.glsl", name);
+    GLuint vs = compile(GL_VERTEX_SHADER, vs_src, vn, err);
+    if (!vs)
+        return 0;
+    GLuint fs = compile(GL_FRAGMENT_SHADER, fs_src, fn, err);
+    if (!fs) {
+        glDeleteShader(vs);
+        return 0;
+    }
+    GLuint p = glCreateProgram();
+    glAttachShader(p, vs);
+    glAttachShader(p, fs);
+    glLinkProgram(p);
+    glDeleteShader(vs);
+    glDeleteShader(fs);
+    GLint ok = GL_FALSE;
+    glGetProgramiv(p, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        char log[400] = "";
+        glGetProgramInfoLog(p, (GLsizei)sizeof log, NULL, log);
+        hz_err_set(err, HZ_ERR_GL, "GL: program %s failed to link: %s", name, log);
+        glDeleteProgram(p);
+        return 0;
+    }
+    return p;
+}

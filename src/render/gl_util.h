@@ -1,0 +1,19 @@
+/* Internal GL helpers shared by the render module's newer files. */
+#ifndef HZ_GL_UTIL_H
+#define HZ_GL_UTIL_H
+
+#include <epoxy/gl.h>
+
+#include "horizon/core.h"
+
+/* Compiles and links a vertex + fragment program; 0 + err (quoting the GL
+ * log) on failure. name is used in messages ("leaf" -> leaf_vs.glsl). */
+GLuint hz_gl_program(const char *vs_src, const char *fs_src, const char *name, hz_err *err);
+/* HZ_OK, or HZ_ERR_GL naming `what` and the GL error. Clears the error flag. */
+hz_result hz_gl_check(hz_err *err, const char *what);
+/* Discards stale GL errors. */
+void hz_gl_drain(void);
+/* Whether a GL/EGL/GLX context is current (epoxy aborts without one). */
+bool hz_gl_has_context(void);
+
+#endif

@@ -1,0 +1,210 @@
+/* Forest GL side: item-buffer VMI ranking, coverage precision/recall and
+ * forest drawing through the renderer hook. Headless EGL on llvmpipe. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "horizon/forest_render.h"
+
+static hz_gl *gl;
+
+static int setup(void **state)
+{
+    (void)state;
+    hz_err err = {0};
+    gl = hz_gl_create_headless(&err);
+    if (!gl) {
+        fprintf(stderr, "no headless GL: %s\n", err.msg);
+        return -1;
+    }
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    hz_gl_destroy(gl);
+    return 0;
+}
+
+/* One branch, one leaf node: six leaves forming a closed box around a
+ * seventh leaf in its middle, plus one leaf sticking out above. */
+static hz_tree *box_tree(void)
+{
+    hz_tree *t = calloc(1, sizeof *t);
+    snprintf(t->species, sizeof t->species, "box");
+    t->levels = 1;
+    t->branch_count = 1;
+    t->branches = calloc(1, sizeof *t->branches);
+    t->branches[0] = (hz_tree_branch){.parent = HZ_TREE_NONE, .level = 1, .leaf_node = 0, .length = 1,
+                                      .radius = 0.05f, .tip = {0, 1, 0}, .dir = {0, 1, 0}};
+    t->leaf_count = 8;
+    t->leaves = calloc(8, sizeof *t->leaves);
+    const float h = 0.5f;
+    /* faces of the box centred at (0, 1, 0); a quad is c +- u +- v. The leaf
+     * cut-out is almond shaped, so each face is two crossed leaves' worth:
+     * we make faces larger than the box to close the corners. */
+    const float big = 0.75f;
+    hz_tree_leaf faces[6] = {
+        {{h, 1, 0}, {0, big, 0}, {0, 0, big}},  {{-h, 1, 0}, {0, big, 0}, {0, 0, big}},
+        {{0, 1 + h, 0}, {big, 0, 0}, {0, 0, big}}, {{0, 1 - h, 0}, {big, 0, 0}, {0, 0, big}},
+        {{0, 1, h}, {big, 0, 0}, {0, big, 0}},  {{0, 1, -h}, {big, 0, 0}, {0, big, 0}},
+    };
+    for (int k = 0; k < 6; k++)
+        t->leaves[k] = faces[k];
+    t->leaves[6] = (hz_tree_leaf){{0, 1, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}};   /* hidden inside */
+    t->leaves[7] = (hz_tree_leaf){{0, 2.2f, 0}, {0.3f, 0, 0}, {0, 0.3f, 0}}; /* exposed above */
+    t->node_count = 1;
+    t->nodes = calloc(1, sizeof *t->nodes);
+    t->nodes[0] = (hz_tree_node){.branch = 0, .first = 0, .count = 8};
+    hz_tree_finish(t);
+    return t;
+}
+
+static void test_rank_hidden_leaf_last(void **state)
+{
+    (void)state;
+    hz_tree *t = box_tree();
+    hz_err err = {0};
+    assert_int_equal(hz_tree_validate(t, &err), HZ_OK);
+    float hidden[3] = {t->leaves[6].c[0], t->leaves[6].c[1], t->leaves[6].c[2]};
+    hz_rank_stats st;
+    hz_result r = hz_tree_rank(t, &(hz_rank_desc){.views = 42, .res = 48, .layers = 4}, &st, &err);
+    if (r != HZ_OK)
+        fail_msg("rank: %s", err.msg);
+    assert_true(t->ranked);
+    assert_int_equal(t->rank_views, 42);
+    assert_true(st.pixels > 42 * 100);
+    /* The leaf inside the closed box is never seen: it ranks last. */
+    assert_memory_equal(t->leaves[7].c, hidden, sizeof hidden);
+    assert_float_equal(t->leaves[7].u[0], 0.1f, 1e-6);
+    /* The big exposed leaf above ranks ahead of at least... it is not last,
+     * and the ranking is a permutation. */
+    int found_top = 0;
+    for (int k = 0; k < 8; k++)
+        found_top += fabsf(t->leaves[k].c[1] - 2.2f) < 1e-6f;
+    assert_int_equal(found_top, 1);
+    assert_int_equal(hz_tree_validate(t, &err), HZ_OK);
+    hz_tree_destroy(t);
+}
+
+static void test_pr(void **state)
+{
+    (void)state;
+    hz_err err = {0};
+    hz_tree *t = hz_tree_grow(&(hz_tree_desc){.species = "maple", .seed = 3, .leaves = 2000}, &err);
+    assert_non_null(t);
+    assert_int_equal(hz_tree_rank(t, &(hz_rank_desc){.views = 12, .res = 16, .layers = 2}, NULL, &err), HZ_OK);
+    hz_pr_result self, half, half_big;
+    /* A tree against itself: 1 / 1. */
+    assert_int_equal(hz_tree_pr(t, &(hz_pr_desc){.views = 8, .res = 128}, &self, &err), HZ_OK);
+    assert_true(self.tp > 1000);
+    assert_int_equal(self.fp, 0);
+    assert_int_equal(self.fn, 0);
+    assert_float_equal(self.precision, 1.0, 0);
+    assert_float_equal(self.recall, 1.0, 0);
+    /* Half the leaves: nothing new appears (precision 1), some coverage is lost. */
+    assert_int_equal(hz_tree_pr(t, &(hz_pr_desc){.views = 8, .res = 128, .rate = 0.5f}, &half, &err), HZ_OK);
+    assert_float_equal(half.precision, 1.0, 0);
+    assert_true(half.recall < 0.99 && half.recall > 0.3);
+    /* Enlarged leaves win coverage back and spill a little. */
+    assert_int_equal(hz_tree_pr(t, &(hz_pr_desc){.views = 8, .res = 128, .rate = 0.5f, .enlarge = true}, &half_big,
+                                &err),
+                     HZ_OK);
+    assert_true(half_big.recall > half.recall);
+    assert_true(half_big.precision < 1.0);
+    /* Bad parameters are refused. */
+    assert_int_equal(hz_tree_pr(t, &(hz_pr_desc){.rate = 1.5f}, &half, &err), HZ_ERR_VALUE);
+    assert_int_equal(hz_tree_rank(t, &(hz_rank_desc){.views = 20}, NULL, &err), HZ_ERR_VALUE);
+    hz_tree_destroy(t);
+}
+
+static uint64_t count_diff(const uint8_t *a, const uint8_t *b, size_t npx)
+{
+    uint64_t n = 0;
+    for (size_t p = 0; p < npx; p++)
+        n += abs(a[p * 3] - b[p * 3]) + abs(a[p * 3 + 1] - b[p * 3 + 1]) + abs(a[p * 3 + 2] - b[p * 3 + 2]) > 24;
+    return n;
+}
+
+static void test_forest_draw(void **state)
+{
+    (void)state;
+    enum { W = 192, H = 144 };
+    hz_err err = {0};
+    hz_tree *t = hz_tree_grow(&(hz_tree_desc){.species = "oak", .seed = 1, .leaves = 8000}, &err);
+    assert_non_null(t);
+    assert_int_equal(hz_hull_build(t, NULL, NULL, &err), HZ_OK);
+    const hz_tree *models[1] = {t};
+    hz_forest_tree trees[2] = {{.pos = {0, 0, 0}, .scale = 1}, {.pos = {0, 0, -400}, .scale = 1}};
+    hz_forest *f = hz_forest_create(models, 1, trees, 2, &err);
+    assert_non_null(f);
+    hz_renderer *ren = hz_renderer_create(&(hz_renderer_desc){.width = W, .height = H}, &err);
+    assert_non_null(ren);
+    hz_forest_gpu *gpu = hz_forest_gpu_create(f, &err);
+    if (!gpu)
+        fail_msg("gpu: %s", err.msg);
+    hz_camera cam = {.pos = {0, 8, 16}, .yaw = 0, .pitch = 0, .fov_y = 60, .aspect = (float)W / H, .znear = 0.3f,
+                     .zfar = 3000};
+    uint8_t *sky = malloc(W * H * 3), *full = malloc(W * H * 3), *simp = malloc(W * H * 3), *big = malloc(W * H * 3);
+    hz_scene_params none = {.fog_density = -1};
+    assert_int_equal(hz_renderer_draw(ren, &cam, &none, NULL, 0, NULL, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_rgb(ren, sky, &err), HZ_OK);
+    hz_forest_frame fr;
+    hz_forest_hook hook = {.gpu = gpu, .forest = f, .frame = &fr};
+    hz_scene_params sp = {.fog_density = -1, .draw_objects = hz_forest_draw_hook, .draw_objects_user = &hook};
+    uint8_t *outs[3] = {full, simp, big};
+    hz_forest_params ps[3] = {{.simplify = false},
+                              {.simplify = true, .fixed_rate = true, .fixed = 0.8f},
+                              {.simplify = true, .fixed_rate = true, .fixed = 0.8f, .enlarge = true}};
+    for (int k = 0; k < 3; k++) {
+        assert_int_equal(hz_forest_update(f, &cam, &ps[k], 0, &fr, &err), HZ_OK);
+        assert_int_equal(hz_renderer_draw(ren, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
+        if (hook.failed)
+            fail_msg("forest draw: %s", hook.err.msg);
+        assert_int_equal(hz_renderer_read_rgb(ren, outs[k], &err), HZ_OK);
+    }
+    /* The simplified frame selected the far tree as a hull. */
+    assert_int_equal(fr.trees_hull, 1);
+    char path[512];
+    snprintf(path, sizeof path, "%s/forest_full.png", HZ_TEST_TMP);
+    hz_image_write_png(path, full, W, H, &err);
+    snprintf(path, sizeof path, "%s/forest_simplified.png", HZ_TEST_TMP);
+    hz_image_write_png(path, simp, W, H, &err);
+    uint64_t c_full = count_diff(full, sky, W * H), c_simp = count_diff(simp, sky, W * H),
+             c_big = count_diff(big, sky, W * H);
+    /* The tree covers a good part of the frame, green where leaves are. */
+    assert_true(c_full > (uint64_t)(W * H) / 20);
+    uint64_t green = 0;
+    for (size_t p = 0; p < W * H; p++)
+        green += full[p * 3 + 1] > full[p * 3] && full[p * 3 + 1] > full[p * 3 + 2] + 8;
+    assert_true(green > (uint64_t)(W * H) / 100);
+    /* Pruning 80% of the leaves uncovers sky; enlargement covers some back. */
+    assert_true(c_simp < c_full);
+    assert_true(c_big > c_simp);
+    free(sky);
+    free(full);
+    free(simp);
+    free(big);
+    hz_forest_gpu_destroy(gpu);
+    hz_renderer_destroy(ren);
+    hz_forest_destroy(f);
+    hz_tree_destroy(t);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_rank_hidden_leaf_last),
+        cmocka_unit_test(test_pr),
+        cmocka_unit_test(test_forest_draw),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
