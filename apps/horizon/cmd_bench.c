@@ -303,9 +303,9 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
                 if (r != HZ_OK)
                     return r;
             }
+            /* The drawn surface that the pixel error just rasterised. */
             float *scur = b->surf[f & 1], *sprev = b->surf[(f + 1) & 1];
-            hz_metrics_surface(&b->t->hm, b->t->zscale, b->il.data, b->il.count,
-                               st.morph_scale > 0 ? morph_height : NULL, &mu, scur);
+            memcpy(scur, b->scratch.surface, (size_t)b->t->hm.size * b->t->hm.size * sizeof *scur);
             if (f) {
                 hz_pop_stats ps;
                 hz_metrics_surface_change(&b->t->hm, b->t->spacing, b->t->zscale, sprev, scur, &cam, o->height,
@@ -777,7 +777,7 @@ done:
     free(b.sky_r);
     free(b.il.data);
     free(b.rl.data);
-    free(b.scratch.data);
+    hz_float_buf_free(&b.scratch);
     hz_path_free(&b.path);
     hz_terrain_destroy(b.t);
     return rc;

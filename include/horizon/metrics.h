@@ -23,11 +23,14 @@ typedef struct hz_px_error {
  * minus the true height, projected to pixels at the sample's distance:
  * h_px = |dh| * image_height / (2 * dist * tan(fov_y / 2)).
  * indices: triangles into the row-major sample grid (index = j * size + i).
- * scratch is grown as needed (caller frees scratch->data); may not be NULL. */
+ * scratch is grown as needed (free it with hz_float_buf_free); may not be NULL. */
 typedef struct hz_float_buf {
-    float *data;
+    float *data;       /* per-sample errors */
     size_t count, cap;
+    float *surface;    /* the drawn surface, size*size */
+    size_t surface_cap;
 } hz_float_buf;
+void hz_float_buf_free(hz_float_buf *buf);
 
 hz_result hz_metrics_px_error(const hz_heightmap *hm, float spacing, float zscale,
                               const uint32_t *indices, size_t count, const hz_camera *cam,

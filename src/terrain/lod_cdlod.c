@@ -270,14 +270,6 @@ typedef struct cd_ctx {
     uint32_t cur_level;
 } cd_ctx;
 
-static hz_result lv_push(hz_lod *lod, uint32_t l, uint32_t x, uint32_t z)
-{
-    if (list_reserve((void **)&lod->lv[l], &lod->lv_cap[l], lod->lv_n[l] + 1, sizeof(qnode)))
-        return HZ_ERR_MEMORY;
-    lod->lv[l][lod->lv_n[l]++] = (qnode){x, z};
-    return HZ_OK;
-}
-
 /* Culling test; sets the flag to CULLED (and lists it) or LEAF. */
 static hz_result classify(cd_ctx *c, uint32_t l, uint32_t x, uint32_t z, size_t idx, bool *is_culled)
 {

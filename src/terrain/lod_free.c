@@ -54,14 +54,6 @@ static inline uint8_t state_of(const hz_lod *lod, uint32_t l, int64_t x, int64_t
     return valid(lod, idx) ? (lod->flags[idx] & ST_MASK) : ST_NONE;
 }
 
-static hz_result lv_push(hz_lod *lod, uint32_t l, uint32_t x, uint32_t z)
-{
-    if (list_reserve((void **)&lod->lv[l], &lod->lv_cap[l], lod->lv_n[l] + 1, sizeof(qnode)))
-        return HZ_ERR_MEMORY;
-    lod->lv[l][lod->lv_n[l]++] = (qnode){x, z};
-    return HZ_OK;
-}
-
 typedef struct free_ctx {
     hz_lod *lod;
     vec4 planes[6];
@@ -142,6 +134,34 @@ static void stats_leaf(hz_lod_stats *st, uint32_t l, uint32_t tris)
 /* Offsets per side: the side's outward normal (dx, dz). */
 static const int side_dx[4] = {-1, 1, 0, 0}, side_dz[4] = {0, 0, -1, 1};
 
+/* The two children of node (x, z, level l) on its side `side`, first and
+ * second along the side (north to south for W/E, west to east for N/S), and
+ * the side's midpoint. */
+static void side_children(const hz_lod *lod, uint32_t l, uint32_t x, uint32_t z, int side, qnode ch[2],
+                          qnode *mid)
+{
+    const uint32_t s = half_of(lod, l), h = s / 2;
+    if (side == DIR_W || side == DIR_E) {
+        const uint32_t cx = side == DIR_W ? x - h : x + h;
+        ch[0] = (qnode){cx, z - h};
+        ch[1] = (qnode){cx, z + h};
+        *mid = (qnode){side == DIR_W ? x - s : x + s, z};
+    } else {
+        const uint32_t cz = side == DIR_N ? z - h : z + h;
+        ch[0] = (qnode){x - h, cz};
+        ch[1] = (qnode){x + h, cz};
+        *mid = (qnode){x, side == DIR_N ? z - s : z + s};
+    }
+}
+
+static hz_result ring_push(uint32_t **ring, size_t *k, size_t *cap, uint32_t v)
+{
+    if (list_reserve((void **)ring, cap, *k + 1, sizeof(uint32_t)))
+        return HZ_ERR_MEMORY;
+    (*ring)[(*k)++] = v;
+    return HZ_OK;
+}
+
 /* Appends, in order along the edge, the vertices that the finer nodes of the
  * subtree at (x, z, level l) have on its side `side` (excluding the side's two
  * corners). `forward` orders them from the side's first corner (north for
@@ -151,38 +171,15 @@ static hz_result collect_side(hz_lod *lod, uint32_t l, uint32_t x, uint32_t z, i
 {
     if (state_of(lod, l, x, z) != ST_SPLIT)
         return HZ_OK;
-    const uint32_t s = half_of(lod, l), h = s / 2, n = lod->size;
-    /* The two children on that side, first and second along the side. */
-    uint32_t ax, az, bx, bz, mx, mz;
-    if (side == DIR_W || side == DIR_E) {
-        uint32_t cxs = side == DIR_W ? x - h : x + h;
-        ax = bx = cxs;
-        az = z - h;
-        bz = z + h;
-        mx = side == DIR_W ? x - s : x + s;
-        mz = z;
-    } else {
-        uint32_t czs = side == DIR_N ? z - h : z + h;
-        az = bz = czs;
-        ax = x - h;
-        bx = x + h;
-        mz = side == DIR_N ? z - s : z + s;
-        mx = x;
-    }
-    if (!forward) {
-        uint32_t tx = ax, tz = az;
-        ax = bx;
-        az = bz;
-        bx = tx;
-        bz = tz;
-    }
-    hz_result r = collect_side(lod, l + 1, ax, az, side, forward, ring, k, cap);
-    if (r != HZ_OK)
-        return r;
-    if (list_reserve((void **)ring, cap, *k + 1, sizeof(uint32_t)))
-        return HZ_ERR_MEMORY;
-    (*ring)[(*k)++] = mz * n + mx;
-    return collect_side(lod, l + 1, bx, bz, side, forward, ring, k, cap);
+    qnode ch[2], mid;
+    side_children(lod, l, x, z, side, ch, &mid);
+    const qnode a = forward ? ch[0] : ch[1], b = forward ? ch[1] : ch[0];
+    hz_result r = collect_side(lod, l + 1, a.x, a.z, side, forward, ring, k, cap);
+    if (r == HZ_OK)
+        r = ring_push(ring, k, cap, mid.z * lod->size + mid.x);
+    if (r == HZ_OK)
+        r = collect_side(lod, l + 1, b.x, b.z, side, forward, ring, k, cap);
+    return r;
 }
 
 hz_result hz__lod_select_remedy(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, hz_index_list *out,
@@ -204,26 +201,23 @@ hz_result hz__lod_select_remedy(hz_lod *lod, const hz_camera *cam, const hz_lod_
         for (size_t q = 0; q < lod->lv_n[l] && r == HZ_OK; q++) {
             const uint32_t x = lod->lv[l][q].x, z = lod->lv[l][q].z;
             size_t k = 0;
-            if (list_reserve((void **)&ring, &cap, 16, sizeof *ring)) {
-                r = HZ_ERR_MEMORY;
-                break;
-            }
             /* Counter-clockwise from above: NW, west edge (north to south),
              * SW, south edge (west to east), SE, east edge (south to north),
              * NE, north edge (east to west). The neighbour across a side sees
              * it as its opposite side. */
-            ring[k++] = (z - s) * n + (x - s);
-            r = collect_side(lod, l, x - 2 * s, z, DIR_E, true, &ring, &k, &cap);
-            if (r == HZ_OK && list_reserve((void **)&ring, &cap, k + 1, sizeof *ring) == HZ_OK)
-                ring[k++] = (z + s) * n + (x - s);
+            r = ring_push(&ring, &k, &cap, (z - s) * n + (x - s));
+            if (r == HZ_OK)
+                r = collect_side(lod, l, x - 2 * s, z, DIR_E, true, &ring, &k, &cap);
+            if (r == HZ_OK)
+                r = ring_push(&ring, &k, &cap, (z + s) * n + (x - s));
             if (r == HZ_OK)
                 r = collect_side(lod, l, x, z + 2 * s, DIR_N, true, &ring, &k, &cap);
-            if (r == HZ_OK && list_reserve((void **)&ring, &cap, k + 1, sizeof *ring) == HZ_OK)
-                ring[k++] = (z + s) * n + (x + s);
+            if (r == HZ_OK)
+                r = ring_push(&ring, &k, &cap, (z + s) * n + (x + s));
             if (r == HZ_OK)
                 r = collect_side(lod, l, x + 2 * s, z, DIR_W, false, &ring, &k, &cap);
-            if (r == HZ_OK && list_reserve((void **)&ring, &cap, k + 1, sizeof *ring) == HZ_OK)
-                ring[k++] = (z - s) * n + (x + s);
+            if (r == HZ_OK)
+                r = ring_push(&ring, &k, &cap, (z - s) * n + (x + s));
             if (r == HZ_OK)
                 r = collect_side(lod, l, x, z - 2 * s, DIR_S, false, &ring, &k, &cap);
             if (r != HZ_OK || list_reserve((void **)&out->data, &out->cap, out->count + 3 * k, sizeof(uint32_t))) {
@@ -253,18 +247,9 @@ static uint32_t side_depth(const hz_lod *lod, uint32_t l, uint32_t x, uint32_t z
 {
     if (state_of(lod, l, x, z) != ST_SPLIT)
         return l;
-    const uint32_t h = half_of(lod, l) / 2;
-    uint32_t ax, az, bx, bz;
-    if (side == DIR_W || side == DIR_E) {
-        ax = bx = side == DIR_W ? x - h : x + h;
-        az = z - h;
-        bz = z + h;
-    } else {
-        az = bz = side == DIR_N ? z - h : z + h;
-        ax = x - h;
-        bx = x + h;
-    }
-    uint32_t a = side_depth(lod, l + 1, ax, az, side), b = side_depth(lod, l + 1, bx, bz, side);
+    qnode ch[2], mid;
+    side_children(lod, l, x, z, side, ch, &mid);
+    uint32_t a = side_depth(lod, l + 1, ch[0].x, ch[0].z, side), b = side_depth(lod, l + 1, ch[1].x, ch[1].z, side);
     return a > b ? a : b;
 }
 
@@ -359,22 +344,15 @@ static hz_result bidir_repair(free_ctx *c, float m_dist)
             if (dist > m_dist || (lod->flags[idx] & FL_FROZEN)) {
                 /* Coarsen the fine side: the neighbour's two children on the
                  * facing side become frozen leaves. */
-                const uint32_t h = s / 2;
-                for (int t = 0; t < 2; t++) {
-                    int64_t cx, cz;
-                    if (facing == DIR_W || facing == DIR_E) {
-                        cx = facing == DIR_W ? nx - h : nx + h;
-                        cz = t ? nz + h : nz - h;
-                    } else {
-                        cz = facing == DIR_N ? nz - h : nz + h;
-                        cx = t ? nx + h : nx - h;
-                    }
-                    if (state_of(lod, l + 1, cx, cz) != ST_SPLIT)
+                qnode ch[2], mid;
+                side_children(lod, l, (uint32_t)nx, (uint32_t)nz, facing, ch, &mid);
+                for (int t = 0; t < 2 && r == HZ_OK; t++) {
+                    if (state_of(lod, l + 1, ch[t].x, ch[t].z) != ST_SPLIT)
                         continue;
-                    unstamp_children(lod, l + 1, (uint32_t)cx, (uint32_t)cz);
-                    lod->flags[node_index(lod, l + 1, (uint32_t)cx, (uint32_t)cz)] = ST_LEAF | FL_FROZEN;
+                    unstamp_children(lod, l + 1, ch[t].x, ch[t].z);
+                    lod->flags[node_index(lod, l + 1, ch[t].x, ch[t].z)] = ST_LEAF | FL_FROZEN;
                     c->st->merged++;
-                    r = work_push(&w, l + 1, (uint32_t)cx, (uint32_t)cz);
+                    r = work_push(&w, l + 1, ch[t].x, ch[t].z);
                 }
                 if (r == HZ_OK)
                     r = work_push(&w, l, x, z); /* re-check our other sides */

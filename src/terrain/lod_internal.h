@@ -172,6 +172,15 @@ static inline hz_result push_tri(hz_index_list *out, uint32_t a, uint32_t b, uin
     return HZ_OK;
 }
 
+/* Appends node (x, z) to the level-l list lod->lv[l]. */
+static inline hz_result lv_push(hz_lod *lod, uint32_t l, uint32_t x, uint32_t z)
+{
+    if (list_reserve((void **)&lod->lv[l], &lod->lv_cap[l], lod->lv_n[l] + 1, sizeof(qnode)))
+        return HZ_ERR_MEMORY;
+    lod->lv[l][lod->lv_n[l]++] = (qnode){x, z};
+    return HZ_OK;
+}
+
 /* The per-frame split test shared by the quadtree modes: C/C2 (clamped or
  * not) or, with a pixel error, the projected d2 error. */
 typedef struct split_rule {

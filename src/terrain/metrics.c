@@ -47,100 +47,69 @@ hz_result hz_metrics_px_error(const hz_heightmap *hm, float spacing, float zscal
     return hz_metrics_px_error_ex(hm, spacing, zscale, indices, count, NULL, NULL, cam, image_height, scratch, out);
 }
 
+void hz_float_buf_free(hz_float_buf *buf)
+{
+    free(buf->data);
+    free(buf->surface);
+    *buf = (hz_float_buf){0};
+}
+
+static bool in_frustum(const vec4 planes[6], double x, double y, double z)
+{
+    for (int p = 0; p < 6; p++)
+        if (planes[p][0] * x + planes[p][1] * y + planes[p][2] * z + planes[p][3] < 0)
+            return false;
+    return true;
+}
+
 hz_result hz_metrics_px_error_ex(const hz_heightmap *hm, float spacing, float zscale, const uint32_t *indices,
                                  size_t count, hz_vertex_height_fn vertex_height, void *user, const hz_camera *cam,
                                  uint32_t image_height, hz_float_buf *scratch, hz_px_error *out)
 {
     memset(out, 0, sizeof *out);
     const uint32_t n = hm->size;
+    const size_t ns = (size_t)n * n;
     vec4 planes[6];
     hz_camera_frustum(cam, planes);
     const double k = (double)image_height / (2.0 * tan(glm_rad(cam->fov_y > 0 ? cam->fov_y : 60.0f) * 0.5));
-    /* covered[] marks samples already measured: a sample on a shared edge is
-     * covered by two triangles and must count once. */
-    uint8_t *covered = calloc((size_t)n * n, 1);
-    if (!covered)
-        return HZ_ERR_MEMORY;
-    scratch->count = 0;
-    for (size_t t = 0; t + 2 < count; t += 3) {
-        const uint32_t v[3] = {indices[t], indices[t + 1], indices[t + 2]};
-        int64_t xs[3], zs[3];
-        double hs[3];
-        for (int c = 0; c < 3; c++) {
-            xs[c] = v[c] % n;
-            zs[c] = v[c] / n;
-            hs[c] = vertex_height ? (double)vertex_height(user, v[c]) / zscale
-                                  : hz_heightmap_get(hm, (uint32_t)xs[c], (uint32_t)zs[c]);
-        }
-        int64_t area2 = (zs[1] - zs[0]) * (xs[2] - xs[0]) - (xs[1] - xs[0]) * (zs[2] - zs[0]);
-        if (area2 == 0)
-            continue;
-        int64_t x0 = xs[0], x1 = xs[0], z0 = zs[0], z1 = zs[0];
-        for (int c = 1; c < 3; c++) {
-            x0 = xs[c] < x0 ? xs[c] : x0;
-            x1 = xs[c] > x1 ? xs[c] : x1;
-            z0 = zs[c] < z0 ? zs[c] : z0;
-            z1 = zs[c] > z1 ? zs[c] : z1;
-        }
-        for (int64_t z = z0; z <= z1; z++)
-            for (int64_t x = x0; x <= x1; x++) {
-                /* Barycentric weights from edge functions, exact in integers. */
-                int64_t w0 = (zs[2] - zs[1]) * (x - xs[1]) - (xs[2] - xs[1]) * (z - zs[1]);
-                int64_t w1 = (zs[0] - zs[2]) * (x - xs[2]) - (xs[0] - xs[2]) * (z - zs[2]);
-                int64_t w2 = (zs[1] - zs[0]) * (x - xs[0]) - (xs[1] - xs[0]) * (z - zs[0]);
-                if (area2 < 0) {
-                    w0 = -w0;
-                    w1 = -w1;
-                    w2 = -w2;
-                }
-                if (w0 < 0 || w1 < 0 || w2 < 0)
-                    continue;
-                size_t si = (size_t)z * n + (size_t)x;
-                if (covered[si])
-                    continue;
-                covered[si] = 1;
-                double a = (double)llabs(area2);
-                double lod_h = ((double)w0 * hs[0] + (double)w1 * hs[1] + (double)w2 * hs[2]) / a;
-                double true_h = hz_heightmap_get(hm, (uint32_t)x, (uint32_t)z);
-                double wx = (double)x * spacing, wz = (double)z * spacing, wy = true_h * zscale;
-                int inside = 1;
-                for (int p = 0; p < 6 && inside; p++)
-                    inside = planes[p][0] * wx + planes[p][1] * wy + planes[p][2] * wz + planes[p][3] >= 0;
-                if (!inside)
-                    continue;
-                double dx = wx - cam->pos[0], dy = wy - cam->pos[1], dz = wz - cam->pos[2];
-                double dist = sqrt(dx * dx + dy * dy + dz * dz);
-                double dh = fabs(lod_h - true_h) * zscale;
-                double px = dist > 1e-6 ? dh * k / dist : (dh > 0 ? INFINITY : 0);
-                if (scratch->count == scratch->cap) {
-                    size_t nc = scratch->cap ? scratch->cap * 2 : 1 << 16;
-                    float *p2 = realloc(scratch->data, nc * sizeof *p2);
-                    if (!p2) {
-                        free(covered);
-                        return HZ_ERR_MEMORY;
-                    }
-                    scratch->data = p2;
-                    scratch->cap = nc;
-                }
-                scratch->data[scratch->count++] = (float)px;
-                out->max_px = px > out->max_px ? px : out->max_px;
-                out->max_m = dh > out->max_m ? dh : out->max_m;
-            }
+    if (scratch->surface_cap < ns) {
+        float *p = realloc(scratch->surface, ns * sizeof *p);
+        if (!p)
+            return HZ_ERR_MEMORY;
+        scratch->surface = p;
+        scratch->surface_cap = ns;
     }
-    /* Samples in the frustum that no triangle covers (holes, or culled nodes
-     * whose samples are in the frustum: culling must make this 0). */
+    /* The drawn surface at every sample (a sample on a shared edge gets the
+     * same height from both triangles), then every sample in the frustum. */
+    hz_metrics_surface(hm, zscale, indices, count, vertex_height, user, scratch->surface);
+    scratch->count = 0;
     for (uint32_t z = 0; z < n; z++)
         for (uint32_t x = 0; x < n; x++) {
-            if (covered[(size_t)z * n + x])
+            const double true_h = hz_heightmap_get(hm, x, z);
+            const double wx = (double)x * spacing, wz = (double)z * spacing, wy = true_h * zscale;
+            if (!in_frustum((const vec4 *)planes, wx, wy, wz))
                 continue;
-            double wx = (double)x * spacing, wz = (double)z * spacing,
-                   wy = (double)hz_heightmap_get(hm, x, z) * zscale;
-            int inside = 1;
-            for (int p = 0; p < 6 && inside; p++)
-                inside = planes[p][0] * wx + planes[p][1] * wy + planes[p][2] * wz + planes[p][3] >= 0;
-            out->uncovered += (uint64_t)inside;
+            const float lod_h = scratch->surface[(size_t)z * n + x];
+            if (isnan(lod_h)) {
+                out->uncovered++; /* a hole, or a culled node whose samples are in the frustum */
+                continue;
+            }
+            const double dx = wx - cam->pos[0], dy = wy - cam->pos[1], dz = wz - cam->pos[2];
+            const double dist = sqrt(dx * dx + dy * dy + dz * dz);
+            const double dh = fabs((double)lod_h - wy);
+            const double px = dist > 1e-6 ? dh * k / dist : (dh > 0 ? INFINITY : 0);
+            if (scratch->count == scratch->cap) {
+                size_t nc = scratch->cap ? scratch->cap * 2 : 1 << 16;
+                float *p2 = realloc(scratch->data, nc * sizeof *p2);
+                if (!p2)
+                    return HZ_ERR_MEMORY;
+                scratch->data = p2;
+                scratch->cap = nc;
+            }
+            scratch->data[scratch->count++] = (float)px;
+            out->max_px = px > out->max_px ? px : out->max_px;
+            out->max_m = dh > out->max_m ? dh : out->max_m;
         }
-    free(covered);
     out->samples = scratch->count;
     if (scratch->count) {
         size_t kth = (size_t)floor(0.99 * (double)(scratch->count - 1));
@@ -243,10 +212,7 @@ void hz_metrics_surface_change(const hz_heightmap *hm, float spacing, float zsca
                 continue;
             const double wx = (double)x * spacing, wz = (double)z * spacing,
                          wy = (double)hz_heightmap_get(hm, x, z) * zscale;
-            int inside = 1;
-            for (int p = 0; p < 6 && inside; p++)
-                inside = planes[p][0] * wx + planes[p][1] * wy + planes[p][2] * wz + planes[p][3] >= 0;
-            if (!inside)
+            if (!in_frustum((const vec4 *)planes, wx, wy, wz))
                 continue;
             const double dx = wx - cam->pos[0], dy = wy - cam->pos[1], dz = wz - cam->pos[2];
             const double dist = sqrt(dx * dx + dy * dy + dz * dz);

@@ -40,7 +40,7 @@ static void test_full_mesh_has_zero_error(void **state)
     assert_true(e.max_px == 0.0 && e.p99_px == 0.0);
     assert_int_equal(e.uncovered, 0);
     free(il.data);
-    free(buf.data);
+    hz_float_buf_free(&buf);
     hz_heightmap_destroy(&hm);
 }
 
@@ -71,7 +71,7 @@ static void test_raised_sample_error_is_exact(void **state)
     assert_int_equal(e.samples, 17 * 17);
     /* The rest of the map is in the frustum but has no triangle. */
     assert_true(e.uncovered > 0);
-    free(buf.data);
+    hz_float_buf_free(&buf);
     hz_heightmap_destroy(&hm);
 }
 
@@ -143,7 +143,7 @@ static void test_percentile_and_surface(void **state)
     free(surf);
     free(surf2);
     free(err);
-    free(buf.data);
+    hz_float_buf_free(&buf);
     hz_heightmap_destroy(&hm);
 }
 
