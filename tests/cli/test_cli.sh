@@ -116,6 +116,43 @@ assert ("cdlod morph applied" in head) == (mode == "cdlod"), head
 PY
   then ok "render --lod $m"; else bad "render --lod $m (exit $rc): $j $(cat "$TMP/m_$m.err")"; fi
 done
+# The dumped mesh is the surface as drawn (cdlod: morphed): weld it by
+# position; with culling off, every edge off the map border belongs to exactly
+# two triangles, no vertex sits inside another edge, no triangle is flat in xz.
+for m in remedy roam cdlod; do
+  if $R --generate diamond --size 257 --seed 5 --lod $m --pixel-error 3 --no-cull --camera 300,900,300,135,-20 \
+        --out "$TMP/w_$m.png" --dump-mesh "$TMP/w_$m.obj" >/dev/null 2>&1 &&
+     python3 - "$TMP/w_$m.obj" 10 256 <<'PY'
+import sys, math
+path, sp, last = sys.argv[1], float(sys.argv[2]), int(sys.argv[3])
+verts, tris = [], []
+for line in open(path):
+    if line.startswith("v "):
+        x, y, z = map(float, line.split()[1:])
+        verts.append((round(x / sp), y, round(z / sp)))
+    elif line.startswith("f "):
+        tris.append([int(t) - 1 for t in line.split()[1:]])
+pos = {}
+for (i, y, j) in verts:
+    assert pos.setdefault((i, j), y) == y, "two heights at one place: a crack"
+edges = {}
+for t in tris:
+    p = [verts[k] for k in t]
+    cr = (p[1][2] - p[0][2]) * (p[2][0] - p[0][0]) - (p[1][0] - p[0][0]) * (p[2][2] - p[0][2])
+    assert cr != 0, "flat triangle"
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        e = tuple(sorted(((p[a][0], p[a][2]), (p[b][0], p[b][2]))))
+        edges[e] = edges.get(e, 0) + 1
+for (a, b), c in edges.items():
+    border = (a[0] == b[0] and a[0] in (0, last)) or (a[1] == b[1] and a[1] in (0, last))
+    assert c == 2 or (c == 1 and border), ("open or overused edge", a, b, c)
+    dx, dz = b[0] - a[0], b[1] - a[1]
+    g = math.gcd(abs(dx), abs(dz))
+    for k in range(1, g):
+        assert (a[0] + dx // g * k, a[1] + dz // g * k) not in pos, ("T-junction", a, b)
+PY
+  then ok "$m mesh as drawn: crack-free, no T-junction"; else bad "$m mesh dump check"; fi
+done
 expect_fail "unknown LOD mode"      "invalid value.*--lod"    $R --lod rottger
 expect_fail "bad pixel error"       "invalid value"           $R --pixel-error 0
 expect_fail "bad morph start"       "invalid value"           $R --morph-start 0.3

@@ -188,6 +188,23 @@ if run esc "${GEN[@]}" --frames 100 --script "$TMP/esc.txt" --width 640 --height
   judge "Esc quits after the frame it was pressed in" "$OUT" 'j["frames"]==6 and j["screenshots"]==1'
 fi
 
+# 8b. LOD modes in the window: start in cdlod (geomorphing on the GPU), fly,
+#     L cycles to quadtree (wraps around), 6 raises the pixel error.
+cat > "$TMP/modes.txt" <<'EOF'
+0  key W down
+10 screenshot MODES_CDLOD
+12 key L press
+14 key 6 press
+20 key W up
+EOF
+sed -i "s|MODES_CDLOD|$TMP/modes_cdlod.png|" "$TMP/modes.txt"
+if run modes "${GEN[@]}" --lod cdlod --pixel-error 2 --frames 22 --script "$TMP/modes.txt" --width 640 --height 360 \
+     --screenshot "$TMP/modes_end.png"; then
+  judge "L key: cdlod -> quadtree, 6: pixel error x1.25" "$OUT" \
+    'j["lod_mode"]=="quadtree" and abs(j["pixel_error"]-2.5)<1e-4 and j["triangles"]>1000'
+  judge "cdlod frame in the window: terrain and sky" "$(shot "$TMP/modes_cdlod.png")" 'j["sky"]>0.02 and j["terrain"]>0.2'
+fi
+
 # 9. Bad input: a message on the terminal and exit != 0, never a crash.
 expect_fail "missing DEM"            "cannot open|no such"        --dem "$TMP/nope.hgt" --frames 5
 head -c 100000 "$DATA/N44W072.hgt" > "$TMP/trunc.hgt"
@@ -209,6 +226,7 @@ expect_fail "unknown config key"     "unknown option"             --config "$TMP
 expect_fail "bad --frames"           "invalid value"              --frames 0
 expect_fail "unknown path"           "unknown path|path"          "${GEN[@]}" --size 257 --path nowhere --frames 2
 expect_fail "render-only option"     "belong to render"           --out x.png
+expect_fail "unknown LOD mode"       "invalid value.*--lod"       --lod nope
 out=$(env -u DISPLAY "$HZ" view --quiet "${GEN[@]}" --frames 2 2>&1 >/dev/null); rc=$?
 if [ $rc -ne 0 ] && [ $rc -lt 128 ] && echo "$out" | grep -Eqi "display|xvfb"; then ok "no X display (exit $rc)"
 else bad "no X display: exit $rc, stderr: $out"; fi
