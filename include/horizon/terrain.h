@@ -61,10 +61,12 @@ float hz_terrain_surface_at(const hz_terrain *t, float x, float z);
 hz_camera hz_terrain_default_camera(const hz_terrain *t, uint32_t width, uint32_t height);
 
 /* Built-in camera paths over this terrain, 60 s long:
- *  "flyover": low (clearance above the highest ground nearby) and fast, along
- *             the diagonal, looking slightly down;
+ *  "flyover": low (clearance above the highest ground nearby) and fast
+ *             (300 m/s, a jet), along the middle of the diagonal, looking
+ *             slightly down;
  *  "orbit":   high circle around the centre, looking at the centre;
- *  "ground":  2 m above the ground (walking height), 5 m/s, looking at the horizon.
+ *  "ground":  2 m above the ground (walking height), 5 m/s from the centre
+ *             along the most open heading, looking at the horizon.
  * Fails on an unknown name (listing the valid ones). */
 hz_result hz_terrain_path(const hz_terrain *t, const char *name, hz_path *out, hz_err *err);
 

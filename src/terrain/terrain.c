@@ -154,8 +154,11 @@ hz_result hz_terrain_path(const hz_terrain *t, const char *name, hz_path *out, h
     const float relief = (t->max_h - t->min_h) * t->zscale;
     const float duration = 60.0f;
     if (!strcmp(name, "flyover")) {
+        /* A fast jet: 300 m/s for 60 s (or the whole diagonal of a smaller
+         * map), centred on the diagonal. */
         const float clearance = fmaxf(60.0f, 0.05f * relief);
-        const float x0 = 0.1f * E, x1 = 0.9f * E;
+        const float len = fminf(0.8f * E, 300.0f * duration / sqrtf(2.0f)); /* along x (and z) */
+        const float x0 = 0.5f * E - 0.5f * len, x1 = 0.5f * E + 0.5f * len;
         const float yaw = glm_deg(atan2f(1.0f, -1.0f)); /* toward +x +z */
         for (n = 0; n < 61; n++) {
             float u = (float)n / 60.0f, x = x0 + u * (x1 - x0);
