@@ -1,0 +1,59 @@
+/* horizon light map (SPEC R5): per-sample brightness with terrain shadows,
+ * computed on the CPU, stored as one byte per sample and multiplied into the
+ * ground colour by the renderer. No GL.
+ *
+ * Seed 000, ch. 9: with ambient Ie and r the angle between the surface normal
+ * and the direction to the sun,
+ *     I = cos(r) * (1 - Ie) + Ie   if cos(r) > 0 and nothing blocks the sun,
+ *     I = Ie                       otherwise (facing away, or in shadow).
+ * A sample is in shadow when the terrain between it and the sun rises above
+ * the ray toward the sun. */
+#ifndef HORIZON_LIGHTMAP_H
+#define HORIZON_LIGHTMAP_H
+
+#include "horizon/heightmap.h"
+
+#include <cglm/cglm.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct hz_lightmap_desc {
+    const hz_heightmap *hm; /* required */
+    float spacing;          /* metres between samples; required, > 0 */
+    float zscale;           /* height multiplier; 0 -> 1 */
+    vec3 sun_dir;           /* toward the sun, world (y up); any length > 0; required */
+    float ambient;          /* Ie in [0, 1); 0 -> 0.3 */
+    uint32_t threads;       /* worker threads; 0 -> 2 (each sweep line is split in bands) */
+    bool no_shadows;        /* Lambert + ambient only */
+} hz_lightmap_desc;
+
+typedef struct hz_lightmap_stats {
+    double ms;             /* wall time of the build */
+    uint64_t shadowed;     /* samples facing the sun but blocked by terrain */
+    uint64_t facing_away;  /* samples with cos(r) <= 0 */
+    uint32_t threads;      /* threads actually used */
+} hz_lightmap_stats;
+
+/* Bytes needed for a light map of this heightmap: size * size (one byte per
+ * sample, I * 255 rounded, row-major: index = j * size + i like the grid). */
+size_t hz_lightmap_bound(const hz_heightmap *hm);
+
+/* Computes the light map into out (hz_lightmap_bound(desc->hm) bytes, caller
+ * owned). The normal of sample (i, j) comes from central differences of its
+ * neighbours (one-sided at the borders), like the terrain vertex shader.
+ * A sun below the horizon (sun_dir.y <= 0) gives Ie everywhere; a sun at the
+ * zenith casts no shadows. stats may be NULL.
+ * Errors: HZ_ERR_VALUE for a missing heightmap, bad spacing/zscale/ambient or
+ * a zero/NaN sun direction; HZ_ERR_MEMORY. */
+hz_result hz_lightmap_build(const hz_lightmap_desc *desc, uint8_t *out, hz_lightmap_stats *stats, hz_err *err);
+
+/* The unit sun direction for an azimuth (degrees clockwise from north = -z,
+ * so 90 = east = +x) and an elevation (degrees above the horizon). */
+void hz_sun_direction(float azimuth_deg, float elevation_deg, vec3 dest);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
