@@ -1,6 +1,7 @@
 # horizon — the two commands a user needs:
 #   make demo   installs missing Debian packages, builds, renders the default
-#               generated 4097x4097 terrain headless to out/demo.png, prints its figures
+#               generated 4097x4097 terrain headless with every effect on (a lake
+#               shore against the sun) to out/demo.png, prints its figures
 #   make test   installs, builds and runs every test (ctest)
 #   make bench  the standard benchmark set -> out/bench/*.json, out/bench/summary.md
 BUILD ?= build
@@ -24,7 +25,8 @@ build: deps
 
 demo: build
 	@mkdir -p out
-	$(HORIZON) render --generate perlin --size 4097 --seed 1 --out out/demo.png
+	$(HORIZON) render --generate perlin --size 4097 --seed 1 --effects all --sun 20,14 --time 20 \
+	  --camera 13194,300,34469,-17,-4 --out out/demo.png
 
 test: build
 	@cd $(BUILD) && ctest --output-on-failure -j$(JOBS)

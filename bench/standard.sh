@@ -15,27 +15,44 @@ run() { # name, frames, args...
   echo "== $name ($frames frames)" >&2
   "$HZ" bench --quiet --frames "$frames" --json "$OUT/$name.json" "$@" >/dev/null
 }
+# The LOD runs below measure the terrain alone (--effects none, so their
+# figures stay comparable from run to run); the effects have their own runs
+# at the end.
+lod() { # name, frames, args...
+  local name=$1 frames=$2; shift 2
+  run "$name" "$frames" --effects none "$@"
+}
 
 # The seed's table (SPEC T9): 2049^2 map, view distance 600 samples (6 km at 10 m),
 # C=25/C2=2.5 and C=50/C2=5, with the seed's unclamped criterion and Roettger's clamped one.
 for crit in unclamped clamped; do
-  run "seed_c25_${crit}" 60 --generate perlin --size 2049 --seed 1 --far 6000 --lod-c 25 --lod-c2 2.5 --criterion $crit --path flyover
-  run "seed_c50_${crit}" 60 --generate perlin --size 2049 --seed 1 --far 6000 --lod-c 50 --lod-c2 5 --criterion $crit --path flyover
+  lod "seed_c25_${crit}" 60 --generate perlin --size 2049 --seed 1 --far 6000 --lod-c 25 --lod-c2 2.5 --criterion $crit --path flyover
+  lod "seed_c50_${crit}" 60 --generate perlin --size 2049 --seed 1 --far 6000 --lod-c 50 --lod-c2 5 --criterion $crit --path flyover
 done
 
 # Scale: the same flight over growing generated maps (reference off: speed and memory).
 for s in 1025 2049 4097 8193; do
-  run "scale_$s" 30 --generate perlin --size $s --seed 1 --path flyover --reference off
+  lod "scale_$s" 30 --generate perlin --size $s --seed 1 --path flyover --reference off
 done
 
 # Real DEMs (fitted to 2^n+1 as horizon render does).
-run dem_N44W072      60 --dem "$DATA/N44W072.hgt" --path flyover
-run dem_S46W066      30 --dem "$DATA/S46W066.hgt.gz" --path flyover
-run dem_sierra       30 --dem "$DATA/sierra_nevada_N36-N40_W122-W118_srtm3_4801x4801_int16be.raw.gz" --path flyover
-run dem_sthelens     60 --dem "$DATA/sthelens_10m_dm16.png" --path flyover
-run dem_pyrenees     60 --dem "$DATA/pyrenees_1as_ft16.png" --path flyover
-run dem_sthelens_ground 60 --dem "$DATA/sthelens_10m_dm16.png" --path ground
-run dem_everest_orbit   60 --dem "$DATA/himalaya-everest_3as_ft16.png" --path orbit
+lod dem_N44W072      60 --dem "$DATA/N44W072.hgt" --path flyover
+lod dem_S46W066      30 --dem "$DATA/S46W066.hgt.gz" --path flyover
+lod dem_sierra       30 --dem "$DATA/sierra_nevada_N36-N40_W122-W118_srtm3_4801x4801_int16be.raw.gz" --path flyover
+lod dem_sthelens     60 --dem "$DATA/sthelens_10m_dm16.png" --path flyover
+lod dem_pyrenees     60 --dem "$DATA/pyrenees_1as_ft16.png" --path flyover
+lod dem_sthelens_ground 60 --dem "$DATA/sthelens_10m_dm16.png" --path ground
+lod dem_everest_orbit   60 --dem "$DATA/himalaya-everest_3as_ft16.png" --path orbit
+
+# Effects (issue 7): the frame-time cost of each effect at 1280x720 along the
+# flyover of the 4097^2 map (each alone over the bare terrain, and each taken
+# out of all of them), the light map build at 4097^2 (1 and 2 threads), and
+# the full default frame along the same flight.
+EF=${F:-12}
+echo "== effects ($EF frames x 22 configurations)" >&2
+"$HZ" bench --quiet --generate perlin --size 4097 --seed 1 --path flyover --frames "$EF" --width 1280 --height 720 \
+  --effect-costs "$OUT/effects.json" >/dev/null
+run effects_default_flyover 30 --generate perlin --size 4097 --seed 1 --path flyover --reference off --effects default
 
 # LOD modes compared (quadtree, remedy, bidirectional, roam, cdlod): each tuned
 # to a 99th-percentile screen-space error of 1 px and of 4 px, on the same

@@ -5,12 +5,16 @@ import glob, json, os, sys
 
 d = sys.argv[1] if len(sys.argv) > 1 else "out/bench"
 rows, compares = [], []
+effects = None
 for f in sorted(glob.glob(os.path.join(d, "*.json"))):
     try:
         j = json.load(open(f))
     except (OSError, ValueError):
         continue
     name = os.path.basename(f)[:-5]
+    if name == "effects" and isinstance(j, dict) and isinstance(j.get("effects"), dict):
+        effects = j
+        continue
     if isinstance(j, dict) and "compare" in j:
         compares.append((name, j["compare"]))
     elif isinstance(j, dict) and "frames" in j and "triangles_median" in j:
@@ -97,3 +101,20 @@ if os.path.exists(fp):
                     s["vmi_precision"], s["vmi_recall"], s["vmi_enlarged_precision"], s["vmi_enlarged_recall"],
                     s["random_precision"], s["random_recall"], s["random_enlarged_precision"], s["random_enlarged_recall"]))
             print("| seed | 53 912 – 292 581 | 133 327 – 811 710 | 4 198 (oak) | | | 0.95 / 0.82 and 0.96 / 0.88 | | 0.90 / 0.71 and 0.92 / 0.78 | |")
+
+if effects:
+    e = effects
+    print()
+    print("## Effects: frame-time cost at {}x{} ({}, path {}, {} frames, {})".format(
+        e["width"], e["height"], e["terrain"], e["path"], e["frames"], e.get("gl", "")))
+    print()
+    print("Median over frames of the per-frame difference in draw ms (CPU work of the effects included).")
+    print("Bare terrain {:.1f} ms, everything on {:.1f} ms.".format(e["base_ms"], e["all_ms"]))
+    print()
+    print("| effect | alone: + ms over the bare terrain | in all: - ms when taken out |")
+    print("|---|---|---|")
+    for name, v in e["effects"].items():
+        print("| {} | {:.1f} | {:.1f} |".format(name, v["alone_ms"], v["in_all_ms"]))
+    print()
+    print("Light map with shadows at {0}x{0}: {1:.0f} ms on 1 thread, {2:.0f} ms on 2 threads.".format(
+        e["lightmap_size"], e["lightmap_ms_1thread"], e["lightmap_ms_2threads"]))

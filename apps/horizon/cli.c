@@ -58,7 +58,28 @@ void cli_usage_terrain(void)
             "  --camera X,Y,Z,YAW,PITCH  metres and degrees (default: above the centre)\n"
             "  --fov DEG               vertical field of view (default 60)\n"
             "  --far M                 view distance in metres (default 1.5 x map side)\n"
-            "  --width W --height H    image size (default 1280x720)\n");
+            "  --width W --height H    image size (default 1280x720)\n"
+            "effects:\n"
+            "  --effects LIST          sky, flare, shadows, detail, billboards, fog, water, weather,\n"
+            "                          motionblur, bloom; all, none, default; -NAME removes one\n"
+            "                          (default: all but weather and motionblur)\n"
+            "  --sun AZ,EL             sun azimuth (clockwise from north) and elevation, degrees\n"
+            "                          (default 245,30: west-south-west, afternoon)\n"
+            "  --time S                effect time in seconds: clouds, waves, weather (default 0)\n"
+            "  --clouds C              cloud cover 0..1 (default 0.45; 0 clear)\n"
+            "  --wind SPEED,DIR        m/s and the direction it blows toward, degrees from north\n"
+            "                          (default 6.7,63)\n"
+            "  --weather rain|snow     kind of weather (with the weather effect; default rain)\n"
+            "  --weather-intensity X   particles x X (default 1)\n"
+            "  --water-level M|auto|off  water plane height in metres (default auto: a sea at the\n"
+            "                          lowest flat ground of a DEM, else lakes over the lowest 4 %%)\n"
+            "  --fog D|off             exponential fog density per metre (default 3 / view distance)\n"
+            "  --height-fog D          height fog density per metre at the lowest ground (default 3 x fog)\n"
+            "  --blur F                motion blur feedback 0..0.98 (default 0.5)\n"
+            "  --exposure E --gamma G  output = (colour x E)^(1/G) (default 1, 1)\n"
+            "  --bloom S               bloom strength (default 0.35)\n"
+            "  --trees N               trees per hectare in forests (default 12; 0 none)\n"
+            "  --colormap FILE.png     ground colours from an image over the whole map\n");
 }
 
 static int bad(const char *cmd, const char *opt, const char *val, const char *want)
@@ -76,6 +97,7 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
     o->terrain.seed = 1;
     o->forest_seed = 1;
     o->forest = (hz_forest_params){.simplify = true, .hysteresis = true, .enlarge = true, .node_culling = true};
+    o->effects = HZ_FX_DEFAULT;
     for (int i = first; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -293,6 +315,98 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
                     return bad(cmd, a, v, "five weights W1,..,W5 in [0, 10]");
             if (k != 5)
                 return bad(cmd, a, v, "five weights W1,..,W5 in [0, 10]");
+        } else if (!strcmp(a, "--effects")) {
+            NEEDV();
+            hz_err e = {0};
+            if (hz_fx_parse(v, &o->effects, &e) != HZ_OK) {
+                fprintf(stderr, "horizon %s: %s\n", cmd, e.msg);
+                return 2;
+            }
+        } else if (!strcmp(a, "--sun")) {
+            NEEDV();
+            char buf[128], *save = NULL;
+            snprintf(buf, sizeof buf, "%s", v);
+            char *az = strtok_r(buf, ",", &save), *el = strtok_r(NULL, ",", &save);
+            if (!az || !el || strtok_r(NULL, ",", &save) || !parse_float(az, -360, 720, &o->sun[0]) ||
+                !parse_float(el, -90, 90, &o->sun[1]))
+                return bad(cmd, a, v, "AZIMUTH,ELEVATION in degrees (e.g. 245,30)");
+            o->have_sun = true;
+        } else if (!strcmp(a, "--time")) {
+            NEEDV();
+            float t;
+            if (!parse_float(v, 0, 1e7f, &t))
+                return bad(cmd, a, v, "seconds in [0, 1e7]");
+            o->time = t;
+        } else if (!strcmp(a, "--clouds")) {
+            NEEDV();
+            if (!parse_float(v, 0, 1, &o->fx.cloud_cover))
+                return bad(cmd, a, v, "a cover in [0, 1]");
+            if (o->fx.cloud_cover == 0.0f)
+                o->fx.cloud_cover = -1.0f; /* clear sky (0 means default) */
+        } else if (!strcmp(a, "--wind")) {
+            NEEDV();
+            char buf[128], *save = NULL;
+            snprintf(buf, sizeof buf, "%s", v);
+            char *sp = strtok_r(buf, ",", &save), *dir = strtok_r(NULL, ",", &save);
+            float speed, deg;
+            if (!sp || !dir || strtok_r(NULL, ",", &save) || !parse_float(sp, 0, 100, &speed) ||
+                !parse_float(dir, -360, 720, &deg))
+                return bad(cmd, a, v, "SPEED,DIRECTION (m/s in [0, 100], degrees)");
+            /* 0 means default: a calm wind is a tiny one. */
+            speed = speed > 0.001f ? speed : 0.001f;
+            o->fx.wind[0] = speed * sinf(glm_rad(deg));
+            o->fx.wind[1] = -speed * cosf(glm_rad(deg));
+        } else if (!strcmp(a, "--weather")) {
+            NEEDV();
+            if (!strcmp(v, "rain")) o->fx.weather = HZ_WEATHER_RAIN;
+            else if (!strcmp(v, "snow")) o->fx.weather = HZ_WEATHER_SNOW;
+            else return bad(cmd, a, v, "rain or snow");
+        } else if (!strcmp(a, "--weather-intensity")) {
+            NEEDV();
+            if (!parse_float(v, 0.01f, 8, &o->fx.weather_intensity))
+                return bad(cmd, a, v, "a factor in [0.01, 8]");
+        } else if (!strcmp(a, "--water-level")) {
+            NEEDV();
+            if (!strcmp(v, "auto")) o->water_mode = 0;
+            else if (!strcmp(v, "off")) o->water_mode = 1;
+            else if (parse_float(v, -1e5f, 1e5f, &o->water_level)) o->water_mode = 2;
+            else return bad(cmd, a, v, "metres, auto or off");
+        } else if (!strcmp(a, "--fog")) {
+            NEEDV();
+            if (!strcmp(v, "off")) o->fog = -1.0f;
+            else if (!parse_float(v, 0, 1, &o->fog)) return bad(cmd, a, v, "a density per metre in [0, 1] or off");
+            else if (o->fog == 0.0f) o->fog = -1.0f;
+        } else if (!strcmp(a, "--height-fog")) {
+            NEEDV();
+            if (!parse_float(v, 0, 1, &o->fx.height_fog))
+                return bad(cmd, a, v, "a density per metre in [0, 1]");
+            if (o->fx.height_fog == 0.0f)
+                o->fx.height_fog = -1.0f;
+        } else if (!strcmp(a, "--blur")) {
+            NEEDV();
+            if (!parse_float(v, 0.001f, 0.98f, &o->fx.blur))
+                return bad(cmd, a, v, "a feedback factor in (0, 0.98]");
+        } else if (!strcmp(a, "--exposure")) {
+            NEEDV();
+            if (!parse_float(v, 0.01f, 100, &o->fx.exposure))
+                return bad(cmd, a, v, "a factor in [0.01, 100]");
+        } else if (!strcmp(a, "--gamma")) {
+            NEEDV();
+            if (!parse_float(v, 0.1f, 10, &o->fx.gamma))
+                return bad(cmd, a, v, "a gamma in [0.1, 10]");
+        } else if (!strcmp(a, "--bloom")) {
+            NEEDV();
+            if (!parse_float(v, 0.001f, 10, &o->fx.bloom_strength))
+                return bad(cmd, a, v, "a strength in (0, 10]");
+        } else if (!strcmp(a, "--trees")) {
+            NEEDV();
+            if (!parse_float(v, 0, 1000, &o->trees))
+                return bad(cmd, a, v, "trees per hectare in [0, 1000]");
+            if (o->trees == 0.0f)
+                o->trees = -1.0f;
+        } else if (!strcmp(a, "--colormap")) {
+            NEEDV();
+            o->colormap = v;
         } else if (!strcmp(a, "--json")) {
             o->json = true;
         } else if (!strcmp(a, "--wireframe")) {

@@ -2,6 +2,7 @@
 #ifndef HZ_CLI_H
 #define HZ_CLI_H
 
+#include "horizon/fx.h"
 #include "horizon/render.h"
 #include "horizon/terrain.h"
 #include "horizon/forest_render.h"
@@ -31,7 +32,49 @@ typedef struct cli_opts {
     float forest_at[2];         /* world x, z of the forest centre; default the map centre */
     uint64_t forest_seed;
     hz_forest_params forest;    /* simplification switches and the F3 parameters */
+    /* effects */
+    uint32_t effects;     /* HZ_FX_* (default HZ_FX_DEFAULT) */
+    hz_fx_settings fx;    /* zero fields: defaults */
+    bool have_sun;
+    float sun[2];         /* azimuth (clockwise from north), elevation; degrees */
+    double time;          /* effect time of the (first) frame, seconds */
+    int water_mode;       /* 0 auto, 1 off, 2 water_level */
+    float water_level;    /* metres */
+    float fog;            /* per metre; 0 default (3 / view distance), < 0 off */
+    float trees;          /* trees per hectare inside forests; 0 default, < 0 none */
+    const char *colormap; /* PNG over the whole terrain */
 } cli_opts;
+
+/* Effect resources of a terrain for a renderer: light map for the sun,
+ * scattered trees, forest cover, water planes, colour map; and per frame the
+ * scene parameters and the LOD selection for the mirrored (reflection) camera. */
+typedef struct app_fx {
+    uint32_t effects;
+    hz_fx_settings fx;
+    vec3 sun;             /* toward the sun */
+    float fog;
+    bool water;
+    float water_level;
+    uint8_t *lightmap;
+    vec3 lightmap_sun;
+    double lightmap_ms;   /* last build */
+    uint32_t lightmap_threads;
+    size_t trees;
+    double setup_ms;      /* everything in app_fx_setup */
+    hz_index_list refl;   /* this frame's reflection selection */
+} app_fx;
+
+/* Builds and uploads what o's effects need. 0, or 1 after printing the error. */
+int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer *r, const char *cmd);
+/* Fills the scene parameters for a frame seen by cam (selects the reflection
+ * terrain with the mirrored camera when water is on). time in seconds. */
+void app_fx_params(app_fx *a, const hz_terrain *t, const hz_camera *cam, const hz_lod_params *lod, double time,
+                   hz_scene_params *sp);
+/* Moves the sun and recomputes the light map (when shadows are on). 0 or 1. */
+int app_fx_set_sun(app_fx *a, const hz_terrain *t, hz_renderer *r, float azimuth, float elevation);
+void app_fx_free(app_fx *a);
+/* The sun's azimuth/elevation in degrees. */
+void app_fx_sun_angles(const app_fx *a, float *azimuth, float *elevation);
 
 /* Parses argv[first..argc). Returns 0 on success, 2 on bad usage (message
  * printed). Unknown options are errors. */

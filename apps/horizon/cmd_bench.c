@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "bench_forest.h"
+#include "horizon/lightmap.h"
 #include "horizon/metrics.h"
 
 typedef struct frame_row {
@@ -101,7 +102,154 @@ static void usage(void)
             "  --full-every N          also draw every N-th frame unsimplified (default frames/6)\n"
             "  --no-full               no unsimplified frames\n"
             "  --no-pr                 skip the per-species precision/recall\n"
-            "  --pr-views N --pr-res N views (default 16) and image size (default 512) for it\n");
+            "  --pr-views N --pr-res N views (default 16) and image size (default 512) for it\n"
+            "effects:\n"
+            "  --effect-costs FILE     instead of the above: the frame-time cost of each effect along\n"
+            "                          the path (none, each alone, all, all but each) and the light\n"
+            "                          map build time, as JSON\n"
+            "The reference frames get the same effects as the LOD frames (their own motion blur\n"
+            "history, the same effect time and the same reflection terrain).\n");
+}
+
+static int cmp_d(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static double median_of(double *v, size_t n)
+{
+    if (n == 0)
+        return 0;
+    qsort(v, n, sizeof *v, cmp_d);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/* --effect-costs: every frame of the path is drawn once per configuration
+ * (interleaved, so slow drift of the machine hits all alike); a cost is the
+ * median over frames of the per-frame difference. */
+static int effect_costs(const cli_opts *o, hz_terrain *t, hz_renderer *ren, app_fx *afx, const hz_path *path,
+                        uint32_t frames, float fps, const char *json_out, const char *gl_desc)
+{
+    enum { NCFG = 2 + 2 * HZ_FX_COUNT };
+    uint32_t cfg[NCFG];
+    cfg[0] = 0;
+    cfg[1] = HZ_FX_ALL;
+    for (uint32_t k = 0; k < HZ_FX_COUNT; k++) {
+        cfg[2 + k] = 1u << k;
+        cfg[2 + HZ_FX_COUNT + k] = HZ_FX_ALL & ~(1u << k);
+    }
+    double *ms = calloc((size_t)NCFG * frames, sizeof *ms), *tmp = calloc(frames, sizeof *tmp);
+    hz_index_list il = {0};
+    hz_err err = {0};
+    int rc = 1;
+    if (!ms || !tmp)
+        goto out;
+    hz_camera cam = cli_camera(o, t);
+    for (uint32_t f = 0; f < frames; f++) {
+        double time = (double)f / fps + o->time;
+        hz_path_sample(path, (float)((double)f / fps), &cam);
+        hz_lod_stats st;
+        if (hz_lod_select(t->lod, &cam, &o->lod, &il, NULL, NULL, &st) != HZ_OK)
+            goto out;
+        hz_scene_params sp = {0};
+        afx->effects = HZ_FX_ALL;
+        app_fx_params(afx, t, &cam, &o->lod, time, &sp);
+        cli_scene_lod(&sp, &st);
+        /* One untimed draw with the frame's new indices, then every
+         * configuration, starting at a different one each frame so no
+         * configuration always follows the index upload or another. */
+        sp.effects = 0;
+        hz_draw_stats ds;
+        if (hz_renderer_draw(ren, &cam, &sp, il.data, (uint32_t)il.count, &ds, &err) != HZ_OK)
+            goto out;
+        for (uint32_t i = 0; i < NCFG; i++) {
+            const uint32_t c = (i + f * 7) % NCFG;
+            sp.effects = cfg[c];
+            sp.history = c % HZ_MAX_HISTORY;
+            /* First frame: one untimed draw per configuration (shader variants compile). */
+            if (f == 0 && hz_renderer_draw(ren, &cam, &sp, il.data, (uint32_t)il.count, &ds, &err) != HZ_OK)
+                goto out;
+            if (hz_renderer_draw(ren, &cam, &sp, il.data, (uint32_t)il.count, &ds, &err) != HZ_OK)
+                goto out;
+            ms[(size_t)c * frames + f] = ds.draw_ms;
+        }
+        if (!o->quiet)
+            hz_progress_stderr(NULL, "effect costs", f + 1, frames);
+    }
+    /* The light map of this terrain: 1 and 2 threads, median of 3 each. */
+    double lm[2] = {0, 0};
+    uint8_t *buf = malloc(hz_lightmap_bound(&t->hm));
+    if (!buf)
+        goto out;
+    for (uint32_t th = 1; th <= 2; th++) {
+        double v[3];
+        for (int k = 0; k < 3; k++) {
+            hz_lightmap_desc d = {.hm = &t->hm, .spacing = t->spacing, .zscale = t->zscale, .threads = th};
+            glm_vec3_copy(afx->sun, d.sun_dir);
+            hz_lightmap_stats st;
+            if (hz_lightmap_build(&d, buf, &st, &err) != HZ_OK) {
+                free(buf);
+                goto out;
+            }
+            v[k] = st.ms;
+        }
+        lm[th - 1] = median_of(v, 3);
+    }
+    free(buf);
+
+    double med[NCFG];
+    for (uint32_t c = 0; c < NCFG; c++) {
+        memcpy(tmp, ms + (size_t)c * frames, frames * sizeof *tmp);
+        med[c] = median_of(tmp, frames);
+    }
+    FILE *jf = json_out ? fopen(json_out, "w") : NULL;
+    if (json_out && !jf) {
+        fprintf(stderr, "horizon bench: cannot write '%s'\n", json_out);
+        goto out;
+    }
+    if (!o->quiet || !jf)
+        printf("horizon bench --effect-costs: %s (%ux%u), path %s, %u frames at %ux%u on %s\n"
+               "%-12s %10s %10s\n%-12s %10.2f\n%-12s %10.2f\n", t->source, t->hm.size, t->hm.size, path->name,
+               frames, o->width, o->height, gl_desc, "effect", "alone ms", "in all ms", "none (base)", med[0],
+               "all", med[1]);
+    if (jf)
+        fprintf(jf, "{\"terrain\":\"%s\",\"size\":%u,\"path\":\"%s\",\"frames\":%u,\"width\":%u,\"height\":%u,"
+                    "\"gl\":\"%s\",\"base_ms\":%.3f,\"all_ms\":%.3f,\"lightmap_size\":%u,\"lightmap_ms_1thread\":%.1f,"
+                    "\"lightmap_ms_2threads\":%.1f,\"trees\":%zu,\"effects\":{",
+                t->source, t->hm.size, path->name, frames, o->width, o->height, gl_desc, med[0], med[1], t->hm.size,
+                lm[0], lm[1], afx->trees);
+    for (uint32_t k = 0; k < HZ_FX_COUNT; k++) {
+        /* Per frame: alone = t(e) - t(none), in all = t(all) - t(all but e). */
+        for (uint32_t f = 0; f < frames; f++)
+            tmp[f] = ms[(size_t)(2 + k) * frames + f] - ms[f];
+        double alone = median_of(tmp, frames);
+        for (uint32_t f = 0; f < frames; f++)
+            tmp[f] = ms[(size_t)1 * frames + f] - ms[(size_t)(2 + HZ_FX_COUNT + k) * frames + f];
+        double in_all = median_of(tmp, frames);
+        if (!o->quiet || !jf)
+            printf("%-12s %10.2f %10.2f\n", hz_fx_name(k), alone, in_all);
+        if (jf)
+            fprintf(jf, "%s\"%s\":{\"alone_ms\":%.3f,\"in_all_ms\":%.3f,\"alone_frame_ms\":%.3f}", k ? "," : "",
+                    hz_fx_name(k), alone, in_all, med[2 + k]);
+    }
+    if (!o->quiet || !jf)
+        printf("light map %ux%u: %.1f ms (1 thread), %.1f ms (2 threads)\n", t->hm.size, t->hm.size, lm[0], lm[1]);
+    if (jf) {
+        fputs("}}\n", jf);
+        if (fclose(jf) != 0) {
+            fprintf(stderr, "horizon bench: cannot write '%s'\n", json_out);
+            goto out;
+        }
+    }
+    rc = 0;
+out:
+    if (rc && err.msg[0])
+        fprintf(stderr, "horizon bench: %s\n", err.msg);
+    free(ms);
+    free(tmp);
+    free(il.data);
+    return rc;
 }
 
 typedef struct bench {
@@ -124,9 +272,23 @@ typedef struct bench {
     hz_float_buf scratch;
     float *surf[2];
     hz_err err;
+    /* Effects: the LOD frames and their references get the same ones. */
+    app_fx afx;
 } bench;
 
-static hz_result reference_frame(bench *b, const hz_camera *cam, uint8_t *rgb, uint8_t *sky, uint32_t *tris)
+/* The scene parameters of frame f seen by cam: the effects at the frame's
+ * time (the reflection terrain comes from the mirrored camera, so it is the
+ * same for a LOD frame and its reference) and a motion blur history slot. */
+static void frame_params(bench *b, const hz_camera *cam, uint32_t f, uint32_t history, hz_scene_params *sp)
+{
+    *sp = (hz_scene_params){0};
+    app_fx_params(&b->afx, b->t, cam, &b->o.lod, (double)f / b->fps + b->o.time, sp);
+    sp->history = history;
+    sp->reset_history = f == 0;
+}
+
+static hz_result reference_frame(bench *b, const hz_camera *cam, uint32_t f, uint8_t *rgb, uint8_t *sky,
+                                 uint32_t *tris)
 {
     /* Full resolution inside the frustum: every node splits down to 3x3. */
     const hz_lod_params refp = {.c = 1e30f, .c2 = 1e30f, .criterion = HZ_LOD_CLAMPED};
@@ -134,7 +296,9 @@ static hz_result reference_frame(bench *b, const hz_camera *cam, uint8_t *rgb, u
     if (hz_lod_select(b->t->lod, cam, &refp, &b->rl, NULL, NULL, &rs) != HZ_OK)
         return hz_err_set(&b->err, HZ_ERR_MEMORY, "reference selection out of memory");
     *tris = rs.triangles;
-    hz_result r = hz_renderer_draw(b->ren, cam, NULL, b->rl.data, (uint32_t)b->rl.count, NULL, &b->err);
+    hz_scene_params sp;
+    frame_params(b, cam, f, 1, &sp);
+    hz_result r = hz_renderer_draw(b->ren, cam, &sp, b->rl.data, (uint32_t)b->rl.count, NULL, &b->err);
     if (r == HZ_OK)
         r = hz_renderer_read_rgb(b->ren, rgb, &b->err);
     if (r == HZ_OK)
@@ -167,7 +331,7 @@ static hz_result cache_references(bench *b)
                               b->frames);
         hz_camera cam = cli_camera(&b->o, b->t);
         hz_path_sample(&b->path, (float)f / b->fps, &cam);
-        hz_result r = reference_frame(b, &cam, b->ref_rgb[f], b->ref_sky[f], &b->ref_tris[f]);
+        hz_result r = reference_frame(b, &cam, f, b->ref_rgb[f], b->ref_sky[f], &b->ref_tris[f]);
         if (r != HZ_OK)
             return r;
         if (b->save_dir) {
@@ -242,7 +406,8 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
     hz_lod_stats st0;
     if (hz_lod_select(b->t->lod, &cam, lod, &b->il, NULL, NULL, &st0) != HZ_OK)
         return hz_err_set(&b->err, HZ_ERR_MEMORY, "LOD selection out of memory");
-    hz_scene_params sp0 = {0};
+    hz_scene_params sp0;
+    frame_params(b, &cam, 0, 0, &sp0);
     cli_scene_lod(&sp0, &st0);
     if (hz_renderer_draw(b->ren, &cam, &sp0, b->il.data, (uint32_t)b->il.count, NULL, &b->err) != HZ_OK)
         return HZ_ERR_GL;
@@ -258,7 +423,8 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
         if (hz_lod_select(b->t->lod, &cam, lod, &b->il, NULL, NULL, &st) != HZ_OK)
             return hz_err_set(&b->err, HZ_ERR_MEMORY, "LOD selection out of memory");
         hz_draw_stats ds;
-        hz_scene_params sp = {0};
+        hz_scene_params sp;
+        frame_params(b, &cam, f, 0, &sp); /* (resets this mode's motion blur at its first frame) */
         cli_scene_lod(&sp, &st);
         if (hz_renderer_draw(b->ren, &cam, &sp, b->il.data, (uint32_t)b->il.count, &ds, &b->err) != HZ_OK)
             return HZ_ERR_GL;
@@ -299,7 +465,7 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
                 rcur = b->ref[f & 1];
                 rprev = b->ref[(f + 1) & 1];
                 rsky = b->sky_r;
-                hz_result r = reference_frame(b, &cam, rcur, rsky, &row->ref_triangles);
+                hz_result r = reference_frame(b, &cam, f, rcur, rsky, &row->ref_triangles);
                 if (r != HZ_OK)
                     return r;
             }
@@ -394,9 +560,11 @@ static void print_table(const bench *b, const hz_lod_params *lod, const summary 
 {
     char lt[128];
     lod_text(lod, lt, sizeof lt);
-    printf("horizon bench: %s (%ux%u, %.1f m), path %s, %u frames at %ux%u, %s%s", b->t->source, b->t->hm.size,
-           b->t->hm.size, (double)b->t->spacing, b->path.name, b->frames, b->o.width, b->o.height, lt,
-           b->reference ? "" : ", no reference");
+    char fxs[200];
+    hz_fx_format(b->o.effects, fxs, sizeof fxs);
+    printf("horizon bench: %s (%ux%u, %.1f m), path %s, %u frames at %ux%u, %s%s, effects %s", b->t->source,
+           b->t->hm.size, b->t->hm.size, (double)b->t->spacing, b->path.name, b->frames, b->o.width, b->o.height, lt,
+           b->reference ? "" : ", no reference", fxs);
     if (tuned_for > 0)
         printf(" (tuned for p99 <= %g px)", tuned_for);
     printf("\n%-18s %12s %12s %12s\n", "", "median", "p95", "max");
@@ -411,14 +579,17 @@ static void write_json(FILE *jf, const bench *b, const hz_lod_params *lod, const
                        double tuned_for)
 {
     const hz_camera cam = cli_camera(&b->o, b->t);
+    char fxs[200];
+    hz_fx_format(b->o.effects, fxs, sizeof fxs);
     fprintf(jf, "{\"frames\":%u,\"terrain\":\"%s\",\"size\":%u,\"spacing\":%g,\"lod_mode\":\"%s\",\"pixel_error\":%g,"
                 "\"tuned_for_p99\":%g,\"criterion\":\"%s\",\"lod_c\":%g,\"lod_c2\":%g,\"path\":\"%s\",\"fps\":%g,"
-                "\"width\":%u,\"height\":%u,\"fov\":%g,\"far\":%g,\"reference\":%s,",
+                "\"width\":%u,\"height\":%u,\"fov\":%g,\"far\":%g,\"reference\":%s,\"effects\":\"%s\","
+                "\"fx_setup_ms\":%.1f,\"lightmap_ms\":%.1f,\"trees\":%zu,",
             b->frames, b->t->source, b->t->hm.size, (double)b->t->spacing, hz_lod_mode_name(lod->mode),
             (double)lod->pixel_error, tuned_for, lod->criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped",
             (double)(lod->c > 0 ? lod->c : 25), (double)(lod->c2 > 0 ? lod->c2 : 2.5f), b->path.name,
             (double)b->fps, b->o.width, b->o.height, (double)cam.fov_y, (double)cam.zfar,
-            b->reference ? "true" : "false");
+            b->reference ? "true" : "false", fxs, b->afx.setup_ms, b->afx.lightmap_ms, b->afx.trees);
     const size_t ncols = b->reference ? NCOLS : NCOLS_NOREF;
     for (size_t c = 0; c < ncols; c++) {
         const char *nm = COLS[c].name;
@@ -518,7 +689,7 @@ static int parse_modes(const char *v, hz_lod_mode *modes, int cap)
 int cmd_bench(int argc, char **argv)
 {
     /* Split off bench-only options, pass the rest to the common parser. */
-    const char *path_name = NULL, *json_out = NULL, *plot_out = NULL, *save_dir = NULL;
+    const char *path_name = NULL, *json_out = NULL, *plot_out = NULL, *save_dir = NULL, *costs_out = NULL;
     bench_forest_opts bfo = {0};
     uint32_t frames = 60;
     float fps = 30.0f, tune_p99 = 0.0f;
@@ -550,6 +721,7 @@ int cmd_bench(int argc, char **argv)
                      !strcmp(a, "--full-every") || !strcmp(a, "--pr-views") || !strcmp(a, "--pr-res") ||
                      !strcmp(a, "--reference") || !strcmp(a, "--plot") || !strcmp(a, "--save-frames") ||
                      !strcmp(a, "--tune-p99") || (!strcmp(a, "--lod") && v && strchr(v, ',')) ||
+                     !strcmp(a, "--effect-costs") ||
                      (!strcmp(a, "--json") && v && v[0] != '-');
         if (!takes) {
             rest[nrest++] = argv[i];
@@ -570,6 +742,8 @@ int cmd_bench(int argc, char **argv)
             plot_out = v;
         else if (!strcmp(a, "--save-frames"))
             save_dir = v;
+        else if (!strcmp(a, "--effect-costs"))
+            costs_out = v;
         else if (!strcmp(a, "--lod")) {
             nmodes = parse_modes(v, modes, (int)(sizeof modes / sizeof *modes));
             if (nmodes < 0) {
@@ -709,6 +883,15 @@ int cmd_bench(int argc, char **argv)
                 goto done;
             break;
         }
+    /* --effect-costs builds every effect's resources ("view" does). */
+    if (app_fx_setup(&b.afx, &b.o, b.t, b.ren, costs_out ? "view" : "bench")) {
+        snprintf(b.err.msg, sizeof b.err.msg, "effects setup failed");
+        goto done;
+    }
+    if (costs_out) {
+        rc = effect_costs(&b.o, b.t, b.ren, &b.afx, &b.path, frames, fps, costs_out, hz_gl_describe(gl));
+        goto done;
+    }
     if (b.cache_ref && cache_references(&b) != HZ_OK)
         goto done;
     if (json_out) {
@@ -757,6 +940,7 @@ done:
         fprintf(stderr, "horizon bench: %s\n", b.err.msg[0] ? b.err.msg : "failed");
     if (jf)
         fclose(jf);
+    app_fx_free(&b.afx);
     hz_renderer_destroy(b.ren);
     hz_gl_destroy(gl);
     if (b.ref_rgb)

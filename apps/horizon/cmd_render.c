@@ -121,13 +121,19 @@ int cmd_render(int argc, char **argv)
     rc = 1;
     hz_err err = {0};
     hz_renderer *ren = NULL;
+    app_fx afx = {0};
     hz_gl *gl = hz_gl_create_headless(&err);
     if (!gl)
         goto done;
     ren = hz_renderer_create(&(hz_renderer_desc){.width = o.width, .height = o.height}, &err);
     if (!ren || cli_renderer_setup(ren, t, &o, &err) != HZ_OK)
         goto done;
+    if (app_fx_setup(&afx, &o, t, ren, "render")) {
+        snprintf(err.msg, sizeof err.msg, "effects setup failed");
+        goto done;
+    }
     hz_scene_params sp = {.wireframe = o.wireframe};
+    app_fx_params(&afx, t, &cam, &o.lod, o.time, &sp);
     cli_scene_lod(&sp, &st);
     if (o.forest_n) {
         cf = cli_forest_create(&o, t);
@@ -151,6 +157,8 @@ int cmd_render(int argc, char **argv)
         draw[k] = ds.draw_ms;
     }
     double draw_first = draw[0];
+    char fxs[200];
+    hz_fx_format(o.effects, fxs, sizeof fxs);
     double draw_med = median(draw, 3);
     uint8_t *rgb = malloc((size_t)o.width * o.height * 3);
     if (!rgb || hz_renderer_read_rgb(ren, rgb, &err) != HZ_OK ||
@@ -162,6 +170,9 @@ int cmd_render(int argc, char **argv)
     if (o.dump_mesh && write_obj(o.dump_mesh, t, &il, &cam, &st))
         goto done;
 
+    char water[32] = "null";
+    if (afx.water)
+        snprintf(water, sizeof water, "%.2f", (double)afx.water_level);
     if (o.json) {
         printf("{\"terrain\":\"%s\",\"heightmap_size\":%u,\"spacing\":%g,\"zscale\":%g,"
                "\"layout\":\"%s\",\"lod_mode\":\"%s\",\"pixel_error\":%g,\"lod_c\":%g,\"lod_c2\":%g,"
@@ -170,7 +181,9 @@ int cmd_render(int argc, char **argv)
                "\"triangles\":%u,\"vertices\":%zu,\"nodes_visited\":%u,\"nodes_culled\":%u,"
                "\"leaves\":%u,\"restricted\":%u,\"lod_ms\":%.4f,\"lod_runs\":%u,\"upload_ms\":%.3f,"
                "\"draw_ms\":%.3f,\"draw_ms_first\":%.3f,\"bytes_per_sample\":%.3f,"
-               "\"lod_bytes\":%zu,\"load_ms\":%.1f,\"prep_ms\":%.1f,\"peak_rss_mb\":%.1f,\"out\":\"%s\"",
+               "\"lod_bytes\":%zu,\"load_ms\":%.1f,\"prep_ms\":%.1f,\"peak_rss_mb\":%.1f,\"out\":\"%s\","
+               "\"effects\":\"%s\",\"fx_setup_ms\":%.1f,\"lightmap_ms\":%.1f,\"trees\":%zu,\"billboards\":%u,"
+               "\"particles\":%u,\"reflections\":%u,\"sun_visible\":%.4f,\"water_level\":%s",
                t->source, t->hm.size, (double)t->spacing, (double)t->zscale, hz_layout_name(t->hm.layout),
                hz_lod_mode_name(o.lod.mode), (double)o.lod.pixel_error,
                (double)(o.lod.c > 0 ? o.lod.c : 25), (double)(o.lod.c2 > 0 ? o.lod.c2 : 2.5f),
@@ -181,7 +194,8 @@ int cmd_render(int argc, char **argv)
                count_vertices(&il, t->hm.size), st.nodes_visited, st.nodes_culled, st.leaves,
                st.restricted, lod_med, o.repeat, ds.upload_ms, draw_med, draw_first,
                hz_lod_bytes_per_sample(t->lod), hz_lod_memory_bytes(t->lod), t->load_ms, t->prep_ms,
-               (double)hz_peak_rss_bytes() / (1024.0 * 1024.0), out);
+               (double)hz_peak_rss_bytes() / (1024.0 * 1024.0), out, fxs, afx.setup_ms, afx.lightmap_ms, afx.trees,
+               ds.billboards, ds.particles, ds.reflections, (double)ds.sun_visible, water);
         if (cf) {
             const hz_forest_frame *fr = &cf->frame;
             printf(",\"forest_trees\":%u,\"trees_in_frustum\":%u,\"trees_detailed\":%u,\"trees_hull\":%u,"
@@ -213,6 +227,12 @@ int cmd_render(int argc, char **argv)
                hz_gl_describe(gl));
         printf("LOD memory    %.2f bytes/sample (%.1f MB)\n", hz_lod_bytes_per_sample(t->lod),
                (double)hz_lod_memory_bytes(t->lod) / 1048576.0);
+        printf("effects       %s", fxs);
+        if (o.effects)
+            printf(" (setup %.0f ms: light map %.0f ms, %zu trees; %u billboards, %u particles drawn%s)",
+                   afx.setup_ms, afx.lightmap_ms, afx.trees, ds.billboards, ds.particles,
+                   ds.reflections ? ", water reflected" : "");
+        printf("\n");
         if (cf) {
             const hz_forest_frame *fr = &cf->frame;
             printf("forest        %u trees, %u in the frustum (%u detailed, %u crown hulls)\n", fr->trees,
@@ -229,6 +249,7 @@ done:
     if (rc)
         fprintf(stderr, "horizon render: %s\n", err.msg[0] ? err.msg : "failed");
     cli_forest_destroy(cf);
+    app_fx_free(&afx);
     hz_renderer_destroy(ren);
     hz_gl_destroy(gl);
     free(il.data);

@@ -79,7 +79,9 @@ static void usage(void)
             "keys: WASD move, Q/E down/up, shift fast, ctrl slow, mouse drag (or M) look, arrows turn,\n"
             "      scroll speed, Tab viewer/free, G walk, 1/2 C, 3/4 C2, K culling, F1 HUD, H help,\n"
             "      F2 wireframe, F3 fans, F4 freeze LOD camera, F5 node boxes, R reset, P/F12 shot, Esc quit,\n"
-            "      with --forest: T tree simplification on/off, Y hysteresis on/off\n");
+            "      with --forest: T tree simplification on/off, Y hysteresis on/off\n"
+            "effect keys: U sky, F flare, J shadows, I detail, B billboards, O fog, V water, N weather,\n"
+            "      C rain/snow, X motion blur, Z bloom, [ ] sun azimuth, - = sun elevation\n");
 }
 
 static bool parse_f(const char *s, float lo, float hi, float *out)
@@ -509,6 +511,10 @@ typedef struct view {
     char message[256];
     double message_until;
     hz_err err;
+    /* Effects. */
+    app_fx afx;
+    double fx_time;      /* effect time: advances by dt, so scripted runs repeat exactly */
+    bool cut;            /* the camera jumped: restart the motion blur */
 } view;
 
 static void set_message(view *v, double seconds, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
@@ -698,9 +704,28 @@ static bool set_lod_mode(view *v, hz_lod_mode mode)
     return true;
 }
 
+/* The effect toggles: key letter and HZ_FX_* bit, in HUD order. */
+static const struct {
+    char key;
+    uint32_t bit;
+    const char *label;
+} fx_keys[] = {{'U', HZ_FX_SKY, "sky"},     {'F', HZ_FX_FLARE, "flare"},    {'J', HZ_FX_SHADOWS, "shadows"},
+               {'I', HZ_FX_DETAIL, "detail"}, {'B', HZ_FX_BILLBOARDS, "trees"}, {'O', HZ_FX_FOG, "fog"},
+               {'V', HZ_FX_WATER, "water"},  {'N', HZ_FX_WEATHER, "weather"}, {'X', HZ_FX_MOTIONBLUR, "blur"},
+               {'Z', HZ_FX_BLOOM, "bloom"}};
+
 /* Toggles and one-shot keys. Returns false to quit. */
 static bool handle_press(view *v, int key)
 {
+    for (size_t k = 0; k < sizeof fx_keys / sizeof fx_keys[0]; k++)
+        if (key == HZ_KEY_A + (fx_keys[k].key - 'A')) {
+            v->afx.effects ^= fx_keys[k].bit;
+            if (fx_keys[k].bit == HZ_FX_MOTIONBLUR)
+                v->cut = true;
+            set_message(v, 1.5, "%s %s", hz_fx_name((uint32_t)__builtin_ctz(fx_keys[k].bit)),
+                        (v->afx.effects & fx_keys[k].bit) ? "on" : "off");
+            return true;
+        }
     switch (key) {
     case HZ_KEY_ESCAPE:
         return false;
@@ -741,6 +766,7 @@ static bool handle_press(view *v, int key)
         v->fc.cam = c;
         hz_flycam_set_walk(&v->fc, walk);
         hz_flycam_set_mode(&v->fc, v->fc.mode);
+        v->cut = true;
         break;
     }
     case HZ_KEY_A + ('K' - 'A'):
@@ -772,6 +798,28 @@ static bool handle_press(view *v, int key)
         break;
     case HZ_KEY_F1 + 4:
         v->boxes = !v->boxes;
+        break;
+    case HZ_KEY_LEFT_BRACKET:
+    case HZ_KEY_RIGHT_BRACKET:
+    case HZ_KEY_MINUS:
+    case HZ_KEY_EQUAL: {
+        float az, el;
+        app_fx_sun_angles(&v->afx, &az, &el);
+        if (key == HZ_KEY_LEFT_BRACKET || key == HZ_KEY_RIGHT_BRACKET)
+            az = fmodf(az + (key == HZ_KEY_RIGHT_BRACKET ? 15.0f : -15.0f) + 360.0f, 360.0f);
+        else
+            el = glm_clamp(el + (key == HZ_KEY_EQUAL ? 5.0f : -5.0f), -10.0f, 90.0f);
+        if (app_fx_set_sun(&v->afx, v->t, v->ren, az, el))
+            set_message(v, 3.0, "light map failed");
+        else
+            set_message(v, 2.0, "sun azimuth %.0f, elevation %.0f (light map %.0f ms)", (double)az, (double)el,
+                        v->afx.lightmap_ms);
+        break;
+    }
+    case HZ_KEY_A + ('C' - 'A'):
+        v->afx.fx.weather = v->afx.fx.weather == HZ_WEATHER_SNOW ? HZ_WEATHER_RAIN : HZ_WEATHER_SNOW;
+        set_message(v, 1.5, "weather: %s%s", v->afx.fx.weather == HZ_WEATHER_SNOW ? "snow" : "rain",
+                    (v->afx.effects & HZ_FX_WEATHER) ? "" : " (N turns it on)");
         break;
     case HZ_KEY_0 + 1:
         scale_lod(&v->lod.c, 25.0f, 1.0f / 1.25f);
@@ -827,6 +875,7 @@ static bool run_script(view *v, bool *shot_after, const char **shot_file)
             v->fc.cam.pitch = e->v[4];
             hz_flycam_set_mode(&v->fc, v->fc.mode); /* re-applies the ground clamp */
             v->path_active = false;
+            v->cut = true;
             break;
         case EV_SCREENSHOT:
             *shot_after = true;
@@ -922,9 +971,17 @@ static void queue_hud(view *v, uint32_t boxes_drawn, size_t boxes_wanted)
                  (double)fr->triangles_full / 1e6, v->cf->hook.draw_ms,
                  v->o.forest.simplify ? "T simplified" : "T FULL", v->o.forest.hysteresis ? "  Y hyst." : "");
     }
+    float az, el;
+    app_fx_sun_angles(&v->afx, &az, &el);
+    snprintf(lines[nl++], 256, "sun az %.0f el %.0f ([ ] - =)   time %.1f s   trees %u   %s %u   water %s",
+             (double)az, (double)el, v->fx_time, v->ds.billboards,
+             v->afx.fx.weather == HZ_WEATHER_SNOW ? "snow" : "rain", v->ds.particles,
+             v->ds.reflections ? "reflected" : "-");
     if (boxes_wanted > boxes_drawn)
         snprintf(lines[nl++], 256, "boxes: the first %u of %zu shown", boxes_drawn, boxes_wanted);
     int views_line = nl;
+    lines[nl++][0] = 0;
+    int fx_line = nl;
     lines[nl++][0] = 0;
     float w = 0;
     for (int k = 0; k < nl; k++) {
@@ -945,12 +1002,29 @@ static void queue_hud(view *v, uint32_t boxes_drawn, size_t boxes_wanted)
         vw += tw + 10 * sc;
     }
     w = vw > w ? vw : w;
+    char fx_labels[sizeof fx_keys / sizeof fx_keys[0]][24];
+    float fw = 0;
+    for (size_t k = 0; k < sizeof fx_keys / sizeof fx_keys[0]; k++) {
+        snprintf(fx_labels[k], sizeof fx_labels[k], "%c %s", fx_keys[k].key, fx_keys[k].label);
+        float tw;
+        hz_overlay_text_size(fx_labels[k], sc, &tw, NULL);
+        fw += tw + 8 * sc;
+    }
+    w = fw > w ? fw : w;
     v->hud_w = w + 2 * x0;
     v->hud_h = (float)nl * lh + 2 * x0;
     hz_overlay_rect(v->ov, 0, 0, v->hud_w, v->hud_h, C_PANEL);
     for (int k = 0; k < nl; k++)
-        if (k != views_line)
+        if (k != views_line && k != fx_line)
             text(v, x0, x0 + (float)k * lh, C_WHITE, lines[k]);
+    /* Effects line: each lit when on. */
+    float fxx = x0;
+    for (size_t k = 0; k < sizeof fx_keys / sizeof fx_keys[0]; k++) {
+        text(v, fxx, x0 + (float)fx_line * lh, (v->afx.effects & fx_keys[k].bit) ? C_ON : C_DIM, fx_labels[k]);
+        float tw;
+        hz_overlay_text_size(fx_labels[k], sc, &tw, NULL);
+        fxx += tw + 8 * sc;
+    }
     float x = x0;
     for (size_t k = 0; k < sizeof views / sizeof views[0]; k++) {
         text(v, x, x0 + (float)views_line * lh, views[k].on ? C_ON : C_DIM, views[k].label);
@@ -972,7 +1046,11 @@ static void queue_help(view *v)
         "1 2 / 3 4    C - + / C2 - +       K  culling on/off\n"
         "F1 HUD   F2 wireframe   F3 fans (centre red, rim white,\n"
         "         finest blue)   F4 freeze LOD camera   F5 boxes\n"
-        "R reset camera   P or F12 screenshot   H help   Esc quit";
+        "R reset camera   P or F12 screenshot   H help   Esc quit\n"
+        "Effects: U sky  F flare  J shadows  I detail  B trees\n"
+        "         O fog  V water  N weather (C rain/snow)\n"
+        "         X motion blur  Z bloom\n"
+        "[ ] sun azimuth -/+   - = sun elevation -/+";
     const float sc = v->hud_scale;
     float tw, th;
     hz_overlay_text_size(help, sc, &tw, &th);
@@ -1097,7 +1175,12 @@ static bool frame(view *v, bool *render_failed)
     }
 
     /* Terrain (sky only in the fan view: the fans replace the shading). */
-    hz_scene_params sp = {.wireframe = v->wire};
+    v->fx_time += dt;
+    hz_scene_params sp = {0};
+    app_fx_params(&v->afx, v->t, &v->fc.cam, &v->lod, v->fx_time, &sp);
+    sp.wireframe = v->wire;
+    sp.reset_history = v->cut || v->frame == 0;
+    v->cut = false;
     cli_scene_lod(&sp, &v->st);
     if (v->cf) {
         if (!cli_forest_update(v->cf, &v->o, &v->fc.cam, (now - v->run_t0) / 1000.0)) {
@@ -1180,13 +1263,18 @@ static void print_json(view *v)
         p95 = v->frame_times[(k95 ? k95 : 1) - 1];
     }
     const hz_camera *c = &v->fc.cam;
+    char fxs[200];
+    hz_fx_format(v->afx.effects, fxs, sizeof fxs);
+    float az, el;
+    app_fx_sun_angles(&v->afx, &az, &el);
     printf("{\"terrain\":\"%s\",\"heightmap_size\":%u,\"frames\":%u,\"width\":%u,\"height\":%u,"
            "\"fps_mean\":%.2f,\"frame_ms_median\":%.3f,\"frame_ms_p95\":%.3f,\"triangles\":%u,"
            "\"nodes_visited\":%u,\"nodes_culled\":%u,\"lod_ms\":%.3f,\"draw_ms\":%.3f,\"lod_mode\":\"%s\","
            "\"pixel_error\":%g,\"lod_c\":%g,\"lod_c2\":%g,"
            "\"camera_mode\":\"%s\",\"camera\":[%.3f,%.3f,%.3f,%.3f,%.3f],\"ground\":%.3f,\"speed\":%g,"
            "\"eye_height\":%g,\"wireframe\":%s,\"fans\":%s,\"frozen\":%s,\"boxes\":%s,\"no_cull\":%s,"
-           "\"screenshots\":%u,\"forest_trees\":%u,\"forest_triangles_drawn\":%llu,\"gl\":\"%s\"}\n",
+           "\"screenshots\":%u,\"forest_trees\":%u,\"forest_triangles_drawn\":%llu,\"gl\":\"%s\",\"effects\":\"%s\","
+           "\"sun\":[%.2f,%.2f],\"weather\":\"%s\",\"billboards\":%u,\"particles\":%u,\"reflections\":%u}\n",
            v->t->source, v->t->hm.size, v->frame, v->width, v->height, total > 0 ? 1000.0 * (double)v->frame_times_n / total : 0.0,
            med, p95, v->st.triangles, v->st.nodes_visited, v->st.nodes_culled, v->st.ms, v->ds.draw_ms,
            hz_lod_mode_name(v->lod.mode), (double)v->lod.pixel_error,
@@ -1196,7 +1284,9 @@ static void print_json(view *v)
            v->wire ? "true" : "false", v->fans ? "true" : "false", v->frozen ? "true" : "false",
            v->boxes ? "true" : "false", v->lod.no_cull ? "true" : "false", v->shots,
            v->cf ? v->cf->frame.trees : 0u, v->cf ? (unsigned long long)v->cf->frame.triangles_drawn : 0ull,
-           hz_window_describe(v->win));
+           hz_window_describe(v->win), fxs, (double)az, (double)el,
+           v->afx.fx.weather == HZ_WEATHER_SNOW ? "snow" : "rain", v->ds.billboards, v->ds.particles,
+           v->ds.reflections);
 }
 
 static bool ends_with(const char *s, const char *suf)
@@ -1342,6 +1432,10 @@ int cmd_view(int argc, char **argv)
         fprintf(stderr, "horizon view: %s\n", v->err.msg);
         goto out;
     }
+    draw_loading(&ld, "effects: light map, trees, water", 1, 1);
+    if (app_fx_setup(&v->afx, &v->o, v->t, v->ren, "view"))
+        goto out;
+    v->fx_time = v->o.time;
 
     if (v->o.forest_n) {
         draw_loading(&ld, "growing and ranking trees (cached after the first time)", 1, 1);
@@ -1410,6 +1504,7 @@ out:
     if (v->win)
         hz_window_make_current(v->win);
     cli_forest_destroy(v->cf);
+    app_fx_free(&v->afx);
     hz_renderer_destroy(v->ren);
     hz_overlay_destroy(v->ov);
     hz_window_destroy(v->win);

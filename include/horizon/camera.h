@@ -37,6 +37,11 @@ void hz_camera_viewproj(const hz_camera *c, mat4 dest);
  * a point p is inside when dot(n, p) + d >= 0 for all (cglm layout). */
 void hz_camera_frustum(const hz_camera *c, vec4 planes[6]);
 
+/* The camera mirrored at the horizontal plane y = plane_y (eye height
+ * reflected, pitch negated): it sees exactly what a water plane reflects, for
+ * LOD selection and culling of the reflection pass. */
+void hz_camera_mirror_y(const hz_camera *c, float plane_y, hz_camera *dest);
+
 #ifdef __cplusplus
 }
 #endif

@@ -66,7 +66,8 @@ typedef struct hz_fx_settings {
     float bloom_threshold; /* brightness where bloom starts; 0 -> 0.8 */
     float bloom_strength;  /* 0 -> 0.35 */
     float detail_scale;    /* metres per repeat of the finest detail texture; 0 -> 3 */
-    float billboard_distance; /* metres: no billboard vegetation beyond; 0 -> 8000 */
+    float billboard_distance; /* metres: no billboard vegetation beyond (the forest cover
+                                 shows the forests farther out); 0 -> 4000 */
 } hz_fx_settings;
 
 /* Turns zero fields into the defaults above (fog density needed for height_fog). */
@@ -129,7 +130,7 @@ size_t hz_bb_field_cull(const hz_bb_field *f, const hz_camera *cam, float max_di
 
 /* ---- vegetation scatter -------------------------------------------------------- */
 
-typedef struct hz_tree_desc {
+typedef struct hz_scatter_desc {
     float density;      /* trees per hectare inside forests; 0 -> 12 */
     float cover;        /* fraction of suitable ground that is forest; 0 -> 0.45 */
     float min_size, max_size; /* tree height in metres; 0 -> 9 and 24 */
@@ -140,22 +141,22 @@ typedef struct hz_tree_desc {
     uint64_t seed;
     uint16_t texture0;  /* first texture slot; trees use texture0 .. texture0 + kinds - 1 */
     uint16_t kinds;     /* 0 -> 2 (conifer, broadleaf) */
-} hz_tree_desc;
+} hz_scatter_desc;
 
 /* Forest density in [0, 1] at world (x, z): the smooth noise the scatter and
  * the ground colour share (1 = dense forest). */
-float hz_forest_density(const hz_tree_desc *d, float x, float z);
+float hz_forest_density(const hz_scatter_desc *d, float x, float z);
 
 /* Scatters axial, alpha-tested tree billboards over the heightmap (world
  * metres: spacing, zscale as for the renderer), deterministic for the seed.
  * *out is malloc'd (free it). HZ_ERR_VALUE on bad parameters, HZ_ERR_MEMORY. */
-hz_result hz_trees_scatter(const hz_heightmap *hm, float spacing, float zscale, const hz_tree_desc *d,
+hz_result hz_trees_scatter(const hz_heightmap *hm, float spacing, float zscale, const hz_scatter_desc *d,
                            hz_billboard **out, size_t *count, hz_err *err);
 
 /* Forest cover as an R8 image of side `side` over the whole map (row-major,
  * row = z), 255 = dense forest, for the ground colour under the trees. Same
  * rules as the scatter (slope, tree line, water). out: side * side bytes. */
-void hz_forest_cover_map(const hz_heightmap *hm, float spacing, float zscale, const hz_tree_desc *d, uint32_t side,
+void hz_forest_cover_map(const hz_heightmap *hm, float spacing, float zscale, const hz_scatter_desc *d, uint32_t side,
                          uint8_t *out);
 
 /* ---- weather particles ---------------------------------------------------------- */
@@ -209,10 +210,11 @@ void hz_texgen_sprite(hz_sprite kind, uint32_t w, uint32_t h, uint64_t seed, uin
 /* ---- water -------------------------------------------------------------------------- */
 
 /* A water level for a heightmap that has none given (metres, zscale applied):
- * a flat area at the lowest height (at least 0.5 % of the samples within
- * 0.5 m of the minimum, e.g. a sea in a DEM) gives a sea just above it;
- * otherwise lakes fill the lowest `fraction` of the samples (0 -> 0.04). */
-float hz_water_level_auto(const hz_heightmap *hm, float zscale, float fraction);
+ * a flat area among the lowest tenth of the heights (at least 0.5 % of the
+ * samples within 0.5 m of each other, e.g. a sea in a DEM) gives a sea 1 m
+ * above it (*is_sea true); otherwise lakes fill the lowest `fraction` of the
+ * samples (0 -> 0.04). is_sea may be NULL. */
+float hz_water_level_auto(const hz_heightmap *hm, float zscale, float fraction, bool *is_sea);
 
 #ifdef __cplusplus
 }

@@ -5,6 +5,7 @@
 #define HORIZON_RENDER_H
 
 #include "horizon/camera.h"
+#include "horizon/fx.h"
 #include "horizon/heightmap.h"
 
 #ifdef __cplusplus
@@ -59,16 +60,33 @@ typedef struct hz_pass_info {
     float fog_density;       /* per metre, 0 = no fog */
     float ambient;
     uint32_t width, height;  /* target size in pixels */
+    /* With HZ_FX_FOG: extra height fog, optical depth along a ray from e to p
+     * (world, y up) = fog_density |p - e| + height_fog.x |p - e| exp(-(e.y -
+     * height_fog.y) / height_fog.z) (1 - exp(-dy)) / dy, dy = (p.y - e.y) /
+     * height_fog.z; and everything beyond fog_far.x fades fully to the fog
+     * colour at fog_far.y metres (0, 0: no fade). Zero without HZ_FX_FOG.
+     * The fog colour along a unit direction d is sky_color, and with
+     * HZ_FX_FOG above the horizon the sky behind it: mix(sky_color,
+     * zenith_color, (1 - exp(-3 d.y)) / (1 - exp(-3))). */
+    vec3 height_fog;
+    vec2 fog_far;
+    vec3 zenith_color;
+    uint32_t effects;        /* the frame's HZ_FX_* set */
+    double time;             /* the frame's effect time, seconds */
 } hz_pass_info;
 
 /* Draws extra opaque objects (trees, buildings...) into a scene pass, after
- * the terrain. Must leave: program 0, VAO 0, blending off, depth writes on. */
+ * the terrain. Must leave: program 0, VAO 0, blending off, depth writes on.
+ * In HZ_PASS_REFLECTION the view matrix includes the mirror (determinant -1):
+ * front faces are clockwise there (glFrontFace(GL_CW) is set), and
+ * GL_CLIP_DISTANCE0 is enabled for clip_plane. */
 typedef void (*hz_draw_hook_fn)(void *user, const hz_pass_info *pass);
 
 /* cdlod geomorphing: per-sample morph errors (hz_lod_morph_errors: h16 steps,
  * 65535 = never morphs, row-major) uploaded once as a GL_R16 texture buffer
  * (2 bytes/sample). NULL releases them. Call after hz_renderer_set_heightmap. */
 hz_result hz_renderer_set_morph(hz_renderer *r, const uint16_t *morph_err, hz_err *err);
+#define HZ_MAX_HISTORY 8u /* motion blur history slots */
 
 typedef struct hz_scene_params {
     vec3 sun_dir;       /* unit vector toward the sun; all 0 -> default (afternoon sun) */
@@ -81,16 +99,38 @@ typedef struct hz_scene_params {
     float morph_start;
     hz_draw_hook_fn draw_objects; /* optional: called in every scene pass after the terrain */
     void *draw_objects_user;
+    /* Effects (fx.h). 0: none, the plain renderer (gradient sky, Lambert,
+     * exponential fog per fog_density). */
+    uint32_t effects;
+    const hz_fx_settings *fx;  /* NULL -> defaults */
+    double time;        /* seconds: clouds, waves and weather are functions of it,
+                           so a given time always gives the same frame */
+    uint32_t history;   /* motion blur slot < HZ_MAX_HISTORY: frames drawn with
+                           different slots never blend into each other (a reference view) */
+    bool reset_history; /* motion blur starts afresh (after a camera cut) */
+    /* Terrain for the water reflection pass. The reflection is rendered with
+     * the camera mirrored at the water plane (hz_camera_mirror_y), which sees
+     * terrain the main camera's culled selection lacks (hill tops above the
+     * top of the screen). Give an LOD selection made for the mirrored camera
+     * (any C; coarser is cheaper), or NULL to reuse the main indices (then
+     * what the main frustum culled is missing from reflections). */
+    const uint32_t *reflection_indices;
+    uint32_t reflection_count;
 } hz_scene_params;
 
 typedef struct hz_draw_stats {
     double upload_ms;   /* index upload */
-    double draw_ms;     /* sky + terrain, bracketed by glFinish */
+    double draw_ms;     /* every pass and effect of the frame, bracketed by glFinish */
+    float sun_visible;  /* HZ_FX_FLARE: fraction of the sun disc not covered (depth
+                           and clouds), -1 when the sun is off screen or flare is off */
+    uint32_t billboards;      /* vegetation billboards drawn (main pass) */
+    uint32_t particles;       /* weather particles drawn */
+    uint32_t reflections;     /* water reflection passes rendered */
 } hz_draw_stats;
 
 /* Draws sky then terrain triangles (count indices, a multiple of 3, into the
- * row-major sample grid: index = j * size + i). params may be NULL (defaults).
- * stats may be NULL. */
+ * row-major sample grid: index = j * size + i), then the effects in
+ * params->effects. params may be NULL (defaults). stats may be NULL. */
 hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_params *params,
                            const uint32_t *indices, uint32_t count, hz_draw_stats *stats,
                            hz_err *err);
@@ -103,6 +143,63 @@ hz_result hz_renderer_read_rgb(hz_renderer *r, uint8_t *rgb, hz_err *err);
  * to_default_framebuffer). */
 hz_result hz_renderer_read_sky_mask(hz_renderer *r, uint8_t *mask, hz_err *err);
 
+
+/* ---- effect resources (used with the matching HZ_FX_* bit) -------------- */
+
+/* HZ_FX_SHADOWS: the light map (hz_lightmap_build: size * size bytes, I * 255,
+ * row-major like the heightmap), computed for sun_dir. size must equal the
+ * heightmap's. While a frame's sun differs from sun_dir by more than 0.25
+ * degree the renderer ignores it (per-pixel Lambert, no shadows): recompute
+ * it when the sun moves. lm NULL removes it. Maps larger than the GPU's
+ * texture limit are uploaded at half resolution. */
+hz_result hz_renderer_set_lightmap(hz_renderer *r, const uint8_t *lm, uint32_t size, const float sun_dir[3],
+                                   hz_err *err);
+
+/* HZ_FX_BILLBOARDS: the static vegetation (copied, bucketed in cells, culled
+ * per frame to fx->billboard_distance). n = 0 removes it. */
+hz_result hz_renderer_set_billboards(hz_renderer *r, const hz_billboard *b, size_t n, hz_err *err);
+
+/* Billboard texture slot (< HZ_MAX_BB_TEXTURES), RGBA8 w x h, top row first;
+ * mipmapped. Slots 0..3 start with the procedural HZ_SPRITE_* sprites (0
+ * conifer, 1 broadleaf, 2 rain, 3 snow). */
+#define HZ_MAX_BB_TEXTURES 16u
+hz_result hz_renderer_set_billboard_texture(hz_renderer *r, uint32_t slot, const uint8_t *rgba, uint32_t w,
+                                            uint32_t h, hz_err *err);
+
+/* HZ_FX_DETAIL: replaces a ground type's detail texture (RGBA8, square power of
+ * two, tileable, RGB around 128 as hz_texgen_detail makes; A = height-like
+ * value for blending). The procedural ones are the default. */
+hz_result hz_renderer_set_detail_texture(hz_renderer *r, hz_ground ground, const uint8_t *rgba, uint32_t size,
+                                         hz_err *err);
+
+/* A colour map for the whole terrain (RGB8, w x h, top row = north edge z = 0,
+ * covering the heightmap) instead of the height/slope classes; NULL removes it. */
+hz_result hz_renderer_set_colormap(hz_renderer *r, const uint8_t *rgb, uint32_t w, uint32_t h, hz_err *err);
+
+/* HZ_FX_BILLBOARDS: forest cover (R8 side x side over the map, 255 = forest,
+ * hz_forest_cover_map) darkens the ground under the trees so forests read at
+ * any distance. NULL removes it. */
+hz_result hz_renderer_set_forest_cover(hz_renderer *r, const uint8_t *cover, uint32_t side, hz_err *err);
+
+/* HZ_FX_WATER: water planes, drawn grouped by material. One reflection pass is
+ * rendered per distinct height among the visible planes (at most 4; further
+ * heights reuse the nearest one). Copied. count 0 removes them. */
+typedef struct hz_water_material {
+    vec3 deep;        /* colour of deep water; all 0 -> (0.04, 0.12, 0.16) */
+    float clarity;    /* metres: light through water falls by e every this much; 0 -> 2.5 */
+    float waves;      /* normal perturbation strength; 0 -> 1 */
+    float reflectivity; /* scales the Fresnel reflection; 0 -> 1 */
+} hz_water_material;
+
+typedef struct hz_water_plane {
+    float height;     /* world metres */
+    float rect[4];    /* x0, z0, x1, z1 world metres; all 0 -> the map and the view distance
+                         around it (a sea to the horizon) */
+    uint32_t material; /* index into the materials */
+} hz_water_plane;
+
+hz_result hz_renderer_set_water(hz_renderer *r, const hz_water_plane *planes, uint32_t count,
+                                const hz_water_material *materials, uint32_t material_count, hz_err *err);
 
 /* Writes RGB8 (top row first) as PNG. */
 hz_result hz_image_write_png(const char *path, const uint8_t *rgb, uint32_t width,

@@ -136,6 +136,6 @@ hz_fx_settings hz_fx_settings_defaults(const hz_fx_settings *in, float fog_densi
     if (s.detail_scale <= 0.0f)
         s.detail_scale = 3.0f;
     if (s.billboard_distance <= 0.0f)
-        s.billboard_distance = 8000.0f;
+        s.billboard_distance = 4000.0f;
     return s;
 }

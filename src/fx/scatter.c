@@ -8,14 +8,14 @@
 #include "fx_noise.h"
 
 typedef struct tree_rules {
-    hz_tree_desc d;
+    hz_scatter_desc d;
     float lo, hi;        /* metres: lowest and highest ground (zscale applied) */
     float extent;
 } tree_rules;
 
-static hz_tree_desc tree_defaults(const hz_tree_desc *in)
+static hz_scatter_desc tree_defaults(const hz_scatter_desc *in)
 {
-    hz_tree_desc d = in ? *in : (hz_tree_desc){0};
+    hz_scatter_desc d = in ? *in : (hz_scatter_desc){0};
     if (d.density <= 0.0f)
         d.density = 12.0f;
     if (d.cover <= 0.0f)
@@ -45,9 +45,9 @@ static float smooth(float e0, float e1, float x)
     return t * t * (3 - 2 * t);
 }
 
-float hz_forest_density(const hz_tree_desc *in, float x, float z)
+float hz_forest_density(const hz_scatter_desc *in, float x, float z)
 {
-    hz_tree_desc d = tree_defaults(in);
+    hz_scatter_desc d = tree_defaults(in);
     uint32_t seed = (uint32_t)(d.seed * 2654435761u) ^ 0x5eedu;
     /* Patches a few km across with ragged edges. The fBm is roughly normal
      * with sd ~0.22: shift it so about `cover` of the land is forest. */
@@ -87,7 +87,7 @@ static float suitability(const tree_rules *r, float h, float gx, float gz)
     return s;
 }
 
-static tree_rules rules(const hz_heightmap *hm, float spacing, float zscale, const hz_tree_desc *d)
+static tree_rules rules(const hz_heightmap *hm, float spacing, float zscale, const hz_scatter_desc *d)
 {
     tree_rules r = {.d = tree_defaults(d)};
     float a = hm->offset * zscale, b = (hm->offset + hm->scale * 65535.0f) * zscale;
@@ -97,7 +97,7 @@ static tree_rules rules(const hz_heightmap *hm, float spacing, float zscale, con
     return r;
 }
 
-hz_result hz_trees_scatter(const hz_heightmap *hm, float spacing, float zscale, const hz_tree_desc *in,
+hz_result hz_trees_scatter(const hz_heightmap *hm, float spacing, float zscale, const hz_scatter_desc *in,
                            hz_billboard **out, size_t *count, hz_err *err)
 {
     if (!out || !count)
@@ -130,8 +130,9 @@ hz_result hz_trees_scatter(const hz_heightmap *hm, float spacing, float zscale, 
             if (x > r.extent || z > r.extent)
                 continue;
             float gx, gz, h = ground(hm, spacing, zscale, x, z, &gx, &gz);
-            float p = hz_forest_density(&r.d, x, z) * suitability(&r, h, gx, gz);
-            if (fxn_u01(h2) >= p)
+            /* Accept with probability density x suitability; the cheap factor first. */
+            float u = fxn_u01(h2), suit = suitability(&r, h, gx, gz);
+            if (u >= suit || u >= suit * hz_forest_density(&r.d, x, z))
                 continue;
             uint32_t h3 = fxn_hash(cx, cz, seed + 3), h4 = fxn_hash(cx, cz, seed + 4);
             float t = (h - r.lo) / fmaxf(r.hi - r.lo, 1e-3f);
@@ -157,7 +158,7 @@ hz_result hz_trees_scatter(const hz_heightmap *hm, float spacing, float zscale, 
     return HZ_OK;
 }
 
-void hz_forest_cover_map(const hz_heightmap *hm, float spacing, float zscale, const hz_tree_desc *d, uint32_t side,
+void hz_forest_cover_map(const hz_heightmap *hm, float spacing, float zscale, const hz_scatter_desc *d, uint32_t side,
                          uint8_t *out)
 {
     tree_rules r = rules(hm, spacing, zscale, d);
@@ -170,8 +171,10 @@ void hz_forest_cover_map(const hz_heightmap *hm, float spacing, float zscale, co
         }
 }
 
-float hz_water_level_auto(const hz_heightmap *hm, float zscale, float fraction)
+float hz_water_level_auto(const hz_heightmap *hm, float zscale, float fraction, bool *is_sea)
 {
+    if (is_sea)
+        *is_sea = false;
     if (!hm || !hm->h || hm->size < 2)
         return 0.0f;
     if (fraction <= 0.0f)
@@ -188,14 +191,32 @@ float hz_water_level_auto(const hz_heightmap *hm, float zscale, float fraction)
     uint32_t lo = 0;
     while (lo < 65535 && hist[lo] == 0)
         lo++;
-    const float step = hm->scale * zscale, h_lo = zscale * hm->offset + step * (float)lo;
-    /* A sea: a flat area at the very bottom. */
-    uint64_t flat = 0;
-    for (uint32_t v = lo; v < 65536 && step * (float)(v - lo) <= 0.5f; v++)
-        flat += hist[v];
+    const float step = hm->scale * zscale;
+    /* A sea: a flat area (the most samples within 0.5 m) among the lowest
+     * tenth of the heights, e.g. a DEM's sea at 0 m over some lower voids. */
+    uint32_t hi10 = lo;
+    for (uint64_t acc = 0; hi10 < 65535; hi10++) {
+        acc += hist[hi10];
+        if ((double)acc >= 0.1 * (double)total)
+            break;
+    }
+    uint32_t win = step > 0.0f ? (uint32_t)(0.5f / step) : 0;
+    win = win ? win : 1;
+    uint64_t best = 0, run = 0;
+    uint32_t best_top = lo;
+    for (uint32_t v = lo; v <= hi10; v++) {
+        run += hist[v];
+        if (v >= lo + win)
+            run -= hist[v - win];
+        if (run > best)
+            best = run, best_top = v;
+    }
     float level;
-    if ((double)flat >= 0.005 * (double)total) {
-        level = h_lo + 0.5f;
+    if ((double)best >= 0.005 * (double)total) {
+        /* 1 m above the top of the flat band: never coplanar with it. */
+        level = zscale * hm->offset + step * (float)best_top + 1.0f;
+        if (is_sea)
+            *is_sea = true;
     } else {
         uint64_t want = (uint64_t)((double)fraction * (double)total), acc = 0;
         uint32_t v = lo;

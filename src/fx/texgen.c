@@ -41,7 +41,7 @@ void hz_texgen_detail(hz_ground kind, uint32_t size, uint64_t seed64, uint8_t *r
                 float lo = fxn_fbm(u * 4, v * 4, 4, 4, seed);
                 float blades = fxn_fbm(u * 32, v * 32, 3, 32, seed + 7);
                 float fine = fxn_perlin(u * 96, v * 96, 96, seed + 9);
-                float lum = 1.0f + 0.28f * lo + 0.22f * blades + 0.12f * fine;
+                float lum = 1.0f + 0.42f * lo + 0.34f * blades + 0.18f * fine;
                 float dry = smooth(0.05f, 0.5f, fxn_fbm(u * 2, v * 2, 3, 2, seed + 3));
                 r = lum * (1.0f + 0.16f * dry), g = lum * (1.0f + 0.03f * dry), b = lum * (1.0f - 0.12f * dry);
                 a = 0.5f + 0.5f * lo;
@@ -72,7 +72,7 @@ void hz_texgen_detail(hz_ground kind, uint32_t size, uint64_t seed64, uint8_t *r
                 float ripple = sinf(6.2831853f * (10.0f * v + 1.5f * warp));
                 float grain = fxn_u01(fxn_hash(x, y, seed + 4)) - 0.5f;
                 float body = fxn_fbm(u * 4, v * 4, 4, 4, seed);
-                float lum = 1.0f + 0.08f * ripple + 0.12f * grain + 0.12f * body;
+                float lum = 1.0f + 0.1f * ripple + 0.16f * grain + 0.16f * body;
                 r = lum * 1.02f, g = lum, b = lum * 0.97f;
                 a = 0.5f + 0.5f * body;
                 break;

@@ -5,11 +5,10 @@
  * indices and the vertex shader turns gl_VertexID into (i, j, height).
  * Depth is reverse-Z (glClipControl ZERO_TO_ONE, clear 0, GL_GREATER) into a
  * 32-bit float buffer, so far horizons do not z-fight. */
-#include "horizon/render.h"
+#include "render_internal.h"
 
 #include <dlfcn.h>
 #include <epoxy/egl.h>
-#include <epoxy/gl.h>
 #include <limits.h>
 #include <math.h>
 #include <stdio.h>
@@ -20,45 +19,6 @@
 
 #define DEFAULT_WIDTH 1280u
 #define DEFAULT_HEIGHT 720u
-
-typedef struct sky_uniforms {
-    GLint inv_viewproj_rot, horizon, zenith, sun_dir;
-} sky_uniforms;
-
-typedef struct terrain_uniforms {
-    GLint heights, size, spacing, hscale, hoffset, viewproj;
-    GLint sun_dir, horizon, eye, fog_density, ambient, hrange, wire;
-    GLint morph, morph_scale, morph_start;
-    GLint normals, normal_tex, nrm_scale;
-} terrain_uniforms;
-
-struct hz_renderer {
-    void *ctx;         /* EGLContext or GLXContext current at creation */
-    uint32_t width, height;
-    bool to_default;   /* draw to framebuffer 0 instead of fbo */
-    bool clip_control; /* GL 4.5 or ARB_clip_control: depth range [0, 1] */
-    GLint max_tbo;     /* GL_MAX_TEXTURE_BUFFER_SIZE, texels */
-
-    GLuint fbo, color_rb, depth_rb;
-    GLuint vao;         /* empty: the terrain and the sky have no attributes */
-    GLuint ibo;         /* per-frame indices, GL_STREAM_DRAW */
-    size_t ibo_cap;     /* bytes allocated in ibo */
-    GLuint height_buf;  /* GL_TEXTURE_BUFFER storage, uint16 per sample */
-    GLuint height_tex;  /* GL_R16 view of height_buf */
-    GLuint normal_tex;  /* GL_RG8_SNORM 2D texture of per-sample normals (x, z), 0: none */
-    GLint max_tex;      /* GL_MAX_TEXTURE_SIZE */
-    GLuint morph_buf;   /* cdlod morph errors, uint16 per sample (0: none) */
-    GLuint morph_tex;
-
-    GLuint sky_prog, terrain_prog;
-    sky_uniforms su;
-    terrain_uniforms tu;
-
-    /* Current heightmap, world units (metres, zscale applied). */
-    bool has_heights;
-    uint32_t size;
-    float spacing, hscale, hoffset, hmin, hmax;
-};
 
 /* ---- GL error helpers --------------------------------------------------- */
 
@@ -94,13 +54,13 @@ static const char *fbo_status_name(GLenum s)
 }
 
 /* Clears stale errors so the next gl_check blames the right call. */
-static void gl_drain(void)
+void gl_drain(void)
 {
     for (int k = 0; k < 16 && glGetError() != GL_NO_ERROR; k++) {
     }
 }
 
-static hz_result gl_check(hz_err *err, const char *what)
+hz_result gl_check(hz_err *err, const char *what)
 {
     GLenum e = glGetError();
     if (e == GL_NO_ERROR)
@@ -144,6 +104,11 @@ static hz_result check_context(const hz_renderer *r, hz_err *err, const char *wh
     return HZ_OK;
 }
 
+hz_result fx_check_context(const hz_renderer *r, hz_err *err, const char *what)
+{
+    return check_context(r, err, what);
+}
+
 /* ---- shaders ------------------------------------------------------------- */
 
 /* Copies a GL info log into buf, without the trailing newline. */
@@ -154,14 +119,46 @@ static void trim_log(char *buf)
         buf[--n] = 0;
 }
 
-static GLuint compile_shader(GLenum type, const char *src, const char *name, hz_err *err)
+/* Compiles src; with `common`, shaders/fx_common.glsl is inserted after the
+ * #version line (the GLSL has no #include). */
+static GLuint compile_shader(GLenum type, const char *src, const char *name, bool common, uint32_t variant,
+                             hz_err *err)
 {
     GLuint s = glCreateShader(type);
     if (!s) {
         gl_check(err, "glCreateShader");
         return 0;
     }
-    glShaderSource(s, 1, &src, NULL);
+    if (common) {
+        const char *nl = strchr(src, '\n');
+        if (!nl || strncmp(src, "#version", 8) != 0) {
+            hz_err_set(err, HZ_ERR_GL, "GL: shader %s does not start with a #version line", name);
+            glDeleteShader(s);
+            return 0;
+        }
+        char consts[200];
+        snprintf(consts, sizeof consts,
+                 "const int FX_ENABLED = %u;\nconst bool FX_HAS_COLORMAP = %s;\nconst bool FX_HAS_COVER = %s;\n",
+                 variant & HZ_FX_ALL, (variant & FX_VARIANT_COLORMAP) ? "true" : "false",
+                 (variant & FX_VARIANT_COVER) ? "true" : "false");
+        const char *parts[6] = {src, consts, "#line 1 1\n", hz_shader_fx_common, "\n#line 2 0\n", nl + 1};
+        GLint lens[6] = {(GLint)(nl + 1 - src), -1, -1, -1, -1, -1};
+        glShaderSource(s, 6, parts, lens);
+    } else if (variant) {
+        const char *nl = strchr(src, '\n');
+        if (!nl) {
+            hz_err_set(err, HZ_ERR_GL, "GL: shader %s is one line", name);
+            glDeleteShader(s);
+            return 0;
+        }
+        char def[64];
+        snprintf(def, sizeof def, "#define FX_VARIANT %u\n#line 2\n", variant);
+        const char *parts[3] = {src, def, nl + 1};
+        GLint lens[3] = {(GLint)(nl + 1 - src), -1, -1};
+        glShaderSource(s, 3, parts, lens);
+    } else {
+        glShaderSource(s, 1, &src, NULL);
+    }
     glCompileShader(s);
     GLint ok = GL_FALSE;
     glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
@@ -176,15 +173,16 @@ static GLuint compile_shader(GLenum type, const char *src, const char *name, hz_
     return s;
 }
 
-static GLuint link_program(const char *vs_src, const char *fs_src, const char *name, hz_err *err)
+GLuint link_program(const char *vs_src, const char *fs_src, const char *name, int common, uint32_t variant,
+                    hz_err *err)
 {
     char vs_name[64], fs_name[64];
     snprintf(vs_name, sizeof vs_name, "%s_vs.glsl", name);
     snprintf(fs_name, sizeof fs_name, "%s_fs.glsl", name);
-    GLuint vs = compile_shader(GL_VERTEX_SHADER, vs_src, vs_name, err);
+    GLuint vs = compile_shader(GL_VERTEX_SHADER, vs_src, vs_name, (common & 1) != 0, variant, err);
     if (!vs)
         return 0;
-    GLuint fs = compile_shader(GL_FRAGMENT_SHADER, fs_src, fs_name, err);
+    GLuint fs = compile_shader(GL_FRAGMENT_SHADER, fs_src, fs_name, (common & 2) != 0, variant, err);
     if (!fs) {
         glDeleteShader(vs);
         return 0;
@@ -205,16 +203,101 @@ static GLuint link_program(const char *vs_src, const char *fs_src, const char *n
         glDeleteProgram(p);
         return 0;
     }
+    if (common)
+        fx_program_setup(p);
     return p;
+}
+
+const prog_variant *prog_cache_get(prog_cache *c, uint32_t key, const char *vs, const char *fs, const char *name,
+                                   int common_mask, const char *const *names, hz_err *err)
+{
+    c->tick++;
+    for (uint32_t k = 0; k < c->n; k++)
+        if (c->v[k].key == key && c->v[k].prog) {
+            c->v[k].last_use = c->tick;
+            return &c->v[k];
+        }
+    GLuint p = link_program(vs, fs, name, common_mask, key, err);
+    if (!p)
+        return NULL;
+    uint32_t slot = c->n;
+    if (slot == FX_MAX_VARIANTS) { /* full: replace the least recently used */
+        slot = 0;
+        for (uint32_t k = 1; k < c->n; k++)
+            if (c->v[k].last_use < c->v[slot].last_use)
+                slot = k;
+        glDeleteProgram(c->v[slot].prog);
+    } else {
+        c->n++;
+    }
+    prog_variant *v = &c->v[slot];
+    memset(v, 0, sizeof *v);
+    v->key = key;
+    v->prog = p;
+    v->last_use = c->tick;
+    for (int k = 0; k < FX_MAX_LOCS; k++)
+        v->loc[k] = -1;
+    for (int k = 0; names && names[k] && k < FX_MAX_LOCS; k++)
+        v->loc[k] = glGetUniformLocation(p, names[k]);
+    return v;
+}
+
+void prog_cache_clear(prog_cache *c)
+{
+    for (uint32_t k = 0; k < c->n; k++)
+        glDeleteProgram(c->v[k].prog);
+    memset(c, 0, sizeof *c);
+}
+
+static const char *const terrain_names[] = {
+    "u_size",    "u_spacing", "u_hscale", "u_hoffset",     "u_viewproj",    "u_sun_dir",    "u_sky_horizon",
+    "u_eye",     "u_fog_density", "u_ambient", "u_hrange", "u_wire",        "u_morph_scale", "u_morph_start",
+    "u_normal_tex", "u_nrm_scale", NULL};
+
+hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, hz_err *err)
+{
+    /* Without any of these bits the plain shader gives the same image. */
+    uint32_t key = f->bits & (HZ_FX_SKY | HZ_FX_SHADOWS | HZ_FX_DETAIL | HZ_FX_BILLBOARDS | HZ_FX_FOG | HZ_FX_WATER);
+    if (r->has_colormap)
+        key |= FX_VARIANT_COLORMAP;
+    if (r->has_cover && (f->bits & HZ_FX_BILLBOARDS))
+        key |= FX_VARIANT_COVER;
+    r->terrain_cur = prog_cache_get(&r->terrain, key, hz_shader_terrain_vs, hz_shader_terrain_fs, "terrain", 2,
+                                    terrain_names, err);
+    return r->terrain_cur ? HZ_OK : HZ_ERR_GL;
+}
+
+void fx_program_setup(GLuint p)
+{
+    GLuint block = glGetUniformBlockIndex(p, "FxCommon");
+    if (block != GL_INVALID_INDEX)
+        glUniformBlockBinding(p, block, FX_UBO_BINDING);
+    static const struct {
+        const char *name;
+        GLint unit;
+    } units[] = {{"u_heights", FX_UNIT_HEIGHTS},     {"u_lightmap", FX_UNIT_LIGHTMAP}, {"u_detail", FX_UNIT_DETAIL},
+                 {"u_colormap", FX_UNIT_COLORMAP},   {"u_cover", FX_UNIT_COVER},       {"u_tex", FX_UNIT_SPRITE},
+                 {"u_reflection", FX_UNIT_REFLECTION}, {"u_cloud_noise", FX_UNIT_CLOUDS}, {"u_bb", FX_UNIT_BB},
+                 {"u_morph", FX_UNIT_MORPH}, {"u_normals", FX_UNIT_NORMALS}};
+    glUseProgram(p);
+    for (size_t k = 0; k < sizeof units / sizeof units[0]; k++) {
+        GLint loc = glGetUniformLocation(p, units[k].name);
+        if (loc >= 0)
+            glUniform1i(loc, units[k].unit);
+    }
+    glUseProgram(0);
 }
 
 static hz_result make_programs(hz_renderer *r, hz_err *err)
 {
-    r->sky_prog = link_program(hz_shader_sky_vs, hz_shader_sky_fs, "sky", err);
+    r->sky_prog = link_program(hz_shader_sky_vs, hz_shader_sky_fs, "sky", 0, 0, err);
     if (!r->sky_prog)
         return HZ_ERR_GL;
-    r->terrain_prog = link_program(hz_shader_terrain_vs, hz_shader_terrain_fs, "terrain", err);
-    if (!r->terrain_prog)
+    /* NOTE: terrain_vs.glsl stays free of effect code (it is the LOD's); the
+     * effects live in terrain_fs.glsl and the common block. */
+    r->terrain_plain = prog_cache_get(&r->terrain, 0, hz_shader_terrain_vs, hz_shader_terrain_fs, "terrain", 2,
+                                      terrain_names, err);
+    if (!r->terrain_plain)
         return HZ_ERR_GL;
 
     GLuint p = r->sky_prog;
@@ -223,26 +306,6 @@ static hz_result make_programs(hz_renderer *r, hz_err *err)
     r->su.zenith = glGetUniformLocation(p, "u_sky_zenith");
     r->su.sun_dir = glGetUniformLocation(p, "u_sun_dir");
 
-    p = r->terrain_prog;
-    r->tu.heights = glGetUniformLocation(p, "u_heights");
-    r->tu.size = glGetUniformLocation(p, "u_size");
-    r->tu.spacing = glGetUniformLocation(p, "u_spacing");
-    r->tu.hscale = glGetUniformLocation(p, "u_hscale");
-    r->tu.hoffset = glGetUniformLocation(p, "u_hoffset");
-    r->tu.viewproj = glGetUniformLocation(p, "u_viewproj");
-    r->tu.sun_dir = glGetUniformLocation(p, "u_sun_dir");
-    r->tu.horizon = glGetUniformLocation(p, "u_sky_horizon");
-    r->tu.eye = glGetUniformLocation(p, "u_eye");
-    r->tu.fog_density = glGetUniformLocation(p, "u_fog_density");
-    r->tu.ambient = glGetUniformLocation(p, "u_ambient");
-    r->tu.hrange = glGetUniformLocation(p, "u_hrange");
-    r->tu.wire = glGetUniformLocation(p, "u_wire");
-    r->tu.morph = glGetUniformLocation(p, "u_morph");
-    r->tu.morph_scale = glGetUniformLocation(p, "u_morph_scale");
-    r->tu.morph_start = glGetUniformLocation(p, "u_morph_start");
-    r->tu.normals = glGetUniformLocation(p, "u_normals");
-    r->tu.normal_tex = glGetUniformLocation(p, "u_normal_tex");
-    r->tu.nrm_scale = glGetUniformLocation(p, "u_nrm_scale");
     return gl_check(err, "shader setup");
 }
 
@@ -333,6 +396,11 @@ hz_renderer *hz_renderer_create(const hz_renderer_desc *desc, hz_err *err)
         goto fail;
     glGenVertexArrays(1, &r->vao);
     glGenBuffers(1, &r->ibo);
+    glGenBuffers(1, &r->ibo2);
+    glGenBuffers(1, &r->ubo);
+    glBindBuffer(GL_UNIFORM_BUFFER, r->ubo);
+    glBufferData(GL_UNIFORM_BUFFER, sizeof(fx_common_ubo), NULL, GL_DYNAMIC_DRAW);
+    glBindBuffer(GL_UNIFORM_BUFFER, 0);
     glGenBuffers(1, &r->height_buf);
     glGenTextures(1, &r->height_tex);
     if (gl_check(err, "renderer object creation") != HZ_OK)
@@ -353,12 +421,26 @@ void hz_renderer_destroy(hz_renderer *r)
     if (current_context() != r->ctx) {
         /* Deleting our names here would hit another context's objects; ours
          * die with their own context. */
+        hz_bb_field_destroy(r->field);
+        free(r->bb_buf);
+        free(r->bb_scratch);
+        free(r->bb_gpu);
+        free(r->detail_cpu);
+        free(r->planes);
+        free(r->mats);
         free(r);
         return;
     }
     /* glDelete* ignore 0 names. */
+    fx_ground_destroy(r);
+    fx_sky_destroy(r);
+    fx_billboards_destroy(r);
+    fx_water_destroy(r);
+    fx_post_destroy(r);
+    glDeleteBuffers(1, &r->ibo2);
+    glDeleteBuffers(1, &r->ubo);
     glDeleteProgram(r->sky_prog);
-    glDeleteProgram(r->terrain_prog);
+    prog_cache_clear(&r->terrain);
     glDeleteVertexArrays(1, &r->vao);
     glDeleteBuffers(1, &r->ibo);
     glDeleteTextures(1, &r->height_tex);
@@ -617,13 +699,250 @@ static hz_scene_params params_defaults(const hz_scene_params *p, float zfar)
     return d;
 }
 
+/* Matrices of a view: the sky needs only the view rotation. */
+static void view_matrices(fx_view *v)
+{
+    mat4 view_rot, vp_rot;
+    glm_mat4_mul(v->proj, v->view, v->viewproj);
+    glm_mat4_copy(v->view, view_rot);
+    view_rot[3][0] = view_rot[3][1] = view_rot[3][2] = 0.0f;
+    glm_mat4_mul(v->proj, view_rot, vp_rot);
+    glm_mat4_inv(vp_rot, v->inv_vp_rot);
+}
+
+static float smoothstepf(float e0, float e1, float x)
+{
+    float t = (x - e0) / (e1 - e0);
+    t = t < 0 ? 0 : t > 1 ? 1 : t;
+    return t * t * (3 - 2 * t);
+}
+
+void fx_upload_common(hz_renderer *r, const fx_frame *f, const fx_view *v)
+{
+    fx_common_ubo u;
+    memset(&u, 0, sizeof u);
+    const hz_scene_params *sp = &f->sp;
+    for (int k = 0; k < 3; k++) {
+        u.sun[k] = sp->sun_dir[k];
+        u.sun_color[k] = f->sun_color[k];
+        u.horizon[k] = sp->sky_color[k];
+        u.zenith[k] = f->zenith[k];
+        u.eye[k] = v->eye[k];
+    }
+    u.sun[3] = glm_rad(0.35f); /* a little larger than the real 0.27 degrees: visible at 720 lines */
+    u.sun_color[3] = sp->ambient;
+    u.horizon[3] = f->glow;
+    u.eye[3] = (float)f->time;
+    u.fog[0] = sp->fog_density;
+    if (f->bits & HZ_FX_FOG) {
+        u.fog[1] = f->fx.height_fog;
+        u.fog[2] = f->ground_lo + f->fx.height_fog_base;
+        u.fog[3] = f->fx.height_fog_falloff;
+        u.fog_far[0] = 0.8f * f->zfar;
+        u.fog_far[1] = f->zfar;
+    }
+    memcpy(u.clip, v->clip, sizeof u.clip);
+    u.cloud[0] = f->fx.cloud_cover;
+    u.cloud[1] = (r->has_heights ? r->hmax : 0.0f) + f->fx.cloud_altitude;
+    u.cloud[2] = f->fx.wind[0];
+    u.cloud[3] = f->fx.wind[1];
+    /* Two layers: the big shapes drift with the wind, the small ones faster
+     * and slightly across it, so the clouds change shape as they move. */
+    const double t = f->time;
+    u.cloud_off[0] = (float)(-f->fx.wind[0] * t);
+    u.cloud_off[1] = (float)(-f->fx.wind[1] * t);
+    u.cloud_off[2] = (float)(-1.7 * f->fx.wind[0] * t + 0.4 * f->fx.wind[1] * t + 937.0);
+    u.cloud_off[3] = (float)(-1.7 * f->fx.wind[1] * t - 0.4 * f->fx.wind[0] * t + 1571.0);
+    u.map[0] = r->has_heights ? (float)(r->size - 1) * r->spacing : 1.0f;
+    u.map[1] = r->n_planes ? r->planes[0].height : -1e9f;
+    u.map[2] = f->fx.detail_scale;
+    u.lm[0] = r->lm_xform[0];
+    u.lm[1] = r->lm_xform[1];
+    u.lm[2] = (f->bits & HZ_FX_SHADOWS) ? 1.0f : 0.0f;
+    u.bits[0] = (int32_t)f->bits;
+    u.bits[1] = (v->clip[0] != 0.0f || v->clip[1] != 0.0f || v->clip[2] != 0.0f || v->clip[3] != 0.0f) ? 1 : 0;
+    u.bits[2] = v->pass == HZ_PASS_REFLECTION;
+    glBindBuffer(GL_UNIFORM_BUFFER, r->ubo);
+    glBufferSubData(GL_UNIFORM_BUFFER, 0, sizeof u, &u);
+    glBindBuffer(GL_UNIFORM_BUFFER, 0);
+    glBindBufferBase(GL_UNIFORM_BUFFER, FX_UBO_BINDING, r->ubo);
+}
+
+static void draw_plain_sky(hz_renderer *r, const fx_frame *f, const fx_view *v)
+{
+    glUseProgram(r->sky_prog);
+    glUniformMatrix4fv(r->su.inv_viewproj_rot, 1, GL_FALSE, (const float *)v->inv_vp_rot);
+    glUniform3fv(r->su.horizon, 1, f->sp.sky_color);
+    glUniform3fv(r->su.zenith, 1, f->zenith);
+    glUniform3fv(r->su.sun_dir, 1, f->sp.sun_dir);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+}
+
+void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v, GLuint ibo, uint32_t count)
+{
+    const hz_scene_params *sp = &f->sp;
+    const bool mirrored = v->pass == HZ_PASS_REFLECTION;
+    fx_upload_common(r, f, v);
+    glViewport(0, 0, (GLsizei)v->w, (GLsizei)v->h);
+    glBindVertexArray(r->vao);
+
+    /* Plain sky: full-screen triangle first, no depth. The effects' sky is
+     * costlier per pixel: it goes after the terrain, where depth is still far. */
+    glDisable(GL_DEPTH_TEST);
+    glDepthMask(GL_FALSE);
+    glDisable(GL_CULL_FACE);
+    const bool fx_sky = (f->bits & HZ_FX_SKY) != 0;
+    if (!fx_sky)
+        draw_plain_sky(r, f, v);
+
+    if (count > 0) {
+        glEnable(GL_DEPTH_TEST);
+        glDepthFunc(GL_GREATER);
+        glDepthMask(GL_TRUE);
+        /* The LOD emits CCW-from-above triangles: a camera under the
+         * surface sees nothing, which is fine. The mirror flips the winding. */
+        glEnable(GL_CULL_FACE);
+        glCullFace(GL_BACK);
+        glFrontFace(mirrored ? GL_CW : GL_CCW);
+        const prog_variant *tp = r->terrain_cur ? r->terrain_cur : r->terrain_plain;
+        const GLint *tl = tp->loc;
+        glUseProgram(tp->prog);
+        glActiveTexture(GL_TEXTURE0 + FX_UNIT_HEIGHTS);
+        glBindTexture(GL_TEXTURE_BUFFER, r->height_tex);
+        if (tp->key)
+            fx_ground_bind(r);
+        glUniform1i(tl[TL_SIZE], (GLint)r->size);
+        glUniform1f(tl[TL_SPACING], r->spacing);
+        glUniform1f(tl[TL_HSCALE], r->hscale);
+        glUniform1f(tl[TL_HOFFSET], r->hoffset);
+        glUniformMatrix4fv(tl[TL_VIEWPROJ], 1, GL_FALSE, (const float *)v->viewproj);
+        glUniform3fv(tl[TL_SUN], 1, sp->sun_dir);
+        glUniform3fv(tl[TL_HORIZON], 1, sp->sky_color);
+        glUniform3fv(tl[TL_EYE], 1, v->eye);
+        glUniform1f(tl[TL_FOG], sp->fog_density);
+        glUniform1f(tl[TL_AMBIENT], sp->ambient);
+        glUniform2f(tl[TL_HRANGE], r->hmin, r->hmax);
+        glUniform1i(tl[TL_WIRE], 0);
+        /* cdlod geomorphing follows the main selection; the reflection's own
+         * (quadtree) selection is drawn unmorphed. */
+        const bool morph = r->morph_tex && sp->morph_scale > 0.0f && !mirrored;
+        glActiveTexture(GL_TEXTURE0 + FX_UNIT_MORPH);
+        glBindTexture(GL_TEXTURE_BUFFER, morph ? r->morph_tex : r->height_tex);
+        glUniform1f(tl[TL_MORPH_SCALE], morph ? sp->morph_scale : 0.0f);
+        glUniform1f(tl[TL_MORPH_START], sp->morph_start);
+        glActiveTexture(GL_TEXTURE0 + FX_UNIT_NORMALS);
+        glBindTexture(GL_TEXTURE_2D, r->normal_tex);
+        glUniform1i(tl[TL_NORMAL_TEX], r->normal_tex != 0);
+        glUniform2f(tl[TL_NRM_SCALE], 1.0f / (r->spacing * (float)r->size), 0.5f / (float)r->size);
+        glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo);
+        glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
+    }
+    if (fx_sky) {
+        glEnable(GL_DEPTH_TEST);
+        glDepthFunc(GL_GEQUAL);
+        glDepthMask(GL_FALSE);
+        glDisable(GL_CULL_FACE);
+        fx_sky_draw(r, f, v);
+    }
+    if (count > 0) {
+        const prog_variant *tp = r->terrain_cur ? r->terrain_cur : r->terrain_plain;
+        const GLint *tl = tp->loc;
+        if (sp->wireframe && !mirrored) {
+            glUseProgram(tp->prog);
+            glActiveTexture(GL_TEXTURE0 + FX_UNIT_HEIGHTS);
+            glBindTexture(GL_TEXTURE_BUFFER, r->height_tex);
+            glEnable(GL_CULL_FACE);
+            glFrontFace(GL_CCW);
+            /* Second pass as lines, pulled toward the eye: with reverse-Z
+             * nearer means larger depth, hence the positive offset. */
+            glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
+            glEnable(GL_POLYGON_OFFSET_LINE);
+            glPolygonOffset(1.0f, 1.0f);
+            glDepthFunc(GL_GEQUAL);
+            glDepthMask(GL_FALSE);
+            glUniform1i(tl[TL_WIRE], 1);
+            glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
+            glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+            glDisable(GL_POLYGON_OFFSET_LINE);
+            glDepthMask(GL_TRUE);
+        }
+        glActiveTexture(GL_TEXTURE0 + FX_UNIT_MORPH);
+        glBindTexture(GL_TEXTURE_BUFFER, 0);
+        glActiveTexture(GL_TEXTURE0 + FX_UNIT_NORMALS);
+        glBindTexture(GL_TEXTURE_2D, 0);
+        glActiveTexture(GL_TEXTURE0 + FX_UNIT_HEIGHTS);
+        glBindTexture(GL_TEXTURE_BUFFER, 0);
+    }
+    if (sp->draw_objects) {
+        hz_pass_info pi = {.pass = v->pass, .cam = &v->cam, .fog_density = sp->fog_density,
+                           .ambient = sp->ambient, .width = v->w, .height = v->h, .effects = f->bits,
+                           .time = f->time};
+        glm_mat4_copy((vec4 *)v->view, pi.view);
+        glm_mat4_copy((vec4 *)v->proj, pi.proj);
+        glm_mat4_copy((vec4 *)v->viewproj, pi.viewproj);
+        memcpy(pi.clip_plane, v->clip, sizeof pi.clip_plane);
+        memcpy(pi.sun_dir, sp->sun_dir, sizeof pi.sun_dir);
+        memcpy(pi.sky_color, sp->sky_color, sizeof pi.sky_color);
+        memcpy(pi.zenith_color, f->zenith, sizeof pi.zenith_color);
+        if (f->bits & HZ_FX_FOG) {
+            pi.height_fog[0] = f->fx.height_fog;
+            pi.height_fog[1] = f->ground_lo + f->fx.height_fog_base;
+            pi.height_fog[2] = f->fx.height_fog_falloff;
+            pi.fog_far[0] = 0.8f * f->zfar;
+            pi.fog_far[1] = f->zfar;
+        }
+        glEnable(GL_DEPTH_TEST);
+        glDepthFunc(GL_GREATER);
+        glDepthMask(GL_TRUE);
+        glFrontFace(mirrored ? GL_CW : GL_CCW);
+        if (mirrored)
+            glEnable(GL_CLIP_DISTANCE0);
+        glUseProgram(0);
+        glBindVertexArray(0);
+        sp->draw_objects(sp->draw_objects_user, &pi);
+        glDisable(GL_CLIP_DISTANCE0);
+        glBindVertexArray(r->vao);
+    }
+    glFrontFace(GL_CCW);
+}
+
+/* Uploads count indices into ibo (orphaning: the driver hands us fresh
+ * storage instead of waiting for the previous frame's draw). */
+static hz_result upload_indices(GLuint ibo, size_t *cap, const uint32_t *idx, uint32_t count, hz_err *err)
+{
+    size_t bytes = (size_t)count * sizeof(uint32_t);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo);
+    if (bytes > *cap)
+        *cap = bytes + bytes / 4; /* headroom: the LOD's count varies per frame */
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)*cap, NULL, GL_STREAM_DRAW);
+    glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, (GLsizeiptr)bytes, idx);
+    hz_result res = gl_check(err, "index buffer upload");
+    if (res != HZ_OK)
+        *cap = 0;
+    return res;
+}
+
+/* The chain of scene passes drawn after the terrain and the objects, in
+ * order; each is one effect module behind one function. */
+typedef struct fx_scene_pass {
+    const char *name;
+    uint32_t bit;
+    void (*draw)(hz_renderer *r, const fx_frame *f, const fx_view *v);
+} fx_scene_pass;
+
+static const fx_scene_pass scene_passes[] = {
+    {"billboards", HZ_FX_BILLBOARDS, fx_trees_draw}, /* alpha-tested, opaque */
+    {"water", HZ_FX_WATER, fx_water_draw},           /* blended over the terrain below */
+    {"weather", HZ_FX_WEATHER, fx_weather_draw},     /* blended, sorted back to front */
+};
+
 hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_params *params,
                            const uint32_t *indices, uint32_t count, hz_draw_stats *stats,
                            hz_err *err)
 {
     HZ_ASSERT(r && cam);
     if (stats)
-        *stats = (hz_draw_stats){0};
+        *stats = (hz_draw_stats){.sun_visible = -1.0f};
     if (count % 3 != 0)
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: index count %u is not a multiple of 3", count);
     if (count > 0 && !indices)
@@ -633,152 +952,166 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
                           count);
     if (count > (uint32_t)INT_MAX)
         return hz_err_set(err, HZ_ERR_UNSUPPORTED, "renderer: %u indices exceed one glDrawElements call", count);
+    if (params && params->history >= HZ_MAX_HISTORY)
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: motion blur history slot %u (must be < %u)", params->history,
+                          HZ_MAX_HISTORY);
+    if (params && (params->effects & ~HZ_FX_ALL))
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: unknown effect bits 0x%x", params->effects & ~HZ_FX_ALL);
+    if (params && params->reflection_count % 3 != 0)
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: reflection index count %u is not a multiple of 3",
+                          params->reflection_count);
+    if (params && params->reflection_count > 0 && (!params->reflection_indices || !r->has_heights))
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: reflection indices without an array or heights");
+    if (params && !isfinite(params->time))
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: effect time is not finite");
 
     hz_result ctx_res = check_context(r, err, "hz_renderer_draw");
     if (ctx_res != HZ_OK)
         return ctx_res;
     const float zfar = cam->zfar > 0.0f ? cam->zfar : 100000.0f;
-    const hz_scene_params sp = params_defaults(params, zfar);
-    gl_drain();
-    glBindVertexArray(r->vao);
 
-    /* Index upload. Orphaning (glBufferData NULL) lets the driver hand us
-     * fresh storage instead of waiting for the previous frame's draw. */
-    double t0 = hz_time_ms();
-    if (count > 0) {
-        size_t bytes = (size_t)count * sizeof(uint32_t);
-        glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ibo);
-        if (bytes > r->ibo_cap)
-            r->ibo_cap = bytes + bytes / 4; /* headroom: the LOD's count varies per frame */
-        glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)r->ibo_cap, NULL, GL_STREAM_DRAW);
-        glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, (GLsizeiptr)bytes, indices);
-        hz_result res = gl_check(err, "index buffer upload");
-        if (res != HZ_OK) {
-            r->ibo_cap = 0;
-            glBindVertexArray(0);
-            return res;
-        }
-    }
-    double t1 = hz_time_ms();
-
-    /* Matrices. The sky only needs the view rotation. */
-    mat4 view, proj, viewproj, view_rot, vp_rot, inv_vp_rot;
-    hz_camera_view(cam, view);
-    hz_camera_proj_reverse_z(cam, proj);
-    glm_mat4_mul(proj, view, viewproj);
-    glm_mat4_copy(view, view_rot);
-    view_rot[3][0] = view_rot[3][1] = view_rot[3][2] = 0.0f;
-    glm_mat4_mul(proj, view_rot, vp_rot);
-    glm_mat4_inv(vp_rot, inv_vp_rot);
+    /* Resolve the frame: defaults, and the effects whose resources exist. */
+    fx_frame fr;
+    memset(&fr, 0, sizeof fr);
+    fr.sp = params_defaults(params, zfar);
+    fr.fx = hz_fx_settings_defaults(params ? params->fx : NULL, fr.sp.fog_density);
+    fr.bits = fr.sp.effects & HZ_FX_ALL;
+    fr.time = params ? params->time : 0.0;
+    fr.zfar = zfar;
+    fr.ground_lo = r->has_heights ? r->hmin : 0.0f;
+    if ((fr.bits & HZ_FX_SHADOWS) && !fx_lightmap_matches(r, fr.sp.sun_dir))
+        fr.bits &= ~HZ_FX_SHADOWS; /* no light map for this sun: per-pixel Lambert */
+    if ((fr.bits & HZ_FX_WATER) && (r->n_planes == 0 || !r->has_heights))
+        fr.bits &= ~HZ_FX_WATER;
+    fr.post = (fr.bits & (HZ_FX_MOTIONBLUR | HZ_FX_BLOOM)) || fr.fx.exposure != 1.0f || fr.fx.gamma != 1.0f;
     /* Zenith derived from the horizon colour: the default pale blue gives a
      * deep blue (0.20, 0.40, 0.78); a custom colour keeps its hue. */
-    const vec3 zenith = {sp.sky_color[0] * 0.28f, sp.sky_color[1] * 0.5f, sp.sky_color[2] * 0.85f};
+    const float *sky = fr.sp.sky_color, *sun = fr.sp.sun_dir;
+    fr.zenith[0] = sky[0] * 0.28f, fr.zenith[1] = sky[1] * 0.5f, fr.zenith[2] = sky[2] * 0.85f;
+    fr.sun_color[0] = fr.sun_color[1] = fr.sun_color[2] = 1.0f;
+    if (fr.bits & HZ_FX_SKY) {
+        /* The sky follows the sun: the zenith darkens toward dusk, the
+         * horizon warms toward a low sun, the sunlight reddens. */
+        float day = 0.25f + 0.75f * smoothstepf(-0.1f, 0.3f, sun[1]);
+        glm_vec3_scale(fr.zenith, day, fr.zenith);
+        fr.glow = 1.0f - smoothstepf(0.05f, 0.45f, sun[1]);
+        float noon = smoothstepf(0.0f, 0.4f, sun[1]);
+        fr.sun_color[0] = 1.0f;
+        fr.sun_color[1] = 0.62f + 0.35f * noon;
+        fr.sun_color[2] = 0.38f + 0.52f * noon;
+    }
+    fr.refl_idx = params && params->reflection_count ? params->reflection_indices : indices;
+    fr.refl_count = params && params->reflection_count ? params->reflection_count : count;
+    fr.refl_ibo = params && params->reflection_count ? r->ibo2 : r->ibo;
 
+    gl_drain();
+    /* Effect resources on first use (shaders, textures). */
+    hz_result res = HZ_OK;
+    if (fr.bits & (HZ_FX_SHADOWS | HZ_FX_DETAIL | HZ_FX_BILLBOARDS))
+        res = fx_ground_ensure(r, err);
+    if (res == HZ_OK && (fr.bits & (HZ_FX_SKY | HZ_FX_FLARE)))
+        res = fx_sky_ensure(r, &fr, err);
+    if (res == HZ_OK && (fr.bits & HZ_FX_FLARE))
+        res = fx_flare_ensure(r, &fr, err);
+    if (res == HZ_OK && (fr.bits & (HZ_FX_BILLBOARDS | HZ_FX_WEATHER)))
+        res = fx_billboards_ensure(r, &fr, err);
+    if (res == HZ_OK && (fr.bits & HZ_FX_WATER))
+        res = fx_water_ensure(r, &fr, err);
+    if (res == HZ_OK && fr.post)
+        res = fx_post_ensure(r, err);
+    if (res == HZ_OK)
+        res = fx_terrain_select(r, &fr, err);
+    if (res != HZ_OK)
+        return res;
+
+    fx_view mv;
+    memset(&mv, 0, sizeof mv);
+    mv.pass = HZ_PASS_MAIN;
+    mv.cam = *cam;
+    mv.w = r->width;
+    mv.h = r->height;
+    hz_camera_view(cam, mv.view);
+    hz_camera_proj_reverse_z(cam, mv.proj);
+    view_matrices(&mv);
+    glm_vec3_copy((float *)cam->pos, mv.eye);
+
+    /* CPU work of the frame's effects: indices, billboards, particles. */
+    double t0 = hz_time_ms();
+    glBindVertexArray(r->vao);
+    if (count > 0 && upload_indices(r->ibo, &r->ibo_cap, indices, count, err) != HZ_OK) {
+        glBindVertexArray(0);
+        return HZ_ERR_GL;
+    }
+    float levels[FX_MAX_REFLECTIONS];
+    r->n_refl = (fr.bits & HZ_FX_WATER) ? fx_water_visible(r, &fr, &mv, levels) : 0;
+    for (uint32_t k = 0; k < r->n_refl; k++)
+        r->refl_level[k] = levels[k];
+    if (r->n_refl && params && params->reflection_count &&
+        upload_indices(r->ibo2, &r->ibo2_cap, params->reflection_indices, params->reflection_count, err) != HZ_OK) {
+        glBindVertexArray(0);
+        return HZ_ERR_GL;
+    }
+    double t1 = hz_time_ms();
     glFinish(); /* start the clock with an idle GPU */
     double t2 = hz_time_ms();
+    /* The effects' CPU work counts in draw_ms. */
+    if (fr.bits & (HZ_FX_BILLBOARDS | HZ_FX_WEATHER)) {
+        fx_view mirror;
+        if (r->n_refl)
+            fx_water_mirror_view(&mv, r->refl_level[0], &mirror);
+        if (fx_billboards_prepare(r, &fr, &mv, r->n_refl ? &mirror : NULL, err) != HZ_OK) {
+            glBindVertexArray(0);
+            return HZ_ERR_MEMORY;
+        }
+    }
 
-    glBindFramebuffer(GL_FRAMEBUFFER, r->to_default ? 0 : r->fbo);
-    glViewport(0, 0, (GLsizei)r->width, (GLsizei)r->height);
     if (r->clip_control)
         glClipControl(GL_LOWER_LEFT, GL_ZERO_TO_ONE);
     glDisable(GL_BLEND);
     glDisable(GL_SCISSOR_TEST);
     glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-    glDepthMask(GL_TRUE);
-    glClearColor(sp.sky_color[0], sp.sky_color[1], sp.sky_color[2], 1.0f);
     glClearDepth(0.0); /* reverse-Z: 0 is infinitely far */
-    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
 
-    /* Sky: full-screen triangle, no depth. */
-    glDisable(GL_DEPTH_TEST);
-    glDepthMask(GL_FALSE);
-    glDisable(GL_CULL_FACE);
-    glUseProgram(r->sky_prog);
-    glUniformMatrix4fv(r->su.inv_viewproj_rot, 1, GL_FALSE, (const float *)inv_vp_rot);
-    glUniform3fv(r->su.horizon, 1, sp.sky_color);
-    glUniform3fv(r->su.zenith, 1, zenith);
-    glUniform3fv(r->su.sun_dir, 1, sp.sun_dir);
-    glDrawArrays(GL_TRIANGLES, 0, 3);
-
-    if (count > 0) {
-        glEnable(GL_DEPTH_TEST);
-        glDepthFunc(GL_GREATER);
-        glDepthMask(GL_TRUE);
-        /* The LOD emits CCW-from-above triangles: a camera under the
-         * surface sees nothing, which is fine. */
-        glEnable(GL_CULL_FACE);
-        glCullFace(GL_BACK);
-        glFrontFace(GL_CCW);
-        glUseProgram(r->terrain_prog);
-        glActiveTexture(GL_TEXTURE0);
-        glBindTexture(GL_TEXTURE_BUFFER, r->height_tex);
-        glUniform1i(r->tu.heights, 0);
-        glUniform1i(r->tu.size, (GLint)r->size);
-        glUniform1f(r->tu.spacing, r->spacing);
-        glUniform1f(r->tu.hscale, r->hscale);
-        glUniform1f(r->tu.hoffset, r->hoffset);
-        glUniformMatrix4fv(r->tu.viewproj, 1, GL_FALSE, (const float *)viewproj);
-        glUniform3fv(r->tu.sun_dir, 1, sp.sun_dir);
-        glUniform3fv(r->tu.horizon, 1, sp.sky_color);
-        glUniform3fv(r->tu.eye, 1, cam->pos);
-        glUniform1f(r->tu.fog_density, sp.fog_density);
-        glUniform1f(r->tu.ambient, sp.ambient);
-        glUniform2f(r->tu.hrange, r->hmin, r->hmax);
-        glUniform1i(r->tu.wire, 0);
-        const bool morph = r->morph_tex && sp.morph_scale > 0.0f;
-        glActiveTexture(GL_TEXTURE1);
-        glBindTexture(GL_TEXTURE_BUFFER, morph ? r->morph_tex : r->height_tex);
-        glUniform1i(r->tu.morph, 1);
-        glUniform1f(r->tu.morph_scale, morph ? sp.morph_scale : 0.0f);
-        glUniform1f(r->tu.morph_start, sp.morph_start);
-        glActiveTexture(GL_TEXTURE2);
-        glBindTexture(GL_TEXTURE_2D, r->normal_tex);
-        glUniform1i(r->tu.normals, 2);
-        glUniform1i(r->tu.normal_tex, r->normal_tex != 0);
-        glUniform2f(r->tu.nrm_scale, 1.0f / (r->spacing * (float)r->size), 0.5f / (float)r->size);
-        glActiveTexture(GL_TEXTURE0);
-        glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
-
-        if (sp.wireframe) {
-            /* Second pass as lines, pulled toward the eye: with reverse-Z
-             * nearer means larger depth, hence the positive offset. */
-            glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
-            glEnable(GL_POLYGON_OFFSET_LINE);
-            glPolygonOffset(1.0f, 1.0f);
-            glDepthFunc(GL_GEQUAL);
-            glDepthMask(GL_FALSE);
-            glUniform1i(r->tu.wire, 1);
-            glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
-            glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
-            glDisable(GL_POLYGON_OFFSET_LINE);
-            glDepthMask(GL_TRUE);
-        }
-        glBindTexture(GL_TEXTURE_BUFFER, 0);
-        glActiveTexture(GL_TEXTURE1);
-        glBindTexture(GL_TEXTURE_BUFFER, 0);
-        glActiveTexture(GL_TEXTURE2);
-        glBindTexture(GL_TEXTURE_2D, 0);
-        glActiveTexture(GL_TEXTURE0);
-    }
-    if (sp.draw_objects) {
-        hz_pass_info pi = {.pass = HZ_PASS_MAIN, .cam = cam, .fog_density = sp.fog_density,
-                           .ambient = sp.ambient, .width = r->width, .height = r->height};
-        glm_mat4_copy(view, pi.view);
-        glm_mat4_copy(proj, pi.proj);
-        glm_mat4_copy(viewproj, pi.viewproj);
-        memcpy(pi.sun_dir, sp.sun_dir, sizeof pi.sun_dir);
-        memcpy(pi.sky_color, sp.sky_color, sizeof pi.sky_color);
-        glEnable(GL_DEPTH_TEST);
-        glDepthFunc(GL_GREATER);
-        glDepthMask(GL_TRUE);
-        glUseProgram(0);
+    if (r->n_refl && fx_water_reflections(r, &fr, &mv, err) != HZ_OK) {
         glBindVertexArray(0);
-        sp.draw_objects(sp.draw_objects_user, &pi);
-        glBindVertexArray(r->vao);
+        return HZ_ERR_GL;
     }
+
+    /* The main pass: into the chain's scene texture, or straight out. */
+    const GLuint out_fbo = r->to_default ? 0 : r->fbo;
+    if (fr.post) {
+        if (fx_scene_target(r, err) != HZ_OK) {
+            glBindVertexArray(0);
+            return HZ_ERR_GL;
+        }
+        glBindFramebuffer(GL_FRAMEBUFFER, r->scene_fbo);
+        r->depth_fbo = r->scene_fbo;
+    } else {
+        glBindFramebuffer(GL_FRAMEBUFFER, out_fbo);
+        r->depth_fbo = r->fbo;
+    }
+    glViewport(0, 0, (GLsizei)r->width, (GLsizei)r->height);
+    glDepthMask(GL_TRUE);
+    glClearColor(fr.sp.sky_color[0], fr.sp.sky_color[1], fr.sp.sky_color[2], 1.0f);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    draw_scene_base(r, &fr, &mv, r->ibo, count);
+    for (size_t k = 0; k < sizeof scene_passes / sizeof scene_passes[0]; k++)
+        if (fr.bits & scene_passes[k].bit)
+            scene_passes[k].draw(r, &fr, &mv);
+    /* The flare goes last, over everything (seed 000, ch. 7). */
+    if (fr.bits & HZ_FX_FLARE)
+        fx_flare_draw(r, &fr, &mv, stats);
+    if (fr.post)
+        fx_post_run(r, &fr, out_fbo);
+
+    glDisable(GL_BLEND);
+    glDepthMask(GL_TRUE);
+    glEnable(GL_DEPTH_TEST);
+    glFrontFace(GL_CCW);
     glUseProgram(0);
     glBindVertexArray(0);
+    glBindFramebuffer(GL_FRAMEBUFFER, out_fbo);
     /* Leave the clip convention as GL's default for any other drawing code
      * sharing the context (a window's UI). */
     if (r->clip_control)
@@ -788,8 +1121,11 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
     if (stats) {
         stats->upload_ms = t1 - t0;
         stats->draw_ms = t3 - t2;
+        stats->billboards = (fr.bits & HZ_FX_BILLBOARDS) ? (uint32_t)r->n_trees : 0;
+        stats->particles = (fr.bits & HZ_FX_WEATHER) ? (uint32_t)r->n_particles : 0;
+        stats->reflections = r->n_refl;
     }
-    return gl_check(err, "terrain draw");
+    return gl_check(err, "frame draw");
 }
 
 /* Binds the frame we drew for reading. */
@@ -852,12 +1188,16 @@ hz_result hz_renderer_read_sky_mask(hz_renderer *r, uint8_t *mask, hz_err *err)
         return hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
     gl_drain();
     bind_read(r);
+    /* The depth is where the scene was drawn: the chain's scene target or the
+     * output framebuffer. */
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, r->depth_fbo ? r->depth_fbo : r->fbo);
     glPixelStorei(GL_PACK_ALIGNMENT, 4);
     glReadPixels(0, 0, (GLsizei)r->width, (GLsizei)r->height, GL_DEPTH_COMPONENT, GL_FLOAT, depth);
     glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
     hz_result res = gl_check(err, "glReadPixels(DEPTH)");
     if (res == HZ_OK) {
-        /* Depth is cleared to 0 (reverse-Z far) and only terrain writes it. */
+        /* Depth is cleared to 0 (reverse-Z far); terrain, objects, tree
+         * billboards and water planes write it (not the sky, not particles). */
         for (uint32_t y = 0; y < r->height; y++) {
             const float *src = depth + (size_t)(r->height - 1 - y) * r->width;
             uint8_t *dst = mask + (size_t)y * r->width;

@@ -108,3 +108,11 @@ void hz_camera_frustum(const hz_camera *c, vec4 planes[6])
         planes[i][3] = (float)d;
     }
 }
+
+void hz_camera_mirror_y(const hz_camera *c, float plane_y, hz_camera *dest)
+{
+    hz_camera m = *c;
+    m.pos[1] = 2.0f * plane_y - c->pos[1];
+    m.pitch = -c->pitch;
+    *dest = m;
+}

@@ -32,6 +32,7 @@
 #include <string.h>
 
 #define MAX_THREADS 16
+#define TILE 64u /* lines gathered before a transposed write */
 
 typedef struct sweep {
     const hz_heightmap *hm;
@@ -45,6 +46,8 @@ typedef struct sweep {
     bool major_x;          /* lines are columns (i const) when the sun is mostly along x */
     int dir;               /* +1: the sun is toward increasing major coordinate */
     float r, rise;
+    int32_t ri;            /* floor(r) */
+    float rf;              /* r - ri, in [0, 1) */
     float *line[2];        /* shadow surface of the current and previous line */
     uint32_t threads;
     _Atomic int gate;      /* 0: wait, 1: go, 2: leave (a thread failed to start) */
@@ -96,7 +99,13 @@ static void *run_band(void *arg)
      * major lines, indexed by the full minor coordinate. */
     const uint32_t a = w->q0 ? w->q0 - 1 : 0, b = w->q1 < n ? w->q1 + 1 : n;
     float *win = malloc(3 * (size_t)n * sizeof *win);
-    if (!win) {
+    uint8_t *shade = malloc((size_t)n), *ob = malloc((size_t)n);
+    uint8_t *tile = sw->major_x ? malloc((size_t)TILE * (w->q1 - w->q0)) : NULL;
+    if (!win || !shade || !ob || (sw->major_x && !tile)) {
+        free(win);
+        free(shade);
+        free(ob);
+        free(tile);
         w->failed = true;
         /* Still publish progress so neighbours do not wait forever. */
         for (uint32_t k = 0; k < n; k++)
@@ -133,40 +142,68 @@ static void *run_band(void *arg)
                 wait_for(sw, w->t + 1, k);
         }
         const float inv_maj = inv_min / (float)((m + 1 < n ? m + 1 : m) - (m ? m - 1 : 0));
-        for (uint32_t q = w->q0; q < w->q1; q++) {
-            const float h = mid[q];
-            bool in_shadow = false;
-            float S = h;
-            if (k > 0 && sw->shadows) {
-                float qq = (float)q + sw->r;
-                if (qq >= 0.0f && qq <= (float)(n - 1)) {
-                    uint32_t q0 = (uint32_t)qq;
-                    float f = qq - (float)q0;
-                    uint32_t q1 = q0 + 1 < n ? q0 + 1 : q0;
-                    float occ = prev[q0] + (prev[q1] - prev[q0]) * f - sw->rise;
-                    in_shadow = occ > h + eps;
-                    S = occ > h ? occ : h;
-                }
+        const uint32_t q0 = w->q0, q1 = w->q1;
+        /* 1. The shadow surface. The ray from sample q meets the previous
+         * line at q + r: samples q + ri and q + ri + 1 with the same weight f
+         * for every q, a constant stencil (vectorises). Outside [qa, qb) the
+         * ray leaves the map: no occluder. */
+        uint32_t qa = q0, qb = q0;
+        if (k > 0 && sw->shadows) {
+            const int64_t ri = sw->ri;
+            const int64_t lo_q = -ri, hi_q = (int64_t)n - 1 - ri - (sw->rf > 0.0f ? 1 : 0); /* inclusive */
+            qa = (uint32_t)(lo_q > (int64_t)q0 ? (lo_q < (int64_t)q1 ? lo_q : q1) : q0);
+            qb = (uint32_t)(hi_q + 1 < (int64_t)q1 ? (hi_q + 1 > (int64_t)qa ? hi_q + 1 : qa) : q1);
+        }
+        for (uint32_t q = q0; q < qa; q++)
+            cur[q] = mid[q], shade[q] = 0;
+        if (qb > qa) {
+            const float f = sw->rf, f0 = 1.0f - f, rise = sw->rise;
+            const float *p0 = prev + sw->ri, *p1 = p0 + (f > 0.0f ? 1 : 0);
+            for (uint32_t q = qa; q < qb; q++) {
+                float h = mid[q], occ = p0[q] * f0 + p1[q] * f - rise;
+                shade[q] = occ > h + eps;
+                cur[q] = occ > h ? occ : h;
             }
-            cur[q] = S;
-            /* cos(r) from central differences, one-sided at the borders. */
+        }
+        for (uint32_t q = qb > qa ? qb : qa; q < q1; q++)
+            cur[q] = mid[q], shade[q] = 0;
+        /* 2. cos(r) from central differences (one-sided at the borders), the
+         * seed's formula, quantised into the line's bytes. */
+        for (uint32_t q = q0; q < q1; q++) {
             uint32_t ql = q ? q - 1 : 0, qr = q + 1 < n ? q + 1 : n - 1;
             float dmaj = (hi[q] - lo[q]) * inv_maj;
-            float dmin = (mid[qr] - mid[ql]) * inv_min / (float)(qr - ql);
+            float dmin = (mid[qr] - mid[ql]) * inv_min * (qr - ql == 2 ? 0.5f : 1.0f);
             float c = (-dmaj * s_maj + sw->s[1] - dmin * s_min) / sqrtf(dmaj * dmaj + 1.0f + dmin * dmin);
-            float I = Ie;
-            if (c <= 0.0f)
-                away++;
-            else if (in_shadow)
-                shadowed++;
-            else
-                I = c * (1.0f - Ie) + Ie;
-            const uint32_t i = sw->major_x ? m : q, j = sw->major_x ? q : m;
-            sw->out[(size_t)j * n + i] = quantise(I);
+            bool facing = c > 0.0f;
+            away += !facing;
+            shadowed += facing && shade[q];
+            ob[q] = quantise(facing && !shade[q] ? c * (1.0f - Ie) + Ie : Ie);
+        }
+        /* 3. Into the map: a row; or, when the lines run along x, a column,
+         * gathered TILE lines at a time so each row gets TILE bytes at once
+         * (a byte per row and line would miss the cache every time). */
+        if (!sw->major_x) {
+            memcpy(sw->out + (size_t)m * n + q0, ob + q0, q1 - q0);
+        } else {
+            const uint32_t len = q1 - q0, t = k % TILE;
+            memcpy(tile + (size_t)t * len, ob + q0, len);
+            if (t == TILE - 1 || k == n - 1) {
+                const uint32_t k0 = k - t;
+                for (uint32_t q = 0; q < len; q++) {
+                    uint8_t *row = sw->out + (size_t)(q0 + q) * n;
+                    for (uint32_t u = 0; u <= t; u++) {
+                        uint32_t mm = sw->dir > 0 ? n - 1 - (k0 + u) : k0 + u;
+                        row[mm] = tile[(size_t)u * len + q];
+                    }
+                }
+            }
         }
         atomic_store_explicit(&sw->done[w->t], k + 1, memory_order_release);
     }
     free(win);
+    free(shade);
+    free(ob);
+    free(tile);
     sw->shadowed[w->t] = shadowed;
     sw->away[w->t] = away;
     return NULL;
@@ -233,6 +270,8 @@ hz_result hz_lightmap_build(const hz_lightmap_desc *d, uint8_t *out, hz_lightmap
          * minor one by smin / |smaj|. */
         sw->r = smin / fabsf(smaj);
         sw->rise = d->spacing * sy / fabsf(smaj);
+        sw->ri = (int32_t)floorf(sw->r);
+        sw->rf = sw->r - (float)sw->ri;
     }
 
     uint32_t T = d->threads ? d->threads : 2;

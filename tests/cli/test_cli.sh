@@ -251,6 +251,51 @@ python3 -c "import json,sys; j=json.loads(sys.argv[1]); assert j['forest_trees']
 printf '2500,2500,7,1,0\n' > "$TMP/badforest.csv"
 expect_fail "forest file bad model" "badforest.csv:1"         $R --size 513 --forest-file "$TMP/badforest.csv" $F
 expect_fail "bench forest bad pr-res" "invalid value"         $HZ bench --quiet --size 257 --forest 5 --pr-res 3
+# Effects: bad lists and options are refused with a message; the JSON tells what ran.
+expect_fail "unknown effect"        "unknown effect 'smoke'"  $R --effects sky,smoke
+expect_fail "empty effects"         "empty list"              $R --effects ""
+expect_fail "bad --sun"             "AZIMUTH,ELEVATION"       $R --sun 30
+expect_fail "sun elevation > 90"    "AZIMUTH,ELEVATION"       $R --sun 30,95
+expect_fail "bad --water-level"     "metres, auto or off"     $R --water-level deep
+expect_fail "bad --weather"         "rain or snow"            $R --weather hail
+expect_fail "bad --clouds"          "invalid value"           $R --clouds 2
+expect_fail "bad --blur"            "invalid value"           $R --blur 1.5
+expect_fail "NaN --time"            "invalid value"           $R --time nan
+expect_fail "missing colour map"    "colour map"              $R --generate perlin --size 257 --colormap "$TMP/none.png"
+expect_fail "garbage colour map"    "colour map"              $R --generate perlin --size 257 --colormap "$TMP/garbage.png"
+fx=$($R --generate perlin --size 513 --seed 3 --json --effects all --weather snow --sun 30,20 --time 5 --out "$TMP/fx_all.png")
+rc=$?
+if [ $rc -eq 0 ] && python3 - "$fx" <<'PY'
+import json, sys
+j = json.loads(sys.argv[1])
+assert j["effects"] == "sky,flare,shadows,detail,billboards,fog,water,weather,motionblur,bloom", j["effects"]
+assert j["lightmap_ms"] > 0 and j["trees"] > 0 and j["particles"] > 0 and j["water_level"] is not None, j
+assert -1 <= j["sun_visible"] <= 1
+PY
+then ok "render --effects all: JSON has every effect's figures"; else bad "render --effects all (exit $rc): $fx"; fi
+none=$($R --generate perlin --size 513 --seed 3 --json --effects none --out "$TMP/fx_none.png")
+echo "$none" | python3 -c "import json,sys; j=json.load(sys.stdin); assert j['effects']=='none' and j['billboards']==0 and j['particles']==0 and j['reflections']==0" \
+  && ok "render --effects none: nothing extra drawn" || bad "render --effects none: $none"
+$R --generate perlin --size 513 --seed 3 --effects all --time 5 --out "$TMP/fx_all2.png" >/dev/null 2>&1
+cmp -s "$TMP/fx_all.png" "$TMP/fx_all2.png" && bad "a different weather/sun gave the same image" || ok "effect options change the image"
+$R --generate perlin --size 513 --seed 3 --effects all --weather snow --sun 30,20 --time 5 --out "$TMP/fx_all3.png" >/dev/null 2>&1
+cmp -s "$TMP/fx_all.png" "$TMP/fx_all3.png" && ok "effects are repeatable for a given time" || bad "same effect time gave a different image"
+cmp -s "$TMP/fx_all.png" "$TMP/fx_none.png" && bad "effects all = none" || ok "effects change the image"
+if $HZ bench --quiet --generate perlin --size 257 --frames 2 --width 160 --height 90 --effect-costs "$TMP/costs.json" >/dev/null 2>&1 &&
+   python3 - "$TMP/costs.json" <<'PY'
+import json, sys
+j = json.load(open(sys.argv[1]))
+names = ["sky","flare","shadows","detail","billboards","fog","water","weather","motionblur","bloom"]
+assert list(j["effects"].keys()) == names, j["effects"].keys()
+for n in names:
+    e = j["effects"][n]
+    assert all(k in e for k in ("alone_ms", "in_all_ms", "alone_frame_ms")), e
+assert j["base_ms"] > 0 and j["all_ms"] > 0 and j["lightmap_ms_1thread"] > 0 and j["lightmap_size"] == 257
+PY
+then ok "bench --effect-costs JSON"; else bad "bench --effect-costs"; fi
+if $HZ bench --quiet --generate perlin --size 257 --frames 3 --width 160 --height 90 --effects all --json "$TMP/bfx.json" >/dev/null 2>&1 &&
+   python3 -c "import json,sys; j=json.load(open(sys.argv[1])); assert j['effects'].startswith('sky,flare') and (j['psnr_db_median'] is None or j['psnr_db_median'] > 20)" "$TMP/bfx.json"
+then ok "bench with every effect: reference compared like with like"; else bad "bench --effects all"; fi
 
 echo "$passes passed, $fails failed"
 [ $fails -eq 0 ]

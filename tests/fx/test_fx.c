@@ -369,12 +369,15 @@ static void test_trees_and_water(void **state)
     hz_heightmap hm;
     make_hm(&hm, 513, 0.1f);
     const float spacing = 20.0f;
-    float level = hz_water_level_auto(&hm, 1.0f, 0);
+    bool sea = false;
+    float level = hz_water_level_auto(&hm, 1.0f, 0, &sea);
+    assert_true(sea);
     printf("auto water level with a sea: %.2f m\n", (double)level);
-    assert_true(fabsf(level - 0.5f) < 0.01f);
+    assert_true(fabsf(level - 1.0f) < 0.01f);
     hz_heightmap no_sea;
     make_hm(&no_sea, 257, 0.0f);
-    float lake = hz_water_level_auto(&no_sea, 2.0f, 0.1f);
+    float lake = hz_water_level_auto(&no_sea, 2.0f, 0.1f, &sea);
+    assert_false(sea);
     /* 10 % of the samples lie below it, 90 % above. */
     size_t below = 0;
     for (uint32_t j = 0; j < 257; j++)
@@ -383,7 +386,7 @@ static void test_trees_and_water(void **state)
     printf("auto lake level: %.1f m, %.3f below\n", (double)lake, (double)below / (257.0 * 257.0));
     assert_true(fabs((double)below / (257.0 * 257.0) - 0.1) < 0.01);
 
-    hz_tree_desc td = {.water_level = level, .seed = 9, .texture0 = 4};
+    hz_scatter_desc td = {.water_level = level, .seed = 9, .texture0 = 4};
     hz_billboard *t1 = NULL, *t2 = NULL;
     size_t n1 = 0, n2 = 0;
     hz_err err = {0};

@@ -205,7 +205,28 @@ if run modes "${GEN[@]}" --lod cdlod --pixel-error 2 --frames 22 --script "$TMP/
   judge "cdlod frame in the window: terrain and sky" "$(shot "$TMP/modes_cdlod.png")" 'j["sky"]>0.02 and j["terrain"]>0.2'
 fi
 
-# 9. Bad input: a message on the terminal and exit != 0, never a crash.
+# 9. Effect keys: weather on and to snow, bloom off, the sun 15 degrees east and 5 up
+#    (the light map follows); --effects none starts with nothing.
+cat > "$TMP/fx.txt" <<'EOF'
+0 key N press
+1 key C press
+2 key Z press
+3 key ] press
+4 key = press
+EOF
+SMALL=(--generate perlin --size 257 --seed 3 --width 640 --height 360)
+if run fxkeys "${SMALL[@]}" --frames 6 --script "$TMP/fx.txt" --sun 100,20 --screenshot "$TMP/fxkeys.png"; then
+  judge "effect keys: weather on (snow), bloom off" "$OUT" \
+    'j["effects"]=="sky,flare,shadows,detail,billboards,fog,water,weather" and j["weather"]=="snow" and j["particles"]>0'
+  judge "effect keys: sun moved to azimuth 115, elevation 25" "$OUT" 'abs(j["sun"][0]-115)<0.5 and abs(j["sun"][1]-25)<0.5'
+  judge "effect keys screenshot: terrain, sky and HUD" "$(shot "$TMP/fxkeys.png")" 'j["sky"]>0.02 and j["terrain"]>0.1 and j["hud_text"]>0.01'
+fi
+if run fxnone "${SMALL[@]}" --frames 2 --effects none; then
+  judge "--effects none" "$OUT" 'j["effects"]=="none" and j["particles"]==0 and j["billboards"]==0'
+fi
+expect_fail "bad --effects"          "unknown effect"             "${SMALL[@]}" --effects sky,smoke --frames 2
+
+# 10. Bad input: a message on the terminal and exit != 0, never a crash.
 expect_fail "missing DEM"            "cannot open|no such"        --dem "$TMP/nope.hgt" --frames 5
 head -c 100000 "$DATA/N44W072.hgt" > "$TMP/trunc.hgt"
 expect_fail "truncated DEM"          "trunc|bytes|square"         --dem "$TMP/trunc.hgt" --frames 5

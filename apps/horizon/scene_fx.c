@@ -1,0 +1,179 @@
+/* The effects' resources as the horizon commands set them up: light map for
+ * the sun, trees and forest cover, water planes, a colour map; and per frame
+ * the scene parameters and the reflection terrain. */
+#include "cli.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "horizon/lightmap.h"
+
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wconversion"
+#pragma GCC diagnostic ignored "-Wsign-conversion"
+#pragma GCC diagnostic ignored "-Wshadow"
+#pragma GCC diagnostic ignored "-Wunused-function"
+#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
+#define STB_IMAGE_IMPLEMENTATION
+#define STBI_ONLY_PNG
+#include <stb_image.h>
+#pragma GCC diagnostic pop
+
+static int build_lightmap(app_fx *a, const hz_terrain *t, hz_renderer *r, const char *cmd)
+{
+    hz_err err = {0};
+    if (!a->lightmap) {
+        a->lightmap = malloc(hz_lightmap_bound(&t->hm));
+        if (!a->lightmap) {
+            fprintf(stderr, "horizon %s: out of memory for the light map\n", cmd);
+            return 1;
+        }
+    }
+    hz_lightmap_desc d = {.hm = &t->hm, .spacing = t->spacing, .zscale = t->zscale, .threads = 2};
+    glm_vec3_copy(a->sun, d.sun_dir);
+    hz_lightmap_stats st;
+    if (hz_lightmap_build(&d, a->lightmap, &st, &err) != HZ_OK ||
+        hz_renderer_set_lightmap(r, a->lightmap, t->hm.size, a->sun, &err) != HZ_OK) {
+        fprintf(stderr, "horizon %s: light map: %s\n", cmd, err.msg);
+        return 1;
+    }
+    a->lightmap_ms = st.ms;
+    a->lightmap_threads = st.threads;
+    glm_vec3_copy(a->sun, a->lightmap_sun);
+    return 0;
+}
+
+static int load_colormap(const char *path, hz_renderer *r, const char *cmd)
+{
+    int w, h, n;
+    unsigned char *px = stbi_load(path, &w, &h, &n, 3);
+    if (!px) {
+        fprintf(stderr, "horizon %s: cannot read colour map '%s': %s\n", cmd, path, stbi_failure_reason());
+        return 1;
+    }
+    hz_err err = {0};
+    hz_result res = hz_renderer_set_colormap(r, px, (uint32_t)w, (uint32_t)h, &err);
+    stbi_image_free(px);
+    if (res != HZ_OK) {
+        fprintf(stderr, "horizon %s: colour map '%s': %s\n", cmd, path, err.msg);
+        return 1;
+    }
+    return 0;
+}
+
+int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer *r, const char *cmd)
+{
+    double t0 = hz_time_ms();
+    memset(a, 0, sizeof *a);
+    a->effects = o->effects;
+    a->fx = o->fx;
+    a->fog = o->fog;
+    if (o->have_sun)
+        hz_sun_direction(o->sun[0], o->sun[1], a->sun);
+    else
+        hz_sun_direction(245.2f, 30.2f, a->sun); /* the renderer's default afternoon sun */
+    const bool all = !strcmp(cmd, "view"); /* the viewer may switch any effect on later */
+    const uint32_t fx = all ? HZ_FX_ALL : a->effects;
+    hz_err err = {0};
+
+    if (o->water_mode != 1) {
+        a->water = true;
+        bool sea = false;
+        a->water_level = o->water_mode == 2 ? o->water_level : hz_water_level_auto(&t->hm, t->zscale, 0, &sea);
+        if (fx & HZ_FX_WATER) {
+            /* A sea reaches the horizon; lakes (and a given level) stay on the map. */
+            const float ext = hz_terrain_extent(t);
+            hz_water_plane plane = {.height = a->water_level, .rect = {0, 0, ext, ext}};
+            if (sea)
+                memset(plane.rect, 0, sizeof plane.rect);
+            /* A DEM's sea has no bathymetry (flat just under the plane): make it
+             * look deep, murky within a metre. */
+            hz_water_material mat = {.clarity = sea ? 0.3f : 0.0f};
+            if (hz_renderer_set_water(r, &plane, 1, &mat, 1, &err) != HZ_OK) {
+                fprintf(stderr, "horizon %s: water: %s\n", cmd, err.msg);
+                return 1;
+            }
+        }
+    }
+    if ((fx & HZ_FX_SHADOWS) && build_lightmap(a, t, r, cmd))
+        return 1;
+    if ((fx & HZ_FX_BILLBOARDS) && o->trees >= 0.0f) {
+        hz_scatter_desc td = {.density = o->trees, .water_level = a->water ? a->water_level : -INFINITY,
+                           .seed = t->hm.size ^ 0x7715u};
+        hz_billboard *trees = NULL;
+        if (hz_trees_scatter(&t->hm, t->spacing, t->zscale, &td, &trees, &a->trees, &err) != HZ_OK ||
+            hz_renderer_set_billboards(r, trees, a->trees, &err) != HZ_OK) {
+            free(trees);
+            fprintf(stderr, "horizon %s: trees: %s\n", cmd, err.msg);
+            return 1;
+        }
+        free(trees);
+        uint32_t side = t->hm.size < 1024 ? t->hm.size : 1024;
+        uint8_t *cover = malloc((size_t)side * side);
+        if (!cover) {
+            fprintf(stderr, "horizon %s: out of memory for the forest cover\n", cmd);
+            return 1;
+        }
+        hz_forest_cover_map(&t->hm, t->spacing, t->zscale, &td, side, cover);
+        hz_result res = hz_renderer_set_forest_cover(r, cover, side, &err);
+        free(cover);
+        if (res != HZ_OK) {
+            fprintf(stderr, "horizon %s: forest cover: %s\n", cmd, err.msg);
+            return 1;
+        }
+    }
+    if (o->colormap && load_colormap(o->colormap, r, cmd))
+        return 1;
+    a->setup_ms = hz_time_ms() - t0;
+    return 0;
+}
+
+void app_fx_params(app_fx *a, const hz_terrain *t, const hz_camera *cam, const hz_lod_params *lod, double time,
+                   hz_scene_params *sp)
+{
+    sp->effects = a->effects;
+    sp->fx = &a->fx;
+    glm_vec3_copy(a->sun, sp->sun_dir);
+    sp->fog_density = a->fog;
+    sp->time = time;
+    sp->reflection_indices = NULL;
+    sp->reflection_count = 0;
+    if ((a->effects & HZ_FX_WATER) && a->water && cam->pos[1] > a->water_level) {
+        /* The mirrored camera sees other terrain than the main one (hill tops
+         * above the screen); a coarser selection is enough at half resolution. */
+        hz_camera mc;
+        hz_camera_mirror_y(cam, a->water_level, &mc);
+        hz_lod_params p = lod ? *lod : (hz_lod_params){0};
+        /* Always the plain quadtree: roam keeps its mesh from frame to frame
+         * in the hz_lod, and a second camera would spoil its coherence. */
+        p.mode = HZ_LOD_QUADTREE;
+        p.pixel_error = 0.0f;
+        p.c = 0.6f * (p.c > 0 ? p.c : 25.0f);
+        if (hz_lod_select(t->lod, &mc, &p, &a->refl, NULL, NULL, NULL) == HZ_OK) {
+            sp->reflection_indices = a->refl.data;
+            sp->reflection_count = (uint32_t)a->refl.count;
+        }
+    }
+}
+
+int app_fx_set_sun(app_fx *a, const hz_terrain *t, hz_renderer *r, float azimuth, float elevation)
+{
+    hz_sun_direction(azimuth, elevation, a->sun);
+    return build_lightmap(a, t, r, "view");
+}
+
+void app_fx_sun_angles(const app_fx *a, float *azimuth, float *elevation)
+{
+    float az = glm_deg(atan2f(a->sun[0], -a->sun[2]));
+    *azimuth = az < 0 ? az + 360.0f : az;
+    *elevation = glm_deg(asinf(glm_clamp(a->sun[1], -1.0f, 1.0f)));
+}
+
+void app_fx_free(app_fx *a)
+{
+    free(a->lightmap);
+    free(a->refl.data);
+    memset(a, 0, sizeof *a);
+}

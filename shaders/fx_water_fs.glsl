@@ -1,0 +1,93 @@
+#version 330 core
+// Water (R9): planar reflection (a mirrored render of sky, terrain, trees and
+// objects), transparency by the depth of water along the view (terrain
+// heights from the height buffer), animated wave normals that distort the
+// reflection, Fresnel, the sun's glitter, and the common fog. Blended over the
+// terrain below with (ONE, SRC_ALPHA): out = src + alpha * underwater.
+uniform sampler2D u_reflection;
+uniform int u_has_reflection;
+uniform vec2 u_viewport;       // pixels
+uniform samplerBuffer u_heights;
+uniform int u_size;
+uniform float u_spacing, u_hscale, u_hoffset;
+uniform float u_level;
+uniform vec3 u_deep;
+uniform float u_clarity, u_waves, u_reflectivity;
+
+in vec3 v_world;
+out vec4 o_color;
+
+float h_at(int i, int j)
+{
+    float h16 = floor(texelFetch(u_heights, j * u_size + i).r * 65535.0 + 0.5);
+    return u_hoffset + u_hscale * h16;
+}
+
+// Bilinear ground height; far below everything outside the map (open sea).
+float ground(vec2 xz)
+{
+    vec2 g = xz / u_spacing;
+    float n1 = float(u_size - 1);
+    if (g.x < 0.0 || g.y < 0.0 || g.x > n1 || g.y > n1)
+        return -1e6;
+    ivec2 i = min(ivec2(floor(g)), ivec2(u_size - 2));
+    vec2 f = g - vec2(i);
+    float a = h_at(i.x, i.y), b = h_at(i.x + 1, i.y), c = h_at(i.x, i.y + 1), d = h_at(i.x + 1, i.y + 1);
+    return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
+}
+
+// Sum of wind-driven directional waves (deep-water speeds), as a slope.
+vec2 wave_slope(vec2 xz, float t, float fade)
+{
+    vec2 w = fx_cloud.zw;
+    float wl = length(w);
+    vec2 dir0 = wl > 1e-3 ? w / wl : vec2(1.0, 0.0);
+    const float lambda[6] = float[6](21.0, 12.7, 7.9, 4.3, 2.6, 1.4);
+    const float turn[6] = float[6](0.0, 0.55, -0.4, 0.9, -0.8, 0.25);
+    vec2 g = vec2(0.0);
+    for (int k = 0; k < 6; k++) {
+        float a = turn[k];
+        vec2 d = vec2(dir0.x * cos(a) - dir0.y * sin(a), dir0.x * sin(a) + dir0.y * cos(a));
+        float kf = 6.2831853 / lambda[k];
+        float c = sqrt(9.81 / kf);
+        float amp = 0.035 * lambda[k] / 6.2831853 * (0.6 + 0.4 * min(wl / 6.0, 2.0));
+        // Small waves vanish first with distance (they would only alias).
+        float damp = k >= 2 ? fade * fade : fade;
+        g += damp * amp * kf * cos(kf * (dot(d, xz) - c * t) + float(k) * 1.7) * d;
+    }
+    return g;
+}
+
+void main()
+{
+    vec3 e = fx_eye.xyz;
+    vec3 to_eye = e - v_world;
+    float dist = length(to_eye);
+    vec3 v = to_eye / max(dist, 1e-4);
+    float fade = 1.0 / (1.0 + dist / 400.0);
+    vec2 g = wave_slope(v_world.xz, fx_eye.w, fade) * u_waves;
+    vec3 n = normalize(vec3(-g.x, 1.0, -g.y));
+
+    float cosv = max(dot(n, v), 0.0);
+    float F = clamp((0.02 + 0.98 * pow(1.0 - cosv, 5.0)) * u_reflectivity, 0.0, 1.0);
+    vec3 refl;
+    if (u_has_reflection != 0) {
+        vec2 uv = gl_FragCoord.xy / u_viewport + n.xz * 0.05 * fade;
+        refl = texture(u_reflection, clamp(uv, vec2(0.001), vec2(0.999))).rgb;
+    } else {
+        refl = fx_horizon_color(reflect(-v, n));
+    }
+    // Light through the water: the path below the surface along the view.
+    float depth = max(u_level - ground(v_world.xz), 0.0);
+    float path = depth / max(v.y, 0.08);
+    float T = exp(-path / max(u_clarity, 1e-3));
+    float Ie = fx_sun_color.w;
+    vec3 deep = u_deep * (Ie + (1.0 - Ie) * max(fx_sun.y, 0.0)) * fx_sun_color.rgb;
+    float spec = fx_sun.y > 0.0 ? pow(max(dot(reflect(-v, n), fx_sun.xyz), 0.0), 600.0) * 5.0 : 0.0;
+    vec3 src = (1.0 - F) * (1.0 - T) * deep + F * refl + spec * fx_sun_color.rgb;
+    float a = (1.0 - F) * T;
+    // Fog over the whole (the underwater part is fogged already).
+    float keep = fx_fog_keep(e, v_world);
+    vec3 fogc = fx_fog_color(-v);
+    o_color = vec4(keep * src + (1.0 - keep) * (1.0 - a) * fogc, a);
+}

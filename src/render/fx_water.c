@@ -1,0 +1,305 @@
+/* Water planes (R9): planar reflections, transparency by depth, animated
+ * normals, drawn grouped by material.
+ *
+ * Reflection: for each distinct visible water height the scene (sky, terrain,
+ * tree billboards, the object hook) is rendered at half resolution with the
+ * view matrix V * M, M the mirror at y = h, front faces flipped, and
+ * everything below the plane discarded (fx_clip in the shaders,
+ * GL_CLIP_DISTANCE0 for hook objects). A water fragment then samples that
+ * texture at its own screen position, displaced by its wave normal.
+ *
+ * Terrain for the mirrored camera comes from the caller
+ * (hz_scene_params.reflection_indices, an LOD selection for
+ * hz_camera_mirror_y) or, without one, the main selection. */
+#include "render_internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "hz_shaders.h"
+
+hz_result fx_water_ensure(hz_renderer *r, const fx_frame *f, hz_err *err)
+{
+    static const char *const names[] = {"u_rect",    "u_level",   "u_viewproj", "u_has_reflection", "u_viewport",
+                                        "u_size",    "u_spacing", "u_hscale",   "u_hoffset",        "u_deep",
+                                        "u_clarity", "u_waves",   "u_reflectivity", NULL};
+    r->water_cur = prog_cache_get(&r->water, f->bits & (HZ_FX_SKY | HZ_FX_FOG), hz_shader_fx_water_vs,
+                                  hz_shader_fx_water_fs, "fx_water", 3, names, err);
+    return r->water_cur ? HZ_OK : HZ_ERR_GL;
+}
+
+hz_result hz_renderer_set_water(hz_renderer *r, const hz_water_plane *planes, uint32_t count,
+                                const hz_water_material *materials, uint32_t material_count, hz_err *err)
+{
+    HZ_ASSERT(r);
+    if (count && !planes)
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: %u water planes but no array", count);
+    if (material_count && !materials)
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: %u water materials but no array", material_count);
+    for (uint32_t k = 0; k < count; k++) {
+        const hz_water_plane *p = &planes[k];
+        bool whole = p->rect[0] == 0 && p->rect[1] == 0 && p->rect[2] == 0 && p->rect[3] == 0;
+        bool finite = isfinite(p->height) && isfinite(p->rect[0]) && isfinite(p->rect[1]) && isfinite(p->rect[2]) &&
+                      isfinite(p->rect[3]);
+        if (!finite || (!whole && (p->rect[2] <= p->rect[0] || p->rect[3] <= p->rect[1])))
+            return hz_err_set(err, HZ_ERR_VALUE, "renderer: water plane %u: height %g, rect (%g, %g)-(%g, %g) is not "
+                              "a finite, non-empty rectangle", k, (double)p->height, (double)p->rect[0],
+                              (double)p->rect[1], (double)p->rect[2], (double)p->rect[3]);
+        if (p->material >= (material_count ? material_count : 1))
+            return hz_err_set(err, HZ_ERR_VALUE, "renderer: water plane %u uses material %u of %u", k, p->material,
+                              material_count);
+    }
+    for (uint32_t k = 0; k < material_count; k++) {
+        const hz_water_material *m = &materials[k];
+        if (!isfinite(m->clarity) || m->clarity < 0 || !isfinite(m->waves) || m->waves < 0 ||
+            !isfinite(m->reflectivity) || m->reflectivity < 0 || !isfinite(m->deep[0]) || !isfinite(m->deep[1]) ||
+            !isfinite(m->deep[2]))
+            return hz_err_set(err, HZ_ERR_VALUE, "renderer: water material %u has a negative or non-finite value", k);
+    }
+    hz_water_plane *np = NULL;
+    hz_water_material *nm = NULL;
+    if (count && !(np = malloc(count * sizeof *np)))
+        return hz_err_set(err, HZ_ERR_MEMORY, "renderer: out of memory");
+    uint32_t nmats = material_count ? material_count : 1;
+    if (!(nm = calloc(nmats, sizeof *nm))) {
+        free(np);
+        return hz_err_set(err, HZ_ERR_MEMORY, "renderer: out of memory");
+    }
+    if (count)
+        memcpy(np, planes, count * sizeof *np);
+    if (material_count)
+        memcpy(nm, materials, material_count * sizeof *nm);
+    for (uint32_t k = 0; k < nmats; k++) {
+        hz_water_material *m = &nm[k];
+        if (m->deep[0] == 0 && m->deep[1] == 0 && m->deep[2] == 0) {
+            m->deep[0] = 0.04f;
+            m->deep[1] = 0.12f;
+            m->deep[2] = 0.16f;
+        }
+        if (m->clarity == 0)
+            m->clarity = 2.5f;
+        if (m->waves == 0)
+            m->waves = 1.0f;
+        if (m->reflectivity == 0)
+            m->reflectivity = 1.0f;
+    }
+    free(r->planes);
+    free(r->mats);
+    r->planes = np;
+    r->mats = nm;
+    r->n_planes = count;
+    r->n_mats = nmats;
+    return HZ_OK;
+}
+
+/* The plane's rectangle, the open sea (all zero) being the map plus the view
+ * distance around it. */
+static void plane_rect(const hz_renderer *r, const hz_water_plane *p, float zfar, float out[4])
+{
+    if (p->rect[0] == 0 && p->rect[1] == 0 && p->rect[2] == 0 && p->rect[3] == 0) {
+        float ext = r->has_heights ? (float)(r->size - 1) * r->spacing : 0.0f;
+        out[0] = -zfar, out[1] = -zfar, out[2] = ext + zfar, out[3] = ext + zfar;
+    } else {
+        memcpy(out, p->rect, 4 * sizeof(float));
+    }
+}
+
+static bool rect_visible(const vec4 planes[6], const float rc[4], float y)
+{
+    for (int p = 0; p < 6; p++) {
+        float best = planes[p][3] + planes[p][1] * y;
+        best += planes[p][0] * (planes[p][0] >= 0 ? rc[2] : rc[0]);
+        best += planes[p][2] * (planes[p][2] >= 0 ? rc[3] : rc[1]);
+        if (best < 0)
+            return false;
+    }
+    return true;
+}
+
+static bool plane_visible(const hz_renderer *r, const fx_frame *f, const fx_view *v, const hz_water_plane *p)
+{
+    if (v->eye[1] <= p->height + 0.01f)
+        return false; /* from below the surface we do not draw it */
+    float rc[4];
+    plane_rect(r, p, f->zfar, rc);
+    vec4 planes[6];
+    hz_camera_frustum(&v->cam, planes);
+    return rect_visible((const vec4 *)planes, rc, p->height);
+}
+
+uint32_t fx_water_visible(const hz_renderer *r, const fx_frame *f, const fx_view *v, float *levels)
+{
+    uint32_t n = 0;
+    for (uint32_t k = 0; k < r->n_planes; k++) {
+        const hz_water_plane *p = &r->planes[k];
+        if (!plane_visible(r, f, v, p))
+            continue;
+        bool dup = false;
+        for (uint32_t i = 0; i < n; i++)
+            dup |= fabsf(levels[i] - p->height) < 0.01f;
+        if (dup)
+            continue;
+        if (n < FX_MAX_REFLECTIONS) {
+            levels[n++] = p->height;
+        } else {
+            /* Keep the nearest heights to the eye. */
+            uint32_t far_i = 0;
+            for (uint32_t i = 1; i < n; i++)
+                if (fabsf(v->eye[1] - levels[i]) > fabsf(v->eye[1] - levels[far_i]))
+                    far_i = i;
+            if (fabsf(v->eye[1] - p->height) < fabsf(v->eye[1] - levels[far_i]))
+                levels[far_i] = p->height;
+        }
+    }
+    /* Nearest first. */
+    for (uint32_t i = 1; i < n; i++)
+        for (uint32_t j = i; j > 0 && fabsf(v->eye[1] - levels[j]) < fabsf(v->eye[1] - levels[j - 1]); j--) {
+            float t = levels[j];
+            levels[j] = levels[j - 1];
+            levels[j - 1] = t;
+        }
+    return n;
+}
+
+void fx_water_mirror_view(const fx_view *main, float level, fx_view *out)
+{
+    *out = *main;
+    out->pass = HZ_PASS_REFLECTION;
+    out->water_level = level;
+    mat4 m;
+    glm_mat4_identity(m);
+    m[1][1] = -1.0f;
+    m[3][1] = 2.0f * level;
+    glm_mat4_mul((vec4 *)main->view, m, out->view);
+    mat4 view_rot, vp_rot;
+    glm_mat4_mul(out->proj, out->view, out->viewproj);
+    glm_mat4_copy(out->view, view_rot);
+    view_rot[3][0] = view_rot[3][1] = view_rot[3][2] = 0.0f;
+    glm_mat4_mul(out->proj, view_rot, vp_rot);
+    glm_mat4_inv(vp_rot, out->inv_vp_rot);
+    out->eye[1] = 2.0f * level - main->eye[1];
+    hz_camera_mirror_y(&main->cam, level, &out->cam);
+    out->clip[0] = 0.0f, out->clip[1] = 1.0f, out->clip[2] = 0.0f, out->clip[3] = -level;
+}
+
+static hz_result ensure_targets(hz_renderer *r, uint32_t n, hz_err *err)
+{
+    uint32_t w = r->width / 2 ? r->width / 2 : 1, h = r->height / 2 ? r->height / 2 : 1;
+    if (r->refl_w != w || r->refl_h != h) {
+        glDeleteFramebuffers(FX_MAX_REFLECTIONS, r->refl_fbo);
+        glDeleteTextures(FX_MAX_REFLECTIONS, r->refl_tex);
+        glDeleteRenderbuffers(FX_MAX_REFLECTIONS, r->refl_depth);
+        memset(r->refl_fbo, 0, sizeof r->refl_fbo);
+        memset(r->refl_tex, 0, sizeof r->refl_tex);
+        memset(r->refl_depth, 0, sizeof r->refl_depth);
+        r->refl_w = w, r->refl_h = h;
+    }
+    for (uint32_t k = 0; k < n; k++) {
+        if (r->refl_fbo[k])
+            continue;
+        glGenRenderbuffers(1, &r->refl_depth[k]);
+        glBindRenderbuffer(GL_RENDERBUFFER, r->refl_depth[k]);
+        glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, (GLsizei)w, (GLsizei)h);
+        glBindRenderbuffer(GL_RENDERBUFFER, 0);
+        hz_result res = fx_make_target(&r->refl_fbo[k], &r->refl_tex[k], r->refl_depth[k], w, h, GL_RGBA8, err);
+        if (res != HZ_OK)
+            return res;
+    }
+    return HZ_OK;
+}
+
+hz_result fx_water_reflections(hz_renderer *r, const fx_frame *f, const fx_view *main, hz_err *err)
+{
+    hz_result res = ensure_targets(r, r->n_refl, err);
+    if (res != HZ_OK)
+        return res;
+    for (uint32_t k = 0; k < r->n_refl; k++) {
+        fx_view mv;
+        fx_water_mirror_view(main, r->refl_level[k], &mv);
+        mv.w = r->refl_w;
+        mv.h = r->refl_h;
+        glBindFramebuffer(GL_FRAMEBUFFER, r->refl_fbo[k]);
+        glViewport(0, 0, (GLsizei)mv.w, (GLsizei)mv.h);
+        glDepthMask(GL_TRUE);
+        glClearColor(f->sp.sky_color[0], f->sp.sky_color[1], f->sp.sky_color[2], 1.0f);
+        glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+        draw_scene_base(r, f, &mv, f->refl_ibo, f->refl_count);
+        if (k == 0 && (f->bits & HZ_FX_BILLBOARDS))
+            fx_trees_draw(r, f, &mv); /* culled for the nearest plane's mirror */
+    }
+    return gl_check(err, "water reflection pass");
+}
+
+void fx_water_draw(hz_renderer *r, const fx_frame *f, const fx_view *v)
+{
+    const GLint *u = r->water_cur->loc;
+    glUseProgram(r->water_cur->prog);
+    glUniformMatrix4fv(u[WL_VIEWPROJ], 1, GL_FALSE, (const float *)v->viewproj);
+    glUniform2f(u[WL_VIEWPORT], (float)v->w, (float)v->h);
+    glUniform1i(u[WL_SIZE], (GLint)r->size);
+    glUniform1f(u[WL_SPACING], r->spacing);
+    glUniform1f(u[WL_HSCALE], r->hscale);
+    glUniform1f(u[WL_HOFFSET], r->hoffset);
+    glActiveTexture(GL_TEXTURE0 + FX_UNIT_HEIGHTS);
+    glBindTexture(GL_TEXTURE_BUFFER, r->height_tex);
+    glActiveTexture(GL_TEXTURE0 + FX_UNIT_REFLECTION);
+    glEnable(GL_BLEND);
+    glBlendFunc(GL_ONE, GL_SRC_ALPHA); /* src + alpha x (terrain below) */
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_GREATER);
+    glDepthMask(GL_TRUE);
+    glDisable(GL_CULL_FACE);
+    /* Grouped by material: its uniforms once, then its planes. */
+    for (uint32_t m = 0; m < r->n_mats; m++) {
+        const hz_water_material *mat = &r->mats[m];
+        bool any = false;
+        for (uint32_t k = 0; k < r->n_planes; k++) {
+            const hz_water_plane *p = &r->planes[k];
+            if (p->material != m || !plane_visible(r, f, v, p))
+                continue;
+            if (!any) {
+                glUniform3fv(u[WL_DEEP], 1, mat->deep);
+                glUniform1f(u[WL_CLARITY], mat->clarity);
+                glUniform1f(u[WL_WAVES], mat->waves);
+                glUniform1f(u[WL_REFLECTIVITY], mat->reflectivity);
+                any = true;
+            }
+            /* The reflection rendered for the nearest height. */
+            int best = -1;
+            for (uint32_t i = 0; i < r->n_refl; i++)
+                if (best < 0 || fabsf(r->refl_level[i] - p->height) < fabsf(r->refl_level[best] - p->height))
+                    best = (int)i;
+            glBindTexture(GL_TEXTURE_2D, best >= 0 ? r->refl_tex[best] : 0);
+            glUniform1i(u[WL_HAS_REFLECTION], best >= 0);
+            float rc[4];
+            plane_rect(r, p, f->zfar, rc);
+            glUniform4fv(u[WL_RECT], 1, rc);
+            glUniform1f(u[WL_LEVEL], p->height);
+            glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
+        }
+    }
+    glBindTexture(GL_TEXTURE_2D, 0);
+    glActiveTexture(GL_TEXTURE0 + FX_UNIT_HEIGHTS);
+    glBindTexture(GL_TEXTURE_BUFFER, 0);
+    glActiveTexture(GL_TEXTURE0);
+    glDisable(GL_BLEND);
+}
+
+void fx_water_destroy(hz_renderer *r)
+{
+    prog_cache_clear(&r->water);
+    r->water_cur = NULL;
+    glDeleteFramebuffers(FX_MAX_REFLECTIONS, r->refl_fbo);
+    glDeleteTextures(FX_MAX_REFLECTIONS, r->refl_tex);
+    glDeleteRenderbuffers(FX_MAX_REFLECTIONS, r->refl_depth);
+    memset(r->refl_fbo, 0, sizeof r->refl_fbo);
+    memset(r->refl_tex, 0, sizeof r->refl_tex);
+    memset(r->refl_depth, 0, sizeof r->refl_depth);
+    r->refl_w = r->refl_h = 0;
+    free(r->planes);
+    free(r->mats);
+    r->planes = NULL;
+    r->mats = NULL;
+    r->n_planes = r->n_mats = 0;
+}

@@ -1,0 +1,254 @@
+/* Private to src/render: the renderer's state, shared by renderer.c (the
+ * frame driver) and the effect modules fx_*.c. */
+#ifndef HZ_RENDER_INTERNAL_H
+#define HZ_RENDER_INTERNAL_H
+
+#include "horizon/render.h"
+
+#include <epoxy/gl.h>
+
+/* ---- the per-pass common block (shaders/fx_common.glsl FxCommon, std140) ---- */
+typedef struct fx_common_ubo {
+    float sun[4], sun_color[4], horizon[4], zenith[4], eye[4], fog[4], fog_far[4], clip[4], cloud[4], cloud_off[4],
+        map[4], lm[4];
+    int32_t bits[4];
+} fx_common_ubo;
+_Static_assert(sizeof(fx_common_ubo) == 13 * 16, "fx_common_ubo mirrors the std140 FxCommon block");
+_Static_assert(offsetof(fx_common_ubo, bits) == 12 * 16, "FxCommon.fx_bits offset");
+
+#define FX_UBO_BINDING 0
+#define FX_UNIT_HEIGHTS 0  /* texture units, fixed per sampler */
+#define FX_UNIT_LIGHTMAP 1
+#define FX_UNIT_DETAIL 2
+#define FX_UNIT_COLORMAP 3
+#define FX_UNIT_COVER 4
+#define FX_UNIT_SPRITE 5
+#define FX_UNIT_REFLECTION 6
+#define FX_UNIT_CLOUDS 7
+#define FX_UNIT_BB 8
+#define FX_UNIT_MORPH 9     /* the LOD's (cdlod geomorphing) */
+#define FX_UNIT_NORMALS 10  /* per-sample normals */
+#define FX_MAX_REFLECTIONS 4
+
+/* What one scene pass sees: the main view or a mirrored reflection view. */
+typedef struct fx_view {
+    hz_pass pass;
+    hz_camera cam;         /* the pass camera (mirrored for reflections) */
+    mat4 view, proj, viewproj, inv_vp_rot;
+    vec3 eye;              /* shading eye (mirrored for reflections) */
+    vec4 clip;             /* keep dot(clip, (p, 1)) >= 0; all 0 = none */
+    uint32_t w, h;         /* viewport */
+    float water_level;     /* reflection passes: the plane */
+} fx_view;
+
+/* Resolved per-frame parameters. */
+typedef struct fx_frame {
+    hz_scene_params sp;    /* defaults applied */
+    hz_fx_settings fx;     /* defaults applied */
+    uint32_t bits;         /* effects actually drawn (resources present) */
+    double time;
+    float zfar;
+    vec3 zenith, sun_color;
+    float glow;            /* warm horizon toward a low sun, 0..1 */
+    float ground_lo;       /* lowest terrain, metres (0 without heights) */
+    bool post;             /* the scene renders to a texture and the chain runs */
+    const uint32_t *refl_idx;
+    uint32_t refl_count;
+    GLuint refl_ibo;       /* index buffer holding refl_idx */
+} fx_frame;
+
+/* Effect shaders are compiled per variant: the effect bits that matter to
+ * them (and a few resource flags) become compile-time constants. */
+#define FX_VARIANT_COLORMAP (1u << 16)
+#define FX_VARIANT_COVER (1u << 17)
+#define FX_MAX_LOCS 16
+#define FX_MAX_VARIANTS 40 /* the --effect-costs run uses about 16 terrain variants */
+
+typedef struct prog_variant {
+    uint32_t key;
+    GLuint prog;
+    uint32_t last_use;
+    GLint loc[FX_MAX_LOCS];
+} prog_variant;
+
+typedef struct prog_cache {
+    prog_variant v[FX_MAX_VARIANTS];
+    uint32_t n, tick;
+} prog_cache;
+
+/* The variant of a program family for key: compiled (and its uniform
+ * locations looked up, names NULL-terminated) on first use; the least
+ * recently used one is dropped when the cache is full. NULL + err on a
+ * compile error. */
+const prog_variant *prog_cache_get(prog_cache *c, uint32_t key, const char *vs, const char *fs, const char *name,
+                                   int common_mask, const char *const *names, hz_err *err);
+void prog_cache_clear(prog_cache *c);
+
+/* Uniform location slots per family. */
+enum { TL_SIZE, TL_SPACING, TL_HSCALE, TL_HOFFSET, TL_VIEWPROJ, TL_SUN, TL_HORIZON, TL_EYE, TL_FOG, TL_AMBIENT,
+       TL_HRANGE, TL_WIRE, TL_MORPH_SCALE, TL_MORPH_START, TL_NORMAL_TEX, TL_NRM_SCALE };
+enum { BL_VIEWPROJ, BL_CAM_RIGHT, BL_CAM_UP, BL_PX_PER_M, BL_BLEND, BL_FIRST, BL_FACING };
+enum { WL_RECT, WL_LEVEL, WL_VIEWPROJ, WL_HAS_REFLECTION, WL_VIEWPORT, WL_SIZE, WL_SPACING, WL_HSCALE, WL_HOFFSET,
+       WL_DEEP, WL_CLARITY, WL_WAVES, WL_REFLECTIVITY };
+enum { QL_CENTER, QL_HALF, QL_Z, QL_CLOUDS };
+enum { SL_INV_VP, SL_SKY_Z };
+
+typedef struct sky_uniforms {
+    GLint inv_viewproj_rot, horizon, zenith, sun_dir;
+} sky_uniforms;
+
+
+
+
+typedef struct hist_slot {
+    GLuint fbo[2], tex[2];
+    int cur;               /* tex[cur] holds the last result */
+    bool valid;
+    uint32_t w, h;
+} hist_slot;
+
+struct hz_renderer {
+    void *ctx;         /* EGLContext or GLXContext current at creation */
+    uint32_t width, height;
+    bool to_default;   /* draw to framebuffer 0 instead of fbo */
+    bool clip_control; /* GL 4.5 or ARB_clip_control: depth range [0, 1] */
+    GLint max_tbo;     /* GL_MAX_TEXTURE_BUFFER_SIZE, texels */
+    GLint max_tex;     /* GL_MAX_TEXTURE_SIZE */
+
+    GLuint fbo, color_rb, depth_rb;
+    GLuint vao;         /* empty: the terrain and the sky have no attributes */
+    GLuint ibo;         /* per-frame indices, GL_STREAM_DRAW */
+    size_t ibo_cap;     /* bytes allocated in ibo */
+    GLuint ibo2;        /* reflection indices */
+    size_t ibo2_cap;
+    GLuint height_buf;  /* GL_TEXTURE_BUFFER storage, uint16 per sample */
+    GLuint height_tex;  /* GL_R16 view of height_buf */
+    GLuint normal_tex;  /* GL_RG8_SNORM 2D texture of per-sample normals (x, z), 0: none */
+    GLuint morph_buf;   /* cdlod morph errors, uint16 per sample (0: none) */
+    GLuint morph_tex;
+
+    GLuint sky_prog;          /* the plain sky */
+    sky_uniforms su;
+    prog_cache terrain;       /* variant 0: the plain terrain */
+    const prog_variant *terrain_cur, *terrain_plain;
+
+    /* Current heightmap, world units (metres, zscale applied). */
+    bool has_heights;
+    uint32_t size;
+    float spacing, hscale, hoffset, hmin, hmax;
+
+    GLuint depth_fbo;   /* the framebuffer holding the last frame's depth */
+
+    /* ---- effects ---- */
+    GLuint ubo;
+    prog_cache fx_sky;
+    const prog_variant *fx_sky_cur;
+    GLuint noise_tex;               /* cloud fBm, made on the GPU at first use */
+    /* ground */
+    GLuint lightmap_tex, detail_tex, colormap_tex, cover_tex, dummy_tex, dummy_array;
+    bool has_lightmap, has_colormap, has_cover, detail_ready;
+    uint8_t *detail_cpu;            /* the packed detail texture (R grass, G rock, B snow, A sand) */
+    vec3 lightmap_sun;
+    float lm_xform[2];
+    /* billboards and weather */
+    prog_cache bb;
+    const prog_variant *bb_cur;
+    GLuint bb_buf_gl, bb_tbo;   /* instances as a GL_RGBA32F texture buffer, 3 texels each */
+    size_t bb_gl_cap;
+    float *bb_gpu;              /* conversion scratch */
+    size_t bb_gpu_cap;
+    GLuint bb_tex[HZ_MAX_BB_TEXTURES];
+    hz_bb_field *field;
+    hz_billboard *bb_buf;  /* this frame's instances: main trees, reflection trees, particles */
+    size_t bb_cap;
+    size_t n_trees, n_refl_trees, n_particles; /* counts in bb_buf, in that order */
+    hz_bb_batch tree_batches[HZ_MAX_BB_TEXTURES * 2], refl_batches[HZ_MAX_BB_TEXTURES * 2];
+    size_t n_tree_batches, n_refl_batches;
+    void *bb_scratch;
+    size_t bb_scratch_cap;
+    /* water */
+    hz_water_plane *planes;
+    hz_water_material *mats;
+    uint32_t n_planes, n_mats;
+    prog_cache water;
+    const prog_variant *water_cur;
+    GLuint refl_fbo[FX_MAX_REFLECTIONS], refl_tex[FX_MAX_REFLECTIONS], refl_depth[FX_MAX_REFLECTIONS];
+    float refl_level[FX_MAX_REFLECTIONS];
+    uint32_t n_refl, refl_w, refl_h;
+    /* flare */
+    prog_cache query;
+    const prog_variant *query_cur;
+    GLuint flare_prog, queries[2];
+    GLint f_sun, f_aspect, f_t, f_size, f_color, f_intensity;
+    /* post chain */
+    GLuint scene_fbo, scene_color, scene_depth;
+    uint32_t scene_w, scene_h;
+    hist_slot hist[HZ_MAX_HISTORY];
+    GLuint bloom_fbo[3], bloom_tex[3];
+    uint32_t bloom_w, bloom_h;
+    GLuint blur_prog, bright_prog, gauss_prog, final_prog, final_depth_prog;
+};
+
+/* ---- renderer.c helpers ---- */
+/* HZ_ERR_GL unless the renderer's context is current (libepoxy would abort). */
+hz_result fx_check_context(const hz_renderer *r, hz_err *err, const char *what);
+hz_result gl_check(hz_err *err, const char *what);
+void gl_drain(void);
+/* Links a program. common_mask: bit 0 vertex, bit 1 fragment stage get the
+ * variant's constants and shaders/fx_common.glsl after their #version line
+ * (effect shaders); other stages get "#define FX_VARIANT <variant>". 0 + err
+ * on failure. */
+GLuint link_program(const char *vs_src, const char *fs_src, const char *name, int common_mask, uint32_t variant,
+                    hz_err *err);
+/* Binds the FxCommon block and the fixed sampler units of a program. */
+void fx_program_setup(GLuint prog);
+void fx_upload_common(hz_renderer *r, const fx_frame *f, const fx_view *v);
+/* Draws sky (plain or with effects), terrain and the object hook into the
+ * bound framebuffer for a view. */
+void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v, GLuint ibo, uint32_t count);
+
+/* The terrain variant for a frame's effects. */
+hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, hz_err *err);
+
+/* ---- fx_ground.c: light map, detail, colour map, forest cover ---- */
+hz_result fx_ground_ensure(hz_renderer *r, hz_err *err);
+void fx_ground_bind(hz_renderer *r);
+void fx_ground_destroy(hz_renderer *r);
+bool fx_lightmap_matches(const hz_renderer *r, const vec3 sun);
+
+/* ---- fx_sky.c: sky dome, clouds, sun query, lens flare ---- */
+hz_result fx_sky_ensure(hz_renderer *r, const fx_frame *f, hz_err *err);
+hz_result fx_flare_ensure(hz_renderer *r, const fx_frame *f, hz_err *err);
+void fx_sky_draw(hz_renderer *r, const fx_frame *f, const fx_view *v);
+void fx_flare_draw(hz_renderer *r, const fx_frame *f, const fx_view *v, hz_draw_stats *st);
+void fx_sky_destroy(hz_renderer *r);
+
+/* ---- fx_billboard.c: vegetation and weather ---- */
+hz_result fx_billboards_ensure(hz_renderer *r, const fx_frame *f, hz_err *err);
+/* CPU part of a frame: culls and batches trees (main and mirrored views) and
+ * builds the weather, then uploads all instances. */
+hz_result fx_billboards_prepare(hz_renderer *r, const fx_frame *f, const fx_view *main, const fx_view *mirror,
+                                hz_err *err);
+void fx_trees_draw(hz_renderer *r, const fx_frame *f, const fx_view *v);
+void fx_weather_draw(hz_renderer *r, const fx_frame *f, const fx_view *v);
+void fx_billboards_destroy(hz_renderer *r);
+
+/* ---- fx_water.c ---- */
+hz_result fx_water_ensure(hz_renderer *r, const fx_frame *f, hz_err *err);
+/* Water heights visible from the main view (distinct, at most
+ * FX_MAX_REFLECTIONS), nearest first; returns the count. */
+uint32_t fx_water_visible(const hz_renderer *r, const fx_frame *f, const fx_view *v, float *levels);
+void fx_water_mirror_view(const fx_view *main, float level, fx_view *out);
+hz_result fx_water_reflections(hz_renderer *r, const fx_frame *f, const fx_view *main, hz_err *err);
+void fx_water_draw(hz_renderer *r, const fx_frame *f, const fx_view *v);
+void fx_water_destroy(hz_renderer *r);
+
+/* ---- fx_post.c: scene target and the post chain ---- */
+hz_result fx_post_ensure(hz_renderer *r, hz_err *err);
+hz_result fx_scene_target(hz_renderer *r, hz_err *err);
+void fx_post_run(hz_renderer *r, const fx_frame *f, GLuint out_fbo);
+void fx_post_destroy(hz_renderer *r);
+/* A fresh colour texture (+ FBO) of w x h, format GL_RGBA16F or GL_RGBA8. */
+hz_result fx_make_target(GLuint *fbo, GLuint *tex, GLuint depth, uint32_t w, uint32_t h, GLenum format, hz_err *err);
+
+#endif
