@@ -64,7 +64,7 @@ if [ "${COMPARE:-1}" != 0 ]; then
     local name=$1 frames=$2; shift 2
     [ -n "$F" ] && frames=$F
     echo "== compare $name ($frames frames)" >&2
-    "$HZ" bench --quiet --frames "$frames" --lod $MODES --json "$OUT/cmp_$name.json" "$@" >/dev/null
+    "$HZ" bench --quiet --frames "$frames" --lod $MODES --json "$OUT/cmp_$name.json" --effects none "$@" >/dev/null
   }
   # flyover: 30 frames at 30 fps (1 s, 300 m); ground: 30 frames at 2 fps
   # (15 s, 75 m: a walk changes the LOD slowly).
