@@ -79,7 +79,10 @@ void cli_usage_terrain(void)
             "  --exposure E --gamma G  output = (colour x E)^(1/G) (default 1, 1)\n"
             "  --bloom S               bloom strength (default 0.35)\n"
             "  --trees N               trees per hectare in forests (default 12; 0 none)\n"
-            "  --colormap FILE.png     ground colours from an image over the whole map\n");
+            "  --colormap FILE.png     ground colours from an image over the whole map\n"
+            "  --textures DIR          PNGs replacing the procedural textures: grass, rock, snow,\n"
+            "                          sand (.png, square, power of two) and conifer, broadleaf,\n"
+            "                          rain, snowflake (.png, with alpha); missing ones stay procedural\n");
 }
 
 static int bad(const char *cmd, const char *opt, const char *val, const char *want)
@@ -407,6 +410,9 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
         } else if (!strcmp(a, "--colormap")) {
             NEEDV();
             o->colormap = v;
+        } else if (!strcmp(a, "--textures")) {
+            NEEDV();
+            o->textures = v;
         } else if (!strcmp(a, "--json")) {
             o->json = true;
         } else if (!strcmp(a, "--wireframe")) {

@@ -43,6 +43,7 @@ typedef struct cli_opts {
     float fog;            /* per metre; 0 default (3 / view distance), < 0 off */
     float trees;          /* trees per hectare inside forests; 0 default, < 0 none */
     const char *colormap; /* PNG over the whole terrain */
+    const char *textures; /* directory of PNGs replacing the procedural detail textures / sprites */
 } cli_opts;
 
 /* Effect resources of a terrain for a renderer: light map for the sun,

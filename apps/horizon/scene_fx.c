@@ -63,6 +63,50 @@ static int load_colormap(const char *path, hz_renderer *r, const char *cmd)
     return 0;
 }
 
+/* DIR/grass.png ... replace the procedural textures; at least one must be there. */
+static int load_textures(const char *dir, hz_renderer *r, const char *cmd)
+{
+    static const char *const ground[HZ_GROUND_COUNT] = {"grass", "rock", "snow", "sand"};
+    static const char *const sprite[HZ_SPRITE_COUNT] = {"conifer", "broadleaf", "rain", "snowflake"};
+    int found = 0;
+    for (int k = 0; k < HZ_GROUND_COUNT + HZ_SPRITE_COUNT; k++) {
+        const bool is_ground = k < HZ_GROUND_COUNT;
+        char path[1024];
+        snprintf(path, sizeof path, "%s/%s.png", dir, is_ground ? ground[k] : sprite[k - HZ_GROUND_COUNT]);
+        FILE *f = fopen(path, "rb");
+        if (!f)
+            continue;
+        fclose(f);
+        int w, h, n;
+        unsigned char *px = stbi_load(path, &w, &h, &n, 4);
+        if (!px) {
+            fprintf(stderr, "horizon %s: cannot read texture '%s': %s\n", cmd, path, stbi_failure_reason());
+            return 1;
+        }
+        hz_err err = {0};
+        hz_result res;
+        if (is_ground) {
+            res = w == h ? hz_renderer_set_detail_texture(r, (hz_ground)k, px, (uint32_t)w, &err)
+                         : hz_err_set(&err, HZ_ERR_VALUE, "a detail texture must be square (got %dx%d)", w, h);
+        } else {
+            res = hz_renderer_set_billboard_texture(r, (uint32_t)(k - HZ_GROUND_COUNT), px, (uint32_t)w, (uint32_t)h,
+                                                    &err);
+        }
+        stbi_image_free(px);
+        if (res != HZ_OK) {
+            fprintf(stderr, "horizon %s: texture '%s': %s\n", cmd, path, err.msg);
+            return 1;
+        }
+        found++;
+    }
+    if (!found) {
+        fprintf(stderr, "horizon %s: no textures in '%s' (grass.png, rock.png, snow.png, sand.png, conifer.png, "
+                        "broadleaf.png, rain.png or snowflake.png)\n", cmd, dir);
+        return 1;
+    }
+    return 0;
+}
+
 int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer *r, const char *cmd)
 {
     double t0 = hz_time_ms();
@@ -125,6 +169,8 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
         }
     }
     if (o->colormap && load_colormap(o->colormap, r, cmd))
+        return 1;
+    if (o->textures && load_textures(o->textures, r, cmd))
         return 1;
     a->setup_ms = hz_time_ms() - t0;
     return 0;

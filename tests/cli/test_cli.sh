@@ -263,6 +263,15 @@ expect_fail "bad --blur"            "invalid value"           $R --blur 1.5
 expect_fail "NaN --time"            "invalid value"           $R --time nan
 expect_fail "missing colour map"    "colour map"              $R --generate perlin --size 257 --colormap "$TMP/none.png"
 expect_fail "garbage colour map"    "colour map"              $R --generate perlin --size 257 --colormap "$TMP/garbage.png"
+mkdir -p "$TMP/tex_empty" "$TMP/tex"
+expect_fail "empty texture dir"     "no textures"             $R --generate perlin --size 257 --textures "$TMP/tex_empty"
+cp "$TMP/garbage.png" "$TMP/tex/rock.png"
+expect_fail "garbage texture"       "rock.png"                $R --generate perlin --size 257 --textures "$TMP/tex"
+cp "$TMP/a.png" "$TMP/tex/rock.png"
+expect_fail "non-square detail"     "square"                  $R --generate perlin --size 257 --textures "$TMP/tex"
+rm "$TMP/tex/rock.png"; cp "$TMP/a.png" "$TMP/tex/conifer.png"
+$R --generate perlin --size 257 --textures "$TMP/tex" --effects billboards --out "$TMP/tex.png" >/dev/null 2>&1 &&
+  ok "a PNG sprite replaces the conifer" || bad "--textures with a sprite"
 fx=$($R --generate perlin --size 513 --seed 3 --json --effects all --weather snow --sun 30,20 --time 5 --out "$TMP/fx_all.png")
 rc=$?
 if [ $rc -eq 0 ] && python3 - "$fx" <<'PY'
