@@ -139,8 +139,9 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
 hz_result hz_renderer_read_rgb(hz_renderer *r, uint8_t *rgb, hz_err *err);
 
 /* Reads the last frame's sky mask, top row first, width*height bytes: 1 where
- * no terrain was drawn (sky), 0 elsewhere. Internal FBO only (fails with
- * to_default_framebuffer). */
+ * nothing that writes depth was drawn (sky), 0 elsewhere: terrain, objects,
+ * and with effects tree billboards and water planes (not clouds, particles
+ * or the flare). Internal FBO only (fails with to_default_framebuffer). */
 hz_result hz_renderer_read_sky_mask(hz_renderer *r, uint8_t *mask, hz_err *err);
 
 
