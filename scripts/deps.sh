@@ -12,7 +12,7 @@ PKGS=(
   libcmocka-dev        # unit tests
   python3              # CLI tests check JSON output
   libglfw3-dev libglx-mesa0   # horizon view: GLFW window, GLX on Mesa llvmpipe
-  xvfb xauth           # horizon view tests run in a virtual X server (xvfb-run)
+  xvfb                 # horizon view tests run in a virtual X server (scripts/with-xvfb.sh)
   libmeshoptimizer-dev # crown hull simplification
   libassimp-dev        # tree import (OBJ, glTF, ...)
 )

@@ -6,6 +6,21 @@
 #include <stdio.h>
 #include <string.h>
 
+static const char *gl_error_name(GLenum e)
+{
+    switch (e) {
+    case GL_NO_ERROR: return "GL_NO_ERROR";
+    case GL_INVALID_ENUM: return "GL_INVALID_ENUM";
+    case GL_INVALID_VALUE: return "GL_INVALID_VALUE";
+    case GL_INVALID_OPERATION: return "GL_INVALID_OPERATION";
+    case GL_INVALID_FRAMEBUFFER_OPERATION: return "GL_INVALID_FRAMEBUFFER_OPERATION";
+    case GL_OUT_OF_MEMORY: return "GL_OUT_OF_MEMORY";
+    case GL_STACK_UNDERFLOW: return "GL_STACK_UNDERFLOW";
+    case GL_STACK_OVERFLOW: return "GL_STACK_OVERFLOW";
+    }
+    return "unknown GL error";
+}
+
 void hz_gl_drain(void)
 {
     for (int k = 0; k < 16 && glGetError() != GL_NO_ERROR; k++) {
@@ -18,13 +33,14 @@ hz_result hz_gl_check(hz_err *err, const char *what)
     if (e == GL_NO_ERROR)
         return HZ_OK;
     hz_gl_drain();
-    return hz_err_set(err, HZ_ERR_GL, "GL: %s failed: error 0x%04x", what, (unsigned)e);
+    return hz_err_set(err, HZ_ERR_GL, "GL: %s failed: %s (0x%04x)", what, gl_error_name(e), (unsigned)e);
 }
 
-bool hz_gl_has_context(void)
+void *hz_gl_current_context(void)
 {
-    if (eglGetCurrentContext() != EGL_NO_CONTEXT)
-        return true;
+    EGLContext egl = eglGetCurrentContext();
+    if (egl != EGL_NO_CONTEXT)
+        return egl;
     static const char *const libs[] = {"libGLX.so.0", "libGL.so.1"};
     for (size_t k = 0; k < sizeof libs / sizeof libs[0]; k++) {
         void *lib = dlopen(libs[k], RTLD_LAZY | RTLD_NOLOAD);
@@ -34,9 +50,14 @@ bool hz_gl_has_context(void)
         void *glx = get_current ? get_current() : NULL;
         dlclose(lib);
         if (glx)
-            return true;
+            return glx;
     }
-    return false;
+    return NULL;
+}
+
+bool hz_gl_has_context(void)
+{
+    return hz_gl_current_context() != NULL;
 }
 
 static GLuint compile(GLenum type, const char *src, const char *name, hz_err *err)

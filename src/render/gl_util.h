@@ -1,4 +1,4 @@
-/* Internal GL helpers shared by the render module's newer files. */
+/* Internal GL helpers shared by the render module: errors, contexts, programs. */
 #ifndef HZ_GL_UTIL_H
 #define HZ_GL_UTIL_H
 
@@ -13,7 +13,12 @@ GLuint hz_gl_program(const char *vs_src, const char *fs_src, const char *name, h
 hz_result hz_gl_check(hz_err *err, const char *what);
 /* Discards stale GL errors. */
 void hz_gl_drain(void);
-/* Whether a GL/EGL/GLX context is current (epoxy aborts without one). */
+/* The current context of any API (EGL, or GLX through an already loaded
+ * libGLX/libGL), NULL if none.
+ * WARNING: libepoxy abort()s on any GL call without a current context, so
+ * every entry point checks first. */
+void *hz_gl_current_context(void);
+/* Whether a GL/EGL/GLX context is current. */
 bool hz_gl_has_context(void);
 
 #endif

@@ -7,6 +7,8 @@
  * depth 0 = far) so it is depth-tested against the terrain just drawn. */
 #include "horizon/window.h"
 
+#include "gl_util.h"
+
 #include <dlfcn.h>
 #include <epoxy/egl.h>
 #include <epoxy/gl.h>
@@ -77,49 +79,9 @@ static const char *overlay_fs =
     "    o_color = vec4(c.rgb, c.a * u_alpha);\n"
     "}\n";
 
-/* The current context of any API, NULL if none.
- * WARNING: libepoxy abort()s on a GL call without a current context, so
- * entry points check first (the same test as renderer.c: EGL, then GLX
- * through an already loaded libGLX/libGL, which is what GLFW on X11 uses). */
-static void *current_context(void)
-{
-    EGLContext egl = eglGetCurrentContext();
-    if (egl != EGL_NO_CONTEXT)
-        return egl;
-    static const char *const libs[] = {"libGLX.so.0", "libGL.so.1"};
-    for (size_t k = 0; k < sizeof libs / sizeof libs[0]; k++) {
-        void *lib = dlopen(libs[k], RTLD_LAZY | RTLD_NOLOAD);
-        if (!lib)
-            continue;
-        void *(*get_current)(void) = (void *(*)(void))dlsym(lib, "glXGetCurrentContext");
-        void *glx = get_current ? get_current() : NULL;
-        dlclose(lib);
-        if (glx)
-            return glx;
-    }
-    return NULL;
-}
-
-static GLuint compile(GLenum type, const char *src, hz_err *err)
-{
-    GLuint s = glCreateShader(type);
-    glShaderSource(s, 1, &src, NULL);
-    glCompileShader(s);
-    GLint ok = GL_FALSE;
-    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
-    if (!ok) {
-        char log[400] = "";
-        glGetShaderInfoLog(s, (GLsizei)sizeof log, NULL, log);
-        hz_err_set(err, HZ_ERR_GL, "overlay: shader failed to compile: %s", log);
-        glDeleteShader(s);
-        return 0;
-    }
-    return s;
-}
-
 hz_overlay *hz_overlay_create(hz_err *err)
 {
-    void *ctx = current_context();
+    void *ctx = hz_gl_current_context();
     if (!ctx) {
         hz_err_set(err, HZ_ERR_GL, "overlay: no current OpenGL context");
         return NULL;
@@ -133,26 +95,9 @@ hz_overlay *hz_overlay_create(hz_err *err)
     while (glGetError() != GL_NO_ERROR) {
     }
     o->clip_control = epoxy_gl_version() >= 45 || epoxy_has_gl_extension("GL_ARB_clip_control");
-    GLuint vs = compile(GL_VERTEX_SHADER, overlay_vs, err);
-    GLuint fs = vs ? compile(GL_FRAGMENT_SHADER, overlay_fs, err) : 0;
-    if (!vs || !fs) {
-        glDeleteShader(vs);
+    o->prog = hz_gl_program(overlay_vs, overlay_fs, "overlay", err);
+    if (!o->prog)
         goto fail;
-    }
-    o->prog = glCreateProgram();
-    glAttachShader(o->prog, vs);
-    glAttachShader(o->prog, fs);
-    glLinkProgram(o->prog);
-    glDeleteShader(vs);
-    glDeleteShader(fs);
-    GLint ok = GL_FALSE;
-    glGetProgramiv(o->prog, GL_LINK_STATUS, &ok);
-    if (!ok) {
-        char log[400] = "";
-        glGetProgramInfoLog(o->prog, (GLsizei)sizeof log, NULL, log);
-        hz_err_set(err, HZ_ERR_GL, "overlay: program failed to link: %s", log);
-        goto fail;
-    }
     o->u_viewproj = glGetUniformLocation(o->prog, "u_viewproj");
     o->u_shade = glGetUniformLocation(o->prog, "u_shade");
     o->u_override = glGetUniformLocation(o->prog, "u_override");
@@ -188,7 +133,7 @@ void hz_overlay_destroy(hz_overlay *o)
         return;
     /* In another context (or none) our names mean nothing: they die with
      * their own context. */
-    if (current_context() == o->ctx) {
+    if (hz_gl_current_context() == o->ctx) {
         glDeleteProgram(o->prog);
         glDeleteVertexArrays(1, &o->vao);
         glDeleteBuffers(1, &o->vbo_pos);
@@ -423,7 +368,7 @@ hz_result hz_overlay_draw(hz_overlay *o, const hz_overlay_frame *frame, hz_err *
         res = hz_err_set(err, HZ_ERR_VALUE, "overlay: bad target size %ux%u", frame->width, frame->height);
         goto done;
     }
-    if (current_context() != o->ctx) {
+    if (hz_gl_current_context() != o->ctx) {
         res = hz_err_set(err, HZ_ERR_GL, "overlay: draw without the overlay's OpenGL context current");
         goto done;
     }

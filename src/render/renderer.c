@@ -15,27 +15,13 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "gl_util.h"
 #include "hz_shaders.h" /* generated from shaders/<name>.glsl */
 
 #define DEFAULT_WIDTH 1280u
 #define DEFAULT_HEIGHT 720u
 
 /* ---- GL error helpers --------------------------------------------------- */
-
-static const char *gl_error_name(GLenum e)
-{
-    switch (e) {
-    case GL_NO_ERROR: return "GL_NO_ERROR";
-    case GL_INVALID_ENUM: return "GL_INVALID_ENUM";
-    case GL_INVALID_VALUE: return "GL_INVALID_VALUE";
-    case GL_INVALID_OPERATION: return "GL_INVALID_OPERATION";
-    case GL_INVALID_FRAMEBUFFER_OPERATION: return "GL_INVALID_FRAMEBUFFER_OPERATION";
-    case GL_OUT_OF_MEMORY: return "GL_OUT_OF_MEMORY";
-    case GL_STACK_UNDERFLOW: return "GL_STACK_UNDERFLOW";
-    case GL_STACK_OVERFLOW: return "GL_STACK_OVERFLOW";
-    }
-    return "unknown GL error";
-}
 
 static const char *fbo_status_name(GLenum s)
 {
@@ -56,40 +42,17 @@ static const char *fbo_status_name(GLenum s)
 /* Clears stale errors so the next gl_check blames the right call. */
 void gl_drain(void)
 {
-    for (int k = 0; k < 16 && glGetError() != GL_NO_ERROR; k++) {
-    }
+    hz_gl_drain();
 }
 
 hz_result gl_check(hz_err *err, const char *what)
 {
-    GLenum e = glGetError();
-    if (e == GL_NO_ERROR)
-        return HZ_OK;
-    gl_drain();
-    return hz_err_set(err, HZ_ERR_GL, "GL: %s failed: %s (0x%04x)", what, gl_error_name(e), (unsigned)e);
+    return hz_gl_check(err, what);
 }
 
-/* The current context of any API, NULL if none.
- * WARNING: libepoxy abort()s on any GL call without a current context, so
- * every entry point checks first. EGL covers hz_gl and EGL windows; a GLX
- * context (GLFW on X11) is found through an already loaded libGLX/libGL. */
 static void *current_context(void)
 {
-    EGLContext egl = eglGetCurrentContext();
-    if (egl != EGL_NO_CONTEXT)
-        return egl;
-    static const char *const libs[] = {"libGLX.so.0", "libGL.so.1"};
-    for (size_t k = 0; k < sizeof libs / sizeof libs[0]; k++) {
-        void *lib = dlopen(libs[k], RTLD_LAZY | RTLD_NOLOAD);
-        if (!lib)
-            continue;
-        void *(*get_current)(void) = (void *(*)(void))dlsym(lib, "glXGetCurrentContext");
-        void *glx = get_current ? get_current() : NULL;
-        dlclose(lib);
-        if (glx)
-            return glx;
-    }
-    return NULL;
+    return hz_gl_current_context();
 }
 
 /* The renderer's GL names only mean something in the context that made them. */
