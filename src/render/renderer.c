@@ -875,8 +875,12 @@ static hz_result upload_indices(GLuint ibo, size_t *cap, const uint32_t *idx, ui
 {
     size_t bytes = (size_t)count * sizeof(uint32_t);
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo);
-    if (bytes > *cap)
-        *cap = bytes + bytes / 4; /* headroom: the LOD's count varies per frame */
+    /* Headroom: the LOD's count varies per frame. Orphaning (glBufferData
+     * NULL) hands us fresh storage of the capacity every frame, so the
+     * capacity follows the count down too: one huge draw (a full-resolution
+     * reference) must not make every later small frame allocate its size. */
+    if (bytes > *cap || bytes < *cap / 4)
+        *cap = bytes + bytes / 4;
     glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)*cap, NULL, GL_STREAM_DRAW);
     glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, (GLsizeiptr)bytes, idx);
     hz_result res = gl_check(err, "index buffer upload");
