@@ -275,8 +275,8 @@ uint8_t hz__neighbour(const hz_lod *lod, uint32_t l, uint32_t x, uint32_t z, uin
     if (l == 0)
         return NB_DONTCARE;
     const uint32_t ps = 2 * s;
-    const uint32_t px = (x / (2 * ps)) * (2 * ps) + ps;
-    const uint32_t pz = (z / (2 * ps)) * (2 * ps) + ps;
+    const uint32_t px = centre_of(x, ps);
+    const uint32_t pz = centre_of(z, ps);
     bool sibling;
     uint32_t qx = px, qz = pz;
     switch (dir) {

@@ -72,7 +72,7 @@ static float fan_dev(const fan9 *f, float u, float w, float hv)
         float kp = south ? f->se : f->ne, km = south ? f->sw : f->nw; /* u = +1 / -1 */
         s4 = f->c + b * (0.5f * (kp + km) - f->c) + u * 0.5f * (kp - km);
     }
-    return fmaxf(fabsf(hv - s8), fabsf(hv - s4));
+    return maxf(fabsf(hv - s8), fabsf(hv - s4));
 }
 
 static fan9 fan_of(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t s)
@@ -113,7 +113,7 @@ static hz_result cdlod_prepare(hz_lod *lod)
                     /* Only the 4-fan misses samples: the edge midpoints. */
                     for (int k = 0; k < 4; k++) {
                         static const int du[4] = {-1, 1, 0, 0}, dw[4] = {0, 0, -1, 1};
-                        d = fmaxf(d, fan_dev(&f, (float)du[k], (float)dw[k], hf(lod, x + du[k], z + dw[k])));
+                        d = maxf(d, fan_dev(&f, (float)du[k], (float)dw[k], hf(lod, x + du[k], z + dw[k])));
                     }
                 } else {
                     const uint32_t h = s / 2;
@@ -125,9 +125,9 @@ static hz_result cdlod_prepare(hz_lod *lod)
                             const int ox = v % 3 - 1, oz = v / 3 - 1;
                             const uint32_t px = cx + (uint32_t)(ox * (int)h), pz = cz + (uint32_t)(oz * (int)h);
                             const float u = ((float)px - (float)x) / (float)s, w = ((float)pz - (float)z) / (float)s;
-                            dc = fmaxf(dc, fan_dev(&f, u, w, hf(lod, px, pz)));
+                            dc = maxf(dc, fan_dev(&f, u, w, hf(lod, px, pz)));
                         }
-                        d = fmaxf(d, e[node_index(lod, l + 1, cx, cz)] + dc);
+                        d = maxf(d, e[node_index(lod, l + 1, cx, cz)] + dc);
                     }
                 }
                 e[lod->level_offset[l] + (size_t)zi * m + xi] = d;
@@ -157,7 +157,7 @@ static hz_result cdlod_prepare(hz_lod *lod)
                     for (int64_t cx = c0x; cx <= c0x + 3; cx++) {
                         if (cx < 0 || cz < 0 || cx >= (int64_t)cm || cz >= (int64_t)cm)
                             continue;
-                        d = fmaxf(d, CD_GROW * e[lod->level_offset[l + 1] + (size_t)cz * cm + (size_t)cx]);
+                        d = maxf(d, CD_GROW * e[lod->level_offset[l + 1] + (size_t)cz * cm + (size_t)cx]);
                     }
                 e[lod->level_offset[l] + (size_t)zi * m + xi] = d;
             }
@@ -246,7 +246,7 @@ float hz_lod_morph_height(hz_lod *lod, const hz_camera *cam, const hz_lod_stats 
         /* A child's centre: on its parent's diagonal, between the parent's
          * centre and the opposite corner. */
         const uint32_t s = bi, ps = 2 * s;
-        const uint32_t pcx = (i / (2 * ps)) * (2 * ps) + ps, pcz = (j / (2 * ps)) * (2 * ps) + ps;
+        const uint32_t pcx = centre_of(i, ps), pcz = centre_of(j, ps);
         const int dx = pcx > i ? 1 : -1, dz = pcz > j ? 1 : -1;
         target = 0.5f * (hworld(lod, (uint32_t)((int)i + dx * (int)s), (uint32_t)((int)j + dz * (int)s)) +
                          hworld(lod, (uint32_t)((int)i - dx * (int)s), (uint32_t)((int)j - dz * (int)s)));
@@ -271,14 +271,13 @@ typedef struct cd_ctx {
 } cd_ctx;
 
 /* Culling test; sets the flag to CULLED (and lists it) or LEAF. */
-static hz_result classify(cd_ctx *c, uint32_t l, uint32_t x, uint32_t z, size_t idx, bool *is_culled)
+static hz_result classify(cd_ctx *c, uint32_t l, uint32_t x, uint32_t z, size_t idx, vec3 box[2], bool *is_culled)
 {
     hz_lod *lod = c->lod;
     *is_culled = false;
     c->st->nodes_visited++;
+    box_of(lod, idx, x, z, half_of(lod, l), box);
     if (!c->no_cull) {
-        vec3 box[2];
-        box_of(lod, idx, x, z, half_of(lod, l), box);
         if (box_outside((const vec3 *)box, (const vec4 *)c->planes, c->margin)) {
             lod->flags[idx] = ST_CULLED;
             c->st->nodes_culled++;
@@ -303,7 +302,7 @@ static hz_result split_node(cd_ctx *c, uint32_t l, uint32_t x, uint32_t z, bool 
         if (nb == NB_ABSENT) {
             /* The same-level neighbour's parent Q is a leaf: split it first. */
             const uint32_t ps = 2 * s;
-            uint32_t qx = (x / (2 * ps)) * (2 * ps) + ps, qz = (z / (2 * ps)) * (2 * ps) + ps;
+            uint32_t qx = centre_of(x, ps), qz = centre_of(z, ps);
             switch (dir) {
             case DIR_W: qx -= 2 * ps; break;
             case DIR_E: qx += 2 * ps; break;
@@ -325,7 +324,8 @@ static hz_result split_node(cd_ctx *c, uint32_t l, uint32_t x, uint32_t z, bool 
     for (int k = 0; k < 4; k++) {
         if (l + 1 < c->cur_level) {
             bool culled;
-            hz_result r = classify(c, l + 1, cx[k], cz[k], node_index(lod, l + 1, cx[k], cz[k]), &culled);
+            vec3 box[2];
+            hz_result r = classify(c, l + 1, cx[k], cz[k], node_index(lod, l + 1, cx[k], cz[k]), box, &culled);
             if (r != HZ_OK)
                 return r;
         }
@@ -359,19 +359,19 @@ hz_result hz__lod_select_cdlod(hz_lod *lod, const hz_camera *cam, const hz_lod_p
         return HZ_ERR_MEMORY;
     for (uint32_t l = 0; l < lod->levels; l++) {
         c.cur_level = l;
-        const uint32_t s = half_of(lod, l);
         const bool can_split = l + 1 < lod->levels;
         for (size_t k = 0; k < lod->lv_n[l]; k++) {
             const uint32_t x = lod->lv[l][k].x, z = lod->lv[l][k].z;
             const size_t idx = node_index(lod, l, x, z);
             bool is_culled;
-            if (classify(&c, l, x, z, idx, &is_culled) != HZ_OK)
+            vec3 box[2];
+            if (classify(&c, l, x, z, idx, box, &is_culled) != HZ_OK)
                 return HZ_ERR_MEMORY;
             if (is_culled || !can_split)
                 continue;
-            vec3 box[2];
-            box_of(lod, idx, x, z, s, box);
-            if (box_distance((const vec3 *)box, cam->pos) < lambda * lod->cd_err[idx] * hsw) {
+            /* distance to the box < range, compared squared */
+            const float range = lambda * lod->cd_err[idx] * hsw;
+            if (box_distance2((const vec3 *)box, cam->pos) < range * range) {
                 hz_result r = split_node(&c, l, x, z, false);
                 if (r != HZ_OK)
                     return r;

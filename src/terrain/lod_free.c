@@ -296,8 +296,8 @@ static bool leaf_at(const hz_lod *lod, uint32_t l, int64_t x, int64_t z, uint32_
     uint32_t cx = (uint32_t)x, cz = (uint32_t)z;
     for (int64_t lv = l; lv >= 0; lv--) {
         const uint32_t hs = half_of(lod, (uint32_t)lv);
-        cx = (cx / (2 * hs)) * (2 * hs) + hs;
-        cz = (cz / (2 * hs)) * (2 * hs) + hs;
+        cx = centre_of(cx, hs);
+        cz = centre_of(cz, hs);
         uint8_t stt = state_of(lod, (uint32_t)lv, cx, cz);
         if (stt == ST_LEAF) {
             *ol = (uint32_t)lv;

@@ -68,6 +68,13 @@ struct hz_lod {
     roam_state *roam;
 };
 
+/* max without libm's NaN handling (fmaxf is a call without -ffast-math);
+ * our operands are never NaN. */
+static inline float maxf(float a, float b)
+{
+    return a > b ? a : b;
+}
+
 static inline uint32_t half_of(const hz_lod *lod, uint32_t level)
 {
     return 1u << (lod->levels - 1 - level);
@@ -85,9 +92,17 @@ static inline uint32_t level_of(const hz_lod *lod, uint32_t half)
 
 static inline size_t node_index(const hz_lod *lod, uint32_t level, uint32_t x, uint32_t z)
 {
-    uint32_t s = half_of(lod, level);
-    uint32_t m = 1u << level; /* nodes per side */
-    return lod->level_offset[level] + (size_t)(z / (2 * s)) * m + x / (2 * s);
+    /* Nodes of this level are 2s = 2^shift samples apart, 2^level per side
+     * (shifts, not divisions: this runs for every node every frame). */
+    const uint32_t shift = lod->levels - level;
+    return lod->level_offset[level] + ((size_t)(z >> shift) << level) + (x >> shift);
+}
+
+/* The centre of the node of half-size s (a power of two) containing sample
+ * coordinate v on one axis: v rounded down to a multiple of 2s, plus s. */
+static inline uint32_t centre_of(uint32_t v, uint32_t s)
+{
+    return (v & ~(2 * s - 1)) + s;
 }
 
 static inline uint16_t h16(const hz_lod *lod, uint32_t x, uint32_t z)
@@ -126,15 +141,21 @@ static inline bool box_outside(const vec3 box[2], const vec4 planes[6], float ma
     return false;
 }
 
-/* Distance from p to the nearest point of the box (0 inside). */
-static inline float box_distance(const vec3 box[2], const float p[3])
+/* Squared distance from p to the nearest point of the box (0 inside). */
+static inline float box_distance2(const vec3 box[2], const float p[3])
 {
     float d2 = 0.0f;
     for (int k = 0; k < 3; k++) {
         float v = p[k] < box[0][k] ? box[0][k] - p[k] : (p[k] > box[1][k] ? p[k] - box[1][k] : 0.0f);
         d2 += v * v;
     }
-    return sqrtf(d2);
+    return d2;
+}
+
+/* Distance from p to the nearest point of the box (0 inside). */
+static inline float box_distance(const vec3 box[2], const float p[3])
+{
+    return sqrtf(box_distance2(box, p));
 }
 
 static inline hz_result list_reserve(void **data, size_t *cap, size_t need, size_t elem)
