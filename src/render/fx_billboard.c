@@ -26,7 +26,7 @@ static hz_result upload_sprite(hz_renderer *r, uint32_t slot, const uint8_t *rgb
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
     glBindTexture(GL_TEXTURE_2D, 0);
-    return gl_check(err, "billboard texture upload");
+    return hz_gl_check(err, "billboard texture upload");
 }
 
 hz_result fx_billboards_ensure(hz_renderer *r, const fx_frame *f, hz_err *err)
@@ -60,7 +60,7 @@ hz_result fx_billboards_ensure(hz_renderer *r, const fx_frame *f, hz_err *err)
     free(img);
     if (res != HZ_OK)
         return res;
-    return gl_check(err, "billboard setup");
+    return hz_gl_check(err, "billboard setup");
 }
 
 hz_result hz_renderer_set_billboard_texture(hz_renderer *r, uint32_t slot, const uint8_t *rgba, uint32_t w,
@@ -73,7 +73,7 @@ hz_result hz_renderer_set_billboard_texture(hz_renderer *r, uint32_t slot, const
     hz_result ctx = fx_check_context(r, err, "hz_renderer_set_billboard_texture");
     if (ctx != HZ_OK)
         return ctx;
-    gl_drain();
+    hz_gl_drain();
     return upload_sprite(r, slot, rgba, w, h, err);
 }
 
@@ -201,7 +201,7 @@ hz_result fx_billboards_prepare(hz_renderer *r, const fx_frame *f, const fx_view
     }
     glBufferSubData(GL_TEXTURE_BUFFER, 0, (GLsizeiptr)bytes, r->bb_gpu);
     glBindBuffer(GL_TEXTURE_BUFFER, 0);
-    return gl_check(err, "billboard upload");
+    return hz_gl_check(err, "billboard upload");
 }
 
 static void begin(hz_renderer *r, const fx_view *v, bool blend)

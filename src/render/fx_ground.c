@@ -58,7 +58,7 @@ static hz_result upload_detail(hz_renderer *r, hz_err *err)
     set_filtering(GL_TEXTURE_2D, true, GL_REPEAT);
     /* NOTE: no anisotropic filtering: llvmpipe does it in software, ~1000x slower. */
     glBindTexture(GL_TEXTURE_2D, 0);
-    return gl_check(err, "detail texture");
+    return hz_gl_check(err, "detail texture");
 }
 
 /* The detail textures packed as one RGBA8 texture, one ground type's
@@ -139,7 +139,7 @@ hz_result hz_renderer_set_lightmap(hz_renderer *r, const uint8_t *lm, uint32_t s
     if (!sun_dir || !isfinite(sun_dir[0]) || !isfinite(sun_dir[1]) || !isfinite(sun_dir[2]) ||
         (sun_dir[0] == 0.0f && sun_dir[1] == 0.0f && sun_dir[2] == 0.0f))
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: light map without a valid sun direction");
-    gl_drain();
+    hz_gl_drain();
     /* Too big for one texture: every second sample. */
     uint32_t step = 1, texels = size;
     while (r->max_tex > 0 && texels > (uint32_t)r->max_tex) {
@@ -167,7 +167,7 @@ hz_result hz_renderer_set_lightmap(hz_renderer *r, const uint8_t *lm, uint32_t s
     set_filtering(GL_TEXTURE_2D, true, GL_CLAMP_TO_EDGE);
     glBindTexture(GL_TEXTURE_2D, 0);
     free(tmp);
-    hz_result res = gl_check(err, "light map upload (GL_R8)");
+    hz_result res = hz_gl_check(err, "light map upload (GL_R8)");
     if (res != HZ_OK) {
         r->has_lightmap = false;
         return res;
@@ -190,7 +190,7 @@ hz_result hz_renderer_set_detail_texture(hz_renderer *r, hz_ground ground, const
     hz_result ctx = fx_check_context(r, err, "hz_renderer_set_detail_texture");
     if (ctx != HZ_OK)
         return ctx;
-    gl_drain();
+    hz_gl_drain();
     hz_result res = fx_ground_ensure(r, err);
     if (res != HZ_OK)
         return res;
@@ -208,7 +208,7 @@ static hz_result upload_2d(GLuint *tex, GLenum ifmt, GLenum fmt, const uint8_t *
 {
     if (w == 0 || h == 0 || (max_tex > 0 && (w > (uint32_t)max_tex || h > (uint32_t)max_tex)))
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: %s of %ux%u (the GPU takes up to %d)", what, w, h, max_tex);
-    gl_drain();
+    hz_gl_drain();
     if (!*tex)
         glGenTextures(1, tex);
     glBindTexture(GL_TEXTURE_2D, *tex);
@@ -219,7 +219,7 @@ static hz_result upload_2d(GLuint *tex, GLenum ifmt, GLenum fmt, const uint8_t *
     set_filtering(GL_TEXTURE_2D, true, GL_CLAMP_TO_EDGE);
 
     glBindTexture(GL_TEXTURE_2D, 0);
-    return gl_check(err, what);
+    return hz_gl_check(err, what);
 }
 
 hz_result hz_renderer_set_colormap(hz_renderer *r, const uint8_t *rgb, uint32_t w, uint32_t h, hz_err *err)

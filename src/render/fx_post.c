@@ -40,7 +40,7 @@ hz_result fx_make_target(GLuint *fbo, GLuint *tex, GLuint depth, uint32_t w, uin
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     if (status != GL_FRAMEBUFFER_COMPLETE)
         return hz_err_set(err, HZ_ERR_GL, "GL: effect target %ux%u incomplete (0x%04x)", w, h, (unsigned)status);
-    return gl_check(err, "effect target");
+    return hz_gl_check(err, "effect target");
 }
 
 hz_result fx_post_ensure(hz_renderer *r, hz_err *err)
@@ -57,7 +57,7 @@ hz_result fx_post_ensure(hz_renderer *r, hz_err *err)
     r->final_prog = r->gauss_prog ? link_program(hz_shader_post_vs, hz_shader_post_final_fs, "post_final", 0, 0, err) : 0;
     if (!r->final_prog)
         return HZ_ERR_GL;
-    return gl_check(err, "post chain setup");
+    return hz_gl_check(err, "post chain setup");
 }
 
 hz_result fx_scene_target(hz_renderer *r, hz_err *err)
@@ -88,7 +88,7 @@ hz_result fx_scene_target(hz_renderer *r, hz_err *err)
                           (unsigned)status);
     r->scene_w = r->width;
     r->scene_h = r->height;
-    return gl_check(err, "scene target");
+    return hz_gl_check(err, "scene target");
 }
 
 static void fullscreen(GLuint fbo, uint32_t w, uint32_t h)

@@ -68,7 +68,7 @@ hz_result fx_sky_ensure(hz_renderer *r, const fx_frame *f, hz_err *err)
         r->noise_tex = 0;
         return hz_err_set(err, HZ_ERR_GL, "GL: cloud noise framebuffer incomplete (0x%04x)", (unsigned)status);
     }
-    return gl_check(err, "cloud noise");
+    return hz_gl_check(err, "cloud noise");
 }
 
 void fx_sky_draw(hz_renderer *r, const fx_frame *f, const fx_view *v)
@@ -104,7 +104,7 @@ hz_result fx_flare_ensure(hz_renderer *r, const fx_frame *f, hz_err *err)
     r->f_color = glGetUniformLocation(r->flare_prog, "u_color");
     r->f_intensity = glGetUniformLocation(r->flare_prog, "u_intensity");
     glGenQueries(2, r->queries);
-    return gl_check(err, "flare setup");
+    return hz_gl_check(err, "flare setup");
 }
 
 /* The flare's elements: position along sun -> centre, radius (fraction of

@@ -228,7 +228,7 @@ hz_result fx_water_reflections(hz_renderer *r, const fx_frame *f, const fx_view 
         if (k == 0 && (f->bits & HZ_FX_BILLBOARDS))
             fx_trees_draw(r, f, &mv); /* culled for the nearest plane's mirror */
     }
-    return gl_check(err, "water reflection pass");
+    return hz_gl_check(err, "water reflection pass");
 }
 
 void fx_water_draw(hz_renderer *r, const fx_frame *f, const fx_view *v)

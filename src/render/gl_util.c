@@ -60,24 +60,61 @@ bool hz_gl_has_context(void)
     return hz_gl_current_context() != NULL;
 }
 
-static GLuint compile(GLenum type, const char *src, const char *name, hz_err *err)
+/* Drops the trailing newlines and spaces of a GL info log. */
+static void trim_log(char *buf)
+{
+    size_t n = strlen(buf);
+    while (n && (buf[n - 1] == '\n' || buf[n - 1] == '\r' || buf[n - 1] == ' '))
+        buf[--n] = 0;
+}
+
+GLuint hz_gl_compile(GLenum type, GLsizei count, const char *const *parts, const GLint *lens, const char *name,
+                     hz_err *err)
 {
     GLuint s = glCreateShader(type);
-    glShaderSource(s, 1, &src, NULL);
+    if (!s) {
+        hz_gl_check(err, "glCreateShader");
+        return 0;
+    }
+    glShaderSource(s, count, parts, lens);
     glCompileShader(s);
     GLint ok = GL_FALSE;
     glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
     if (!ok) {
         char log[400] = "";
         glGetShaderInfoLog(s, (GLsizei)sizeof log, NULL, log);
-        size_t n = strlen(log);
-        while (n && (log[n - 1] == '\n' || log[n - 1] == ' '))
-            log[--n] = 0;
-        hz_err_set(err, HZ_ERR_GL, "GL: shader %s failed to compile: %s", name, log);
+        trim_log(log);
+        hz_err_set(err, HZ_ERR_GL, "GL: shader %s failed to compile: %s", name, log[0] ? log : "(empty log)");
         glDeleteShader(s);
         return 0;
     }
     return s;
+}
+
+GLuint hz_gl_link(GLuint vs, GLuint fs, const char *name, hz_err *err)
+{
+    if (!vs || !fs) {
+        glDeleteShader(vs);
+        glDeleteShader(fs);
+        return 0;
+    }
+    GLuint p = glCreateProgram();
+    glAttachShader(p, vs);
+    glAttachShader(p, fs);
+    glLinkProgram(p);
+    glDeleteShader(vs); /* the program keeps them alive */
+    glDeleteShader(fs);
+    GLint ok = GL_FALSE;
+    glGetProgramiv(p, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        char log[400] = "";
+        glGetProgramInfoLog(p, (GLsizei)sizeof log, NULL, log);
+        trim_log(log);
+        hz_err_set(err, HZ_ERR_GL, "GL: program %s failed to link: %s", name, log[0] ? log : "(empty log)");
+        glDeleteProgram(p);
+        return 0;
+    }
+    return p;
 }
 
 GLuint hz_gl_program(const char *vs_src, const char *fs_src, const char *name, hz_err *err)
@@ -85,28 +122,7 @@ GLuint hz_gl_program(const char *vs_src, const char *fs_src, const char *name, h
     char vn[64], fn[64];
     snprintf(vn, sizeof vn, "%s_vs.glsl", name);
     snprintf(fn, sizeof fn, "%s_fs.glsl", name);
-    GLuint vs = compile(GL_VERTEX_SHADER, vs_src, vn, err);
-    if (!vs)
-        return 0;
-    GLuint fs = compile(GL_FRAGMENT_SHADER, fs_src, fn, err);
-    if (!fs) {
-        glDeleteShader(vs);
-        return 0;
-    }
-    GLuint p = glCreateProgram();
-    glAttachShader(p, vs);
-    glAttachShader(p, fs);
-    glLinkProgram(p);
-    glDeleteShader(vs);
-    glDeleteShader(fs);
-    GLint ok = GL_FALSE;
-    glGetProgramiv(p, GL_LINK_STATUS, &ok);
-    if (!ok) {
-        char log[400] = "";
-        glGetProgramInfoLog(p, (GLsizei)sizeof log, NULL, log);
-        hz_err_set(err, HZ_ERR_GL, "GL: program %s failed to link: %s", name, log);
-        glDeleteProgram(p);
-        return 0;
-    }
-    return p;
+    GLuint vs = hz_gl_compile(GL_VERTEX_SHADER, 1, &vs_src, NULL, vn, err);
+    GLuint fs = vs ? hz_gl_compile(GL_FRAGMENT_SHADER, 1, &fs_src, NULL, fn, err) : 0;
+    return hz_gl_link(vs, fs, name, err);
 }

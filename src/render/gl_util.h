@@ -6,6 +6,13 @@
 
 #include "horizon/core.h"
 
+/* Compiles one shader from count source parts (lens as glShaderSource; NULL
+ * = NUL-terminated). 0 + err quoting the GL log on failure. */
+GLuint hz_gl_compile(GLenum type, GLsizei count, const char *const *parts, const GLint *lens, const char *name,
+                     hz_err *err);
+/* Links a program from two compiled shaders and deletes them (the program
+ * keeps them alive); either 0 -> 0 (err already set by the compile). */
+GLuint hz_gl_link(GLuint vs, GLuint fs, const char *name, hz_err *err);
 /* Compiles and links a vertex + fragment program; 0 + err (quoting the GL
  * log) on failure. name is used in messages ("leaf" -> leaf_vs.glsl). */
 GLuint hz_gl_program(const char *vs_src, const char *fs_src, const char *name, hz_err *err);

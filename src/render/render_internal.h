@@ -4,6 +4,7 @@
 #define HZ_RENDER_INTERNAL_H
 
 #include "horizon/render.h"
+#include "gl_util.h"
 
 #include <epoxy/gl.h>
 
@@ -192,8 +193,6 @@ struct hz_renderer {
 /* ---- renderer.c helpers ---- */
 /* HZ_ERR_GL unless the renderer's context is current (libepoxy would abort). */
 hz_result fx_check_context(const hz_renderer *r, hz_err *err, const char *what);
-hz_result gl_check(hz_err *err, const char *what);
-void gl_drain(void);
 /* Links a program. common_mask: bit 0 vertex, bit 1 fragment stage get the
  * variant's constants and shaders/fx_common.glsl after their #version line
  * (effect shaders); other stages get "#define FX_VARIANT <variant>". 0 + err

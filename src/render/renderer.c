@@ -7,8 +7,6 @@
  * 32-bit float buffer, so far horizons do not z-fight. */
 #include "render_internal.h"
 
-#include <dlfcn.h>
-#include <epoxy/egl.h>
 #include <limits.h>
 #include <math.h>
 #include <stdio.h>
@@ -39,26 +37,10 @@ static const char *fbo_status_name(GLenum s)
     return "unknown framebuffer status";
 }
 
-/* Clears stale errors so the next gl_check blames the right call. */
-void gl_drain(void)
-{
-    hz_gl_drain();
-}
-
-hz_result gl_check(hz_err *err, const char *what)
-{
-    return hz_gl_check(err, what);
-}
-
-static void *current_context(void)
-{
-    return hz_gl_current_context();
-}
-
 /* The renderer's GL names only mean something in the context that made them. */
 static hz_result check_context(const hz_renderer *r, hz_err *err, const char *what)
 {
-    void *cur = current_context();
+    void *cur = hz_gl_current_context();
     if (!cur)
         return hz_err_set(err, HZ_ERR_GL, "renderer: %s without a current OpenGL context", what);
     if (cur != r->ctx)
@@ -74,29 +56,18 @@ hz_result fx_check_context(const hz_renderer *r, hz_err *err, const char *what)
 
 /* ---- shaders ------------------------------------------------------------- */
 
-/* Copies a GL info log into buf, without the trailing newline. */
-static void trim_log(char *buf)
-{
-    size_t n = strlen(buf);
-    while (n && (buf[n - 1] == '\n' || buf[n - 1] == '\r' || buf[n - 1] == ' '))
-        buf[--n] = 0;
-}
-
 /* Compiles src; with `common`, shaders/fx_common.glsl is inserted after the
- * #version line (the GLSL has no #include). */
+ * #version line (the GLSL has no #include); a variant is passed as
+ * FX_VARIANT. */
 static GLuint compile_shader(GLenum type, const char *src, const char *name, bool common, uint32_t variant,
                              hz_err *err)
 {
-    GLuint s = glCreateShader(type);
-    if (!s) {
-        gl_check(err, "glCreateShader");
-        return 0;
-    }
+    if (!common && !variant)
+        return hz_gl_compile(type, 1, &src, NULL, name, err);
+    const char *nl = strchr(src, '\n');
     if (common) {
-        const char *nl = strchr(src, '\n');
         if (!nl || strncmp(src, "#version", 8) != 0) {
             hz_err_set(err, HZ_ERR_GL, "GL: shader %s does not start with a #version line", name);
-            glDeleteShader(s);
             return 0;
         }
         char consts[200];
@@ -105,35 +76,18 @@ static GLuint compile_shader(GLenum type, const char *src, const char *name, boo
                  variant & HZ_FX_ALL, (variant & FX_VARIANT_COLORMAP) ? "true" : "false",
                  (variant & FX_VARIANT_COVER) ? "true" : "false");
         const char *parts[6] = {src, consts, "#line 1 1\n", hz_shader_fx_common, "\n#line 2 0\n", nl + 1};
-        GLint lens[6] = {(GLint)(nl + 1 - src), -1, -1, -1, -1, -1};
-        glShaderSource(s, 6, parts, lens);
-    } else if (variant) {
-        const char *nl = strchr(src, '\n');
-        if (!nl) {
-            hz_err_set(err, HZ_ERR_GL, "GL: shader %s is one line", name);
-            glDeleteShader(s);
-            return 0;
-        }
-        char def[64];
-        snprintf(def, sizeof def, "#define FX_VARIANT %u\n#line 2\n", variant);
-        const char *parts[3] = {src, def, nl + 1};
-        GLint lens[3] = {(GLint)(nl + 1 - src), -1, -1};
-        glShaderSource(s, 3, parts, lens);
-    } else {
-        glShaderSource(s, 1, &src, NULL);
+        const GLint lens[6] = {(GLint)(nl + 1 - src), -1, -1, -1, -1, -1};
+        return hz_gl_compile(type, 6, parts, lens, name, err);
     }
-    glCompileShader(s);
-    GLint ok = GL_FALSE;
-    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
-    if (!ok) {
-        char log[400] = "";
-        glGetShaderInfoLog(s, (GLsizei)sizeof log, NULL, log);
-        trim_log(log);
-        hz_err_set(err, HZ_ERR_GL, "GL: shader %s failed to compile: %s", name, log[0] ? log : "(empty log)");
-        glDeleteShader(s);
+    if (!nl) {
+        hz_err_set(err, HZ_ERR_GL, "GL: shader %s is one line", name);
         return 0;
     }
-    return s;
+    char def[64];
+    snprintf(def, sizeof def, "#define FX_VARIANT %u\n#line 2\n", variant);
+    const char *parts[3] = {src, def, nl + 1};
+    const GLint lens[3] = {(GLint)(nl + 1 - src), -1, -1};
+    return hz_gl_compile(type, 3, parts, lens, name, err);
 }
 
 GLuint link_program(const char *vs_src, const char *fs_src, const char *name, int common, uint32_t variant,
@@ -143,30 +97,9 @@ GLuint link_program(const char *vs_src, const char *fs_src, const char *name, in
     snprintf(vs_name, sizeof vs_name, "%s_vs.glsl", name);
     snprintf(fs_name, sizeof fs_name, "%s_fs.glsl", name);
     GLuint vs = compile_shader(GL_VERTEX_SHADER, vs_src, vs_name, (common & 1) != 0, variant, err);
-    if (!vs)
-        return 0;
-    GLuint fs = compile_shader(GL_FRAGMENT_SHADER, fs_src, fs_name, (common & 2) != 0, variant, err);
-    if (!fs) {
-        glDeleteShader(vs);
-        return 0;
-    }
-    GLuint p = glCreateProgram();
-    glAttachShader(p, vs);
-    glAttachShader(p, fs);
-    glLinkProgram(p);
-    glDeleteShader(vs); /* the program keeps them alive */
-    glDeleteShader(fs);
-    GLint ok = GL_FALSE;
-    glGetProgramiv(p, GL_LINK_STATUS, &ok);
-    if (!ok) {
-        char log[400] = "";
-        glGetProgramInfoLog(p, (GLsizei)sizeof log, NULL, log);
-        trim_log(log);
-        hz_err_set(err, HZ_ERR_GL, "GL: program %s failed to link: %s", name, log[0] ? log : "(empty log)");
-        glDeleteProgram(p);
-        return 0;
-    }
-    if (common)
+    GLuint fs = vs ? compile_shader(GL_FRAGMENT_SHADER, fs_src, fs_name, (common & 2) != 0, variant, err) : 0;
+    GLuint p = hz_gl_link(vs, fs, name, err);
+    if (p && common)
         fx_program_setup(p);
     return p;
 }
@@ -269,7 +202,7 @@ static hz_result make_programs(hz_renderer *r, hz_err *err)
     r->su.zenith = glGetUniformLocation(p, "u_sky_zenith");
     r->su.sun_dir = glGetUniformLocation(p, "u_sun_dir");
 
-    return gl_check(err, "shader setup");
+    return hz_gl_check(err, "shader setup");
 }
 
 /* ---- render target ------------------------------------------------------- */
@@ -293,7 +226,7 @@ static hz_result fbo_alloc(hz_renderer *r, uint32_t w, uint32_t h, hz_err *err)
     glBindRenderbuffer(GL_RENDERBUFFER, r->depth_rb);
     glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, (GLsizei)w, (GLsizei)h);
     glBindRenderbuffer(GL_RENDERBUFFER, 0);
-    hz_result res = gl_check(err, "render target allocation (glRenderbufferStorage RGBA8 + DEPTH32F)");
+    hz_result res = hz_gl_check(err, "render target allocation (glRenderbufferStorage RGBA8 + DEPTH32F)");
     if (res != HZ_OK)
         return res;
 
@@ -305,7 +238,7 @@ static hz_result fbo_alloc(hz_renderer *r, uint32_t w, uint32_t h, hz_err *err)
     if (status != GL_FRAMEBUFFER_COMPLETE)
         return hz_err_set(err, HZ_ERR_GL, "GL: framebuffer %ux%u incomplete: %s (0x%04x)", w, h,
                           fbo_status_name(status), (unsigned)status);
-    return gl_check(err, "framebuffer setup");
+    return hz_gl_check(err, "framebuffer setup");
 }
 
 /* ---- public API ---------------------------------------------------------- */
@@ -321,7 +254,7 @@ hz_renderer *hz_renderer_create(const hz_renderer_desc *desc, hz_err *err)
         hz_err_set(err, HZ_ERR_VALUE, "renderer: bad target size %ux%u", d.width, d.height);
         return NULL;
     }
-    void *ctx = current_context();
+    void *ctx = hz_gl_current_context();
     if (!ctx) {
         hz_err_set(err, HZ_ERR_GL, "renderer: no current OpenGL context (create one with hz_gl_create_headless, "
                    "or make the window's context current)");
@@ -351,7 +284,7 @@ hz_renderer *hz_renderer_create(const hz_renderer_desc *desc, hz_err *err)
     /* Without glClipControl the reverse-Z projection still works (depth
      * lands in [0.5, 1]) but loses precision and the far-plane clip. */
     r->clip_control = ver >= 45 || epoxy_has_gl_extension("GL_ARB_clip_control");
-    gl_drain();
+    hz_gl_drain();
     glGetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &r->max_tbo);
     glGetIntegerv(GL_MAX_TEXTURE_SIZE, &r->max_tex);
 
@@ -366,7 +299,7 @@ hz_renderer *hz_renderer_create(const hz_renderer_desc *desc, hz_err *err)
     glBindBuffer(GL_UNIFORM_BUFFER, 0);
     glGenBuffers(1, &r->height_buf);
     glGenTextures(1, &r->height_tex);
-    if (gl_check(err, "renderer object creation") != HZ_OK)
+    if (hz_gl_check(err, "renderer object creation") != HZ_OK)
         goto fail;
     if (!r->to_default && fbo_alloc(r, r->width, r->height, err) != HZ_OK)
         goto fail;
@@ -381,7 +314,7 @@ void hz_renderer_destroy(hz_renderer *r)
 {
     if (!r)
         return;
-    if (current_context() != r->ctx) {
+    if (hz_gl_current_context() != r->ctx) {
         /* Deleting our names here would hit another context's objects; ours
          * die with their own context. */
         hz_bb_field_destroy(r->field);
@@ -426,7 +359,7 @@ hz_result hz_renderer_resize(hz_renderer *r, uint32_t width, uint32_t height, hz
     if (ctx_res != HZ_OK)
         return ctx_res;
     if (!r->to_default) {
-        gl_drain();
+        hz_gl_drain();
         hz_result res = fbo_alloc(r, width, height, err);
         if (res != HZ_OK)
             return res;
@@ -508,11 +441,11 @@ static hz_result make_normal_texture(hz_renderer *r, const hz_heightmap *hm, hz_
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
     glBindTexture(GL_TEXTURE_2D, 0);
     free(nx);
-    hz_result res = gl_check(err, "normal map upload (GL_RG8_SNORM)");
+    hz_result res = hz_gl_check(err, "normal map upload (GL_RG8_SNORM)");
     if (res != HZ_OK) {
         glDeleteTextures(1, &r->normal_tex);
         r->normal_tex = 0;
-        gl_drain();
+        hz_gl_drain();
         return HZ_OK; /* per-vertex normals still work */
     }
     return HZ_OK;
@@ -551,19 +484,19 @@ hz_result hz_renderer_set_heightmap(hz_renderer *r, const hz_heightmap *hm, floa
     hz_result ctx_res = check_context(r, err, "hz_renderer_set_heightmap");
     if (ctx_res != HZ_OK)
         return ctx_res;
-    gl_drain();
+    hz_gl_drain();
     const GLsizeiptr bytes = (GLsizeiptr)(samples * sizeof(uint16_t));
     r->has_heights = false;
     glBindBuffer(GL_TEXTURE_BUFFER, r->height_buf);
     glBufferData(GL_TEXTURE_BUFFER, bytes, NULL, GL_STATIC_DRAW);
-    hz_result res = gl_check(err, "height buffer allocation");
+    hz_result res = hz_gl_check(err, "height buffer allocation");
     if (res != HZ_OK) {
         glBindBuffer(GL_TEXTURE_BUFFER, 0);
         return res;
     }
     uint16_t *dst = glMapBufferRange(GL_TEXTURE_BUFFER, 0, bytes, GL_MAP_WRITE_BIT | GL_MAP_INVALIDATE_BUFFER_BIT);
     if (!dst) {
-        res = gl_check(err, "glMapBufferRange(height buffer)");
+        res = hz_gl_check(err, "glMapBufferRange(height buffer)");
         glBindBuffer(GL_TEXTURE_BUFFER, 0);
         return res != HZ_OK ? res : hz_err_set(err, HZ_ERR_GL, "GL: glMapBufferRange(height buffer) returned NULL");
     }
@@ -574,7 +507,7 @@ hz_result hz_renderer_set_heightmap(hz_renderer *r, const hz_heightmap *hm, floa
     glTexBuffer(GL_TEXTURE_BUFFER, GL_R16, r->height_buf);
     glBindTexture(GL_TEXTURE_BUFFER, 0);
     glBindBuffer(GL_TEXTURE_BUFFER, 0);
-    res = gl_check(err, "height texture buffer upload (GL_R16)");
+    res = hz_gl_check(err, "height texture buffer upload (GL_R16)");
     if (res != HZ_OK)
         return res;
     if (!intact)
@@ -606,14 +539,14 @@ hz_result hz_renderer_set_morph(hz_renderer *r, const uint16_t *morph_err, hz_er
     hz_result ctx_res = check_context(r, err, "hz_renderer_set_morph");
     if (ctx_res != HZ_OK)
         return ctx_res;
-    gl_drain();
+    hz_gl_drain();
     if (!morph_err) {
         if (r->morph_tex)
             glDeleteTextures(1, &r->morph_tex);
         if (r->morph_buf)
             glDeleteBuffers(1, &r->morph_buf);
         r->morph_tex = r->morph_buf = 0;
-        return gl_check(err, "morph buffer release");
+        return hz_gl_check(err, "morph buffer release");
     }
     if (!r->has_heights)
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: hz_renderer_set_morph before hz_renderer_set_heightmap");
@@ -628,7 +561,7 @@ hz_result hz_renderer_set_morph(hz_renderer *r, const uint16_t *morph_err, hz_er
     glTexBuffer(GL_TEXTURE_BUFFER, GL_R16, r->morph_buf);
     glBindTexture(GL_TEXTURE_BUFFER, 0);
     glBindBuffer(GL_TEXTURE_BUFFER, 0);
-    return gl_check(err, "morph texture buffer upload (GL_R16)");
+    return hz_gl_check(err, "morph texture buffer upload (GL_R16)");
 }
 
 static bool vec3_is_zero(const float *v)
@@ -883,7 +816,7 @@ static hz_result upload_indices(GLuint ibo, size_t *cap, const uint32_t *idx, ui
         *cap = bytes + bytes / 4;
     glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)*cap, NULL, GL_STREAM_DRAW);
     glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, (GLsizeiptr)bytes, idx);
-    hz_result res = gl_check(err, "index buffer upload");
+    hz_result res = hz_gl_check(err, "index buffer upload");
     if (res != HZ_OK)
         *cap = 0;
     return res;
@@ -971,7 +904,7 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
     fr.refl_count = params && params->reflection_count ? params->reflection_count : count;
     fr.refl_ibo = params && params->reflection_count ? r->ibo2 : r->ibo;
 
-    gl_drain();
+    hz_gl_drain();
     /* Effect resources on first use (shaders, textures). */
     hz_result res = HZ_OK;
     if (fr.bits & (HZ_FX_SHADOWS | HZ_FX_DETAIL | HZ_FX_BILLBOARDS))
@@ -1092,7 +1025,7 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         stats->particles = (fr.bits & HZ_FX_WEATHER) ? (uint32_t)r->n_particles : 0;
         stats->reflections = r->n_refl;
     }
-    return gl_check(err, "frame draw");
+    return hz_gl_check(err, "frame draw");
 }
 
 /* Binds the frame we drew for reading. */
@@ -1129,11 +1062,11 @@ hz_result hz_renderer_read_rgb(hz_renderer *r, uint8_t *rgb, hz_err *err)
     hz_result ctx_res = check_context(r, err, "hz_renderer_read_rgb");
     if (ctx_res != HZ_OK)
         return ctx_res;
-    gl_drain();
+    hz_gl_drain();
     bind_read(r);
     glReadPixels(0, 0, (GLsizei)r->width, (GLsizei)r->height, GL_RGB, GL_UNSIGNED_BYTE, rgb);
     glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
-    hz_result res = gl_check(err, "glReadPixels(RGB)");
+    hz_result res = hz_gl_check(err, "glReadPixels(RGB)");
     if (res != HZ_OK)
         return res;
     if (!flip_rows(rgb, (size_t)r->width * 3, r->height))
@@ -1153,7 +1086,7 @@ hz_result hz_renderer_read_sky_mask(hz_renderer *r, uint8_t *mask, hz_err *err)
     float *depth = malloc(n * sizeof *depth);
     if (!depth)
         return hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
-    gl_drain();
+    hz_gl_drain();
     bind_read(r);
     /* The depth is where the scene was drawn: the chain's scene target or the
      * output framebuffer. */
@@ -1161,7 +1094,7 @@ hz_result hz_renderer_read_sky_mask(hz_renderer *r, uint8_t *mask, hz_err *err)
     glPixelStorei(GL_PACK_ALIGNMENT, 4);
     glReadPixels(0, 0, (GLsizei)r->width, (GLsizei)r->height, GL_DEPTH_COMPONENT, GL_FLOAT, depth);
     glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
-    hz_result res = gl_check(err, "glReadPixels(DEPTH)");
+    hz_result res = hz_gl_check(err, "glReadPixels(DEPTH)");
     if (res == HZ_OK) {
         /* Depth is cleared to 0 (reverse-Z far); terrain, objects, tree
          * billboards and water planes write it (not the sky, not particles). */
