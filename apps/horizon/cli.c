@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-static bool parse_float(const char *s, float lo, float hi, float *out)
+bool cli_parse_float(const char *s, float lo, float hi, float *out)
 {
     char *end;
     errno = 0;
@@ -17,7 +17,7 @@ static bool parse_float(const char *s, float lo, float hi, float *out)
     return true;
 }
 
-static bool parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
+bool cli_parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
 {
     char *end;
     errno = 0;
@@ -133,8 +133,8 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             char *x = strchr(buf, 'x');
             if (x)
                 *x = 0;
-            if (!parse_u32(buf, 2, 65537, &o->terrain.raw_width) ||
-                (x && !parse_u32(x + 1, 2, 65537, &o->terrain.raw_height)))
+            if (!cli_parse_u32(buf, 2, 65537, &o->terrain.raw_width) ||
+                (x && !cli_parse_u32(x + 1, 2, 65537, &o->terrain.raw_height)))
                 return bad(cmd, a, v, "W or WxH, 2..65537");
         } else if (!strcmp(a, "--generate")) {
             NEEDV();
@@ -142,7 +142,7 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
                 return bad(cmd, a, v, "perlin or diamond");
         } else if (!strcmp(a, "--size")) {
             NEEDV();
-            if (!parse_u32(v, 3, 16385, &o->terrain.gen_size) || !hz_is_pow2_plus1(o->terrain.gen_size))
+            if (!cli_parse_u32(v, 3, 16385, &o->terrain.gen_size) || !hz_is_pow2_plus1(o->terrain.gen_size))
                 return bad(cmd, a, v, "2^n+1 between 3 and 16385 (e.g. 1025, 2049, 4097)");
         } else if (!strcmp(a, "--seed")) {
             NEEDV();
@@ -153,7 +153,7 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
                 return bad(cmd, a, v, "a non-negative integer");
         } else if (!strcmp(a, "--amplitude")) {
             NEEDV();
-            if (!parse_float(v, 0.001f, 100000, &o->terrain.amplitude))
+            if (!cli_parse_float(v, 0.001f, 100000, &o->terrain.amplitude))
                 return bad(cmd, a, v, "metres in (0, 100000]");
         } else if (!strcmp(a, "--fit")) {
             NEEDV();
@@ -169,19 +169,19 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             else return bad(cmd, a, v, "blocked or linear");
         } else if (!strcmp(a, "--spacing")) {
             NEEDV();
-            if (!parse_float(v, 0.001f, 100000, &o->terrain.spacing))
+            if (!cli_parse_float(v, 0.001f, 100000, &o->terrain.spacing))
                 return bad(cmd, a, v, "metres in (0, 100000]");
         } else if (!strcmp(a, "--zscale")) {
             NEEDV();
-            if (!parse_float(v, 0.0001f, 10000, &o->terrain.zscale))
+            if (!cli_parse_float(v, 0.0001f, 10000, &o->terrain.zscale))
                 return bad(cmd, a, v, "a number in (0, 10000]");
         } else if (!strcmp(a, "--lod-c")) {
             NEEDV();
-            if (!parse_float(v, 0.01f, 100000, &o->lod.c))
+            if (!cli_parse_float(v, 0.01f, 100000, &o->lod.c))
                 return bad(cmd, a, v, "a number in (0, 100000]");
         } else if (!strcmp(a, "--lod-c2")) {
             NEEDV();
-            if (!parse_float(v, 0.01f, 100000, &o->lod.c2))
+            if (!cli_parse_float(v, 0.01f, 100000, &o->lod.c2))
                 return bad(cmd, a, v, "a number in (0, 100000]");
         } else if (!strcmp(a, "--criterion")) {
             NEEDV();
@@ -196,19 +196,19 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
                 return bad(cmd, a, v, "quadtree, remedy, bidirectional, roam or cdlod");
         } else if (!strcmp(a, "--pixel-error")) {
             NEEDV();
-            if (!parse_float(v, 0.01f, 1000, &o->lod.pixel_error))
+            if (!cli_parse_float(v, 0.01f, 1000, &o->lod.pixel_error))
                 return bad(cmd, a, v, "pixels in [0.01, 1000]");
         } else if (!strcmp(a, "--bidir-distance")) {
             NEEDV();
-            if (!parse_float(v, 0.001f, 1e8f, &o->lod.bidir_distance))
+            if (!cli_parse_float(v, 0.001f, 1e8f, &o->lod.bidir_distance))
                 return bad(cmd, a, v, "metres in (0, 1e8]");
         } else if (!strcmp(a, "--roam-budget")) {
             NEEDV();
-            if (!parse_u32(v, 16, 100000000, &o->lod.roam_budget))
+            if (!cli_parse_u32(v, 16, 100000000, &o->lod.roam_budget))
                 return bad(cmd, a, v, "triangles in [16, 1e8]");
         } else if (!strcmp(a, "--morph-start")) {
             NEEDV();
-            if (!parse_float(v, 0.8f, 0.95f, &o->lod.morph_start))
+            if (!cli_parse_float(v, 0.8f, 0.95f, &o->lod.morph_start))
                 return bad(cmd, a, v, "a fraction in [0.8, 0.95]");
         } else if (!strcmp(a, "--camera")) {
             NEEDV();
@@ -216,26 +216,26 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             snprintf(buf, sizeof buf, "%s", v);
             int k = 0;
             for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save), k++)
-                if (k >= 5 || !parse_float(tok, -1e7f, 1e7f, &o->camera[k]))
+                if (k >= 5 || !cli_parse_float(tok, -1e7f, 1e7f, &o->camera[k]))
                     return bad(cmd, a, v, "X,Y,Z,YAW,PITCH (metres, degrees)");
             if (k != 5)
                 return bad(cmd, a, v, "X,Y,Z,YAW,PITCH (metres, degrees)");
             o->have_camera = true;
         } else if (!strcmp(a, "--fov")) {
             NEEDV();
-            if (!parse_float(v, 1, 170, &o->fov))
+            if (!cli_parse_float(v, 1, 170, &o->fov))
                 return bad(cmd, a, v, "degrees in [1, 170]");
         } else if (!strcmp(a, "--far")) {
             NEEDV();
-            if (!parse_float(v, 1, 1e8f, &o->far))
+            if (!cli_parse_float(v, 1, 1e8f, &o->far))
                 return bad(cmd, a, v, "metres in [1, 1e8]");
         } else if (!strcmp(a, "--width")) {
             NEEDV();
-            if (!parse_u32(v, 16, 8192, &o->width))
+            if (!cli_parse_u32(v, 16, 8192, &o->width))
                 return bad(cmd, a, v, "pixels in [16, 8192]");
         } else if (!strcmp(a, "--height")) {
             NEEDV();
-            if (!parse_u32(v, 16, 8192, &o->height))
+            if (!cli_parse_u32(v, 16, 8192, &o->height))
                 return bad(cmd, a, v, "pixels in [16, 8192]");
         } else if (!strcmp(a, "--out")) {
             NEEDV();
@@ -245,11 +245,11 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             o->dump_mesh = v;
         } else if (!strcmp(a, "--repeat")) {
             NEEDV();
-            if (!parse_u32(v, 1, 100000, &o->repeat))
+            if (!cli_parse_u32(v, 1, 100000, &o->repeat))
                 return bad(cmd, a, v, "a count in [1, 100000]");
         } else if (!strcmp(a, "--forest")) {
             NEEDV();
-            if (!parse_u32(v, 1, 1000000, &o->forest_n))
+            if (!cli_parse_u32(v, 1, 1000000, &o->forest_n))
                 return bad(cmd, a, v, "a tree count in [1, 1000000]");
         } else if (!strcmp(a, "--forest-file")) {
             NEEDV();
@@ -264,11 +264,11 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             o->tree_cache = v;
         } else if (!strcmp(a, "--forest-leaves")) {
             NEEDV();
-            if (!parse_u32(v, 16, 2000000, &o->forest_leaves))
+            if (!cli_parse_u32(v, 16, 2000000, &o->forest_leaves))
                 return bad(cmd, a, v, "leaves per tree in [16, 2000000]");
         } else if (!strcmp(a, "--forest-density")) {
             NEEDV();
-            if (!parse_float(v, 1, 10000, &o->forest_density))
+            if (!cli_parse_float(v, 1, 10000, &o->forest_density))
                 return bad(cmd, a, v, "trees per hectare in [1, 10000]");
         } else if (!strcmp(a, "--forest-at")) {
             NEEDV();
@@ -278,7 +278,7 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             if (!comma)
                 return bad(cmd, a, v, "X,Z in metres");
             *comma = 0;
-            if (!parse_float(buf, -1e7f, 1e7f, &o->forest_at[0]) || !parse_float(comma + 1, -1e7f, 1e7f, &o->forest_at[1]))
+            if (!cli_parse_float(buf, -1e7f, 1e7f, &o->forest_at[0]) || !cli_parse_float(comma + 1, -1e7f, 1e7f, &o->forest_at[1]))
                 return bad(cmd, a, v, "X,Z in metres");
             o->forest_at_set = true;
         } else if (!strcmp(a, "--forest-seed")) {
@@ -298,15 +298,15 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             o->forest.node_culling = false;
         } else if (!strcmp(a, "--tree-near")) {
             NEEDV();
-            if (!parse_float(v, 0.01f, 100000, &o->forest.rate.near_m))
+            if (!cli_parse_float(v, 0.01f, 100000, &o->forest.rate.near_m))
                 return bad(cmd, a, v, "metres in (0, 100000]");
         } else if (!strcmp(a, "--tree-far")) {
             NEEDV();
-            if (!parse_float(v, 0.1f, 1000000, &o->forest.rate.far_m))
+            if (!cli_parse_float(v, 0.1f, 1000000, &o->forest.rate.far_m))
                 return bad(cmd, a, v, "metres in (0, 1000000]");
         } else if (!strcmp(a, "--hull-dist")) {
             NEEDV();
-            if (!parse_float(v, 0.1f, 1000000, &o->forest.hull_dist))
+            if (!cli_parse_float(v, 0.1f, 1000000, &o->forest.hull_dist))
                 return bad(cmd, a, v, "metres in (0, 1000000]");
         } else if (!strcmp(a, "--rate-weights")) {
             NEEDV();
@@ -314,7 +314,7 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             snprintf(buf, sizeof buf, "%s", v);
             int k = 0;
             for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save), k++)
-                if (k >= 5 || !parse_float(tok, 0, 10, &o->forest.rate.w[k]))
+                if (k >= 5 || !cli_parse_float(tok, 0, 10, &o->forest.rate.w[k]))
                     return bad(cmd, a, v, "five weights W1,..,W5 in [0, 10]");
             if (k != 5)
                 return bad(cmd, a, v, "five weights W1,..,W5 in [0, 10]");
@@ -330,19 +330,19 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             char buf[128], *save = NULL;
             snprintf(buf, sizeof buf, "%s", v);
             char *az = strtok_r(buf, ",", &save), *el = strtok_r(NULL, ",", &save);
-            if (!az || !el || strtok_r(NULL, ",", &save) || !parse_float(az, -360, 720, &o->sun[0]) ||
-                !parse_float(el, -90, 90, &o->sun[1]))
+            if (!az || !el || strtok_r(NULL, ",", &save) || !cli_parse_float(az, -360, 720, &o->sun[0]) ||
+                !cli_parse_float(el, -90, 90, &o->sun[1]))
                 return bad(cmd, a, v, "AZIMUTH,ELEVATION in degrees (e.g. 245,30)");
             o->have_sun = true;
         } else if (!strcmp(a, "--time")) {
             NEEDV();
             float t;
-            if (!parse_float(v, 0, 1e7f, &t))
+            if (!cli_parse_float(v, 0, 1e7f, &t))
                 return bad(cmd, a, v, "seconds in [0, 1e7]");
             o->time = t;
         } else if (!strcmp(a, "--clouds")) {
             NEEDV();
-            if (!parse_float(v, 0, 1, &o->fx.cloud_cover))
+            if (!cli_parse_float(v, 0, 1, &o->fx.cloud_cover))
                 return bad(cmd, a, v, "a cover in [0, 1]");
             if (o->fx.cloud_cover == 0.0f)
                 o->fx.cloud_cover = -1.0f; /* clear sky (0 means default) */
@@ -352,8 +352,8 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             snprintf(buf, sizeof buf, "%s", v);
             char *sp = strtok_r(buf, ",", &save), *dir = strtok_r(NULL, ",", &save);
             float speed, deg;
-            if (!sp || !dir || strtok_r(NULL, ",", &save) || !parse_float(sp, 0, 100, &speed) ||
-                !parse_float(dir, -360, 720, &deg))
+            if (!sp || !dir || strtok_r(NULL, ",", &save) || !cli_parse_float(sp, 0, 100, &speed) ||
+                !cli_parse_float(dir, -360, 720, &deg))
                 return bad(cmd, a, v, "SPEED,DIRECTION (m/s in [0, 100], degrees)");
             /* 0 means default: a calm wind is a tiny one. */
             speed = speed > 0.001f ? speed : 0.001f;
@@ -366,44 +366,44 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             else return bad(cmd, a, v, "rain or snow");
         } else if (!strcmp(a, "--weather-intensity")) {
             NEEDV();
-            if (!parse_float(v, 0.01f, 8, &o->fx.weather_intensity))
+            if (!cli_parse_float(v, 0.01f, 8, &o->fx.weather_intensity))
                 return bad(cmd, a, v, "a factor in [0.01, 8]");
         } else if (!strcmp(a, "--water-level")) {
             NEEDV();
             if (!strcmp(v, "auto")) o->water_mode = 0;
             else if (!strcmp(v, "off")) o->water_mode = 1;
-            else if (parse_float(v, -1e5f, 1e5f, &o->water_level)) o->water_mode = 2;
+            else if (cli_parse_float(v, -1e5f, 1e5f, &o->water_level)) o->water_mode = 2;
             else return bad(cmd, a, v, "metres, auto or off");
         } else if (!strcmp(a, "--fog")) {
             NEEDV();
             if (!strcmp(v, "off")) o->fog = -1.0f;
-            else if (!parse_float(v, 0, 1, &o->fog)) return bad(cmd, a, v, "a density per metre in [0, 1] or off");
+            else if (!cli_parse_float(v, 0, 1, &o->fog)) return bad(cmd, a, v, "a density per metre in [0, 1] or off");
             else if (o->fog == 0.0f) o->fog = -1.0f;
         } else if (!strcmp(a, "--height-fog")) {
             NEEDV();
-            if (!parse_float(v, 0, 1, &o->fx.height_fog))
+            if (!cli_parse_float(v, 0, 1, &o->fx.height_fog))
                 return bad(cmd, a, v, "a density per metre in [0, 1]");
             if (o->fx.height_fog == 0.0f)
                 o->fx.height_fog = -1.0f;
         } else if (!strcmp(a, "--blur")) {
             NEEDV();
-            if (!parse_float(v, 0.001f, 0.98f, &o->fx.blur))
+            if (!cli_parse_float(v, 0.001f, 0.98f, &o->fx.blur))
                 return bad(cmd, a, v, "a feedback factor in (0, 0.98]");
         } else if (!strcmp(a, "--exposure")) {
             NEEDV();
-            if (!parse_float(v, 0.01f, 100, &o->fx.exposure))
+            if (!cli_parse_float(v, 0.01f, 100, &o->fx.exposure))
                 return bad(cmd, a, v, "a factor in [0.01, 100]");
         } else if (!strcmp(a, "--gamma")) {
             NEEDV();
-            if (!parse_float(v, 0.1f, 10, &o->fx.gamma))
+            if (!cli_parse_float(v, 0.1f, 10, &o->fx.gamma))
                 return bad(cmd, a, v, "a gamma in [0.1, 10]");
         } else if (!strcmp(a, "--bloom")) {
             NEEDV();
-            if (!parse_float(v, 0.001f, 10, &o->fx.bloom_strength))
+            if (!cli_parse_float(v, 0.001f, 10, &o->fx.bloom_strength))
                 return bad(cmd, a, v, "a strength in (0, 10]");
         } else if (!strcmp(a, "--trees")) {
             NEEDV();
-            if (!parse_float(v, 0, 1000, &o->trees))
+            if (!cli_parse_float(v, 0, 1000, &o->trees))
                 return bad(cmd, a, v, "trees per hectare in [0, 1000]");
             if (o->trees == 0.0f)
                 o->trees = -1.0f;
@@ -460,15 +460,20 @@ hz_terrain *cli_load_terrain(const cli_opts *o)
     return t;
 }
 
-hz_result cli_renderer_setup(hz_renderer *r, hz_terrain *t, const cli_opts *o, hz_err *err)
+hz_result cli_renderer_morph(hz_renderer *r, hz_terrain *t, hz_lod_mode mode, hz_err *err)
 {
-    hz_result res = hz_renderer_set_heightmap(r, &t->hm, t->spacing, t->zscale, err);
-    if (res != HZ_OK || o->lod.mode != HZ_LOD_CDLOD)
-        return res;
+    if (mode != HZ_LOD_CDLOD)
+        return HZ_OK;
     const uint16_t *me = hz_lod_morph_errors(t->lod);
     if (!me)
         return hz_err_set(err, HZ_ERR_MEMORY, "out of memory for the cdlod morph data");
     return hz_renderer_set_morph(r, me, err);
+}
+
+hz_result cli_renderer_setup(hz_renderer *r, hz_terrain *t, const cli_opts *o, hz_err *err)
+{
+    hz_result res = hz_renderer_set_heightmap(r, &t->hm, t->spacing, t->zscale, err);
+    return res != HZ_OK ? res : cli_renderer_morph(r, t, o->lod.mode, err);
 }
 
 void cli_scene_lod(hz_scene_params *sp, const hz_lod_stats *st)

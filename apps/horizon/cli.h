@@ -77,12 +77,20 @@ void app_fx_free(app_fx *a);
 /* The sun's azimuth/elevation in degrees. */
 void app_fx_sun_angles(const app_fx *a, float *azimuth, float *elevation);
 
+/* A finite number / a decimal integer in [lo, hi], the whole string; false
+ * otherwise (out untouched). */
+bool cli_parse_float(const char *s, float lo, float hi, float *out);
+bool cli_parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out);
+
 /* Parses argv[first..argc). Returns 0 on success, 2 on bad usage (message
  * printed). Unknown options are errors. */
 int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd);
 void cli_usage_terrain(void);
 /* Loads the terrain with a progress bar; NULL after printing the error. */
 hz_terrain *cli_load_terrain(const cli_opts *o);
+/* Uploads cdlod's morph data to a renderer when mode needs it (nothing for
+ * the other modes). */
+hz_result cli_renderer_morph(hz_renderer *r, hz_terrain *t, hz_lod_mode mode, hz_err *err);
 /* Uploads the heights (and, for cdlod, the morph data) to a renderer. */
 hz_result cli_renderer_setup(hz_renderer *r, hz_terrain *t, const cli_opts *o, hz_err *err);
 /* Copies a frame's LOD figures the renderer needs (cdlod morphing) into sp. */

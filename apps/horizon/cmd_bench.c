@@ -733,7 +733,6 @@ int cmd_bench(int argc, char **argv)
             return 2;
         }
         i++;
-        char *end;
         if (!strcmp(a, "--path"))
             path_name = v;
         else if (!strcmp(a, "--json"))
@@ -751,19 +750,19 @@ int cmd_bench(int argc, char **argv)
                 return 2;
             }
         } else if (!strcmp(a, "--full-every") || !strcmp(a, "--pr-views") || !strcmp(a, "--pr-res")) {
-            unsigned long x = strtoul(v, &end, 10);
-            unsigned long hi = !strcmp(a, "--pr-res") ? 4096 : 100000, lo = !strcmp(a, "--pr-res") ? 16 : 1;
-            if (*end || end == v || v[0] == '-' || x < lo || x > hi) {
-                fprintf(stderr, "horizon bench: invalid value '%s' for %s: expected %lu..%lu\n", v, a, lo, hi);
+            const uint32_t hi = !strcmp(a, "--pr-res") ? 4096 : 100000, lo = !strcmp(a, "--pr-res") ? 16 : 1;
+            uint32_t x;
+            if (!cli_parse_u32(v, lo, hi, &x)) {
+                fprintf(stderr, "horizon bench: invalid value '%s' for %s: expected %u..%u\n", v, a, lo, hi);
                 free(rest);
                 return 2;
             }
             if (!strcmp(a, "--full-every"))
-                bfo.full_every = (uint32_t)x;
+                bfo.full_every = x;
             else if (!strcmp(a, "--pr-views"))
-                bfo.pr_views = (uint32_t)x;
+                bfo.pr_views = x;
             else
-                bfo.pr_res = (uint32_t)x;
+                bfo.pr_res = x;
         } else if (!strcmp(a, "--reference")) {
             if (strcmp(v, "on") && strcmp(v, "off")) {
                 fprintf(stderr, "horizon bench: --reference takes on or off\n");
@@ -772,27 +771,25 @@ int cmd_bench(int argc, char **argv)
             }
             reference = !strcmp(v, "on");
         } else if (!strcmp(a, "--frames")) {
-            unsigned long f = strtoul(v, &end, 10);
-            if (*end || end == v || f < 1 || f > 100000 || v[0] == '-') {
+            if (!cli_parse_u32(v, 1, 100000, &frames)) {
                 fprintf(stderr, "horizon bench: invalid value '%s' for --frames: expected 1..100000\n", v);
                 free(rest);
                 return 2;
             }
-            frames = (uint32_t)f;
         } else if (!strcmp(a, "--fps") || !strcmp(a, "--tune-p99")) {
-            double f = strtod(v, &end);
             const bool is_fps = !strcmp(a, "--fps");
-            if (*end || end == v || !(f >= (is_fps ? 0.1 : 0.01) && f <= (is_fps ? 10000 : 1000))) {
+            float f;
+            if (!cli_parse_float(v, is_fps ? 0.1f : 0.01f, is_fps ? 10000.0f : 1000.0f, &f)) {
                 fprintf(stderr, "horizon bench: invalid value '%s' for %s: expected %s\n", v, a,
                         is_fps ? "0.1..10000" : "pixels in 0.01..1000");
                 free(rest);
                 return 2;
             }
             if (is_fps) {
-                fps = (float)f;
+                fps = f;
                 fps_set = true;
             } else {
-                tune_p99 = (float)f;
+                tune_p99 = f;
             }
         }
     }
@@ -878,11 +875,8 @@ int cmd_bench(int argc, char **argv)
     if (!b.ren || hz_renderer_set_heightmap(b.ren, &b.t->hm, b.t->spacing, b.t->zscale, &b.err) != HZ_OK)
         goto done;
     for (int m = 0; m < nmodes; m++)
-        if (modes[m] == HZ_LOD_CDLOD) {
-            if (hz_renderer_set_morph(b.ren, hz_lod_morph_errors(b.t->lod), &b.err) != HZ_OK)
-                goto done;
-            break;
-        }
+        if (cli_renderer_morph(b.ren, b.t, modes[m], &b.err) != HZ_OK)
+            goto done;
     /* --effect-costs builds every effect's resources ("view" does). */
     if (app_fx_setup(&b.afx, &b.o, b.t, b.ren, costs_out ? "view" : "bench")) {
         snprintf(b.err.msg, sizeof b.err.msg, "effects setup failed");

@@ -55,28 +55,6 @@ static int bad(const char *opt, const char *val, const char *want)
     return 2;
 }
 
-static bool parse_u(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
-{
-    char *end;
-    errno = 0;
-    unsigned long long v = strtoull(s, &end, 10);
-    if (errno || end == s || *end || s[0] == '-' || v < lo || v > hi)
-        return false;
-    *out = (uint32_t)v;
-    return true;
-}
-
-static bool parse_f(const char *s, float lo, float hi, float *out)
-{
-    char *end;
-    errno = 0;
-    double v = strtod(s, &end);
-    if (errno || end == s || *end || !isfinite(v) || v < lo || v > hi)
-        return false;
-    *out = (float)v;
-    return true;
-}
-
 typedef struct pr_row {
     const char *order;
     bool enlarge;
@@ -184,7 +162,7 @@ int cmd_tree(int argc, char **argv)
                 if (errno || *end || end == v || v[0] == '-')
                     return bad(a, v, "a non-negative integer");
             } else if (!strcmp(a, "--leaves")) {
-                if (!parse_u(v, 1, 2000000, &gd.leaves))
+                if (!cli_parse_u32(v, 1, 2000000, &gd.leaves))
                     return bad(a, v, "a count in [1, 2000000]");
             } else if (!strcmp(a, "--import")) id.path = v;
             else if (!strcmp(a, "--leaf-match")) id.leaf_match = v;
@@ -193,40 +171,40 @@ int cmd_tree(int argc, char **argv)
                     return bad(a, v, "y or z");
                 id.up = v[0];
             } else if (!strcmp(a, "--scale")) {
-                if (!parse_f(v, 1e-6f, 1e6f, &id.scale))
+                if (!cli_parse_float(v, 1e-6f, 1e6f, &id.scale))
                     return bad(a, v, "a factor in (0, 1e6]");
             } else if (!strcmp(a, "--node-leaves")) {
-                if (!parse_u(v, 1, 4096, &id.node_leaves))
+                if (!cli_parse_u32(v, 1, 4096, &id.node_leaves))
                     return bad(a, v, "a count in [1, 4096]");
             } else if (!strcmp(a, "--in")) in = v;
             else if (!strcmp(a, "--out")) out = v;
             else if (!strcmp(a, "--preview")) preview_file = v;
             else if (!strcmp(a, "--views")) {
-                if (!parse_u(v, 12, 162, &rd.views) || (rd.views != 12 && rd.views != 42 && rd.views != 162))
+                if (!cli_parse_u32(v, 12, 162, &rd.views) || (rd.views != 12 && rd.views != 42 && rd.views != 162))
                     return bad(a, v, "12, 42 or 162");
             } else if (!strcmp(a, "--rank-res")) {
-                if (!parse_u(v, 4, 256, &rd.res))
+                if (!cli_parse_u32(v, 4, 256, &rd.res))
                     return bad(a, v, "pixels in [4, 256]");
             } else if (!strcmp(a, "--layers")) {
-                if (!parse_u(v, 1, 16, &rd.layers))
+                if (!cli_parse_u32(v, 1, 16, &rd.layers))
                     return bad(a, v, "a count in [1, 16]");
             } else if (!strcmp(a, "--hull-grid")) {
-                if (!parse_u(v, 8, 256, &hd.grid))
+                if (!cli_parse_u32(v, 8, 256, &hd.grid))
                     return bad(a, v, "voxels in [8, 256]");
             } else if (!strcmp(a, "--hull-triangles")) {
-                if (!parse_u(v, 16, 1000000, &hd.triangles))
+                if (!cli_parse_u32(v, 16, 1000000, &hd.triangles))
                     return bad(a, v, "a count in [16, 1000000]");
             } else if (!strcmp(a, "--rate")) {
-                if (!parse_f(v, 0.0f, 0.99f, &rate))
+                if (!cli_parse_float(v, 0.0f, 0.99f, &rate))
                     return bad(a, v, "a rate in [0, 0.99]");
             } else if (!strcmp(a, "--size")) {
-                if (!parse_u(v, 16, 4096, &size))
+                if (!cli_parse_u32(v, 16, 4096, &size))
                     return bad(a, v, "pixels in [16, 4096]");
             } else if (!strcmp(a, "--pr-views")) {
-                if (!parse_u(v, 1, 1024, &prd.views))
+                if (!cli_parse_u32(v, 1, 1024, &prd.views))
                     return bad(a, v, "a count in [1, 1024]");
             } else if (!strcmp(a, "--pr-res")) {
-                if (!parse_u(v, 16, 4096, &prd.res))
+                if (!cli_parse_u32(v, 16, 4096, &prd.res))
                     return bad(a, v, "pixels in [16, 4096]");
             } else {
                 fprintf(stderr, "horizon tree: unknown option '%s' (see horizon tree --help)\n", a);

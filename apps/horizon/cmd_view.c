@@ -84,28 +84,6 @@ static void usage(void)
             "      C rain/snow, X motion blur, Z bloom, [ ] sun azimuth, - = sun elevation\n");
 }
 
-static bool parse_f(const char *s, float lo, float hi, float *out)
-{
-    char *end;
-    errno = 0;
-    double v = strtod(s, &end);
-    if (errno || end == s || *end || !isfinite(v) || v < lo || v > hi)
-        return false;
-    *out = (float)v;
-    return true;
-}
-
-static bool parse_u(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
-{
-    char *end;
-    errno = 0;
-    unsigned long long v = strtoull(s, &end, 10);
-    if (errno || end == s || *end || s[0] == '-' || v < lo || v > hi)
-        return false;
-    *out = (uint32_t)v;
-    return true;
-}
-
 /* Growable list of strings we own (config tokens). */
 typedef struct strlist {
     char **s;
@@ -263,13 +241,13 @@ static int split_view_opts(int n, char **args, view_opts *vo, char **rest, int *
         else if (!strcmp(a, "--screenshot")) vo->screenshot = v;
         else if (!strcmp(a, "--shot-dir")) vo->shot_dir = v;
         else if (!strcmp(a, "--path")) vo->path = v;
-        else if (!strcmp(a, "--frames")) { ok = parse_u(v, 1, 100000000, &vo->frames); want = "a count in [1, 1e8]"; }
-        else if (!strcmp(a, "--dt")) { ok = parse_f(v, 1e-4f, 10.0f, &vo->dt); want = "seconds in [0.0001, 10]"; }
-        else if (!strcmp(a, "--speed")) { ok = parse_f(v, 0.1f, 100000.0f, &vo->speed); want = "m/s in [0.1, 100000]"; }
-        else if (!strcmp(a, "--walk-speed")) { ok = parse_f(v, 0.1f, 100000.0f, &vo->walk_speed); want = "m/s in [0.1, 100000]"; }
-        else if (!strcmp(a, "--eye-height")) { ok = parse_f(v, 0.01f, 100000.0f, &vo->eye_height); want = "metres in [0.01, 100000]"; }
-        else if (!strcmp(a, "--hud-scale")) { ok = parse_f(v, 0.5f, 8.0f, &vo->hud_scale); want = "a number in [0.5, 8]"; }
-        else if (!strcmp(a, "--mouse-sens")) { ok = parse_f(v, 0.001f, 10.0f, &vo->mouse_sens); want = "degrees per pixel in [0.001, 10]"; }
+        else if (!strcmp(a, "--frames")) { ok = cli_parse_u32(v, 1, 100000000, &vo->frames); want = "a count in [1, 1e8]"; }
+        else if (!strcmp(a, "--dt")) { ok = cli_parse_float(v, 1e-4f, 10.0f, &vo->dt); want = "seconds in [0.0001, 10]"; }
+        else if (!strcmp(a, "--speed")) { ok = cli_parse_float(v, 0.1f, 100000.0f, &vo->speed); want = "m/s in [0.1, 100000]"; }
+        else if (!strcmp(a, "--walk-speed")) { ok = cli_parse_float(v, 0.1f, 100000.0f, &vo->walk_speed); want = "m/s in [0.1, 100000]"; }
+        else if (!strcmp(a, "--eye-height")) { ok = cli_parse_float(v, 0.01f, 100000.0f, &vo->eye_height); want = "metres in [0.01, 100000]"; }
+        else if (!strcmp(a, "--hud-scale")) { ok = cli_parse_float(v, 0.5f, 8.0f, &vo->hud_scale); want = "a number in [0.5, 8]"; }
+        else if (!strcmp(a, "--mouse-sens")) { ok = cli_parse_float(v, 0.001f, 10.0f, &vo->mouse_sens); want = "degrees per pixel in [0.001, 10]"; }
         if (!ok) {
             fprintf(stderr, "horizon view: invalid value '%s' for %s: expected %s\n", v, a, want);
             return 2;
@@ -351,7 +329,7 @@ static int button_from_name(const char *s)
 static bool floats(char **tok, int n, float *v)
 {
     for (int k = 0; k < n; k++)
-        if (!tok[k] || !parse_f(tok[k], -1e8f, 1e8f, &v[k]))
+        if (!tok[k] || !cli_parse_float(tok[k], -1e8f, 1e8f, &v[k]))
             return false;
     return true;
 }
@@ -384,11 +362,11 @@ static int load_script(const char *file, float dt, script *s)
         float secs;
         if (tl > 1 && tok[0][tl - 1] == 's') {
             tok[0][tl - 1] = 0;
-            if (!parse_f(tok[0], 0, 1e7f, &secs))
+            if (!cli_parse_float(tok[0], 0, 1e7f, &secs))
                 why = "bad time (a frame number, or seconds like 1.5s)";
             else
                 frame = (uint32_t)lround((double)secs / (double)dt);
-        } else if (!parse_u(tok[0], 0, 100000000, &frame)) {
+        } else if (!cli_parse_u32(tok[0], 0, 100000000, &frame)) {
             why = "bad frame number (a frame number, or seconds like 1.5s)";
         }
         script_event *e = why ? NULL : script_push(s);
@@ -692,10 +670,9 @@ static bool set_lod_mode(view *v, hz_lod_mode mode)
         return false;
     }
     if (mode == HZ_LOD_CDLOD && !v->morph_uploaded) {
-        const uint16_t *me = hz_lod_morph_errors(v->t->lod);
         hz_err err = {0};
-        if (!me || hz_renderer_set_morph(v->ren, me, &err) != HZ_OK) {
-            set_message(v, 3.0, "cdlod: %s", me ? err.msg : "out of memory");
+        if (cli_renderer_morph(v->ren, v->t, mode, &err) != HZ_OK) {
+            set_message(v, 3.0, "cdlod: %s", err.msg);
             return false;
         }
         v->morph_uploaded = true;
