@@ -20,6 +20,7 @@
 
 #include "horizon/lightmap.h"
 #include "horizon/render.h"
+#include "test_hills.h"
 
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wconversion"
@@ -54,40 +55,6 @@ typedef struct fixture {
 
 /* ---- terrain ---------------------------------------------------------------- */
 
-static float lattice(int x, int z)
-{
-    uint32_t h = (uint32_t)x * 374761393u + (uint32_t)z * 668265263u;
-    h = (h ^ (h >> 13)) * 1274126177u;
-    h ^= h >> 16;
-    return (float)(h & 0xffffu) / 32767.5f - 1.0f;
-}
-
-static float value_noise(float x, float z)
-{
-    float fx = floorf(x), fz = floorf(z);
-    int ix = (int)fx, iz = (int)fz;
-    float tx = x - fx, tz = z - fz;
-    tx = tx * tx * (3.0f - 2.0f * tx);
-    tz = tz * tz * (3.0f - 2.0f * tz);
-    float a = lattice(ix, iz), b = lattice(ix + 1, iz), c = lattice(ix, iz + 1), d = lattice(ix + 1, iz + 1);
-    return (a + (b - a) * tx) + ((c + (d - c) * tx) - (a + (b - a) * tx)) * tz;
-}
-
-/* The same hills as test_render: a 1 km mountain at (2900, 2000). */
-static float hills(float x, float z)
-{
-    const float cx = 2900.0f, cz = 2000.0f;
-    float d2 = (x - cx) * (x - cx) + (z - cz) * (z - cz);
-    float h = 1000.0f * expf(-d2 / (2.0f * 850.0f * 850.0f));
-    float amp = 230.0f, freq = 1.0f / 900.0f;
-    for (int o = 0; o < 6; o++) {
-        float n = 1.0f - fabsf(value_noise(x * freq + 17.0f * (float)o, z * freq));
-        h += amp * (n * n - 0.4f);
-        amp *= 0.44f;
-        freq *= 2.05f;
-    }
-    return h - 0.06f * z + 600.0f;
-}
 
 /* A plain at 100 m with a 200 m wall along x = 2560 (i = 128). */
 static float plain_wall(float x, float z)
@@ -242,7 +209,7 @@ static int setup(void **state)
         return -1; /* a GPU test that cannot run is a failure, not a skip */
     }
     printf("GL: %s\n", hz_gl_describe(fx->gl));
-    make_hm(&fx->hm, hills);
+    make_hm(&fx->hm, test_hills);
     make_hm(&fx->flat_hm, plain_wall);
     fx->r = hz_renderer_create(&(hz_renderer_desc){.width = W, .height = H}, &err);
     fx->flat = hz_renderer_create(&(hz_renderer_desc){.width = W, .height = H}, &err);

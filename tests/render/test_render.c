@@ -14,6 +14,7 @@
 #include <epoxy/gl.h>
 
 #include "horizon/render.h"
+#include "test_hills.h"
 
 #define W 480u
 #define H 270u
@@ -32,43 +33,6 @@ typedef struct fixture {
 
 /* ---- helpers ------------------------------------------------------------- */
 
-/* Deterministic value noise in [-1, 1] on a unit lattice. */
-static float lattice(int x, int z)
-{
-    uint32_t h = (uint32_t)x * 374761393u + (uint32_t)z * 668265263u;
-    h = (h ^ (h >> 13)) * 1274126177u;
-    h ^= h >> 16;
-    return (float)(h & 0xffffu) / 32767.5f - 1.0f;
-}
-
-static float value_noise(float x, float z)
-{
-    float fx = floorf(x), fz = floorf(z);
-    int ix = (int)fx, iz = (int)fz;
-    float tx = x - fx, tz = z - fz;
-    tx = tx * tx * (3.0f - 2.0f * tx);
-    tz = tz * tz * (3.0f - 2.0f * tz);
-    float a = lattice(ix, iz), b = lattice(ix + 1, iz), c = lattice(ix, iz + 1), d = lattice(ix + 1, iz + 1);
-    return (a + (b - a) * tx) + ((c + (d - c) * tx) - (a + (b - a) * tx)) * tz;
-}
-
-/* Hills: one big mountain, ridged fBm foothills, a tilt; metres. */
-static float terrain_height(float x, float z)
-{
-    const float cx = 2900.0f, cz = 2000.0f;
-    float d2 = (x - cx) * (x - cx) + (z - cz) * (z - cz);
-    float h = 1000.0f * expf(-d2 / (2.0f * 850.0f * 850.0f));
-    float amp = 230.0f, freq = 1.0f / 900.0f;
-    for (int o = 0; o < 6; o++) {
-        float n = 1.0f - fabsf(value_noise(x * freq + 17.0f * (float)o, z * freq));
-        h += amp * (n * n - 0.4f);
-        amp *= 0.44f;
-        freq *= 2.05f;
-    }
-    h -= 0.06f * z; /* land rises toward the north (away from the viewer) */
-    return h + 600.0f;
-}
-
 static void make_heightmap(hz_heightmap *hm, uint32_t n, float spacing)
 {
     float *f = malloc((size_t)n * n * sizeof *f);
@@ -78,7 +42,7 @@ static void make_heightmap(hz_heightmap *hm, uint32_t n, float spacing)
         for (uint32_t i = 0; i < n; i++) {
             /* Same landscape whatever n: sample the 5.12 km square. */
             float s = (float)(N - 1) * SPACING / ((float)(n - 1) * spacing);
-            float v = terrain_height((float)i * spacing * s, (float)j * spacing * s);
+            float v = test_hills((float)i * spacing * s, (float)j * spacing * s);
             f[(size_t)j * n + i] = v;
             mn = fminf(mn, v);
             mx = fmaxf(mx, v);

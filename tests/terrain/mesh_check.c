@@ -142,3 +142,33 @@ mesh_report mesh_check(const hz_heightmap *hm, float spacing, float zscale, cons
     free(used);
     return r;
 }
+
+uint64_t test_rnd(uint64_t *state)
+{
+    uint64_t z = (*state += 0x9e3779b97f4a7c15ULL);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+}
+
+float test_frand(uint64_t *state, float lo, float hi)
+{
+    return lo + (hi - lo) * (float)(test_rnd(state) >> 40) / (float)(1u << 24);
+}
+
+hz_camera test_random_camera(uint64_t *state, const hz_heightmap *hm, float spacing)
+{
+    float ext = (float)(hm->size - 1) * spacing;
+    float lo = hm->offset, hi = hm->offset + 65535.0f * hm->scale;
+    hz_camera c = {0};
+    c.pos[0] = test_frand(state, -0.2f * ext, 1.2f * ext);
+    c.pos[2] = test_frand(state, -0.2f * ext, 1.2f * ext);
+    c.pos[1] = test_frand(state, lo, hi + (hi - lo) * 2.0f + 50.0f);
+    c.yaw = test_frand(state, 0, 360);
+    c.pitch = test_frand(state, -80, 30);
+    c.fov_y = test_frand(state, 30, 90);
+    c.aspect = 16.0f / 9.0f;
+    c.znear = 1.0f;
+    c.zfar = ext * test_frand(state, 0.3f, 2.0f);
+    return c;
+}

@@ -22,4 +22,12 @@ typedef struct mesh_report {
 mesh_report mesh_check(const hz_heightmap *hm, float spacing, float zscale, const uint32_t *idx,
                        size_t count, const vec4 *planes, const hz_node_list *leaves);
 
+/* Deterministic test randomness (splitmix64) over the caller's state. */
+uint64_t test_rnd(uint64_t *state);
+float test_frand(uint64_t *state, float lo, float hi);
+/* A random camera in and around the map (metres): up to 20 % of the side
+ * outside it, from the lowest quantised height to twice the relief above the
+ * highest, any yaw, pitch -80..30, fov 30..90, far 0.3..2 map sides. */
+hz_camera test_random_camera(uint64_t *state, const hz_heightmap *hm, float spacing);
+
 #endif

@@ -16,16 +16,9 @@
 #include "mesh_check.h"
 
 static uint64_t rng_state = 0x9e3779b97f4a7c15ULL;
-static uint64_t rnd(void)
-{
-    uint64_t z = (rng_state += 0x9e3779b97f4a7c15ULL);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-}
 static float frand(float lo, float hi)
 {
-    return lo + (hi - lo) * (float)(rnd() >> 40) / (float)(1u << 24);
+    return test_frand(&rng_state, lo, hi);
 }
 
 /* White noise plus a few hills: rough everywhere, stresses the restriction. */
@@ -147,19 +140,7 @@ static void test_precompute_matches_brute_force(void **state)
 
 static hz_camera random_camera(const terrain *t)
 {
-    float ext = (float)(t->hm.size - 1) * t->spacing;
-    float lo = t->hm.offset, hi = t->hm.offset + 65535.0f * t->hm.scale;
-    hz_camera c = {0};
-    c.pos[0] = frand(-0.2f * ext, 1.2f * ext);
-    c.pos[2] = frand(-0.2f * ext, 1.2f * ext);
-    c.pos[1] = frand(lo, hi + (hi - lo) * 2.0f + 50.0f);
-    c.yaw = frand(0, 360);
-    c.pitch = frand(-80, 30);
-    c.fov_y = frand(30, 90);
-    c.aspect = 16.0f / 9.0f;
-    c.znear = 1.0f;
-    c.zfar = ext * frand(0.3f, 2.0f);
-    return c;
+    return test_random_camera(&rng_state, &t->hm, t->spacing);
 }
 
 static void check_terrain_random_cameras(terrain *t, int cameras)
