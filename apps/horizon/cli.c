@@ -58,6 +58,7 @@ void cli_usage_terrain(void)
             "  --camera X,Y,Z,YAW,PITCH  metres and degrees (default: above the centre)\n"
             "  --fov DEG               vertical field of view (default 60)\n"
             "  --far M                 view distance in metres (default 1.5 x map side)\n"
+            "  --near M                near clip plane in metres (default 0.25)\n"
             "  --width W --height H    image size (default 1280x720)\n"
             "effects:\n"
             "  --effects LIST          sky, flare, shadows, detail, billboards, fog, water, weather,\n"
@@ -225,6 +226,10 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             NEEDV();
             if (!cli_parse_float(v, 1, 170, &o->fov))
                 return bad(cmd, a, v, "degrees in [1, 170]");
+        } else if (!strcmp(a, "--near")) {
+            NEEDV();
+            if (!cli_parse_float(v, 0.001f, 100000, &o->near))
+                return bad(cmd, a, v, "metres in 0.001..100000");
         } else if (!strcmp(a, "--far")) {
             NEEDV();
             if (!cli_parse_float(v, 1, 1e8f, &o->far))
@@ -464,10 +469,48 @@ hz_result cli_renderer_morph(hz_renderer *r, hz_terrain *t, hz_lod_mode mode, hz
 {
     if (mode != HZ_LOD_CDLOD)
         return HZ_OK;
-    const uint16_t *me = hz_lod_morph_errors(t->lod);
-    if (!me)
-        return hz_err_set(err, HZ_ERR_MEMORY, "out of memory for the cdlod morph data");
-    return hz_renderer_set_morph(r, me, err);
+    return hz_renderer_set_cdlod(r, t->lod, err);
+}
+
+hz_result cli_lod_select(hz_terrain *t, const hz_camera *cam, const hz_lod_params *p, cli_lod_frame *f)
+{
+    f->patches = p->mode == HZ_LOD_CDLOD;
+    f->il.count = 0;
+    f->pl.count = 0;
+    if (f->patches)
+        return hz_lod_select_patches(t->lod, cam, p, &f->pl, &f->st);
+    return hz_lod_select(t->lod, cam, p, &f->il, NULL, NULL, &f->st);
+}
+
+void cli_lod_scene(const cli_lod_frame *f, hz_scene_params *sp, const uint32_t **idx, uint32_t *count)
+{
+    cli_scene_lod(sp, &f->st);
+    if (f->patches) {
+        sp->patches = f->pl.data;
+        sp->patch_count = (uint32_t)f->pl.count;
+        *idx = NULL;
+        *count = 0;
+    } else {
+        sp->patches = NULL;
+        sp->patch_count = 0;
+        *idx = f->il.data;
+        *count = (uint32_t)f->il.count;
+    }
+}
+
+hz_result cli_lod_indices(hz_terrain *t, cli_lod_frame *f)
+{
+    if (!f->patches)
+        return HZ_OK;
+    f->il.count = 0;
+    return hz_lod_patches_to_indices(t->lod, f->pl.data, f->pl.count, &f->il);
+}
+
+void cli_lod_frame_free(cli_lod_frame *f)
+{
+    free(f->il.data);
+    free(f->pl.data);
+    memset(f, 0, sizeof *f);
 }
 
 hz_result cli_renderer_setup(hz_renderer *r, hz_terrain *t, const cli_opts *o, hz_err *err)
@@ -496,5 +539,7 @@ hz_camera cli_camera(const cli_opts *o, const hz_terrain *t)
         c.fov_y = o->fov;
     if (o->far > 0)
         c.zfar = o->far;
+    if (o->near > 0)
+        c.znear = o->near;
     return c;
 }

@@ -14,6 +14,7 @@ typedef struct cli_opts {
     float camera[5]; /* x, y, z, yaw, pitch */
     float fov;       /* 0 -> 60 */
     float far;       /* view distance metres; 0 -> 1.5 x map side */
+    float near;      /* near clip plane metres; 0 -> the camera's default (0.25 m) */
     uint32_t width, height;
     const char *out;
     const char *dump_mesh;
@@ -95,6 +96,24 @@ hz_result cli_renderer_morph(hz_renderer *r, hz_terrain *t, hz_lod_mode mode, hz
 hz_result cli_renderer_setup(hz_renderer *r, hz_terrain *t, const cli_opts *o, hz_err *err);
 /* Copies a frame's LOD figures the renderer needs (cdlod morphing) into sp. */
 void cli_scene_lod(hz_scene_params *sp, const hz_lod_stats *st);
+
+/* One frame's terrain: cdlod selects nodes (patches, drawn as such), the
+ * other modes an index list. */
+typedef struct cli_lod_frame {
+    hz_index_list il;   /* indices (cdlod: only after cli_lod_indices) */
+    hz_patch_list pl;   /* cdlod patches */
+    hz_lod_stats st;
+    bool patches;
+} cli_lod_frame;
+
+/* Selects the frame for cam with p (p->mode). */
+hz_result cli_lod_select(hz_terrain *t, const hz_camera *cam, const hz_lod_params *p, cli_lod_frame *f);
+/* The frame in sp (patches and morphing) and the index list to pass to
+ * hz_renderer_draw (none for patches). */
+void cli_lod_scene(const cli_lod_frame *f, hz_scene_params *sp, const uint32_t **idx, uint32_t *count);
+/* The frame's triangles as indices in f->il (cdlod: expands the patches). */
+hz_result cli_lod_indices(hz_terrain *t, cli_lod_frame *f);
+void cli_lod_frame_free(cli_lod_frame *f);
 /* The camera: --camera or the terrain's default, with --fov/--far applied. */
 hz_camera cli_camera(const cli_opts *o, const hz_terrain *t);
 

@@ -18,8 +18,8 @@
 
 typedef struct frame_row {
     double t;
-    uint32_t triangles, nodes_visited, nodes_culled, restricted;
-    double lod_ms, upload_ms, draw_ms, frame_ms;
+    uint32_t triangles, nodes_visited, nodes_culled, restricted, nodes_drawn;
+    double lod_ms, upload_ms, draw_ms, frame_ms, upload_kb;
     double px_p99, px_max;
     uint64_t uncovered;
     double psnr, silhouette, popping;
@@ -94,7 +94,12 @@ static void usage(void)
             "  --lod M1,M2,...         compare several LOD modes on the same path and reference frames\n"
             "  --tune-p99 PX           per mode, use the largest --pixel-error whose 99th-percentile\n"
             "                          screen-space error (p95 over frames) stays <= PX\n"
-            "  --reference on|off      full-resolution reference frames for PSNR/popping (default on)\n"
+            "  --tune-silhouette F     per mode, use the largest --pixel-error whose median silhouette\n"
+            "                          error against the reference (fraction of pixels) stays <= F\n"
+            "  --reference on|off      full-resolution reference frames for PSNR/popping (default on):\n"
+            "                          every cell of the grid as two triangles, no LOD, no culling\n"
+            "  --metrics on|off        the exact per-frame screen-space error (default on; off for\n"
+            "                          speed runs: it costs ~0.2 s per frame outside frame_ms)\n"
             "  --json FILE             write the summary and per-frame figures as JSON\n"
             "  --plot FILE.png         chart of triangles, frame ms and pixel error (needs gnuplot)\n"
             "  --save-frames DIR       write every LOD (and reference) frame as PNG\n"
@@ -258,8 +263,11 @@ typedef struct bench {
     hz_path path;
     uint32_t frames;
     float fps;
-    bool reference, quiet;
+    bool reference, quiet, metrics;
     const char *save_dir;
+    cli_lod_frame lf;      /* this frame's selection */
+    double load_ms, setup_ms;
+    double tune_sil;       /* --tune-silhouette target, 0 = none */
     hz_renderer *ren;
     size_t npx;
     /* Reference frames, rendered once when several modes share them. */
@@ -290,12 +298,12 @@ static void frame_params(bench *b, const hz_camera *cam, uint32_t f, uint32_t hi
 static hz_result reference_frame(bench *b, const hz_camera *cam, uint32_t f, uint8_t *rgb, uint8_t *sky,
                                  uint32_t *tris)
 {
-    /* Full resolution inside the frustum: every node splits down to 3x3. */
-    const hz_lod_params refp = {.c = 1e30f, .c2 = 1e30f, .criterion = HZ_LOD_CLAMPED};
-    hz_lod_stats rs;
-    if (hz_lod_select(b->t->lod, cam, &refp, &b->rl, NULL, NULL, &rs) != HZ_OK)
-        return hz_err_set(&b->err, HZ_ERR_MEMORY, "reference selection out of memory");
-    *tris = rs.triangles;
+    /* Full resolution, independent of the code it measures: every cell of
+     * the grid as two triangles, no LOD selection and no culling (the GPU
+     * clips what is off screen). Built once. */
+    if (b->rl.count == 0 && hz_lod_full_mesh(&b->t->hm, &b->rl) != HZ_OK)
+        return hz_err_set(&b->err, HZ_ERR_MEMORY, "out of memory for the full-resolution reference mesh");
+    *tris = (uint32_t)(b->rl.count / 3);
     hz_scene_params sp;
     frame_params(b, cam, f, 1, &sp);
     hz_result r = hz_renderer_draw(b->ren, cam, &sp, b->rl.data, (uint32_t)b->rl.count, NULL, &b->err);
@@ -395,6 +403,65 @@ static hz_result tune(bench *b, hz_lod_params *lod, double target, double *found
     return HZ_OK;
 }
 
+/* The largest pixel error bound (bisection in log space, 10 steps over
+ * 0.05..64 px) whose median silhouette error against the full-resolution
+ * reference, over up to 8 frames spread along the path, stays <= target
+ * (a fraction of the pixels): the setting that matches an image error. */
+static hz_result tune_silhouette(bench *b, hz_lod_params *lod, double target, double *found)
+{
+    const uint32_t K = b->frames < 8 ? b->frames : 8;
+    uint8_t *sky[8] = {0}, *mine = malloc(b->npx), *rgb = malloc(b->npx * 3);
+    hz_camera cams[8];
+    hz_result r = mine && rgb ? HZ_OK : hz_err_set(&b->err, HZ_ERR_MEMORY, "out of memory for the tuning");
+    for (uint32_t k = 0; r == HZ_OK && k < K; k++) {
+        const uint32_t f = K > 1 ? (uint32_t)((uint64_t)k * (b->frames - 1) / (K - 1)) : 0;
+        cams[k] = cli_camera(&b->o, b->t);
+        hz_path_sample(&b->path, (float)f / b->fps, &cams[k]);
+        sky[k] = malloc(b->npx);
+        uint32_t tris;
+        r = sky[k] ? reference_frame(b, &cams[k], f, rgb, sky[k], &tris)
+                   : hz_err_set(&b->err, HZ_ERR_MEMORY, "out of memory for the tuning");
+    }
+    double lo = log(0.05), hi = log(64.0), best = 0.05, vals[8];
+    double t0 = hz_time_ms(), last = t0;
+    const int iters = 10;
+    for (int it = 0; r == HZ_OK && it < iters; it++) {
+        const double mid = 0.5 * (lo + hi);
+        lod->pixel_error = (float)exp(mid);
+        for (uint32_t k = 0; r == HZ_OK && k < K; k++) {
+            const uint32_t *idx;
+            uint32_t nidx;
+            hz_scene_params sp;
+            r = cli_lod_select(b->t, &cams[k], lod, &b->lf);
+            if (r != HZ_OK)
+                break;
+            frame_params(b, &cams[k], 0, 2, &sp);
+            cli_lod_scene(&b->lf, &sp, &idx, &nidx);
+            r = hz_renderer_draw(b->ren, &cams[k], &sp, idx, nidx, NULL, &b->err);
+            if (r == HZ_OK)
+                r = hz_renderer_read_sky_mask(b->ren, mine, &b->err);
+            if (r == HZ_OK)
+                vals[k] = hz_metrics_silhouette(mine, sky[k], b->npx);
+        }
+        if (r != HZ_OK)
+            break;
+        if (pct_values(vals, K, 0.5) <= target) {
+            lo = mid;
+            best = exp(mid);
+        } else {
+            hi = mid;
+        }
+        progress(b, "tuning the silhouette error", (uint32_t)it + 1, iters, t0, &last);
+    }
+    lod->pixel_error = (float)best;
+    *found = best;
+    for (uint32_t k = 0; k < K; k++)
+        free(sky[k]);
+    free(mine);
+    free(rgb);
+    return r;
+}
+
 /* Flies the path with one LOD setting; fills rows[frames]. */
 static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
 {
@@ -403,13 +470,14 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
     /* One untimed warm-up frame: buffer allocation and shader compilation in
      * llvmpipe happen on the first draw, not in steady state. */
     hz_path_sample(&b->path, 0.0f, &cam);
-    hz_lod_stats st0;
-    if (hz_lod_select(b->t->lod, &cam, lod, &b->il, NULL, NULL, &st0) != HZ_OK)
+    const uint32_t *idx;
+    uint32_t nidx;
+    if (cli_lod_select(b->t, &cam, lod, &b->lf) != HZ_OK)
         return hz_err_set(&b->err, HZ_ERR_MEMORY, "LOD selection out of memory");
     hz_scene_params sp0;
     frame_params(b, &cam, 0, 0, &sp0);
-    cli_scene_lod(&sp0, &st0);
-    if (hz_renderer_draw(b->ren, &cam, &sp0, b->il.data, (uint32_t)b->il.count, NULL, &b->err) != HZ_OK)
+    cli_lod_scene(&b->lf, &sp0, &idx, &nidx);
+    if (hz_renderer_draw(b->ren, &cam, &sp0, idx, nidx, NULL, &b->err) != HZ_OK)
         return HZ_ERR_GL;
     double t_start = hz_time_ms(), last = t_start;
     char name[1024];
@@ -419,16 +487,18 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
         row->t = (double)f / b->fps;
         hz_path_sample(&b->path, (float)row->t, &cam);
         double f0 = hz_time_ms();
-        hz_lod_stats st;
-        if (hz_lod_select(b->t->lod, &cam, lod, &b->il, NULL, NULL, &st) != HZ_OK)
+        if (cli_lod_select(b->t, &cam, lod, &b->lf) != HZ_OK)
             return hz_err_set(&b->err, HZ_ERR_MEMORY, "LOD selection out of memory");
+        const hz_lod_stats st = b->lf.st;
         hz_draw_stats ds;
         hz_scene_params sp;
         frame_params(b, &cam, f, 0, &sp); /* (resets this mode's motion blur at its first frame) */
-        cli_scene_lod(&sp, &st);
-        if (hz_renderer_draw(b->ren, &cam, &sp, b->il.data, (uint32_t)b->il.count, &ds, &b->err) != HZ_OK)
+        cli_lod_scene(&b->lf, &sp, &idx, &nidx);
+        if (hz_renderer_draw(b->ren, &cam, &sp, idx, nidx, &ds, &b->err) != HZ_OK)
             return HZ_ERR_GL;
         row->frame_ms = hz_time_ms() - f0;
+        row->nodes_drawn = st.leaves;
+        row->upload_kb = (double)ds.upload_bytes / 1024.0;
         row->triangles = st.triangles;
         row->nodes_visited = st.nodes_visited;
         row->nodes_culled = st.nodes_culled;
@@ -440,15 +510,23 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
         if (hz_renderer_read_rgb(b->ren, cur, &b->err) != HZ_OK ||
             hz_renderer_read_sky_mask(b->ren, b->sky_l, &b->err) != HZ_OK)
             return HZ_ERR_GL;
-        morph_user mu = {b->t->lod, &cam, &st};
-        hz_px_error pe;
-        if (hz_metrics_px_error_ex(&b->t->hm, b->t->spacing, b->t->zscale, b->il.data, b->il.count,
-                                   st.morph_scale > 0 ? morph_height : NULL, &mu, &cam, o->height, &b->scratch,
-                                   &pe) != HZ_OK)
-            return hz_err_set(&b->err, HZ_ERR_MEMORY, "pixel error out of memory");
-        row->px_p99 = pe.p99_px;
-        row->px_max = pe.max_px;
-        row->uncovered = pe.uncovered;
+        /* The exact screen-space error of the drawn surface (outside the
+         * frame's time; --metrics off skips it for speed runs). */
+        if (b->metrics) {
+            if (cli_lod_indices(b->t, &b->lf) != HZ_OK)
+                return hz_err_set(&b->err, HZ_ERR_MEMORY, "out of memory expanding the patches");
+            morph_user mu = {b->t->lod, &cam, &st};
+            hz_px_error pe;
+            if (hz_metrics_px_error_ex(&b->t->hm, b->t->spacing, b->t->zscale, b->lf.il.data, b->lf.il.count,
+                                       st.morph_scale > 0 ? morph_height : NULL, &mu, &cam, o->height, &b->scratch,
+                                       &pe) != HZ_OK)
+                return hz_err_set(&b->err, HZ_ERR_MEMORY, "pixel error out of memory");
+            row->px_p99 = pe.p99_px;
+            row->px_max = pe.max_px;
+            row->uncovered = pe.uncovered;
+        } else {
+            row->px_p99 = row->px_max = NAN;
+        }
         if (b->save_dir) {
             snprintf(name, sizeof name, "%s/%s_%04u.png", b->save_dir, hz_lod_mode_name(lod->mode), f);
             if (hz_image_write_png(name, cur, o->width, o->height, &b->err) != HZ_OK)
@@ -471,8 +549,10 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
             }
             /* The drawn surface that the pixel error just rasterised. */
             float *scur = b->surf[f & 1], *sprev = b->surf[(f + 1) & 1];
-            memcpy(scur, b->scratch.surface, (size_t)b->t->hm.size * b->t->hm.size * sizeof *scur);
-            if (f) {
+            if (b->metrics)
+                memcpy(scur, b->scratch.surface, (size_t)b->t->hm.size * b->t->hm.size * sizeof *scur);
+            row->pop_px_max = row->pop_px_mean = NAN;
+            if (f && b->metrics) {
                 hz_pop_stats ps;
                 hz_metrics_surface_change(&b->t->hm, b->t->spacing, b->t->zscale, sprev, scur, &cam, o->height,
                                           &ps);
@@ -504,6 +584,8 @@ static const col COLS[] = {
     {"triangles", OFF(triangles), true, false},
     {"nodes_visited", OFF(nodes_visited), true, false},
     {"nodes_culled", OFF(nodes_culled), true, false},
+    {"nodes_drawn", OFF(nodes_drawn), true, false},
+    {"upload_kb", OFF(upload_kb), false, false},
     {"lod_ms", OFF(lod_ms), false, false},
     {"upload_ms", OFF(upload_ms), false, false},
     {"draw_ms", OFF(draw_ms), false, false},
@@ -516,7 +598,8 @@ static const col COLS[] = {
     {"pop_px_max", OFF(pop_px_max), false, true},
     {"pop_px_mean", OFF(pop_px_mean), false, true},
 };
-enum { NCOLS = sizeof COLS / sizeof *COLS, NCOLS_NOREF = 9 };
+enum { NCOLS = sizeof COLS / sizeof *COLS, NCOLS_NOREF = 11, COL_P99 = 9, COL_PXMAX = 10, COL_PSNR = 11,
+       COL_SIL = 12 };
 
 typedef struct summary {
     double v[NCOLS][3]; /* median, p95, max */
@@ -567,6 +650,8 @@ static void print_table(const bench *b, const hz_lod_params *lod, const summary 
            b->reference ? "" : ", no reference", fxs);
     if (tuned_for > 0)
         printf(" (tuned for p99 <= %g px)", tuned_for);
+    if (b->tune_sil > 0)
+        printf(" (tuned for median silhouette <= %g)", b->tune_sil);
     printf("\n%-18s %12s %12s %12s\n", "", "median", "p95", "max");
     const size_t ncols = b->reference ? NCOLS : NCOLS_NOREF;
     for (size_t c = 0; c < ncols; c++)
@@ -615,23 +700,33 @@ static void write_json(FILE *jf, const bench *b, const hz_lod_params *lod, const
     /* px_error_p99 / px_error_max as top-level keys (p95 over frames of the
      * per-frame p99, and the max over all frames). */
     fprintf(jf, "\"px_error_p99\":");
-    json_num(jf, s->v[7][1]);
+    json_num(jf, s->v[COL_P99][1]);
     fprintf(jf, ",\"px_error_max\":");
-    json_num(jf, s->v[8][2]);
+    json_num(jf, s->v[COL_PXMAX][2]);
+    fprintf(jf, ",\"tuned_for_silhouette\":%g", b->tune_sil);
+    fprintf(jf, ",\"metrics\":%s,\"load_ms\":%.1f,\"setup_ms\":%.1f,\"near\":%g,\"patch_cells\":%u",
+            b->metrics ? "true" : "false", b->load_ms, b->setup_ms, (double)cam.znear,
+            lod->mode == HZ_LOD_CDLOD ? hz_lod_patch_cells(b->t->lod) : 0u);
     fprintf(jf, ",\"bytes_per_sample\":%.4f,\"peak_rss_mb\":%.1f,\"per_frame\":[", hz_lod_bytes_per_sample(b->t->lod),
             (double)hz_peak_rss_bytes() / 1048576.0);
     for (size_t i = 0; i < b->frames; i++) {
         const frame_row *r = &rows[i];
         fprintf(jf, "%s{\"t\":%.4f,\"triangles\":%u,\"nodes_visited\":%u,\"nodes_culled\":%u,"
                     "\"restricted\":%u,\"lod_ms\":%.4f,\"upload_ms\":%.4f,\"draw_ms\":%.3f,\"frame_ms\":%.3f,"
-                    "\"px_error_p99\":%.5g,\"px_error_max\":%.5g,\"uncovered\":%llu",
+                    "\"nodes_drawn\":%u,\"upload_kb\":%.3f,\"px_error_p99\":",
                 i ? "," : "", r->t, r->triangles, r->nodes_visited, r->nodes_culled, r->restricted, r->lod_ms,
-                r->upload_ms, r->draw_ms, r->frame_ms, r->px_p99, r->px_max, (unsigned long long)r->uncovered);
+                r->upload_ms, r->draw_ms, r->frame_ms, r->nodes_drawn, r->upload_kb);
+        json_num(jf, r->px_p99);
+        fputs(",\"px_error_max\":", jf);
+        json_num(jf, r->px_max);
+        fprintf(jf, ",\"uncovered\":%llu", (unsigned long long)r->uncovered);
         if (b->reference) {
             fprintf(jf, ",\"ref_triangles\":%u,\"psnr_db\":", r->ref_triangles);
             json_num(jf, r->psnr);
-            fprintf(jf, ",\"silhouette_frac\":%.6g,\"popping\":%.6g,\"pop_px_max\":%.6g,\"pop_px_mean\":%.6g",
-                    r->silhouette, r->popping, r->pop_px_max, r->pop_px_mean);
+            fprintf(jf, ",\"silhouette_frac\":%.6g,\"popping\":%.6g,\"pop_px_max\":", r->silhouette, r->popping);
+            json_num(jf, r->pop_px_max);
+            fputs(",\"pop_px_mean\":", jf);
+            json_num(jf, r->pop_px_mean);
         }
         fputc('}', jf);
     }
@@ -692,9 +787,9 @@ int cmd_bench(int argc, char **argv)
     const char *path_name = NULL, *json_out = NULL, *plot_out = NULL, *save_dir = NULL, *costs_out = NULL;
     bench_forest_opts bfo = {0};
     uint32_t frames = 60;
-    float fps = 30.0f, tune_p99 = 0.0f;
+    float fps = 30.0f, tune_p99 = 0.0f, tune_sil = 0.0f;
     bool fps_set = false;
-    bool reference = true;
+    bool reference = true, metrics = true;
     hz_lod_mode modes[HZ_LOD_MODE_COUNT * 2];
     int nmodes = 0;
     char **rest = calloc((size_t)argc + 1, sizeof *rest);
@@ -721,6 +816,7 @@ int cmd_bench(int argc, char **argv)
                      !strcmp(a, "--full-every") || !strcmp(a, "--pr-views") || !strcmp(a, "--pr-res") ||
                      !strcmp(a, "--reference") || !strcmp(a, "--plot") || !strcmp(a, "--save-frames") ||
                      !strcmp(a, "--tune-p99") || (!strcmp(a, "--lod") && v && strchr(v, ',')) ||
+                     !strcmp(a, "--tune-silhouette") || !strcmp(a, "--metrics") ||
                      !strcmp(a, "--effect-costs") ||
                      (!strcmp(a, "--json") && v && v[0] != '-');
         if (!takes) {
@@ -763,6 +859,20 @@ int cmd_bench(int argc, char **argv)
                 bfo.pr_views = x;
             else
                 bfo.pr_res = x;
+        } else if (!strcmp(a, "--metrics")) {
+            if (strcmp(v, "on") && strcmp(v, "off")) {
+                fprintf(stderr, "horizon bench: --metrics takes on or off\n");
+                free(rest);
+                return 2;
+            }
+            metrics = !strcmp(v, "on");
+        } else if (!strcmp(a, "--tune-silhouette")) {
+            if (!cli_parse_float(v, 1e-7f, 1.0f, &tune_sil)) {
+                fprintf(stderr, "horizon bench: invalid value '%s' for --tune-silhouette: expected a fraction of "
+                                "the pixels in (0, 1], e.g. 0.0002\n", v);
+                free(rest);
+                return 2;
+            }
         } else if (!strcmp(a, "--reference")) {
             if (strcmp(v, "on") && strcmp(v, "off")) {
                 fprintf(stderr, "horizon bench: --reference takes on or off\n");
@@ -793,7 +903,16 @@ int cmd_bench(int argc, char **argv)
             }
         }
     }
-    bench b = {.frames = frames, .fps = fps, .reference = reference, .save_dir = save_dir};
+    bench b = {.frames = frames, .fps = fps, .reference = reference, .metrics = metrics, .save_dir = save_dir};
+    b.tune_sil = tune_sil;
+    if (tune_sil > 0 && tune_p99 > 0) {
+        fprintf(stderr, "horizon bench: --tune-p99 and --tune-silhouette are alternatives\n");
+        return 2;
+    }
+    if (tune_sil > 0 && !reference) {
+        fprintf(stderr, "horizon bench: --tune-silhouette needs the reference frames (not --reference off)\n");
+        return 2;
+    }
     int rc = cli_parse(nrest, rest, 2, &b.o, "bench");
     free(rest);
     if (rc)
@@ -859,6 +978,7 @@ int cmd_bench(int argc, char **argv)
         hz_err_set(&b.err, HZ_ERR_MEMORY, "out of memory");
         goto done;
     }
+    b.load_ms = b.t->load_ms + b.t->prep_ms;
     if (reference) {
         const size_t ns = (size_t)b.t->hm.size * b.t->hm.size;
         b.surf[0] = malloc(ns * sizeof(float));
@@ -868,6 +988,7 @@ int cmd_bench(int argc, char **argv)
             goto done;
         }
     }
+    double setup0 = hz_time_ms();
     gl = hz_gl_create_headless(&b.err);
     if (!gl)
         goto done;
@@ -882,6 +1003,7 @@ int cmd_bench(int argc, char **argv)
         snprintf(b.err.msg, sizeof b.err.msg, "effects setup failed");
         goto done;
     }
+    b.setup_ms = hz_time_ms() - setup0;
     if (costs_out) {
         rc = effect_costs(&b.o, b.t, b.ren, &b.afx, &b.path, frames, fps, costs_out, hz_gl_describe(gl));
         goto done;
@@ -902,6 +1024,8 @@ int cmd_bench(int argc, char **argv)
         lod.mode = modes[m];
         double tuned = 0;
         if (tune_p99 > 0 && tune(&b, &lod, tune_p99, &tuned) != HZ_OK)
+            goto done;
+        if (tune_sil > 0 && tune_silhouette(&b, &lod, tune_sil, &tuned) != HZ_OK)
             goto done;
         if (run(&b, &lod, rows) != HZ_OK)
             goto done;
@@ -955,6 +1079,7 @@ done:
     free(b.sky_r);
     free(b.il.data);
     free(b.rl.data);
+    cli_lod_frame_free(&b.lf);
     hz_float_buf_free(&b.scratch);
     hz_path_free(&b.path);
     hz_terrain_destroy(b.t);

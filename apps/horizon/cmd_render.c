@@ -100,18 +100,24 @@ int cmd_render(int argc, char **argv)
     hz_camera cam = o.forest_n && !o.have_camera ? cli_forest_camera(&o, t) : cli_camera(&o, t);
     cli_forest *cf = NULL;
 
-    hz_index_list il = {0};
-    hz_lod_stats st = {0};
+    cli_lod_frame lf = {0};
     double *lod_ms = malloc(o.repeat * sizeof *lod_ms);
     if (!lod_ms)
         return 1;
     for (uint32_t r = 0; r < o.repeat; r++) {
-        if (hz_lod_select(t->lod, &cam, &o.lod, &il, NULL, NULL, &st) != HZ_OK) {
+        if (cli_lod_select(t, &cam, &o.lod, &lf) != HZ_OK) {
             fprintf(stderr, "horizon render: out of memory in LOD selection\n");
             return 1;
         }
-        lod_ms[r] = st.ms;
+        lod_ms[r] = lf.st.ms;
     }
+    /* cdlod draws nodes; the index list is for the mesh dump and the figures. */
+    if (cli_lod_indices(t, &lf) != HZ_OK) {
+        fprintf(stderr, "horizon render: out of memory expanding the patches\n");
+        return 1;
+    }
+    const hz_index_list il = lf.il;
+    const hz_lod_stats st = lf.st;
     /* roam refines from its previous mesh: the first selection builds it,
      * later ones from the same camera change nothing. */
     double lod_first = lod_ms[0];
@@ -134,7 +140,9 @@ int cmd_render(int argc, char **argv)
     }
     hz_scene_params sp = {.wireframe = o.wireframe};
     app_fx_params(&afx, t, &cam, &o.lod, o.time, &sp);
-    cli_scene_lod(&sp, &st);
+    const uint32_t *draw_idx;
+    uint32_t draw_count;
+    cli_lod_scene(&lf, &sp, &draw_idx, &draw_count);
     if (o.forest_n) {
         cf = cli_forest_create(&o, t);
         if (!cf) {
@@ -148,7 +156,7 @@ int cmd_render(int argc, char **argv)
     double draw[3];
     hz_draw_stats ds = {0};
     for (int k = 0; k < 3; k++) {
-        if (hz_renderer_draw(ren, &cam, &sp, il.data, (uint32_t)il.count, &ds, &err) != HZ_OK)
+        if (hz_renderer_draw(ren, &cam, &sp, draw_idx, draw_count, &ds, &err) != HZ_OK)
             goto done;
         if (cf && cf->hook.failed) {
             err = cf->hook.err;
@@ -252,7 +260,7 @@ done:
     app_fx_free(&afx);
     hz_renderer_destroy(ren);
     hz_gl_destroy(gl);
-    free(il.data);
+    cli_lod_frame_free(&lf);
     hz_terrain_destroy(t);
     return rc;
 }

@@ -465,6 +465,7 @@ typedef struct view {
     bool morph_uploaded;         /* cdlod morph data is on the GPU */
     bool frozen, wire, fans, boxes, hud, help;
     hz_index_list il;
+    hz_patch_list pl; /* cdlod: the nodes drawn */
     hz_node_list leaves, culled;
     hz_lod_stats st;
     hz_draw_stats ds;
@@ -1144,8 +1145,14 @@ static bool frame(view *v, bool *render_failed)
     const hz_camera *lod_cam = v->frozen ? &v->lod_cam : &v->fc.cam;
     bool want_leaves = v->boxes, want_culled = v->frozen;
     v->lod.viewport_height = v->height;
-    if (hz_lod_select(v->t->lod, lod_cam, &v->lod, &v->il, want_leaves ? &v->leaves : NULL,
-                      want_culled ? &v->culled : NULL, &v->st) != HZ_OK) {
+    /* cdlod draws nodes (patches); the index list is only needed for the
+     * debug overlays (fans, boxes, the frozen camera's culled nodes). */
+    const bool patches = v->lod.mode == HZ_LOD_CDLOD;
+    const bool need_list = !patches || v->fans || want_leaves || want_culled;
+    v->il.count = 0;
+    if ((need_list && hz_lod_select(v->t->lod, lod_cam, &v->lod, &v->il, want_leaves ? &v->leaves : NULL,
+                                    want_culled ? &v->culled : NULL, &v->st) != HZ_OK) ||
+        (patches && hz_lod_select_patches(v->t->lod, lod_cam, &v->lod, &v->pl, &v->st) != HZ_OK)) {
         hz_err_set(&v->err, HZ_ERR_MEMORY, "out of memory in LOD selection");
         *render_failed = true;
         return false;
@@ -1167,7 +1174,11 @@ static bool frame(view *v, bool *render_failed)
         }
         cli_forest_hook(v->cf, &sp);
     }
-    uint32_t count = v->fans ? 0 : (uint32_t)v->il.count;
+    uint32_t count = v->fans || patches ? 0 : (uint32_t)v->il.count;
+    if (patches && !v->fans) {
+        sp.patches = v->pl.data;
+        sp.patch_count = (uint32_t)v->pl.count;
+    }
     if (hz_renderer_draw(v->ren, &v->fc.cam, &sp, v->il.data, count, &v->ds, &v->err) != HZ_OK) {
         *render_failed = true;
         return false;
@@ -1487,6 +1498,7 @@ out:
     hz_window_destroy(v->win);
     hz_terrain_destroy(v->t);
     free(v->il.data);
+    free(v->pl.data);
     free(v->leaves.data);
     free(v->culled.data);
     free(v->frame_times);

@@ -23,6 +23,8 @@ typedef struct hz_lod_desc {
     float zscale;           /* height multiplier; 0 -> 1; must be > 0 */
     float propagate_c;      /* C for Röttger's upward propagation of d2,
                                K = C / (2 (C - 1)); 0 -> 25 (clamped to >= 2) */
+    uint32_t patch_cells;   /* cdlod: grid cells per side of the patch every node is drawn
+                               with, a power of two >= 2; 0 -> 16 (clamped to the map) */
     hz_progress_fn progress; /* optional */
     void *progress_user;
 } hz_lod_desc;
@@ -134,11 +136,61 @@ hz_result hz_lod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_params *
                         hz_index_list *out, hz_node_list *leaves, hz_node_list *culled,
                         hz_lod_stats *stats);
 
+/* ---- cdlod: nodes, not triangles ------------------------------------------
+ * cdlod selects quadtree nodes; every node is drawn with the same static
+ * grid patch of P x P cells (P = hz_lod_patch_cells) whose vertices are
+ * 2^shift samples apart, so a frame is a list of a few hundred patches. Its
+ * cells are split as the full-resolution mesh's (hz_lod_full_mesh, union
+ * jack: nested from level to level). Where the neighbour
+ * across a node's edge is one level coarser, the odd vertices of that edge
+ * are moved onto the even vertex before them (lower index along the edge):
+ * the triangles that collapse are dropped and the edge matches the coarser
+ * node's exactly (no T-junction). Heights are then geomorphed per vertex
+ * (hz_lod_morph_height), a function of the sample and the eye alone. */
+typedef struct hz_patch {
+    uint32_t x0, z0;   /* sample coordinates of the node's north-west corner */
+    uint8_t shift;     /* vertices are 1 << shift samples apart */
+    uint8_t coarse;    /* bit (1 << dir), dir W=0 E=1 N=2 S=3: the neighbour across that
+                          edge is coarser (the edge is stitched) */
+    uint16_t level;    /* quadtree level (0 = root) */
+    float dist;        /* eye to the node's box, metres; patches come sorted nearest first */
+} hz_patch;
+
+typedef struct hz_patch_list {
+    hz_patch *data;
+    size_t count, cap;
+} hz_patch_list;
+
+/* The heightmap the LOD was made for. */
+const hz_heightmap *hz_lod_query_heightmap(const hz_lod *lod);
+
+/* Grid cells per side of a cdlod patch. */
+uint32_t hz_lod_patch_cells(const hz_lod *lod);
+
+/* cdlod selection as nodes (params->mode is ignored): the leaves to draw as
+ * patches, nearest first, into out (cleared first, grown as needed).
+ * stats.triangles counts the non-degenerate triangles they draw. Work and
+ * output are proportional to the nodes, not to the triangles. */
+hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params,
+                                hz_patch_list *out, hz_lod_stats *stats);
+
+/* The triangles n patches draw, as indices into the full-resolution grid
+ * (stitched edges applied, collapsed triangles dropped), appended to out.
+ * For tests, mesh dumps and exact metrics; the renderer draws patches. */
+hz_result hz_lod_patches_to_indices(const hz_lod *lod, const hz_patch *p, size_t n, hz_index_list *out);
+
 /* Per-sample morph errors for cdlod (row-major, size*size values, h16 steps;
  * 65535 = never morphs), built on first use (may take a moment: progress goes
  * to the desc's callback). NULL on out of memory. A vertex's morph range in
  * metres is stats.morph_scale * value. */
 const uint16_t *hz_lod_morph_errors(hz_lod *lod);
+
+/* The height a sample collapses to on the coarser level (h16 steps, times
+ * two so it stays an integer): the sum of the heights of its two
+ * neighbours at the spacing where it first appears (along x, along z, or on
+ * the diagonal of the coarser cell, union jack). A sample of the root patch's grid
+ * returns twice its own height. */
+uint32_t hz_lod_morph_target2(const hz_lod *lod, uint32_t i, uint32_t j);
 
 /* The height (metres, zscale applied) the viewer sees at sample index
  * (j * size + i) in a cdlod frame: the true height moved toward its coarser
@@ -151,8 +203,15 @@ float hz_lod_morph_height(hz_lod *lod, const hz_camera *cam, const hz_lod_stats 
  * coarser level's surface). */
 float hz_lod_morph_factor(hz_lod *lod, const hz_camera *cam, const hz_lod_stats *stats, uint32_t index);
 
-/* Every cell of the grid as two triangles (the full-resolution reference mesh),
- * counter-clockwise seen from above. */
+/* The two triangles of a grid cell with corners a = (i, j), b = (i, j+1),
+ * c = (i+1, j), d = (i+1, j+1), counter-clockwise seen from above: split
+ * along a-d (main diagonal) or c-b. Every grid horizon draws is a "union
+ * jack": cell (i, j) in units of its spacing uses the main diagonal when
+ * i + j is even. */
+void hz_lod_cell_triangles(bool main_diagonal, uint32_t a, uint32_t b, uint32_t c, uint32_t d, uint32_t out[6]);
+
+/* Every cell of the grid as two triangles (the full-resolution reference mesh,
+ * union jack), counter-clockwise seen from above. */
 hz_result hz_lod_full_mesh(const hz_heightmap *hm, hz_index_list *out);
 
 /* Read-only per-node data (x, z, half as above): propagated d2 and the node's

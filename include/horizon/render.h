@@ -7,6 +7,7 @@
 #include "horizon/camera.h"
 #include "horizon/fx.h"
 #include "horizon/heightmap.h"
+#include "horizon/lod.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -82,10 +83,14 @@ typedef struct hz_pass_info {
  * GL_CLIP_DISTANCE0 is enabled for clip_plane. */
 typedef void (*hz_draw_hook_fn)(void *user, const hz_pass_info *pass);
 
-/* cdlod geomorphing: per-sample morph errors (hz_lod_morph_errors: h16 steps,
- * 65535 = never morphs, row-major) uploaded once as a GL_R16 texture buffer
- * (2 bytes/sample). NULL releases them. Call after hz_renderer_set_heightmap. */
-hz_result hz_renderer_set_morph(hz_renderer *r, const uint16_t *morph_err, hz_err *err);
+/* cdlod patches: builds the GPU side of lod's patch terrain (a texture
+ * array of height tiles, the pyramid of the heightmap, each texel with the
+ * sample's height, morph range and morph target; 8 bytes per texel, about
+ * 11 bytes per sample in all) and the static patch grid. The heightmap must
+ * be the one given to hz_renderer_set_heightmap. Frames then pass
+ * hz_scene_params.patches. */
+hz_result hz_renderer_set_cdlod(hz_renderer *r, hz_lod *lod, hz_err *err);
+
 #define HZ_MAX_HISTORY 8u /* motion blur history slots */
 
 typedef struct hz_scene_params {
@@ -95,7 +100,7 @@ typedef struct hz_scene_params {
     float ambient;      /* Ie, 0 -> 0.3 */
     bool wireframe;     /* draw lines on top of shaded terrain */
     float morph_scale;  /* cdlod geomorphing (hz_lod_stats.morph_scale / morph_start of the
-                           frame's selection); 0 = no morphing. Needs hz_renderer_set_morph */
+                           frame's selection); 0 = no morphing. Patches only (hz_renderer_set_cdlod) */
     float morph_start;
     hz_draw_hook_fn draw_objects; /* optional: called in every scene pass after the terrain */
     void *draw_objects_user;
@@ -116,10 +121,16 @@ typedef struct hz_scene_params {
      * what the main frustum culled is missing from reflections). */
     const uint32_t *reflection_indices;
     uint32_t reflection_count;
+    /* cdlod: the main view's terrain as patches (hz_lod_select_patches;
+     * needs hz_renderer_set_cdlod) instead of an index list (then count
+     * must be 0). Reflections still draw reflection_indices. */
+    const hz_patch *patches;
+    uint32_t patch_count;
 } hz_scene_params;
 
 typedef struct hz_draw_stats {
-    double upload_ms;   /* index upload */
+    double upload_ms;   /* index / patch upload */
+    size_t upload_bytes; /* bytes uploaded for the terrain this frame (indices or patch instances) */
     double draw_ms;     /* every pass and effect of the frame, bracketed by glFinish */
     float sun_visible;  /* HZ_FX_FLARE: fraction of the sun disc not covered (depth
                            and clouds), -1 when the sun is off screen or flare is off */

@@ -27,8 +27,8 @@ _Static_assert(offsetof(fx_common_ubo, bits) == 12 * 16, "FxCommon.fx_bits offse
 #define FX_UNIT_REFLECTION 6
 #define FX_UNIT_CLOUDS 7
 #define FX_UNIT_BB 8
-#define FX_UNIT_MORPH 9     /* the LOD's (cdlod geomorphing) */
 #define FX_UNIT_NORMALS 10  /* per-sample normals */
+#define FX_UNIT_TILES 11    /* cdlod height tiles (texture array) */
 #define FX_MAX_REFLECTIONS 4
 
 /* What one scene pass sees: the main view or a mirrored reflection view. */
@@ -62,7 +62,8 @@ typedef struct fx_frame {
  * them (and a few resource flags) become compile-time constants. */
 #define FX_VARIANT_COLORMAP (1u << 16)
 #define FX_VARIANT_COVER (1u << 17)
-#define FX_MAX_LOCS 16
+#define FX_VARIANT_PATCH (1u << 18) /* terrain drawn as cdlod patches */
+#define FX_MAX_LOCS 24
 #define FX_MAX_VARIANTS 40 /* the --effect-costs run uses about 16 terrain variants */
 
 typedef struct prog_variant {
@@ -87,7 +88,8 @@ void prog_cache_clear(prog_cache *c);
 
 /* Uniform location slots per family. */
 enum { TL_SIZE, TL_SPACING, TL_HSCALE, TL_HOFFSET, TL_VIEWPROJ, TL_SUN, TL_HORIZON, TL_EYE, TL_FOG, TL_AMBIENT,
-       TL_HRANGE, TL_WIRE, TL_MORPH_SCALE, TL_MORPH_START, TL_NORMAL_TEX, TL_NRM_SCALE };
+       TL_HRANGE, TL_WIRE, TL_MORPH_SCALE, TL_MORPH_START, TL_NORMAL_TEX, TL_NRM_SCALE, TL_MAP, TL_TILE, TL_TOP,
+       TL_BASE };
 enum { BL_VIEWPROJ, BL_CAM_RIGHT, BL_CAM_UP, BL_PX_PER_M, BL_BLEND, BL_FIRST, BL_FACING };
 enum { WL_RECT, WL_LEVEL, WL_VIEWPROJ, WL_HAS_REFLECTION, WL_VIEWPORT, WL_SIZE, WL_SPACING, WL_HSCALE, WL_HOFFSET,
        WL_DEEP, WL_CLARITY, WL_WAVES, WL_REFLECTIVITY };
@@ -125,13 +127,22 @@ struct hz_renderer {
     GLuint height_buf;  /* GL_TEXTURE_BUFFER storage, uint16 per sample */
     GLuint height_tex;  /* GL_R16 view of height_buf */
     GLuint normal_tex;  /* GL_RG8_SNORM 2D texture of per-sample normals (x, z), 0: none */
-    GLuint morph_buf;   /* cdlod morph errors, uint16 per sample (0: none) */
-    GLuint morph_tex;
+
+    /* cdlod patches (terrain_patch.c) */
+    GLuint tiles_tex;          /* GL_TEXTURE_2D_ARRAY, RGBA16UI tiles of the height pyramid */
+    uint32_t tile_cells, tile_top, tile_layers;
+    int32_t tile_base[16];     /* first layer per level */
+    GLuint patch_vao, patch_ibo, patch_vbo;
+    uint32_t patch_cells, patch_index_count;
+    uint32_t *inst_scratch;
+    size_t inst_scratch_cap, inst_cap, inst_bytes;
+    uint32_t n_inst;           /* instances uploaded for this frame */
 
     GLuint sky_prog;          /* the plain sky */
     sky_uniforms su;
     prog_cache terrain;       /* variant 0: the plain terrain */
     const prog_variant *terrain_cur, *terrain_plain;
+    const prog_variant *terrain_patch_cur; /* this frame's patch variant (NULL: no patches) */
 
     /* Current heightmap, world units (metres, zscale applied). */
     bool has_heights;
@@ -206,8 +217,15 @@ void fx_upload_common(hz_renderer *r, const fx_frame *f, const fx_view *v);
  * bound framebuffer for a view. */
 void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v, GLuint ibo, uint32_t count);
 
-/* The terrain variant for a frame's effects. */
-hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, hz_err *err);
+/* The terrain variant for a frame's effects (patches: the cdlod vertex shader). */
+hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_err *err);
+
+/* ---- terrain_patch.c: cdlod patches ---- */
+/* Converts and uploads a frame's patches (instances). */
+hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, hz_err *err);
+/* Draws the uploaded patches with the bound terrain program (its uniform locations). */
+void patch_draw(hz_renderer *r, const GLint *loc);
+void patch_destroy(hz_renderer *r);
 
 /* ---- fx_ground.c: light map, detail, colour map, forest cover ---- */
 hz_result fx_ground_ensure(hz_renderer *r, hz_err *err);

@@ -148,9 +148,9 @@ void prog_cache_clear(prog_cache *c)
 static const char *const terrain_names[] = {
     "u_size",    "u_spacing", "u_hscale", "u_hoffset",     "u_viewproj",    "u_sun_dir",    "u_sky_horizon",
     "u_eye",     "u_fog_density", "u_ambient", "u_hrange", "u_wire",        "u_morph_scale", "u_morph_start",
-    "u_normal_tex", "u_nrm_scale", NULL};
+    "u_normal_tex", "u_nrm_scale", "u_map",   "u_tile",     "u_top",         "u_base",       NULL};
 
-hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, hz_err *err)
+hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_err *err)
 {
     /* Without any of these bits the plain shader gives the same image. */
     uint32_t key = f->bits & (HZ_FX_SKY | HZ_FX_SHADOWS | HZ_FX_DETAIL | HZ_FX_BILLBOARDS | HZ_FX_FOG | HZ_FX_WATER);
@@ -160,7 +160,16 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, hz_err *err)
         key |= FX_VARIANT_COVER;
     r->terrain_cur = prog_cache_get(&r->terrain, key, hz_shader_terrain_vs, hz_shader_terrain_fs, "terrain", 2,
                                     terrain_names, err);
-    return r->terrain_cur ? HZ_OK : HZ_ERR_GL;
+    if (!r->terrain_cur)
+        return HZ_ERR_GL;
+    r->terrain_patch_cur = NULL;
+    if (patches) {
+        r->terrain_patch_cur = prog_cache_get(&r->terrain, key | FX_VARIANT_PATCH, hz_shader_terrain_patch_vs,
+                                              hz_shader_terrain_fs, "terrain (patches)", 2, terrain_names, err);
+        if (!r->terrain_patch_cur)
+            return HZ_ERR_GL;
+    }
+    return HZ_OK;
 }
 
 void fx_program_setup(GLuint p)
@@ -174,7 +183,7 @@ void fx_program_setup(GLuint p)
     } units[] = {{"u_heights", FX_UNIT_HEIGHTS},     {"u_lightmap", FX_UNIT_LIGHTMAP}, {"u_detail", FX_UNIT_DETAIL},
                  {"u_colormap", FX_UNIT_COLORMAP},   {"u_cover", FX_UNIT_COVER},       {"u_tex", FX_UNIT_SPRITE},
                  {"u_reflection", FX_UNIT_REFLECTION}, {"u_cloud_noise", FX_UNIT_CLOUDS}, {"u_bb", FX_UNIT_BB},
-                 {"u_morph", FX_UNIT_MORPH}, {"u_normals", FX_UNIT_NORMALS}};
+                 {"u_normals", FX_UNIT_NORMALS}, {"u_tiles", FX_UNIT_TILES}};
     glUseProgram(p);
     for (size_t k = 0; k < sizeof units / sizeof units[0]; k++) {
         GLint loc = glGetUniformLocation(p, units[k].name);
@@ -341,9 +350,8 @@ void hz_renderer_destroy(hz_renderer *r)
     glDeleteBuffers(1, &r->ibo);
     glDeleteTextures(1, &r->height_tex);
     glDeleteBuffers(1, &r->height_buf);
-    glDeleteTextures(1, &r->morph_tex);
-    glDeleteBuffers(1, &r->morph_buf);
     glDeleteTextures(1, &r->normal_tex);
+    patch_destroy(r);
     glDeleteFramebuffers(1, &r->fbo);
     glDeleteRenderbuffers(1, &r->color_rb);
     glDeleteRenderbuffers(1, &r->depth_rb);
@@ -533,37 +541,6 @@ hz_result hz_renderer_set_heightmap(hz_renderer *r, const hz_heightmap *hm, floa
     return hz_renderer_draw(r, &cam, NULL, tri, 3, NULL, err);
 }
 
-hz_result hz_renderer_set_morph(hz_renderer *r, const uint16_t *morph_err, hz_err *err)
-{
-    HZ_ASSERT(r);
-    hz_result ctx_res = check_context(r, err, "hz_renderer_set_morph");
-    if (ctx_res != HZ_OK)
-        return ctx_res;
-    hz_gl_drain();
-    if (!morph_err) {
-        if (r->morph_tex)
-            glDeleteTextures(1, &r->morph_tex);
-        if (r->morph_buf)
-            glDeleteBuffers(1, &r->morph_buf);
-        r->morph_tex = r->morph_buf = 0;
-        return hz_gl_check(err, "morph buffer release");
-    }
-    if (!r->has_heights)
-        return hz_err_set(err, HZ_ERR_VALUE, "renderer: hz_renderer_set_morph before hz_renderer_set_heightmap");
-    if (!r->morph_buf) {
-        glGenBuffers(1, &r->morph_buf);
-        glGenTextures(1, &r->morph_tex);
-    }
-    const GLsizeiptr bytes = (GLsizeiptr)((size_t)r->size * r->size * sizeof(uint16_t));
-    glBindBuffer(GL_TEXTURE_BUFFER, r->morph_buf);
-    glBufferData(GL_TEXTURE_BUFFER, bytes, morph_err, GL_STATIC_DRAW);
-    glBindTexture(GL_TEXTURE_BUFFER, r->morph_tex);
-    glTexBuffer(GL_TEXTURE_BUFFER, GL_R16, r->morph_buf);
-    glBindTexture(GL_TEXTURE_BUFFER, 0);
-    glBindBuffer(GL_TEXTURE_BUFFER, 0);
-    return hz_gl_check(err, "morph texture buffer upload (GL_R16)");
-}
-
 static bool vec3_is_zero(const float *v)
 {
     return v[0] == 0.0f && v[1] == 0.0f && v[2] == 0.0f;
@@ -691,7 +668,11 @@ void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v, GLuint
     if (!fx_sky)
         draw_plain_sky(r, f, v);
 
-    if (count > 0) {
+    /* The main view of a cdlod frame draws patches; every other pass indices. */
+    const bool patches = v->pass == HZ_PASS_MAIN && r->terrain_patch_cur && r->n_inst > 0;
+    if (patches)
+        count = 0;
+    if (count > 0 || patches) {
         glEnable(GL_DEPTH_TEST);
         glDepthFunc(GL_GREATER);
         glDepthMask(GL_TRUE);
@@ -700,7 +681,8 @@ void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v, GLuint
         glEnable(GL_CULL_FACE);
         glCullFace(GL_BACK);
         glFrontFace(mirrored ? GL_CW : GL_CCW);
-        const prog_variant *tp = r->terrain_cur ? r->terrain_cur : r->terrain_plain;
+        const prog_variant *tp =
+            patches ? r->terrain_patch_cur : (r->terrain_cur ? r->terrain_cur : r->terrain_plain);
         const GLint *tl = tp->loc;
         glUseProgram(tp->prog);
         glActiveTexture(GL_TEXTURE0 + FX_UNIT_HEIGHTS);
@@ -719,19 +701,19 @@ void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v, GLuint
         glUniform1f(tl[TL_AMBIENT], sp->ambient);
         glUniform2f(tl[TL_HRANGE], r->hmin, r->hmax);
         glUniform1i(tl[TL_WIRE], 0);
-        /* cdlod geomorphing follows the main selection; the reflection's own
-         * (quadtree) selection is drawn unmorphed. */
-        const bool morph = r->morph_tex && sp->morph_scale > 0.0f && !mirrored;
-        glActiveTexture(GL_TEXTURE0 + FX_UNIT_MORPH);
-        glBindTexture(GL_TEXTURE_BUFFER, morph ? r->morph_tex : r->height_tex);
-        glUniform1f(tl[TL_MORPH_SCALE], morph ? sp->morph_scale : 0.0f);
+        /* cdlod geomorphing (patches, main view only); reflections are unmorphed. */
+        glUniform1f(tl[TL_MORPH_SCALE], patches ? sp->morph_scale : 0.0f);
         glUniform1f(tl[TL_MORPH_START], sp->morph_start);
         glActiveTexture(GL_TEXTURE0 + FX_UNIT_NORMALS);
         glBindTexture(GL_TEXTURE_2D, r->normal_tex);
         glUniform1i(tl[TL_NORMAL_TEX], r->normal_tex != 0);
         glUniform2f(tl[TL_NRM_SCALE], 1.0f / (r->spacing * (float)r->size), 0.5f / (float)r->size);
-        glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo);
-        glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
+        if (patches) {
+            patch_draw(r, tl);
+        } else {
+            glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo);
+            glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
+        }
     }
     if (fx_sky) {
         glEnable(GL_DEPTH_TEST);
@@ -740,8 +722,9 @@ void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v, GLuint
         glDisable(GL_CULL_FACE);
         fx_sky_draw(r, f, v);
     }
-    if (count > 0) {
-        const prog_variant *tp = r->terrain_cur ? r->terrain_cur : r->terrain_plain;
+    if (count > 0 || patches) {
+        const prog_variant *tp =
+            patches ? r->terrain_patch_cur : (r->terrain_cur ? r->terrain_cur : r->terrain_plain);
         const GLint *tl = tp->loc;
         if (sp->wireframe && !mirrored) {
             glUseProgram(tp->prog);
@@ -757,15 +740,18 @@ void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v, GLuint
             glDepthFunc(GL_GEQUAL);
             glDepthMask(GL_FALSE);
             glUniform1i(tl[TL_WIRE], 1);
-            glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
+            if (patches)
+                patch_draw(r, tl);
+            else
+                glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
             glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
             glDisable(GL_POLYGON_OFFSET_LINE);
             glDepthMask(GL_TRUE);
         }
-        glActiveTexture(GL_TEXTURE0 + FX_UNIT_MORPH);
-        glBindTexture(GL_TEXTURE_BUFFER, 0);
         glActiveTexture(GL_TEXTURE0 + FX_UNIT_NORMALS);
         glBindTexture(GL_TEXTURE_2D, 0);
+        glActiveTexture(GL_TEXTURE0 + FX_UNIT_TILES);
+        glBindTexture(GL_TEXTURE_2D_ARRAY, 0);
         glActiveTexture(GL_TEXTURE0 + FX_UNIT_HEIGHTS);
         glBindTexture(GL_TEXTURE_BUFFER, 0);
     }
@@ -864,6 +850,10 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: reflection indices without an array or heights");
     if (params && !isfinite(params->time))
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: effect time is not finite");
+    const uint32_t npatch = params ? params->patch_count : 0;
+    if (npatch > 0 && (!params->patches || count > 0))
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: %u patches %s", npatch,
+                          params->patches ? "and an index list in one frame" : "but no patch array");
 
     hz_result ctx_res = check_context(r, err, "hz_renderer_draw");
     if (ctx_res != HZ_OK)
@@ -920,7 +910,7 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
     if (res == HZ_OK && fr.post)
         res = fx_post_ensure(r, err);
     if (res == HZ_OK)
-        res = fx_terrain_select(r, &fr, err);
+        res = fx_terrain_select(r, &fr, npatch > 0, err);
     if (res != HZ_OK)
         return res;
 
@@ -939,6 +929,11 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
     double t0 = hz_time_ms();
     glBindVertexArray(r->vao);
     if (count > 0 && upload_indices(r->ibo, &r->ibo_cap, indices, count, err) != HZ_OK) {
+        glBindVertexArray(0);
+        return HZ_ERR_GL;
+    }
+    r->n_inst = 0;
+    if (npatch > 0 && patch_upload(r, params->patches, npatch, err) != HZ_OK) {
         glBindVertexArray(0);
         return HZ_ERR_GL;
     }
@@ -1020,6 +1015,7 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
     double t3 = hz_time_ms();
     if (stats) {
         stats->upload_ms = t1 - t0;
+        stats->upload_bytes = (size_t)count * sizeof(uint32_t) + (npatch ? r->inst_bytes : 0);
         stats->draw_ms = t3 - t2;
         stats->billboards = (fr.bits & HZ_FX_BILLBOARDS) ? (uint32_t)r->n_trees : 0;
         stats->particles = (fr.bits & HZ_FX_WEATHER) ? (uint32_t)r->n_particles : 0;

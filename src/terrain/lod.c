@@ -45,6 +45,24 @@ hz_lod *hz_lod_create(const hz_lod_desc *desc, hz_err *err)
     lod->levels = hm->levels;
     lod->spacing = spacing;
     lod->zscale = zscale;
+    /* cdlod patches: P x P cells, a power of two no larger than the map. */
+    uint32_t pcells = desc->patch_cells ? desc->patch_cells : 16u;
+    if (pcells < 2 || (pcells & (pcells - 1))) {
+        hz_err_set(err, HZ_ERR_VALUE, "lod: patch cells must be a power of two >= 2 (got %u)", pcells);
+        free(lod);
+        return NULL;
+    }
+    while (pcells > hm->size - 1)
+        pcells /= 2;
+    lod->patch = pcells;
+    {
+        uint32_t lp = hm->levels - 1, h = pcells / 2;
+        while (h > 1) {
+            h >>= 1;
+            lp--;
+        }
+        lod->patch_level = lp;
+    }
     lod->level_offset = calloc(lod->levels, sizeof *lod->level_offset);
     if (!lod->level_offset)
         goto oom;
@@ -153,7 +171,7 @@ size_t hz_lod_memory_bytes(const hz_lod *lod)
     if (lod->stamp)
         b += lod->nodes;
     if (lod->cd_err)
-        b += lod->nodes * sizeof(float);
+        b += lod->cd_nodes * sizeof(float);
     if (lod->morph_err)
         b += (size_t)lod->size * lod->size * sizeof(uint16_t);
     return b + hz__lod_roam_bytes(lod);
@@ -422,6 +440,17 @@ hz_result hz_lod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_params *
     return r;
 }
 
+void hz_lod_cell_triangles(bool main_diagonal, uint32_t a, uint32_t b, uint32_t c, uint32_t d, uint32_t out[6])
+{
+    if (main_diagonal) {
+        out[0] = a, out[1] = b, out[2] = d;
+        out[3] = a, out[4] = d, out[5] = c;
+    } else {
+        out[0] = a, out[1] = b, out[2] = c;
+        out[3] = c, out[4] = b, out[5] = d;
+    }
+}
+
 hz_result hz_lod_full_mesh(const hz_heightmap *hm, hz_index_list *out)
 {
     const uint32_t n = hm->size;
@@ -433,8 +462,8 @@ hz_result hz_lod_full_mesh(const hz_heightmap *hm, hz_index_list *out)
     for (uint32_t j = 0; j + 1 < n; j++)
         for (uint32_t i = 0; i + 1 < n; i++) {
             uint32_t a = j * n + i, b = (j + 1) * n + i, c = j * n + i + 1, d = (j + 1) * n + i + 1;
-            *o++ = a; *o++ = b; *o++ = c;
-            *o++ = c; *o++ = b; *o++ = d;
+            hz_lod_cell_triangles(((i + j) & 1u) == 0, a, b, c, d, o);
+            o += 6;
         }
     out->count = need;
     return HZ_OK;

@@ -1,35 +1,59 @@
-/* cdlod mode: a screen-space error bound in pixels decides the selection, and
- * every vertex morphs continuously toward the coarser level's surface, so
- * nothing pops. Ours, after the idea of Strugar's CDLOD (2010), on the
- * seed's restricted quadtree of fans over the full-resolution grid.
+/* cdlod mode: a screen-space error bound in pixels decides the selection,
+ * every selected node is drawn with one static grid patch of P x P cells
+ * (nodes, not triangles, per frame), and every vertex morphs continuously
+ * toward the coarser level's surface, so nothing pops. Ours, after the idea
+ * of Strugar's CDLOD (2010), on the seed's restricted quadtree.
  *
- * Per node P we precompute delta'(P), a nested upper bound of the vertical
- * distance between P's fan (with or without its edge midpoints) and every
- * sample under P: delta'(P) = max over children c of delta'(c) + max over c's
- * nine vertices v of |h(v) - S_P(v)| (the difference of two piecewise linear
- * surfaces peaks at the vertices of their common refinement, which are those
- * nine points). It is then dilated so that it grows by at least CD_GROW from
- * a node to the coarser nodes around it (see cdlod_prepare), so it is
- * monotone: delta'(parent) >= CD_GROW delta'(child).
+ * Patches: a node of half-size s is drawn as a P x P grid whose vertices are
+ * 2s / P samples apart; the finest patch nodes have s = P / 2 (vertices one
+ * sample apart), cells split as the full-resolution mesh is (union jack,
+ * below). The grid of a node is nested in its parent's: the parent's
+ * vertices are every other vertex of its children's grids.
  *
- * Selection: P splits when the distance from the eye to P's box is below its
- * range R(P) = lambda * delta'(P), lambda = K / tau (K = pixels per metre at
+ * Per node N we precompute delta'(N), a nested upper bound of the vertical
+ * distance between N's patch surface and every sample under it:
+ * delta'(N) = max over children c of delta'(c) + max over the vertices v
+ * that N's split introduces of |h(v) - S_N(v)| (the difference of two nested
+ * piecewise-linear surfaces peaks at the vertices of the finer one; the
+ * finest patches are exact). S_N(v) is the midpoint of v's two neighbours at
+ * the spacing where v first appears: along x, along z, or on the coarser
+ * cell's diagonal (hz_lod_morph_target2). The bounds are then dilated so
+ * that they grow by at least CD_GROW from a node to the coarser nodes
+ * around it.
+ *
+ * Selection: N splits when the distance from the eye to N's box is below its
+ * range R(N) = lambda * delta'(N), lambda = K / tau (K = pixels per metre at
  * one metre). An unsplit node is then at distance >= R, so its error projects
  * to <= tau pixels. Splits a restricted quadtree needs but the error does not
  * are forced (never refused), so the split set is a pure function of the eye.
  *
- * Morphing: the vertices that P's split introduces (its children's centres
- * and edge midpoints) have morph range R_v = lambda * min(delta'(P), delta'(Q))
- * over the one or two nodes P, Q whose split introduces v. The morph factor is
- * m = clamp((d - a R_v) / ((1 - a) R_v), 0, 1) with d the eye distance of the
- * true vertex, a = morph_start; the vertex moves to mix(h, S_P(v), m). Because
- * d >= dist(P) >= R(P) >= R_v whenever P (or Q) is unsplit, a vertex reaches
- * m = 1, i.e. lies exactly on the coarser surface, before its node merges or
- * its neighbour coarsens, and is still at m = 1 when a split introduces it:
- * the surface changes continuously with the eye. Forced splits only add
- * vertices at m = 1 (invisible). Cracks cannot open: a vertex's morph depends
- * on the vertex alone, and the fans skip midpoints toward coarser neighbours.
- * With a linear morph the projected error stays <= tau inside the morph band. */
+ * Triangulation: every grid, at every spacing, is a "union jack": cell
+ * (a, b) (in units of the grid's spacing) is split along its main diagonal
+ * (a, b)-(a+1, b+1) when a + b is even, along the anti-diagonal otherwise.
+ * That pattern is nested (the diagonal of a cell of side 2s runs through the
+ * two cells of side s that split the same way), and next to every odd edge
+ * vertex e the two cells of the edge row both have a diagonal from the same
+ * inner vertex i to e's two even neighbours.
+ *
+ * Stitching: where a leaf's neighbour is one level coarser, the leaf's odd
+ * edge vertices collapse onto the even vertex before them along the edge;
+ * the two triangles (e0, e, i), (e, e2, i) become (e0, e2, i): exactly the
+ * coarser edge, and a pure subdivision of it, so the surface does not jump
+ * when the neighbour splits and e returns (at morph factor 1, on e0-e2).
+ *
+ * Morphing: the vertices that N's split introduces have morph range
+ * R_v = lambda * min(delta'(N), delta'(M)) over the one or two nodes N, M whose
+ * split introduces v (2 bytes per sample). The morph factor is
+ * m = clamp((d - a R_v) / ((1 - a) R_v), 0, 1), d the eye distance of the true
+ * vertex, a = morph_start; the vertex moves to mix(h, S'(v), m), S'(v) the
+ * midpoint of its two neighbours each moved one level toward its own
+ * target (so a vertex at m = 1 lies on the coarser surface as drawn, even
+ * where that surface is itself morphing: a patch spans many samples, and
+ * its far vertices may be morphing while a split brings in near ones). A vertex
+ * introduced by a split is at d >= R(N) >= R_v when N splits, i.e. at m = 1,
+ * on its parent's surface: it appears without popping, and it is back on it
+ * before N merges. The morph depends on the vertex alone, so the same sample
+ * has the same height in every node that draws it. */
 #include "lod_internal.h"
 
 #include <float.h>
@@ -42,44 +66,38 @@
 
 /* ---- precomputation ------------------------------------------------------- */
 
-static float hf(const hz_lod *lod, uint32_t x, uint32_t z)
+static inline bool cell_main_diagonal(uint32_t a, uint32_t b)
 {
-    return (float)h16(lod, x, z);
+    return ((a + b) & 1u) == 0;
 }
 
-/* P's fan surfaces at a point given in P-normalised coordinates (u, w) in
- * [-1, 1]^2 (x = cx + u s, z = cz + w s). c: centre, m[dir]: edge midpoints,
- * k[0..3]: corners NW, NE, SW, SE. Returns the larger deviation of the true
- * height hv from the 8-triangle fan and from the 4-triangle (corner) fan. */
-typedef struct fan9 {
-    float c, mw, me, mn, ms, nw, ne, sw, se;
-} fan9;
-
-static float fan_dev(const fan9 *f, float u, float w, float hv)
+static inline uint32_t low_bit(uint32_t v)
 {
-    const float a = fabsf(u), b = fabsf(w);
-    const bool east = u >= 0.0f, south = w >= 0.0f;
-    const float mx = east ? f->me : f->mw;             /* midpoint on the x side */
-    const float mz = south ? f->ms : f->mn;            /* midpoint on the z side */
-    const float k = east ? (south ? f->se : f->ne) : (south ? f->sw : f->nw); /* corner */
-    float s8 = a >= b ? f->c + a * (mx - f->c) + b * (k - mx) : f->c + b * (mz - f->c) + a * (k - mz);
-    float s4;
-    if (a >= b) {
-        /* x-side triangle (centre, two corners on that side) */
-        float kp = east ? f->se : f->sw, km = east ? f->ne : f->nw; /* w = +1 / -1 */
-        s4 = f->c + a * (0.5f * (kp + km) - f->c) + w * 0.5f * (kp - km);
-    } else {
-        float kp = south ? f->se : f->ne, km = south ? f->sw : f->nw; /* u = +1 / -1 */
-        s4 = f->c + b * (0.5f * (kp + km) - f->c) + u * 0.5f * (kp - km);
+    return v ? v & (~v + 1u) : 0x80000000u;
+}
+
+uint32_t hz_lod_morph_target2(const hz_lod *lod, uint32_t i, uint32_t j)
+{
+    const uint32_t bi = low_bit(i), bj = low_bit(j);
+    const uint32_t n = lod->size;
+    if (bi == bj) {
+        /* The centre of a coarser cell of side 2s: on that cell's diagonal,
+         * main or anti by the cell's parity (union jack). */
+        const uint32_t s = bi;
+        if (i < s || j < s || i + s >= n || j + s >= n)
+            return 2u * h16(lod, i, j); /* the map's corner (0, 0) */
+        if (cell_main_diagonal((i - s) / (2 * s), (j - s) / (2 * s)))
+            return (uint32_t)h16(lod, i - s, j - s) + h16(lod, i + s, j + s);
+        return (uint32_t)h16(lod, i - s, j + s) + h16(lod, i + s, j - s);
     }
-    return maxf(fabsf(hv - s8), fabsf(hv - s4));
-}
-
-static fan9 fan_of(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t s)
-{
-    return (fan9){hf(lod, x, z),     hf(lod, x - s, z),     hf(lod, x + s, z),
-                  hf(lod, x, z - s), hf(lod, x, z + s),     hf(lod, x - s, z - s),
-                  hf(lod, x + s, z - s), hf(lod, x - s, z + s), hf(lod, x + s, z + s)};
+    if (bi < bj) {
+        if (i < bi || i + bi >= n)
+            return 2u * h16(lod, i, j);
+        return (uint32_t)h16(lod, i - bi, j) + h16(lod, i + bi, j);
+    }
+    if (j < bj || j + bj >= n)
+        return 2u * h16(lod, i, j);
+    return (uint32_t)h16(lod, i, j - bj) + h16(lod, i, j + bj);
 }
 
 static void prep_progress(const hz_lod *lod, uint64_t done, uint64_t total)
@@ -88,52 +106,54 @@ static void prep_progress(const hz_lod *lod, uint64_t done, uint64_t total)
         lod->desc.progress(lod->desc.progress_user, "cdlod error bounds", done, total);
 }
 
+static inline size_t cd_index(const hz_lod *lod, uint32_t l, uint32_t xi, uint32_t zi)
+{
+    return lod->level_offset[l] + ((size_t)zi << l) + xi;
+}
+
 static hz_result cdlod_prepare(hz_lod *lod)
 {
     if (lod->cd_err && lod->morph_err)
         return HZ_OK;
-    const uint32_t n = lod->size;
-    float *e = malloc(lod->nodes * sizeof *e);
+    const uint32_t n = lod->size, lp = lod->patch_level, P = lod->patch;
+    const size_t cd_nodes = lod->level_offset[lp] + ((size_t)1 << (2 * lp));
+    float *e = malloc(cd_nodes * sizeof *e);
     uint16_t *me = malloc((size_t)n * n * sizeof *me);
     if (!e || !me) {
         free(e);
         free(me);
         return HZ_ERR_MEMORY;
     }
-    uint64_t total = lod->nodes, done = 0;
-    for (uint32_t l = lod->levels; l-- > 0;) {
+    const uint64_t total = cd_nodes;
+    uint64_t done = 0;
+    for (uint32_t l = lp + 1; l-- > 0;) {
         const uint32_t s = half_of(lod, l), m = 1u << l;
+        const uint32_t h = 2 * s / P / 2; /* the children's vertex spacing */
         for (uint32_t zi = 0; zi < m; zi++) {
-            const uint32_t z = zi * 2 * s + s;
             for (uint32_t xi = 0; xi < m; xi++) {
-                const uint32_t x = xi * 2 * s + s;
-                const fan9 f = fan_of(lod, x, z, s);
                 float d = 0.0f;
-                if (s == 1) {
-                    /* Only the 4-fan misses samples: the edge midpoints. */
-                    for (int k = 0; k < 4; k++) {
-                        static const int du[4] = {-1, 1, 0, 0}, dw[4] = {0, 0, -1, 1};
-                        d = maxf(d, fan_dev(&f, (float)du[k], (float)dw[k], hf(lod, x + du[k], z + dw[k])));
-                    }
-                } else {
-                    const uint32_t h = s / 2;
-                    for (int c = 0; c < 4; c++) {
-                        const int sx = (c & 1) ? 1 : -1, sz = (c & 2) ? 1 : -1;
-                        const uint32_t cx = x + (uint32_t)(sx * (int)h), cz = z + (uint32_t)(sz * (int)h);
-                        float dc = 0.0f;
-                        for (int v = 0; v < 9; v++) {
-                            const int ox = v % 3 - 1, oz = v / 3 - 1;
-                            const uint32_t px = cx + (uint32_t)(ox * (int)h), pz = cz + (uint32_t)(oz * (int)h);
-                            const float u = ((float)px - (float)x) / (float)s, w = ((float)pz - (float)z) / (float)s;
-                            dc = maxf(dc, fan_dev(&f, u, w, hf(lod, px, pz)));
+                if (l < lp) {
+                    const uint32_t x0 = xi * 2 * s, z0 = zi * 2 * s;
+                    /* the vertices this split introduces: odd on either axis
+                     * of the children's grid (2P + 1 per side) */
+                    float dv = 0.0f;
+                    for (uint32_t b = 0; b <= 2 * P; b++) {
+                        const uint32_t z = z0 + b * h;
+                        for (uint32_t a = (b & 1) ? 0 : 1; a <= 2 * P; a += (b & 1) ? 1 : 2) {
+                            const uint32_t x = x0 + a * h;
+                            const float t = 0.5f * (float)hz_lod_morph_target2(lod, x, z);
+                            dv = maxf(dv, fabsf((float)h16(lod, x, z) - t));
                         }
-                        d = maxf(d, e[node_index(lod, l + 1, cx, cz)] + dc);
                     }
+                    float dc = 0.0f;
+                    for (uint32_t c = 0; c < 4; c++)
+                        dc = maxf(dc, e[cd_index(lod, l + 1, 2 * xi + (c & 1), 2 * zi + (c >> 1))]);
+                    d = dc + dv;
                 }
-                e[lod->level_offset[l] + (size_t)zi * m + xi] = d;
+                e[cd_index(lod, l, xi, zi)] = d;
             }
             done += m;
-            if ((zi & 255) == 0 || zi + 1 == m)
+            if ((zi & 63) == 0 || zi + 1 == m)
                 prep_progress(lod, done, total * 2);
         }
     }
@@ -142,49 +162,48 @@ static hz_result cdlod_prepare(hz_lod *lod)
      * toward vertices that coarser nodes introduce; with ranges growing by
      * CD_GROW per level, those coarser vertices have not started to morph
      * (morph_start >= 1 / CD_GROW) while the finer ones move, so every vertex
-     * morphs toward fixed points. Without it, a merge would snap a vertex from
-     * the midpoint of its neighbours' true heights to that of their morphed
-     * heights. A larger CD_GROW allows longer morph zones but splits earlier
-     * (more triangles for the same error): 1.25 measured best. */
-    for (uint32_t l = lod->levels - 1; l-- > 0;) {
-        const uint32_t s = half_of(lod, l), m = 1u << l, cm = 2u * m;
+     * morphs toward fixed points. A larger CD_GROW allows longer morph zones
+     * but splits earlier (more triangles for the same error). */
+    for (uint32_t l = lp; l-- > 0;) {
+        const uint32_t m = 1u << l, cm = 2u * m;
         for (uint32_t zi = 0; zi < m; zi++)
             for (uint32_t xi = 0; xi < m; xi++) {
-                float d = e[lod->level_offset[l] + (size_t)zi * m + xi];
+                float d = e[cd_index(lod, l, xi, zi)];
                 /* children of this node and of its 8 neighbours that touch it */
                 const int64_t c0x = (int64_t)xi * 2 - 1, c0z = (int64_t)zi * 2 - 1;
                 for (int64_t cz = c0z; cz <= c0z + 3; cz++)
                     for (int64_t cx = c0x; cx <= c0x + 3; cx++) {
                         if (cx < 0 || cz < 0 || cx >= (int64_t)cm || cz >= (int64_t)cm)
                             continue;
-                        d = maxf(d, CD_GROW * e[lod->level_offset[l + 1] + (size_t)cz * cm + (size_t)cx]);
+                        d = maxf(d, CD_GROW * e[cd_index(lod, l + 1, (uint32_t)cx, (uint32_t)cz)]);
                     }
-                e[lod->level_offset[l] + (size_t)zi * m + xi] = d;
+                e[cd_index(lod, l, xi, zi)] = d;
             }
-        (void)s;
     }
+    /* Whole h16 steps, as the per-sample morph ranges store them: a split
+     * must see the same range as the vertices it brings in, or they would
+     * arrive short of the coarser surface. */
+    for (size_t k = 0; k < cd_nodes; k++)
+        e[k] = e[k] >= 65534.0f ? 65534.0f : ceilf(e[k]);
     /* Morph errors: the nodes whose split introduces each sample. */
     for (size_t k = 0; k < (size_t)n * n; k++)
         me[k] = UINT16_MAX;
     done = 0;
-    for (uint32_t l = 0; l + 1 < lod->levels; l++) {
-        const uint32_t s = half_of(lod, l), m = 1u << l, h = s / 2;
+    for (uint32_t l = 0; l < lp; l++) {
+        const uint32_t s = half_of(lod, l), m = 1u << l;
+        const uint32_t h = 2 * s / P / 2;
         for (uint32_t zi = 0; zi < m; zi++) {
-            const uint32_t z = zi * 2 * s + s;
             for (uint32_t xi = 0; xi < m; xi++) {
-                const uint32_t x = xi * 2 * s + s;
-                float ef = ceilf(e[lod->level_offset[l] + (size_t)zi * m + xi]);
-                const uint16_t q = ef >= 65534.0f ? 65534 : (uint16_t)ef;
-                /* 5x5 points at spacing h; the ones with an odd index on
-                 * either axis are introduced by this split. */
-                for (uint32_t b = 0; b < 5; b++)
-                    for (uint32_t a = 0; a < 5; a++) {
-                        if (!(a & 1) && !(b & 1))
-                            continue;
-                        size_t idx = (size_t)(z - s + b * h) * n + (x - s + a * h);
+                const uint32_t x0 = xi * 2 * s, z0 = zi * 2 * s;
+                const uint16_t q = (uint16_t)e[cd_index(lod, l, xi, zi)];
+                for (uint32_t b = 0; b <= 2 * P; b++) {
+                    const size_t row = (size_t)(z0 + b * h) * n;
+                    for (uint32_t a = (b & 1) ? 0 : 1; a <= 2 * P; a += (b & 1) ? 1 : 2) {
+                        const size_t idx = row + x0 + a * h;
                         if (q < me[idx])
                             me[idx] = q;
                     }
+                }
             }
             done += m;
         }
@@ -192,6 +211,7 @@ static hz_result cdlod_prepare(hz_lod *lod)
     }
     prep_progress(lod, total * 2, total * 2);
     lod->cd_err = e;
+    lod->cd_nodes = cd_nodes;
     lod->morph_err = me;
     return HZ_OK;
 }
@@ -206,12 +226,17 @@ const uint16_t *hz_lod_morph_errors(hz_lod *lod)
     return cdlod_prepare(lod) == HZ_OK ? lod->morph_err : NULL;
 }
 
-/* ---- morphing (the vertex shader does the same) ------------------------- */
-
-static inline uint32_t low_bit(uint32_t v)
+const hz_heightmap *hz_lod_query_heightmap(const hz_lod *lod)
 {
-    return v ? v & (~v + 1u) : 0x80000000u;
+    return lod->hm;
 }
+
+uint32_t hz_lod_patch_cells(const hz_lod *lod)
+{
+    return lod->patch;
+}
+
+/* ---- morphing (the vertex shader does the same) ------------------------- */
 
 float hz_lod_morph_factor(hz_lod *lod, const hz_camera *cam, const hz_lod_stats *stats, uint32_t index)
 {
@@ -233,28 +258,60 @@ float hz_lod_morph_factor(hz_lod *lod, const hz_camera *cam, const hz_lod_stats 
     return m < 0.0f ? 0.0f : (m > 1.0f ? 1.0f : m);
 }
 
-float hz_lod_morph_height(hz_lod *lod, const hz_camera *cam, const hz_lod_stats *stats, uint32_t index)
+/* The two neighbours a vertex collapses between (as hz_lod_morph_target2);
+ * false for a sample that lies on every level's grid (the map's corners). */
+static bool morph_neighbours(const hz_lod *lod, uint32_t i, uint32_t j, uint32_t nb[2])
+{
+    const uint32_t bi = low_bit(i), bj = low_bit(j), n = lod->size;
+    if (bi == bj) {
+        const uint32_t s = bi;
+        if (i < s || j < s || i + s >= n || j + s >= n)
+            return false;
+        if (cell_main_diagonal((i - s) / (2 * s), (j - s) / (2 * s))) {
+            nb[0] = (j - s) * n + (i - s);
+            nb[1] = (j + s) * n + (i + s);
+        } else {
+            nb[0] = (j + s) * n + (i - s);
+            nb[1] = (j - s) * n + (i + s);
+        }
+    } else if (bi < bj) {
+        if (i < bi || i + bi >= n)
+            return false;
+        nb[0] = j * n + i - bi;
+        nb[1] = j * n + i + bi;
+    } else {
+        if (j < bj || j + bj >= n)
+            return false;
+        nb[0] = (j - bj) * n + i;
+        nb[1] = (j + bj) * n + i;
+    }
+    return true;
+}
+
+/* A vertex moved toward its true-height target (one level of morphing). */
+static float morph1(hz_lod *lod, const hz_camera *cam, const hz_lod_stats *stats, uint32_t index)
 {
     const uint32_t n = lod->size, i = index % n, j = index / n;
     const float h = hworld(lod, i, j);
     const float m = hz_lod_morph_factor(lod, cam, stats, index);
     if (m <= 0.0f)
         return h;
-    const uint32_t bi = low_bit(i), bj = low_bit(j);
-    float target;
-    if (bi == bj) {
-        /* A child's centre: on its parent's diagonal, between the parent's
-         * centre and the opposite corner. */
-        const uint32_t s = bi, ps = 2 * s;
-        const uint32_t pcx = centre_of(i, ps), pcz = centre_of(j, ps);
-        const int dx = pcx > i ? 1 : -1, dz = pcz > j ? 1 : -1;
-        target = 0.5f * (hworld(lod, (uint32_t)((int)i + dx * (int)s), (uint32_t)((int)j + dz * (int)s)) +
-                         hworld(lod, (uint32_t)((int)i - dx * (int)s), (uint32_t)((int)j - dz * (int)s)));
-    } else if (bi < bj) {
-        target = 0.5f * (hworld(lod, i - bi, j) + hworld(lod, i + bi, j));
-    } else {
-        target = 0.5f * (hworld(lod, i, j - bj) + hworld(lod, i, j + bj));
-    }
+    const float t = (lod->hm->offset + lod->hm->scale * 0.5f * (float)hz_lod_morph_target2(lod, i, j)) * lod->zscale;
+    return h + m * (t - h);
+}
+
+float hz_lod_morph_height(hz_lod *lod, const hz_camera *cam, const hz_lod_stats *stats, uint32_t index)
+{
+    const uint32_t n = lod->size, i = index % n, j = index / n;
+    const float h = hworld(lod, i, j);
+    const float m = hz_lod_morph_factor(lod, cam, stats, index);
+    uint32_t nb[2];
+    if (m <= 0.0f || !morph_neighbours(lod, i, j, nb))
+        return h;
+    /* Toward the midpoint of the neighbours as they are drawn (themselves
+     * morphed one level): a vertex a split brings in (m = 1) then lies on
+     * the coarser node's drawn surface even while that surface morphs. */
+    const float target = 0.5f * (morph1(lod, cam, stats, nb[0]) + morph1(lod, cam, stats, nb[1]));
     return h + m * (target - h);
 }
 
@@ -335,17 +392,33 @@ static hz_result split_node(cd_ctx *c, uint32_t l, uint32_t x, uint32_t z, bool 
     return HZ_OK;
 }
 
-hz_result hz__lod_select_cdlod(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, hz_index_list *out,
-                               hz_node_list *leaves, hz_node_list *culled, hz_lod_stats *st)
+/* Non-degenerate triangles of a patch: 2 P^2, less one per stitched odd
+ * edge vertex (each collapses one triangle of its cell). */
+static uint32_t patch_triangles(uint32_t P, uint8_t coarse)
+{
+    uint32_t t = 2 * P * P;
+    for (int dir = 0; dir < 4; dir++)
+        if (coarse & (1u << dir))
+            t -= P / 2;
+    return t;
+}
+
+static int cmp_patch(const void *a, const void *b)
+{
+    const hz_patch *p = a, *q = b;
+    return (p->dist > q->dist) - (p->dist < q->dist);
+}
+
+/* The selection proper; leaves end in lod->lv[] with their flags final. */
+static hz_result cdlod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, hz_node_list *culled,
+                              hz_lod_stats *st)
 {
     if (cdlod_prepare(lod) != HZ_OK)
         return HZ_ERR_MEMORY;
-    const uint32_t n = lod->size;
+    const uint32_t n = lod->size, lp = lod->patch_level;
     const float tau = p->pixel_error > 0 ? p->pixel_error : 1.0f;
     const float lambda = pixel_k(cam, p) / tau;
     const float hsw = lod->hm->scale * lod->zscale; /* metres per h16 step */
-    /* The dilation grows ranges by CD_GROW per level: morph zones of
-     * consecutive levels do not overlap for a >= 1 / CD_GROW. */
     float a = p->morph_start > 0.0f ? p->morph_start : 1.0f / CD_GROW;
     a = a < 1.0f / CD_GROW ? 1.0f / CD_GROW : (a > 0.95f ? 0.95f : a);
     cd_ctx c = {.lod = lod, .margin = frustum_margin(cam), .no_cull = p->no_cull, .culled = culled, .st = st};
@@ -357,9 +430,10 @@ hz_result hz__lod_select_cdlod(hz_lod *lod, const hz_camera *cam, const hz_lod_p
         lod->lv_n[l] = 0;
     if (lv_push(lod, 0, (n - 1) / 2, (n - 1) / 2))
         return HZ_ERR_MEMORY;
-    for (uint32_t l = 0; l < lod->levels; l++) {
+    for (uint32_t l = 0; l <= lp; l++) {
         c.cur_level = l;
-        const bool can_split = l + 1 < lod->levels;
+        const bool can_split = l < lp;
+        const uint32_t shift = lod->levels - l;
         for (size_t k = 0; k < lod->lv_n[l]; k++) {
             const uint32_t x = lod->lv[l][k].x, z = lod->lv[l][k].z;
             const size_t idx = node_index(lod, l, x, z);
@@ -370,7 +444,7 @@ hz_result hz__lod_select_cdlod(hz_lod *lod, const hz_camera *cam, const hz_lod_p
             if (is_culled || !can_split)
                 continue;
             /* distance to the box < range, compared squared */
-            const float range = lambda * lod->cd_err[idx] * hsw;
+            const float range = lambda * lod->cd_err[cd_index(lod, l, x >> shift, z >> shift)] * hsw;
             if (box_distance2((const vec3 *)box, cam->pos) < range * range) {
                 hz_result r = split_node(&c, l, x, z, false);
                 if (r != HZ_OK)
@@ -378,27 +452,112 @@ hz_result hz__lod_select_cdlod(hz_lod *lod, const hz_camera *cam, const hz_lod_p
             }
         }
     }
-    /* Emit the leaves, now that every neighbour is final. */
-    for (uint32_t l = 0; l < lod->levels; l++) {
+    return HZ_OK;
+}
+
+/* The leaves of the last cdlod_select as patches, nearest first. */
+static hz_result emit_patches(hz_lod *lod, const hz_camera *cam, hz_patch_list *out, hz_lod_stats *st)
+{
+    const uint32_t lp = lod->patch_level, P = lod->patch;
+    for (uint32_t l = 0; l <= lp; l++) {
         const uint32_t s = half_of(lod, l);
-        if (list_reserve((void **)&out->data, &out->cap, out->count + lod->lv_n[l] * 24, sizeof(uint32_t)))
+        uint32_t shift = 0;
+        while ((P << shift) < 2 * s)
+            shift++;
+        if (list_reserve((void **)&out->data, &out->cap, out->count + lod->lv_n[l], sizeof *out->data))
             return HZ_ERR_MEMORY;
         for (size_t k = 0; k < lod->lv_n[l]; k++) {
             const uint32_t x = lod->lv[l][k].x, z = lod->lv[l][k].z;
-            if ((lod->flags[node_index(lod, l, x, z)] & ST_MASK) != ST_LEAF)
+            const size_t idx = node_index(lod, l, x, z);
+            if ((lod->flags[idx] & ST_MASK) != ST_LEAF)
                 continue;
-            uint8_t nb[4];
+            uint8_t coarse = 0;
             for (int dir = 0; dir < 4; dir++)
-                nb[dir] = hz__neighbour(lod, l, x, z, s, dir);
-            uint32_t tris = hz__emit_fan(out->data + out->count, n, x, z, s, nb);
-            out->count += 3 * tris;
-            st->triangles += tris;
+                if (hz__neighbour(lod, l, x, z, s, dir) == NB_ABSENT)
+                    coarse |= (uint8_t)(1u << dir);
+            vec3 box[2];
+            box_of(lod, idx, x, z, s, box);
+            out->data[out->count++] = (hz_patch){.x0 = x - s, .z0 = z - s, .shift = (uint8_t)shift,
+                                                 .coarse = coarse, .level = (uint16_t)l,
+                                                 .dist = box_distance((const vec3 *)box, cam->pos)};
+            st->triangles += patch_triangles(P, coarse);
             st->leaves++;
             if (l > st->max_level)
                 st->max_level = l;
-            if (push_node(leaves, x, z, s, l))
-                return HZ_ERR_MEMORY;
         }
     }
+    /* Nearest first: the depth test then rejects hidden fragments early. */
+    qsort(out->data, out->count, sizeof *out->data, cmp_patch);
     return HZ_OK;
+}
+
+hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params, hz_patch_list *out,
+                                hz_lod_stats *stats)
+{
+    double t0 = hz_time_ms();
+    hz_lod_params p = params ? *params : (hz_lod_params){0};
+    hz_lod_stats st = {0};
+    out->count = 0;
+    hz_result r = cdlod_select(lod, cam, &p, NULL, &st);
+    if (r == HZ_OK)
+        r = emit_patches(lod, cam, out, &st);
+    st.ms = hz_time_ms() - t0;
+    if (stats)
+        *stats = st;
+    return r;
+}
+
+hz_result hz_lod_patches_to_indices(const hz_lod *lod, const hz_patch *patches, size_t count, hz_index_list *out)
+{
+    const uint32_t n = lod->size, P = lod->patch;
+    for (size_t k = 0; k < count; k++) {
+        const hz_patch *p = &patches[k];
+        if (list_reserve((void **)&out->data, &out->cap, out->count + (size_t)6 * P * P, sizeof(uint32_t)))
+            return HZ_ERR_MEMORY;
+        const uint32_t st = 1u << p->shift;
+        uint32_t *o = out->data + out->count;
+        /* Vertex (u, w) after stitching, as the vertex shader moves it. */
+#define VID(u_, w_)                                                                                              \
+    ({                                                                                                           \
+        uint32_t uu = (u_), ww = (w_);                                                                           \
+        if ((uu & 1) && ((ww == 0 && (p->coarse & 4)) || (ww == P && (p->coarse & 8))))                          \
+            uu--;                                                                                                \
+        if ((ww & 1) && ((uu == 0 && (p->coarse & 1)) || (uu == P && (p->coarse & 2))))                          \
+            ww--;                                                                                                \
+        (p->z0 + ww * st) * n + p->x0 + uu * st;                                                                 \
+    })
+        for (uint32_t w = 0; w < P; w++)
+            for (uint32_t u = 0; u < P; u++) {
+                const uint32_t a = VID(u, w), b = VID(u, w + 1), c = VID(u + 1, w), d = VID(u + 1, w + 1);
+                uint32_t tri[6];
+                hz_lod_cell_triangles(cell_main_diagonal(u, w), a, b, c, d, tri);
+                for (int t = 0; t < 6; t += 3)
+                    if (tri[t] != tri[t + 1] && tri[t + 1] != tri[t + 2] && tri[t] != tri[t + 2]) {
+                        *o++ = tri[t];
+                        *o++ = tri[t + 1];
+                        *o++ = tri[t + 2];
+                    }
+            }
+#undef VID
+        out->count = (size_t)(o - out->data);
+    }
+    return HZ_OK;
+}
+
+hz_result hz__lod_select_cdlod(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, hz_index_list *out,
+                               hz_node_list *leaves, hz_node_list *culled, hz_lod_stats *st)
+{
+    hz_patch_list pl = {0};
+    hz_result r = cdlod_select(lod, cam, p, culled, st);
+    if (r == HZ_OK)
+        r = emit_patches(lod, cam, &pl, st);
+    if (r == HZ_OK)
+        r = hz_lod_patches_to_indices(lod, pl.data, pl.count, out);
+    for (size_t k = 0; r == HZ_OK && leaves && k < pl.count; k++) {
+        const hz_patch *q = &pl.data[k];
+        const uint32_t s = half_of(lod, q->level);
+        r = push_node(leaves, q->x0 + s, q->z0 + s, s, q->level);
+    }
+    free(pl.data);
+    return r;
 }

@@ -58,8 +58,11 @@ struct hz_lod {
 
     /* cdlod, built on first use: per node the nested error bound delta' of
      * its fan (h16 steps, float), per sample the morph error (h16 steps). */
-    float *cd_err;
+    float *cd_err;       /* per node of the patch levels 0..patch_level */
+    size_t cd_nodes;
     uint16_t *morph_err;
+    uint32_t patch;       /* cdlod patch cells per side (power of two) */
+    uint32_t patch_level; /* finest level drawn as patches: half-size patch / 2 */
     /* cdlod per-level node lists (forced splits add to earlier levels). */
     qnode *lv[32];
     size_t lv_n[32], lv_cap[32];

@@ -111,8 +111,14 @@ float hz_terrain_surface_at(const hz_terrain *t, float x, float z)
     const float u = fi - (float)i, v = fj - (float)j;
     const float a = hz_heightmap_get(&t->hm, i, j), b = hz_heightmap_get(&t->hm, i, j + 1);
     const float c = hz_heightmap_get(&t->hm, i + 1, j), d = hz_heightmap_get(&t->hm, i + 1, j + 1);
-    /* The cell's two triangles share the diagonal (i, j+1)-(i+1, j). */
-    const float h = u + v <= 1.0f ? a + u * (c - a) + v * (b - a) : d + (1.0f - u) * (b - d) + (1.0f - v) * (c - d);
+    /* The cell's two triangles (union jack, hz_lod_cell_triangles): along
+     * the main diagonal (i, j)-(i+1, j+1) when i + j is even, else along
+     * (i, j+1)-(i+1, j). */
+    float h;
+    if (((i + j) & 1u) == 0)
+        h = v <= u ? a + u * (c - a) + v * (d - c) : a + v * (b - a) + u * (d - b);
+    else
+        h = u + v <= 1.0f ? a + u * (c - a) + v * (b - a) : d + (1.0f - u) * (b - d) + (1.0f - v) * (c - d);
     return h * t->zscale;
 }
 

@@ -149,14 +149,24 @@ static void test_modes_close_to_reference(void **state)
     draw(c, &cam, 1e30f, 1e30f, ref, sref);
     hz_err err = {0};
     hz_index_list il = {0};
+    hz_patch_list pl = {0};
     for (int m = 0; m < HZ_LOD_MODE_COUNT; m++) {
         assert_int_equal(hz_lod_prepare(c->t->lod, (hz_lod_mode)m), HZ_OK);
-        if (m == HZ_LOD_CDLOD)
-            assert_int_equal(hz_renderer_set_morph(c->r, hz_lod_morph_errors(c->t->lod), &err), HZ_OK);
         hz_lod_params p = {.mode = (hz_lod_mode)m, .pixel_error = 1.0f, .viewport_height = H};
         hz_lod_stats st;
-        assert_int_equal(hz_lod_select(c->t->lod, &cam, &p, &il, NULL, NULL, &st), HZ_OK);
-        hz_scene_params sp = {.morph_scale = st.morph_scale, .morph_start = st.morph_start};
+        hz_scene_params sp = {0};
+        if (m == HZ_LOD_CDLOD) {
+            /* cdlod draws nodes as patches */
+            assert_int_equal(hz_renderer_set_cdlod(c->r, c->t->lod, &err), HZ_OK);
+            assert_int_equal(hz_lod_select_patches(c->t->lod, &cam, &p, &pl, &st), HZ_OK);
+            il.count = 0;
+            sp.patches = pl.data;
+            sp.patch_count = (uint32_t)pl.count;
+        } else {
+            assert_int_equal(hz_lod_select(c->t->lod, &cam, &p, &il, NULL, NULL, &st), HZ_OK);
+        }
+        sp.morph_scale = st.morph_scale;
+        sp.morph_start = st.morph_start;
         assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, il.data, (uint32_t)il.count, NULL, &err), HZ_OK);
         assert_int_equal(hz_renderer_read_rgb(c->r, img, &err), HZ_OK);
         assert_int_equal(hz_renderer_read_sky_mask(c->r, simg, &err), HZ_OK);
@@ -167,15 +177,17 @@ static void test_modes_close_to_reference(void **state)
         assert_true(sil < 0.002);
     }
     free(il.data);
+    free(pl.data);
     free(ref);
     free(img);
     free(sref);
     free(simg);
 }
 
-/* The vertex shader morphs exactly like hz_lod_morph_height: a cdlod frame
- * drawn with GPU morphing has the silhouette of the same triangles drawn over
- * a heightmap that holds the CPU-morphed heights. */
+/* The patch vertex shader places, stitches and morphs exactly like the CPU
+ * (hz_lod_patches_to_indices, hz_lod_morph_height): a cdlod frame drawn as
+ * patches with GPU morphing has the silhouette of the expanded triangles
+ * drawn over a heightmap that holds the CPU-morphed heights. */
 static void test_gpu_morph_matches_cpu(void **state)
 {
     ctx *c = *state;
@@ -183,14 +195,21 @@ static void test_gpu_morph_matches_cpu(void **state)
     hz_terrain *t = c->t;
     const uint32_t n = t->hm.size;
     assert_int_equal(hz_lod_prepare(t->lod, HZ_LOD_CDLOD), HZ_OK);
-    assert_int_equal(hz_renderer_set_morph(c->r, hz_lod_morph_errors(t->lod), &err), HZ_OK);
+    assert_int_equal(hz_renderer_set_cdlod(c->r, t->lod, &err), HZ_OK);
     hz_camera cam = hz_terrain_default_camera(t, W, H);
     cam.pitch = -4;
     hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = 12.0f, .viewport_height = H};
     hz_index_list il = {0};
+    hz_patch_list pl = {0};
     hz_lod_stats st;
-    assert_int_equal(hz_lod_select(t->lod, &cam, &p, &il, NULL, NULL, &st), HZ_OK);
+    assert_int_equal(hz_lod_select_patches(t->lod, &cam, &p, &pl, &st), HZ_OK);
+    assert_int_equal(hz_lod_patches_to_indices(t->lod, pl.data, pl.count, &il), HZ_OK);
+    assert_int_equal(il.count, (size_t)st.triangles * 3);
     assert_true(st.morph_scale > 0);
+    size_t stitched = 0;
+    for (size_t k = 0; k < pl.count; k++)
+        stitched += pl.data[k].coarse != 0;
+    assert_true(stitched > 0); /* the frame has stitched edges to compare too */
     /* The CPU-morphed heights as a heightmap of their own. */
     hz_grid g;
     assert_int_equal(hz_grid_alloc(&g, n, n, &err), HZ_OK);
@@ -207,24 +226,27 @@ static void test_gpu_morph_matches_cpu(void **state)
     assert_int_equal(hz_renderer_set_heightmap(r2, &hm2, t->spacing, t->zscale, &err), HZ_OK);
 
     uint8_t *rgb = malloc(W * H * 3), *gpu = malloc(W * H), *cpu = malloc(W * H), *flat = malloc(W * H);
-    hz_scene_params sp = {.morph_scale = st.morph_scale, .morph_start = st.morph_start};
-    assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, il.data, (uint32_t)il.count, NULL, &err), HZ_OK);
+    hz_scene_params sp = {.morph_scale = st.morph_scale, .morph_start = st.morph_start, .patches = pl.data,
+                          .patch_count = (uint32_t)pl.count};
+    assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
     assert_int_equal(hz_renderer_read_sky_mask(c->r, gpu, &err), HZ_OK);
     assert_int_equal(hz_renderer_read_rgb(c->r, rgb, &err), HZ_OK);
     hz_image_write_png(HZ_TEST_TMP "/frame_cdlod_morph.png", rgb, W, H, NULL);
-    assert_int_equal(hz_renderer_draw(c->r, &cam, NULL, il.data, (uint32_t)il.count, NULL, &err), HZ_OK);
+    sp.morph_scale = 0.0f; /* the same patches, unmorphed */
+    assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
     assert_int_equal(hz_renderer_read_sky_mask(c->r, flat, &err), HZ_OK);
     assert_int_equal(hz_renderer_draw(r2, &cam, NULL, il.data, (uint32_t)il.count, NULL, &err), HZ_OK);
     assert_int_equal(hz_renderer_read_sky_mask(r2, cpu, &err), HZ_OK);
     const double d_cpu = hz_metrics_silhouette(gpu, cpu, W * H), d_flat = hz_metrics_silhouette(gpu, flat, W * H);
     fprintf(stderr, "morphed silhouette vs CPU morph %.6f, vs unmorphed %.6f (%zu vertices morphing)\n", d_cpu,
             d_flat, moved);
-    assert_true(d_flat > 0.0005);      /* the morph is visible at this bound */
+    assert_true(d_flat > 0.0001);      /* the morph is visible at this bound */
     assert_true(d_cpu * 20 < d_flat);  /* and it is the CPU's morph */
     hz_renderer_destroy(r2);
     hz_heightmap_destroy(&hm2);
     hz_grid_free(&g);
     free(il.data);
+    free(pl.data);
     free(rgb);
     free(gpu);
     free(cpu);

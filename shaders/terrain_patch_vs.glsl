@@ -1,0 +1,110 @@
+#version 330 core
+// cdlod patches: one static grid of (P+1)^2 vertices (gl_VertexID = w (P+1) + u)
+// drawn once per selected node (instanced). Heights, morph ranges and morph
+// targets come from a texture array of tiles (one pyramid level per tile set),
+// addressed per tile, never as one full-resolution buffer. hz_lod_morph_height
+// computes the same on the CPU.
+layout(location = 0) in uvec4 a_patch; // x0, z0 (samples), layer | shift << 16,
+                                       // ox | oz << 12 | tstep << 24 | coarse << 28
+uniform usampler2DArray u_tiles; // RGBA16UI: h16, morph q (65535 never), target2 lo, target2 hi
+uniform int u_size;              // P: grid cells per side of a patch
+uniform float u_spacing;         // metres between samples
+uniform float u_hscale;          // metres per h16 step, times zscale
+uniform float u_hoffset;         // metres at h16 = 0, times zscale
+uniform mat4 u_viewproj;         // reverse-Z projection * view
+uniform vec3 u_eye;              // world metres
+uniform float u_morph_scale;     // metres of range per q step; 0 = no morphing
+uniform float u_morph_start;     // morphing starts at this fraction of the range
+uniform int u_map;               // samples per side of the map
+uniform int u_tile;              // T: cells per tile side
+uniform int u_top;               // the coarsest tile level (one tile)
+uniform int u_base[16];          // first layer of each tile level
+
+out vec3 v_world;
+out vec3 v_normal;
+
+int low_bit(int v)
+{
+    return v == 0 ? (1 << 30) : (v & -v);
+}
+
+// The texel of any sample (i, j) of the map: from the finest level whose grid holds it.
+uvec4 sample_texel(int i, int j)
+{
+    int ij = i | j | (1 << 30);
+    int l = min(int(log2(float(ij & -ij)) + 0.5), u_top); // findLSB is GLSL 4.00
+    int gi = i >> l, gj = j >> l;
+    int m = ((u_map - 1) >> l) / u_tile; // tiles per side at level l
+    int tx = min(gi / u_tile, m - 1), tz = min(gj / u_tile, m - 1);
+    return texelFetch(u_tiles, ivec3(gi - tx * u_tile, gj - tz * u_tile, u_base[l] + tz * m + tx), 0);
+}
+
+float morph_factor(uvec4 t, vec3 p)
+{
+    if (t.g == 65535u)
+        return 0.0;
+    float R = u_morph_scale * float(t.g);
+    if (R <= 0.0)
+        return 1.0;
+    return clamp((distance(p, u_eye) - u_morph_start * R) / ((1.0 - u_morph_start) * R), 0.0, 1.0);
+}
+
+float target_of(uvec4 t)
+{
+    return u_hoffset + u_hscale * 0.5 * (float(t.b) + 65536.0 * float(t.a));
+}
+
+// A neighbour moved one level toward its own target.
+float morph1(int i, int j)
+{
+    uvec4 t = sample_texel(i, j);
+    float h = u_hoffset + u_hscale * float(t.r);
+    float m = morph_factor(t, vec3(float(i) * u_spacing, h, float(j) * u_spacing));
+    return mix(h, target_of(t), m);
+}
+
+void main()
+{
+    int c1 = u_size + 1;
+    int u = gl_VertexID % c1, w = gl_VertexID / c1;
+    uint meta = a_patch.w;
+    uint coarse = meta >> 28;
+    // Stitching: odd vertices of an edge toward a coarser neighbour collapse
+    // onto the even vertex before them (hz_lod_patches_to_indices does the same).
+    if ((u & 1) == 1 && ((w == 0 && (coarse & 4u) != 0u) || (w == u_size && (coarse & 8u) != 0u)))
+        u -= 1;
+    if ((w & 1) == 1 && ((u == 0 && (coarse & 1u) != 0u) || (u == u_size && (coarse & 2u) != 0u)))
+        w -= 1;
+    int shift = int(a_patch.z >> 16);
+    int layer = int(a_patch.z & 0xffffu);
+    int ox = int(meta & 0xfffu), oz = int((meta >> 12) & 0xfffu), ts = int((meta >> 24) & 15u);
+    uvec4 t = texelFetch(u_tiles, ivec3(ox + (u << ts), oz + (w << ts), layer), 0);
+    int i = int(a_patch.x) + (u << shift), j = int(a_patch.y) + (w << shift);
+    float h = u_hoffset + u_hscale * float(t.r);
+    vec3 p = vec3(float(i) * u_spacing, h, float(j) * u_spacing);
+    if (u_morph_scale > 0.0) {
+        float m = morph_factor(t, p);
+        if (m > 0.0) {
+            // Toward the midpoint of the two neighbours it collapses between,
+            // each as drawn (morphed one level itself).
+            int bi = low_bit(i), bj = low_bit(j);
+            ivec2 a, b;
+            if (bi == bj) {
+                int s = bi;
+                bool main_diag = ((((i - s) / (2 * s)) + ((j - s) / (2 * s))) & 1) == 0;
+                a = ivec2(i - s, main_diag ? j - s : j + s);
+                b = ivec2(i + s, main_diag ? j + s : j - s);
+            } else if (bi < bj) {
+                a = ivec2(i - bi, j);
+                b = ivec2(i + bi, j);
+            } else {
+                a = ivec2(i, j - bj);
+                b = ivec2(i, j + bj);
+            }
+            p.y = mix(h, 0.5 * (morph1(a.x, a.y) + morph1(b.x, b.y)), m);
+        }
+    }
+    v_normal = vec3(0.0, 1.0, 0.0); // the fragment shader takes normals from the normal map
+    v_world = p;
+    gl_Position = u_viewproj * vec4(p, 1.0);
+}

@@ -1,0 +1,221 @@
+/* cdlod patches on the GPU: a texture array of height tiles (a pyramid,
+ * every level cut in T x T-cell tiles with a shared border), one static
+ * P x P-cell grid in a vertex buffer-less index buffer, and per frame one
+ * 16-byte instance per selected node. The vertex shader
+ * (shaders/terrain_patch_vs.glsl) places, stitches and morphs the vertices.
+ * The CPU work and the upload per frame are proportional to the nodes. */
+#include "render_internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "horizon/lod.h"
+
+/* Tile texel: h16, morph q, morph target (sum of two h16, 17 bits) low and high. */
+enum { TEXEL_CH = 4 };
+
+static void tile_fill(hz_lod *lod, const uint16_t *morph, uint32_t n, uint32_t T, uint32_t level, uint32_t tx,
+                      uint32_t tz, uint16_t *out)
+{
+    const hz_heightmap *hm = hz_lod_query_heightmap(lod);
+    const uint32_t cells = (n - 1) >> level;
+    for (uint32_t b = 0; b <= T; b++) {
+        uint32_t gj = tz * T + b;
+        if (gj > cells)
+            gj = cells;
+        const uint32_t j = gj << level;
+        for (uint32_t a = 0; a <= T; a++) {
+            uint32_t gi = tx * T + a;
+            if (gi > cells)
+                gi = cells;
+            const uint32_t i = gi << level;
+            uint16_t *o = out + ((size_t)b * (T + 1) + a) * TEXEL_CH;
+            const uint32_t t2 = hz_lod_morph_target2(lod, i, j);
+            o[0] = hz_heightmap_get16(hm, i, j);
+            o[1] = morph[(size_t)j * n + i];
+            o[2] = (uint16_t)(t2 & 0xffffu);
+            o[3] = (uint16_t)(t2 >> 16);
+        }
+    }
+}
+
+hz_result hz_renderer_set_cdlod(hz_renderer *r, hz_lod *lod, hz_err *err)
+{
+    HZ_ASSERT(r && lod);
+    hz_result res = fx_check_context(r, err, "hz_renderer_set_cdlod");
+    if (res != HZ_OK)
+        return res;
+    const hz_heightmap *hm = hz_lod_query_heightmap(lod);
+    if (!r->has_heights || r->size != hm->size)
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: hz_renderer_set_cdlod needs the same heightmap set first");
+    const uint16_t *morph = hz_lod_morph_errors(lod);
+    if (!morph)
+        return hz_err_set(err, HZ_ERR_MEMORY, "renderer: out of memory for cdlod's morph data");
+    const uint32_t n = hm->size, P = hz_lod_patch_cells(lod);
+    GLint max_layers = 0, max_size = 0;
+    glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &max_layers);
+    glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
+    /* Tiles of T cells: 256, larger when the pyramid would need more layers
+     * than the GPU has. */
+    uint32_t T = 256, top = 0, layers = 0;
+    for (;;) {
+        if (T > n - 1)
+            T = n - 1;
+        top = 0;
+        while (((n - 1) >> top) > T)
+            top++;
+        layers = 0;
+        for (uint32_t l = 0; l <= top; l++) {
+            const uint32_t m = ((n - 1) >> l) / T;
+            layers += m * m;
+        }
+        if (layers <= (uint32_t)max_layers || T >= n - 1 || T + 1 > (uint32_t)max_size / 2)
+            break;
+        T *= 2;
+    }
+    if (layers > (uint32_t)max_layers || T + 1 > (uint32_t)max_size || top >= 16)
+        return hz_err_set(err, HZ_ERR_UNSUPPORTED,
+                          "renderer: a %ux%u cdlod pyramid needs %u tile layers of %u texels "
+                          "(GL_MAX_ARRAY_TEXTURE_LAYERS %d, GL_MAX_TEXTURE_SIZE %d)",
+                          n, n, layers, T + 1, max_layers, max_size);
+    uint16_t *buf = malloc((size_t)(T + 1) * (T + 1) * TEXEL_CH * sizeof *buf);
+    if (!buf)
+        return hz_err_set(err, HZ_ERR_MEMORY, "renderer: out of memory for a %u-texel tile", T + 1);
+    hz_gl_drain();
+    if (r->tiles_tex)
+        glDeleteTextures(1, &r->tiles_tex);
+    glGenTextures(1, &r->tiles_tex);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, r->tiles_tex);
+    glTexStorage3D(GL_TEXTURE_2D_ARRAY, 1, GL_RGBA16UI, (GLsizei)(T + 1), (GLsizei)(T + 1), (GLsizei)layers);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    res = hz_gl_check(err, "cdlod tile array allocation (GL_RGBA16UI)");
+    uint32_t layer = 0;
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 2);
+    for (uint32_t l = 0; res == HZ_OK && l <= top; l++) {
+        const uint32_t m = ((n - 1) >> l) / T;
+        r->tile_base[l] = (int32_t)layer;
+        for (uint32_t tz = 0; tz < m; tz++)
+            for (uint32_t tx = 0; tx < m; tx++) {
+                tile_fill(lod, morph, n, T, l, tx, tz, buf);
+                glTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, (GLint)layer, (GLsizei)(T + 1), (GLsizei)(T + 1), 1,
+                                GL_RGBA_INTEGER, GL_UNSIGNED_SHORT, buf);
+                layer++;
+            }
+    }
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, 0);
+    free(buf);
+    if (res == HZ_OK)
+        res = hz_gl_check(err, "cdlod tile upload");
+    if (res != HZ_OK) {
+        glDeleteTextures(1, &r->tiles_tex);
+        r->tiles_tex = 0;
+        return res;
+    }
+    r->tile_cells = T;
+    r->tile_top = top;
+    r->tile_layers = layers;
+
+    /* The static patch: (P+1)^2 vertices, union-jack cells (hz_lod_cell_triangles). */
+    if (r->patch_cells != P) {
+        const uint32_t c1 = P + 1;
+        uint16_t *idx = malloc((size_t)P * P * 6 * sizeof *idx);
+        if (!idx)
+            return hz_err_set(err, HZ_ERR_MEMORY, "renderer: out of memory for the patch indices");
+        uint16_t *o = idx;
+        for (uint32_t w = 0; w < P; w++)
+            for (uint32_t u = 0; u < P; u++) {
+                uint32_t t[6];
+                hz_lod_cell_triangles(((u + w) & 1u) == 0, w * c1 + u, (w + 1) * c1 + u, w * c1 + u + 1,
+                                      (w + 1) * c1 + u + 1, t);
+                for (int k = 0; k < 6; k++)
+                    *o++ = (uint16_t)t[k];
+            }
+        if (!r->patch_vao) {
+            glGenVertexArrays(1, &r->patch_vao);
+            glGenBuffers(1, &r->patch_ibo);
+            glGenBuffers(1, &r->patch_vbo);
+        }
+        glBindVertexArray(r->patch_vao);
+        glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->patch_ibo);
+        glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)((size_t)P * P * 6 * sizeof *idx), idx, GL_STATIC_DRAW);
+        glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
+        glEnableVertexAttribArray(0);
+        glVertexAttribIPointer(0, 4, GL_UNSIGNED_INT, 4 * sizeof(uint32_t), (const void *)0);
+        glVertexAttribDivisor(0, 1);
+        glBindVertexArray(0);
+        glBindBuffer(GL_ARRAY_BUFFER, 0);
+        free(idx);
+        r->patch_cells = P;
+        r->patch_index_count = P * P * 6;
+    }
+    return hz_gl_check(err, "cdlod patch setup");
+}
+
+hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, hz_err *err)
+{
+    if (!r->tiles_tex)
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: cdlod patches to draw before hz_renderer_set_cdlod");
+    const size_t bytes = (size_t)count * 4 * sizeof(uint32_t);
+    if (bytes > r->inst_scratch_cap) {
+        uint32_t *s = realloc(r->inst_scratch, bytes);
+        if (!s)
+            return hz_err_set(err, HZ_ERR_MEMORY, "renderer: out of memory for %u patch instances", count);
+        r->inst_scratch = s;
+        r->inst_scratch_cap = bytes;
+    }
+    const uint32_t T = r->tile_cells, top = r->tile_top, n = r->size;
+    for (uint32_t k = 0; k < count; k++) {
+        const hz_patch *q = &p[k];
+        if (q->shift > 15 || (q->coarse & ~15u) || ((r->patch_cells << q->shift) + q->x0 > n - 1) ||
+            ((r->patch_cells << q->shift) + q->z0 > n - 1))
+            return hz_err_set(err, HZ_ERR_VALUE, "renderer: patch %u (%u, %u, shift %u) lies outside the map", k,
+                              q->x0, q->z0, q->shift);
+        const uint32_t l = q->shift < top ? q->shift : top, ts = q->shift - l;
+        const uint32_t m = ((n - 1) >> l) / T;
+        const uint32_t gi = q->x0 >> l, gj = q->z0 >> l;
+        const uint32_t tx = gi / T, tz = gj / T;
+        uint32_t *o = r->inst_scratch + 4 * (size_t)k;
+        o[0] = q->x0;
+        o[1] = q->z0;
+        o[2] = ((uint32_t)r->tile_base[l] + tz * m + tx) | ((uint32_t)q->shift << 16);
+        o[3] = (gi - tx * T) | ((gj - tz * T) << 12) | (ts << 24) | ((uint32_t)q->coarse << 28);
+    }
+    glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
+    if (bytes > r->inst_cap || bytes < r->inst_cap / 4) {
+        r->inst_cap = bytes + bytes / 4 + 64;
+    }
+    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)r->inst_cap, NULL, GL_STREAM_DRAW);
+    glBufferSubData(GL_ARRAY_BUFFER, 0, (GLsizeiptr)bytes, r->inst_scratch);
+    glBindBuffer(GL_ARRAY_BUFFER, 0);
+    r->n_inst = count;
+    r->inst_bytes = bytes;
+    return hz_gl_check(err, "patch instance upload");
+}
+
+void patch_draw(hz_renderer *r, const GLint *loc)
+{
+    if (!r->n_inst)
+        return;
+    glActiveTexture(GL_TEXTURE0 + FX_UNIT_TILES);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, r->tiles_tex);
+    glUniform1i(loc[TL_SIZE], (GLint)r->patch_cells);
+    glUniform1i(loc[TL_MAP], (GLint)r->size);
+    glUniform1i(loc[TL_TILE], (GLint)r->tile_cells);
+    glUniform1i(loc[TL_TOP], (GLint)r->tile_top);
+    glUniform1iv(loc[TL_BASE], 16, r->tile_base);
+    glBindVertexArray(r->patch_vao);
+    glDrawElementsInstanced(GL_TRIANGLES, (GLsizei)r->patch_index_count, GL_UNSIGNED_SHORT, (const void *)0,
+                            (GLsizei)r->n_inst);
+    glBindVertexArray(r->vao);
+}
+
+void patch_destroy(hz_renderer *r)
+{
+    glDeleteTextures(1, &r->tiles_tex);
+    glDeleteVertexArrays(1, &r->patch_vao);
+    glDeleteBuffers(1, &r->patch_ibo);
+    glDeleteBuffers(1, &r->patch_vbo);
+    free(r->inst_scratch);
+}
