@@ -164,6 +164,11 @@ typedef struct hz_patch_list {
 /* The heightmap the LOD was made for. */
 const hz_heightmap *hz_lod_query_heightmap(const hz_lod *lod);
 
+/* cdlod's nested, dilated error bound of the node a patch draws (h16 steps;
+ * metres = value * heightmap scale * zscale). Its split range in metres is
+ * stats.morph_scale * value: an unsplit node lies at least that far. */
+float hz_lod_patch_error(hz_lod *lod, const hz_patch *p);
+
 /* Grid cells per side of a cdlod patch. */
 uint32_t hz_lod_patch_cells(const hz_lod *lod);
 

@@ -438,6 +438,12 @@ hz_result hz__lod_select_roam(hz_lod *lod, const hz_camera *cam, const hz_lod_pa
             const int32_t pb = R->t[par].bn;
             if (pb >= 0 && !children_leaves(R, pb))
                 continue;
+            /* Their priorities are from the frame they last became leaves'
+             * parents: refresh them for this eye before merging on them. */
+            bool outside;
+            R->t[par].prio = priority(&c, &R->t[par], &outside);
+            if (pb >= 0)
+                R->t[pb].prio = priority(&c, &R->t[pb], &outside);
             float dp = fmaxf(R->t[par].prio, pb >= 0 ? R->t[pb].prio : 0.0f);
             if (heap_push(&R->merge, dp, par, R->t[par].gen))
                 return HZ_ERR_MEMORY;

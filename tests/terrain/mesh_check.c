@@ -1,5 +1,6 @@
 #include "mesh_check.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -164,11 +165,22 @@ hz_camera test_random_camera(uint64_t *state, const hz_heightmap *hm, float spac
     c.pos[0] = test_frand(state, -0.2f * ext, 1.2f * ext);
     c.pos[2] = test_frand(state, -0.2f * ext, 1.2f * ext);
     c.pos[1] = test_frand(state, lo, hi + (hi - lo) * 2.0f + 50.0f);
-    c.yaw = test_frand(state, 0, 360);
-    c.pitch = test_frand(state, -80, 30);
+    /* Aimed at a random point of the terrain (within +-20 degrees), so
+     * nearly every camera sees some of it: a camera that sees nothing
+     * checks nothing. */
+    const uint32_t ti = (uint32_t)test_frand(state, 0, (float)(hm->size - 1)),
+                   tj = (uint32_t)test_frand(state, 0, (float)(hm->size - 1));
+    const float dx = (float)ti * spacing - c.pos[0], dz = (float)tj * spacing - c.pos[2];
+    const float dy = hz_heightmap_get(hm, ti, tj) - c.pos[1];
+    c.yaw = glm_deg(atan2f(dx, -dz)) + test_frand(state, -20, 20);
+    c.pitch = glm_deg(atan2f(dy, sqrtf(dx * dx + dz * dz) + 1e-3f)) + test_frand(state, -20, 20);
+    c.pitch = c.pitch < -89.0f ? -89.0f : (c.pitch > 89.0f ? 89.0f : c.pitch);
     c.fov_y = test_frand(state, 30, 90);
     c.aspect = 16.0f / 9.0f;
     c.znear = 1.0f;
     c.zfar = ext * test_frand(state, 0.3f, 2.0f);
+    /* far enough to reach the point it looks at */
+    const float reach = 1.3f * sqrtf(dx * dx + dy * dy + dz * dz);
+    c.zfar = c.zfar < reach ? reach : c.zfar;
     return c;
 }

@@ -27,7 +27,8 @@ uint64_t test_rnd(uint64_t *state);
 float test_frand(uint64_t *state, float lo, float hi);
 /* A random camera in and around the map (metres): up to 20 % of the side
  * outside it, from the lowest quantised height to twice the relief above the
- * highest, any yaw, pitch -80..30, fov 30..90, far 0.3..2 map sides. */
+ * highest, aimed at a random sample of the terrain give or take 20 degrees
+ * of yaw and pitch, fov 30..90, far 0.3..2 map sides. */
 hz_camera test_random_camera(uint64_t *state, const hz_heightmap *hm, float spacing);
 
 #endif

@@ -87,7 +87,7 @@ static hz_lod_params random_params(hz_lod_mode mode, int k)
 }
 
 typedef struct mode_totals {
-    size_t triangles, jumps_frames;
+    size_t triangles, jumps_frames, empty, forced_frames;
 } mode_totals;
 
 static void check_mode(terrain *t, hz_lod_mode mode, int cameras, mode_totals *tot)
@@ -123,6 +123,8 @@ static void check_mode(terrain *t, hz_lod_mode mode, int cameras, mode_totals *t
             assert_true(fabs(r.area - (double)(t->hm.size - 1) * (double)(t->hm.size - 1)) < 1e-6);
         tot->triangles += r.triangles;
         tot->jumps_frames += r.level_jumps > 0;
+        tot->empty += r.triangles == 0;
+        tot->forced_frames += st.forced > 0;
     }
     free(il.data);
     free(leaves.data);
@@ -156,8 +158,13 @@ static void test_modes_valid_synthetic(void **state)
         terrain_free(&t);
         hz_grid_free(&g);
     }
-    for (int m = 0; m < HZ_LOD_MODE_COUNT; m++)
+    for (int m = 0; m < HZ_LOD_MODE_COUNT; m++) {
         assert_true(tot[m].triangles > 1000);
+        /* the cameras look at the terrain: at most 1 in 10 sees none of it */
+        fprintf(stderr, "%-13s %zu of 100 cameras saw no terrain, %zu forced splits\n",
+                hz_lod_mode_name((hz_lod_mode)m), tot[m].empty, tot[m].forced_frames);
+        assert_true(tot[m].empty <= 10);
+    }
     /* remedy really meets neighbours two or more levels apart (and stays
      * crack-free); the repairs of the other modes leave none. */
     assert_true(tot[HZ_LOD_REMEDY].jumps_frames > 5);
@@ -214,7 +221,10 @@ static void test_pixel_error_bound(void **state)
     terrain t;
     terrain_init(&t, "perlin", &g, 10.0f);
     hz_index_list il = {0};
+    hz_patch_list pl = {0};
     hz_float_buf scratch = {0};
+    double worst[2] = {0, 0};
+    size_t ranged = 0;
     const hz_lod_mode modes[2] = {HZ_LOD_ROAM, HZ_LOD_CDLOD};
     for (int mi = 0; mi < 2; mi++)
         for (int k = 0; k < 25; k++) {
@@ -235,8 +245,31 @@ static void test_pixel_error_bound(void **state)
                         pe.max_px);
             assert_true(pe.max_px <= tau * 1.001 + 1e-4);
             assert_int_equal(pe.uncovered, 0);
+            /* a camera that sees next to nothing proves nothing */
+            assert_true(pe.samples >= 500);
+            worst[mi] = pe.max_px / tau > worst[mi] ? pe.max_px / tau : worst[mi];
+            if (modes[mi] == HZ_LOD_CDLOD) {
+                /* The selection's invariant, exactly: no node is drawn inside its
+                 * split range (a 1 % shorter range would break it). */
+                assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
+                const uint32_t lp_level = (uint32_t)(log2((t.hm.size - 1) / hz_lod_patch_cells(t.lod)));
+                for (size_t q = 0; q < pl.count; q++) {
+                    if (pl.data[q].level >= lp_level)
+                        continue; /* the finest patches are exact */
+                    const float range = st.morph_scale * hz_lod_patch_error(t.lod, &pl.data[q]);
+                    if (pl.data[q].dist < range * 0.99f)
+                        fprintf(stderr, "cdlod camera %d: a level-%u node at %.1f m inside its range %.1f m\n", k,
+                                pl.data[q].level, (double)pl.data[q].dist, (double)range);
+                    assert_true(pl.data[q].dist >= range * 0.99f);
+                    ranged++;
+                }
+            }
         }
+    fprintf(stderr, "largest error / tau: roam %.3f, cdlod %.3f; %zu cdlod nodes checked against their range\n",
+            worst[0], worst[1], ranged);
+    assert_true(ranged > 100);
     free(il.data);
+    free(pl.data);
     hz_float_buf_free(&scratch);
     terrain_free(&t);
     hz_grid_free(&g);
@@ -326,6 +359,58 @@ static void test_cdlod_no_popping(void **state)
     free(il.data);
     for (int q = 0; q < 2; q++)
         free(s[q]);
+    terrain_free(&t);
+    hz_grid_free(&g);
+}
+
+/* Forced splits: a camera a few metres above rough ground next to smooth
+ * ground at a small tau makes nodes split whose coarser neighbours' own
+ * ranges do not reach the eye; the restricted quadtree forces those
+ * neighbours to split. The forced meshes stay valid (no T-junction, no
+ * hole, neighbours at most one level apart). */
+static void test_cdlod_forced_splits(void **state)
+{
+    (void)state;
+    /* Gentle ground with centimetre noise: short split ranges (tens of
+     * metres) against 160 m patches, so a split next to the eye does not
+     * reach the neighbour's range. */
+    hz_grid g;
+    assert_int_equal(hz_grid_alloc(&g, 257, 257, NULL), HZ_OK);
+    uint64_t rs = 99;
+    for (uint32_t j = 0; j < 257; j++)
+        for (uint32_t i = 0; i < 257; i++)
+            g.z[(size_t)j * 257 + i] = 0.02f * (float)i + 0.01f * (float)j + test_frand(&rs, 0.0f, 0.03f);
+    terrain t;
+    terrain_init(&t, "gentle", &g, 10.0f);
+    hz_index_list il = {0};
+    hz_node_list leaves = {0};
+    size_t forced = 0, frames_forced = 0;
+    for (int k = 0; k < 64; k++) {
+        const uint32_t i = 8 + (uint32_t)(k % 8) * 30, j = 8 + (uint32_t)(k / 8) * 30;
+        hz_camera cam = {.pos = {(float)i * t.spacing + 3.0f, hz_heightmap_get(&t.hm, i, j) + 3.0f,
+                                 (float)j * t.spacing + 3.0f},
+                         .yaw = (float)(k * 47 % 360), .pitch = -25.0f, .fov_y = 60.0f, .aspect = 16.0f / 9.0f,
+                         .znear = 0.5f, .zfar = 5000.0f};
+        hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = 0.5f, .viewport_height = 720, .no_cull = k & 1};
+        hz_lod_stats st;
+        assert_int_equal(hz_lod_select(t.lod, &cam, &p, &il, &leaves, NULL, &st), HZ_OK);
+        forced += st.forced;
+        frames_forced += st.forced > 0;
+        vec4 planes[6];
+        hz_camera_frustum(&cam, planes);
+        mesh_report r = mesh_check(&t.hm, t.spacing, 1.0f, il.data, il.count, p.no_cull ? NULL : (const vec4 *)planes,
+                                   &leaves);
+        assert_int_equal(r.t_junctions, 0);
+        assert_int_equal(r.open_interior, 0);
+        assert_int_equal(r.edges_over_two, 0);
+        assert_int_equal(r.degenerate, 0);
+        assert_int_equal(r.flipped, 0);
+        assert_int_equal(r.level_jumps, 0);
+    }
+    fprintf(stderr, "cdlod: %zu forced splits in %zu of 64 low cameras\n", forced, frames_forced);
+    assert_true(frames_forced >= 8);
+    free(il.data);
+    free(leaves.data);
     terrain_free(&t);
     hz_grid_free(&g);
 }
@@ -497,6 +582,7 @@ int main(void)
         cmocka_unit_test(test_pixel_error_bound),
         cmocka_unit_test(test_cdlod_no_popping),
         cmocka_unit_test(test_cdlod_morph_targets),
+        cmocka_unit_test(test_cdlod_forced_splits),
         cmocka_unit_test(test_roam_coherence),
         cmocka_unit_test(test_bidirectional_repairs),
     };
