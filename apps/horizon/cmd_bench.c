@@ -25,7 +25,17 @@ typedef struct frame_row {
     double psnr, silhouette, popping;
     double pop_px_max, pop_px_mean; /* geometric popping: drawn surface change since the last frame */
     uint32_t ref_triangles;
+    uint64_t ref_hash;  /* FNV-1a of the reference image this frame was compared with */
+    double sky_frac;    /* fraction of the LOD frame's pixels that are sky */
 } frame_row;
+
+static uint64_t fnv1a(const uint8_t *p, size_t n)
+{
+    uint64_t h = 0xcbf29ce484222325ULL;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ p[i]) * 0x100000001b3ULL;
+    return h;
+}
 
 static int cmp_double(const void *a, const void *b)
 {
@@ -510,6 +520,10 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
         if (hz_renderer_read_rgb(b->ren, cur, &b->err) != HZ_OK ||
             hz_renderer_read_sky_mask(b->ren, b->sky_l, &b->err) != HZ_OK)
             return HZ_ERR_GL;
+        size_t sky = 0;
+        for (size_t k = 0; k < b->npx; k++)
+            sky += b->sky_l[k] != 0;
+        row->sky_frac = (double)sky / (double)b->npx;
         /* The exact screen-space error of the drawn surface (outside the
          * frame's time; --metrics off skips it for speed runs). */
         if (b->metrics) {
@@ -559,6 +573,7 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
                 row->pop_px_max = ps.max_px;
                 row->pop_px_mean = ps.mean_px;
             }
+            row->ref_hash = fnv1a(rcur, b->npx * 3);
             row->psnr = hz_metrics_psnr(cur, rcur, b->npx);
             row->silhouette = hz_metrics_silhouette(b->sky_l, rsky, b->npx);
             row->popping = f ? hz_metrics_popping(prev, cur, rprev, rcur, b->npx) : 0.0;
@@ -719,9 +734,10 @@ static void write_json(FILE *jf, const bench *b, const hz_lod_params *lod, const
         json_num(jf, r->px_p99);
         fputs(",\"px_error_max\":", jf);
         json_num(jf, r->px_max);
-        fprintf(jf, ",\"uncovered\":%llu", (unsigned long long)r->uncovered);
+        fprintf(jf, ",\"uncovered\":%llu,\"sky_frac\":%.5f", (unsigned long long)r->uncovered, r->sky_frac);
         if (b->reference) {
-            fprintf(jf, ",\"ref_triangles\":%u,\"psnr_db\":", r->ref_triangles);
+            fprintf(jf, ",\"ref_triangles\":%u,\"ref_hash\":\"%016llx\",\"psnr_db\":", r->ref_triangles,
+                    (unsigned long long)r->ref_hash);
             json_num(jf, r->psnr);
             fprintf(jf, ",\"silhouette_frac\":%.6g,\"popping\":%.6g,\"pop_px_max\":", r->silhouette, r->popping);
             json_num(jf, r->pop_px_max);

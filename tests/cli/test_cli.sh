@@ -90,8 +90,13 @@ assert j["frames"] == 4 and len(j["per_frame"]) == 4 and j["size"] == 257
 for r in j["per_frame"]:
     assert r["triangles"] > 0 and r["px_error_max"] >= r["px_error_p99"] >= 0
     assert r["uncovered"] == 0, "culling dropped samples inside the frustum"
+    # the frame shows terrain and sky, so its PSNR measures something
+    assert 0.02 < r["sky_frac"] < 0.98, r["sky_frac"]
     assert r["psnr_db"] is None or r["psnr_db"] > 20
+    # the reference is the full grid (every cell as two triangles), not a LOD selection
+    assert r["ref_triangles"] == 2 * 256 * 256, r["ref_triangles"]
 assert j["psnr_db_median"] is None or j["psnr_db_median"] > 20
+assert j["load_ms"] > 0 and j["setup_ms"] > 0 and j["metrics"] is True
 PY
 then ok "bench JSON has every field"; else bad "bench JSON: $(cat "$TMP/bench.err")"; fi
 printf '0,100,900,100,135,-10\n1,500,900,500,135,-10\n' > "$TMP/p.csv"
@@ -164,7 +169,9 @@ expect_fail "bench bad tune target" "invalid value"           $HZ bench --quiet 
 # bench compares modes on shared reference frames, each tuned to a p99 target.
 if $HZ bench --quiet --generate perlin --size 257 --frames 4 --width 320 --height 180 --lod quadtree,roam,cdlod \
       --tune-p99 1 --json "$TMP/cmp.json" >/dev/null 2>"$TMP/cmp.err" &&
-   python3 - "$TMP/cmp.json" <<'PY'
+   $HZ bench --quiet --generate perlin --size 257 --frames 4 --width 320 --height 180 --lod quadtree \
+      --json "$TMP/cmp1.json" >/dev/null 2>>"$TMP/cmp.err" &&
+   python3 - "$TMP/cmp.json" "$TMP/cmp1.json" <<'PY'
 import json, sys
 j = json.load(open(sys.argv[1]))
 runs = j["compare"]
@@ -173,10 +180,37 @@ for r in runs:
     assert r["tuned_for_p99"] == 1 and r["pixel_error"] > 0, r
     assert r["px_error_p99"] <= 1.0 + 1e-9, (r["lod_mode"], r["px_error_p99"])
     assert "pop_px_max_median" in r and len(r["per_frame"]) == 4
-    # the same reference frames for every mode
-    assert [f["ref_triangles"] for f in r["per_frame"]] == [f["ref_triangles"] for f in runs[0]["per_frame"]]
+# every mode was compared with the reference images a single-mode run renders
+# afresh for the same frames (the compare run renders them once and caches them)
+single = json.load(open(sys.argv[2]))
+want = [f["ref_hash"] for f in single["per_frame"]]
+for r in runs:
+    assert [f["ref_hash"] for f in r["per_frame"]] == want, r["lod_mode"]
 PY
 then ok "bench --lod list --tune-p99"; else bad "bench compare: $(cat "$TMP/cmp.err")"; fi
+# cdlod: nodes, not triangles; --metrics off skips the pixel-error pass; --near; load/setup times.
+if $HZ bench --quiet --generate perlin --size 1025 --frames 6 --width 320 --height 180 --lod cdlod --near 5 \
+      --metrics off --reference off --json "$TMP/cd.json" >/dev/null 2>"$TMP/cd.err" &&
+   python3 - "$TMP/cd.json" <<'PY'
+import json, sys
+j = json.load(open(sys.argv[1]))
+assert j["metrics"] is False and j["px_error_p99"] is None and j["near"] == 5, j
+for r in j["per_frame"]:
+    assert 0 < r["nodes_drawn"] < 5000 and r["triangles"] > 100 * r["nodes_drawn"], r
+    assert r["upload_kb"] <= 64 and r["px_error_max"] is None, r
+PY
+then ok "bench cdlod: nodes per frame, --metrics off, --near"; else bad "bench cdlod: $(cat "$TMP/cd.err")"; fi
+if $HZ bench --quiet --generate perlin --size 257 --frames 4 --width 320 --height 180 --lod cdlod \
+      --tune-silhouette 0.002 --json "$TMP/ts.json" >/dev/null 2>"$TMP/ts.err" &&
+   python3 - "$TMP/ts.json" <<'PY'
+import json, sys, statistics
+j = json.load(open(sys.argv[1]))
+assert j["tuned_for_silhouette"] == 0.002 and j["pixel_error"] > 0.05, j["pixel_error"]
+assert statistics.median(f["silhouette_frac"] for f in j["per_frame"]) <= 0.002 * 1.5
+PY
+then ok "bench --tune-silhouette"; else bad "bench tune silhouette: $(cat "$TMP/ts.err")"; fi
+expect_fail "bench both tunings"   "alternatives"            $HZ bench --quiet --size 257 --tune-p99 1 --tune-silhouette 0.01
+expect_fail "bench bad metrics"    "on or off"               $HZ bench --quiet --size 257 --metrics maybe
 # ---- trees and forests ---------------------------------------------------------
 T="$HZ tree --quiet"
 expect_fail "tree unknown species"  "oak, maple"              $T --species baobab
