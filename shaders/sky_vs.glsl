@@ -12,7 +12,7 @@ void main()
     vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2)) * 2.0 - 1.0;
     vec4 w = u_inv_viewproj_rot * vec4(p, 0.5, 1.0);
     v_dir = w.xyz / w.w;
-    // The far plane in reverse-Z. The plain sky is drawn first without depth;
-    // the effects' sky after the terrain where the depth is still far.
+    // The far plane in reverse-Z: the sky is drawn after the terrain, where
+    // the depth is still far.
     gl_Position = vec4(p, u_sky_z, 1.0);
 }

@@ -73,8 +73,10 @@ vec3 splat(vec3 albedo, float t, float slope, float dist)
 
 void main()
 {
-    if (fx_bits.y != 0 && dot(fx_clip, vec4(v_world, 1.0)) < 0.0)
-        discard; // below a water plane in its reflection pass
+    // Below a water plane in its reflection pass. Only that variant may
+    // discard: a shader that can discard loses llvmpipe's early depth test.
+    if (FX_CLIP_PASS && fx_bits.y != 0 && dot(fx_clip, vec4(v_world, 1.0)) < 0.0)
+        discard;
     vec3 n;
     if (u_normal_tex != 0) {
         vec2 nxz = texture(u_normals, v_world.xz * u_nrm_scale.x + u_nrm_scale.y).rg;

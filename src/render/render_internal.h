@@ -63,6 +63,7 @@ typedef struct fx_frame {
 #define FX_VARIANT_COLORMAP (1u << 16)
 #define FX_VARIANT_COVER (1u << 17)
 #define FX_VARIANT_PATCH (1u << 18) /* terrain drawn as cdlod patches */
+#define FX_VARIANT_CLIP (1u << 19)  /* a reflection pass: discard below the water plane */
 #define FX_MAX_LOCS 24
 #define FX_MAX_VARIANTS 40 /* the --effect-costs run uses about 16 terrain variants */
 
@@ -97,7 +98,7 @@ enum { QL_CENTER, QL_HALF, QL_Z, QL_CLOUDS };
 enum { SL_INV_VP, SL_SKY_Z };
 
 typedef struct sky_uniforms {
-    GLint inv_viewproj_rot, horizon, zenith, sun_dir;
+    GLint inv_viewproj_rot, horizon, zenith, sun_dir, sky_z;
 } sky_uniforms;
 
 
@@ -143,6 +144,7 @@ struct hz_renderer {
     prog_cache terrain;       /* variant 0: the plain terrain */
     const prog_variant *terrain_cur, *terrain_plain;
     const prog_variant *terrain_patch_cur; /* this frame's patch variant (NULL: no patches) */
+    const prog_variant *terrain_clip_cur;  /* this frame's reflection-pass variant (NULL: no water) */
 
     /* Current heightmap, world units (metres, zscale applied). */
     bool has_heights;

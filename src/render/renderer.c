@@ -72,9 +72,10 @@ static GLuint compile_shader(GLenum type, const char *src, const char *name, boo
         }
         char consts[200];
         snprintf(consts, sizeof consts,
-                 "const int FX_ENABLED = %u;\nconst bool FX_HAS_COLORMAP = %s;\nconst bool FX_HAS_COVER = %s;\n",
+                 "const int FX_ENABLED = %u;\nconst bool FX_HAS_COLORMAP = %s;\nconst bool FX_HAS_COVER = %s;\n"
+                 "const bool FX_CLIP_PASS = %s;\n",
                  variant & HZ_FX_ALL, (variant & FX_VARIANT_COLORMAP) ? "true" : "false",
-                 (variant & FX_VARIANT_COVER) ? "true" : "false");
+                 (variant & FX_VARIANT_COVER) ? "true" : "false", (variant & FX_VARIANT_CLIP) ? "true" : "false");
         const char *parts[6] = {src, consts, "#line 1 1\n", hz_shader_fx_common, "\n#line 2 0\n", nl + 1};
         const GLint lens[6] = {(GLint)(nl + 1 - src), -1, -1, -1, -1, -1};
         return hz_gl_compile(type, 6, parts, lens, name, err);
@@ -162,6 +163,15 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
                                     terrain_names, err);
     if (!r->terrain_cur)
         return HZ_ERR_GL;
+    /* Only the water reflection passes clip (discard) below the plane: a
+     * shader that may discard loses the early depth test on llvmpipe. */
+    r->terrain_clip_cur = NULL;
+    if (f->bits & HZ_FX_WATER) {
+        r->terrain_clip_cur = prog_cache_get(&r->terrain, key | FX_VARIANT_CLIP, hz_shader_terrain_vs,
+                                             hz_shader_terrain_fs, "terrain (reflection)", 2, terrain_names, err);
+        if (!r->terrain_clip_cur)
+            return HZ_ERR_GL;
+    }
     r->terrain_patch_cur = NULL;
     if (patches) {
         r->terrain_patch_cur = prog_cache_get(&r->terrain, key | FX_VARIANT_PATCH, hz_shader_terrain_patch_vs,
@@ -210,6 +220,7 @@ static hz_result make_programs(hz_renderer *r, hz_err *err)
     r->su.horizon = glGetUniformLocation(p, "u_sky_horizon");
     r->su.zenith = glGetUniformLocation(p, "u_sky_zenith");
     r->su.sun_dir = glGetUniformLocation(p, "u_sun_dir");
+    r->su.sky_z = glGetUniformLocation(p, "u_sky_z");
 
     return hz_gl_check(err, "shader setup");
 }
@@ -439,11 +450,18 @@ static hz_result make_normal_texture(hz_renderer *r, const hz_heightmap *hm, hz_
     }
     glGenTextures(1, &r->normal_tex);
     glBindTexture(GL_TEXTURE_2D, r->normal_tex);
-    glTexStorage2D(GL_TEXTURE_2D, 1, GL_RG8_SNORM, (GLsizei)n, (GLsizei)n);
+    /* Mipmapped: a pixel far away reads the normal averaged over what it
+     * covers (the resolution that shows), from a small level that stays in
+     * cache, instead of aliasing over the full-resolution map. */
+    GLsizei mips = 1;
+    while ((n >> mips) > 0)
+        mips++;
+    glTexStorage2D(GL_TEXTURE_2D, mips, GL_RG8_SNORM, (GLsizei)n, (GLsizei)n);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, (GLsizei)n, (GLsizei)n, GL_RG, GL_BYTE, nx);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glGenerateMipmap(GL_TEXTURE_2D);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_NEAREST);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
@@ -648,6 +666,8 @@ static void draw_plain_sky(hz_renderer *r, const fx_frame *f, const fx_view *v)
     glUniform3fv(r->su.horizon, 1, f->sp.sky_color);
     glUniform3fv(r->su.zenith, 1, f->zenith);
     glUniform3fv(r->su.sun_dir, 1, f->sp.sun_dir);
+    /* the far plane: depth 0 in reverse-Z ([0, 1] clip depth, or [-1, 1] without glClipControl) */
+    glUniform1f(r->su.sky_z, r->clip_control ? 0.0f : -1.0f);
     glDrawArrays(GL_TRIANGLES, 0, 3);
 }
 
@@ -659,14 +679,9 @@ void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v, GLuint
     glViewport(0, 0, (GLsizei)v->w, (GLsizei)v->h);
     glBindVertexArray(r->vao);
 
-    /* Plain sky: full-screen triangle first, no depth. The effects' sky is
-     * costlier per pixel: it goes after the terrain, where depth is still far. */
-    glDisable(GL_DEPTH_TEST);
-    glDepthMask(GL_FALSE);
-    glDisable(GL_CULL_FACE);
+    /* The sky (plain or the effects') goes after the terrain, only where the
+     * depth is still far: no sky shading under the terrain. */
     const bool fx_sky = (f->bits & HZ_FX_SKY) != 0;
-    if (!fx_sky)
-        draw_plain_sky(r, f, v);
 
     /* The main view of a cdlod frame draws patches; every other pass indices. */
     const bool patches = v->pass == HZ_PASS_MAIN && r->terrain_patch_cur && r->n_inst > 0;
@@ -682,7 +697,9 @@ void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v, GLuint
         glCullFace(GL_BACK);
         glFrontFace(mirrored ? GL_CW : GL_CCW);
         const prog_variant *tp =
-            patches ? r->terrain_patch_cur : (r->terrain_cur ? r->terrain_cur : r->terrain_plain);
+            patches ? r->terrain_patch_cur
+                    : (mirrored && r->terrain_clip_cur ? r->terrain_clip_cur
+                                                       : (r->terrain_cur ? r->terrain_cur : r->terrain_plain));
         const GLint *tl = tp->loc;
         glUseProgram(tp->prog);
         glActiveTexture(GL_TEXTURE0 + FX_UNIT_HEIGHTS);
@@ -715,13 +732,14 @@ void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v, GLuint
             glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
         }
     }
-    if (fx_sky) {
-        glEnable(GL_DEPTH_TEST);
-        glDepthFunc(GL_GEQUAL);
-        glDepthMask(GL_FALSE);
-        glDisable(GL_CULL_FACE);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_GEQUAL);
+    glDepthMask(GL_FALSE);
+    glDisable(GL_CULL_FACE);
+    if (fx_sky)
         fx_sky_draw(r, f, v);
-    }
+    else
+        draw_plain_sky(r, f, v);
     if (count > 0 || patches) {
         const prog_variant *tp =
             patches ? r->terrain_patch_cur : (r->terrain_cur ? r->terrain_cur : r->terrain_plain);
