@@ -10,13 +10,23 @@
  * below). The grid of a node is nested in its parent's: the parent's
  * vertices are every other vertex of its children's grids.
  *
- * Per node N we precompute delta(N), the exact largest vertical distance
- * between N's patch surface and the full-resolution surface (every sample
- * under N; the finest patches are exact), then dilate the bounds so that
- * they grow by at least CD_GROW from a node to the coarser nodes around it
- * (delta'). A vertex v's coarser surface S(v) is the midpoint of its two
- * neighbours at the spacing where it first appears: along x, along z, or on
- * the coarser cell's diagonal (hz_lod_morph_target2).
+ * Per node N we precompute delta'(N), a nested upper bound of the vertical
+ * distance between N's patch surface and every sample under it:
+ * delta'(N) = max over children c of delta'(c) + max over the vertices v
+ * that N's split introduces of |h(v) - S_N(v)| (the difference of two nested
+ * piecewise-linear surfaces peaks at the vertices of the finer one; the
+ * finest patches are exact). S_N(v) is the midpoint of v's two neighbours at
+ * the spacing where v first appears: along x, along z, or on the coarser
+ * cell's diagonal (hz_lod_morph_target2). The bounds are then dilated so
+ * that they grow by at least CD_GROW from a node to the coarser nodes
+ * around it.
+ *
+ * NOTE: the exact error of each patch (its largest distance to every sample
+ * under it) is smaller and halves the triangles at a given tau, but measured
+ * on the peers' fractal flight it gives more silhouette error per triangle
+ * (exact tau 1.25: 425 k triangles, 0.0236 % of pixels; nested tau 2: 424 k,
+ * 0.0186 %, same PSNR): the nested sums refine distant coarse nodes, whose
+ * error shows on the horizon, relatively more.
  *
  * Selection: N splits when the distance from the eye to N's box is below its
  * range R(N) = lambda * delta'(N), lambda = K / tau (K = pixels per metre at
@@ -103,41 +113,6 @@ static void prep_progress(const hz_lod *lod, uint64_t done, uint64_t total)
         lod->desc.progress(lod->desc.progress_user, "cdlod error bounds", done, total);
 }
 
-/* The exact error of a patch: the largest vertical distance between its
- * union-jack grid (P x P cells of S samples, north-west corner (x0, z0))
- * and every sample under it (h16 steps). */
-static float patch_error(const hz_lod *lod, uint32_t x0, uint32_t z0, uint32_t S)
-{
-    const uint32_t P = lod->patch;
-    const float inv = 1.0f / (float)S;
-    float e = 0.0f;
-    for (uint32_t cw = 0; cw < P; cw++)
-        for (uint32_t cu = 0; cu < P; cu++) {
-            const uint32_t x = x0 + cu * S, z = z0 + cw * S;
-            const float a = (float)h16(lod, x, z), b = (float)h16(lod, x, z + S);
-            const float c = (float)h16(lod, x + S, z), d = (float)h16(lod, x + S, z + S);
-            const bool main = ((cu + cw) & 1u) == 0;
-            /* Samples on the cell's west and north edges belong to it, the
-             * east and south ones to the next cells, except on the patch's
-             * own east and south edges. */
-            const uint32_t jn = cw + 1 == P ? S : S - 1, in = cu + 1 == P ? S : S - 1;
-            for (uint32_t j = 0; j <= jn; j++) {
-                const float v = (float)j * inv;
-                for (uint32_t i = 0; i <= in; i++) {
-                    const float u = (float)i * inv;
-                    float t;
-                    if (main)
-                        t = v <= u ? a + u * (c - a) + v * (d - c) : a + v * (b - a) + u * (d - b);
-                    else
-                        t = u + v <= 1.0f ? a + u * (c - a) + v * (b - a)
-                                          : d + (1.0f - u) * (b - d) + (1.0f - v) * (c - d);
-                    e = maxf(e, fabsf((float)h16(lod, x + i, z + j) - t));
-                }
-            }
-        }
-    return e;
-}
-
 static inline size_t cd_index(const hz_lod *lod, uint32_t l, uint32_t xi, uint32_t zi)
 {
     return lod->level_offset[l] + ((size_t)zi << l) + xi;
@@ -164,8 +139,24 @@ static hz_result cdlod_prepare(hz_lod *lod)
         for (uint32_t zi = 0; zi < m; zi++) {
             for (uint32_t xi = 0; xi < m; xi++) {
                 float d = 0.0f;
-                if (l < lp)
-                    d = patch_error(lod, xi * 2 * s, zi * 2 * s, 2 * h);
+                if (l < lp) {
+                    const uint32_t x0 = xi * 2 * s, z0 = zi * 2 * s;
+                    /* the vertices this split introduces: odd on either axis
+                     * of the children's grid (2P + 1 per side) */
+                    float dv = 0.0f;
+                    for (uint32_t b = 0; b <= 2 * P; b++) {
+                        const uint32_t z = z0 + b * h;
+                        for (uint32_t a = (b & 1) ? 0 : 1; a <= 2 * P; a += (b & 1) ? 1 : 2) {
+                            const uint32_t x = x0 + a * h;
+                            const float t = 0.5f * (float)hz_lod_morph_target2(lod, x, z);
+                            dv = maxf(dv, fabsf((float)h16(lod, x, z) - t));
+                        }
+                    }
+                    float dc = 0.0f;
+                    for (uint32_t c = 0; c < 4; c++)
+                        dc = maxf(dc, e[cd_index(lod, l + 1, 2 * xi + (c & 1), 2 * zi + (c >> 1))]);
+                    d = dc + dv;
+                }
                 e[cd_index(lod, l, xi, zi)] = d;
             }
             done += m;
