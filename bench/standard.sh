@@ -79,6 +79,32 @@ if [ "${COMPARE:-1}" != 0 ]; then
   done
 fi
 
+# The peers' test (../shared/peers: Ogre 1.12 Terrain, Irrlicht 1.8): their 4097^2 and 1025^2
+# fractal maps at 10 m and their 120-frame flight (each CSV row one frame at 30 fps), made by
+# their own generator (python3 stdlib), with their clip planes (near 5 m, far 1.5 x the 3-D
+# diagonal). cdlod at several bounds and tuned to a silhouette error; speed runs without the
+# reference and the pixel-error pass. Put next to ../shared/peers/RESULTS.md.
+PEERS=${PEERS:-$DATA/../peers}
+PT=$OUT/peers_testdata
+if [ -f "$PEERS/tools/gen_testdata.py" ]; then
+  mkdir -p "$PT"
+  if [ ! -f "$PT/fractal4097.png" ]; then
+    tmp=$(mktemp -d); cp -r "$PEERS/tools" "$tmp/"; mkdir -p "$tmp/testdata"
+    (cd "$tmp" && python3 tools/gen_testdata.py >&2) && cp "$tmp"/testdata/* "$PT/"
+    rm -rf "$tmp"
+  fi
+  for m in 4097 1025; do
+    far=$(python3 -c "import math; n=$m; print(1.5*math.sqrt(2*((n-1)*10)**2 + 0))")
+    [ $m = 4097 ] && far=86939.3
+    P="--dem $PT/fractal$m.png --spacing 10 --zscale 0.03 --path $PT/flight120.csv --fps 30 --near 5 --far $far"
+    for tau in 1 1.5 2; do
+      lod "peers${m}_cdlod_tau$tau" 120 $P --lod cdlod --pixel-error $tau
+      lod "peers${m}_cdlod_tau${tau}_speed" 120 $P --lod cdlod --pixel-error $tau --reference off --metrics off
+    done
+    lod "peers${m}_cdlod_sil_ogre1" 120 $P --lod cdlod --tune-silhouette 0.000168
+  done
+fi
+
 # Forests (SPEC F7): 1 660 trees of the four species (grown, VMI-ranked and cached on first use)
 # on the 4097^2 map, flown 25 m above the ground across the forest; simplified frames with and
 # without hysteresis, every 6th frame also unsimplified; precision/recall per species.
