@@ -32,17 +32,22 @@ void cli_usage_terrain(void)
 {
     fprintf(stderr,
             "terrain:\n"
-            "  --dem PATH              16-bit/8-bit PNG, Terrarium PNG, SRTM .hgt, .r16, .r32 (each also .gz)\n"
-            "  --format png|terrarium|hgt|r16|r32   override detection from the file name\n"
+            "  --dem PATH              any raster GDAL reads (GeoTIFF, SRTM .hgt/.hgt.zip, ENVI, ASCII grid,\n"
+            "                          VRT), 16-bit/8-bit or Terrarium PNG, .r16, .r32 (also .gz); repeat it\n"
+            "                          or give a folder to mosaic several files into one terrain\n"
+            "  --crs EPSG:N            metric CRS for geographic DEMs (default: UTM zone of the centre)\n"
+            "  --format png|terrarium|hgt|r16|r32|gdal   override detection from the file name\n"
             "  --units m|ft|dm|raw     height units of PNG/raw values (default: from the name, else m)\n"
             "  --raw-size W[xH]        raw .r16/.r32 dimensions (default: square from the file size)\n"
             "  --generate perlin|diamond  generated terrain (default perlin when no --dem)\n"
             "  --size N                generated size, 2^n+1 (default 4097)\n"
             "  --seed S                generator seed (default 1)\n"
             "  --amplitude M           generated relief in metres (default 1800)\n"
-            "  --fit auto|crop|pad|refuse  non-2^n+1 DEMs (default auto: nearest valid size)\n"
+            "  --fit auto|crop|pad|nearest|refuse  non-2^n+1 DEMs (default auto: every sample shown,\n"
+            "                          padded to 2^n+1 and the padding not drawn)\n"
             "  --layout blocked|linear heightmap memory layout (default blocked 32x32)\n"
-            "  --spacing M             metres between samples (default: SRTM 90/30, generated 10)\n"
+            "  --spacing M             metres between samples (default: the DEM's georeference, else from\n"
+            "                          the name, SRTM 90/30, generated 10); georeferenced DEMs are resampled\n"
             "  --zscale Z              height multiplier (default 1)\n"
             "LOD:\n"
             "  --lod MODE              quadtree (default), remedy, bidirectional, roam or cdlod\n"
@@ -114,11 +119,21 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
     } while (0)
         if (!strcmp(a, "--dem")) {
             NEEDV();
-            o->terrain.dem_path = v;
+            if (o->dem_count >= CLI_MAX_DEMS) {
+                fprintf(stderr, "horizon %s: more than %u --dem; pass their folder instead\n", cmd, CLI_MAX_DEMS);
+                return 2;
+            }
+            o->dems[o->dem_count++] = v;
+            o->terrain.dem_path = o->dems[0];
+            o->terrain.dem_paths = o->dem_count > 1 ? o->dems : NULL;
+            o->terrain.dem_path_count = o->dem_count > 1 ? o->dem_count : 0;
+        } else if (!strcmp(a, "--crs")) {
+            NEEDV();
+            o->terrain.crs = v;
         } else if (!strcmp(a, "--format")) {
             NEEDV();
             if (!hz_dem_format_parse(v, &o->terrain.format))
-                return bad(cmd, a, v, "png, terrarium, hgt, r16 or r32");
+                return bad(cmd, a, v, "png, terrarium, hgt, r16, r32 or gdal");
         } else if (!strcmp(a, "--units")) {
             NEEDV();
             if (!strcmp(v, "m")) o->terrain.units = HZ_UNITS_M;
@@ -161,7 +176,8 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             else if (!strcmp(v, "crop")) o->terrain.fit = HZ_FIT_CROP;
             else if (!strcmp(v, "pad")) o->terrain.fit = HZ_FIT_PAD;
             else if (!strcmp(v, "refuse")) o->terrain.fit = HZ_FIT_REFUSE;
-            else return bad(cmd, a, v, "auto, crop, pad or refuse");
+            else if (!strcmp(v, "nearest")) o->terrain.fit = HZ_FIT_NEAREST;
+            else return bad(cmd, a, v, "auto, crop, pad, nearest or refuse");
         } else if (!strcmp(a, "--layout")) {
             NEEDV();
             if (!strcmp(v, "blocked")) o->terrain.layout = HZ_LAYOUT_BLOCKED;
@@ -429,6 +445,10 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
         fprintf(stderr, "horizon %s: --tree-far must be larger than --tree-near\n", cmd);
         return 2;
     }
+    if (o->dem_count > 1) {
+        o->terrain.dem_paths = o->dems;
+        o->terrain.dem_path_count = o->dem_count;
+    }
     if (o->terrain.dem_path && o->terrain.generate) {
         fprintf(stderr, "horizon %s: give either --dem or --generate, not both\n", cmd);
         return 2;
@@ -441,6 +461,8 @@ hz_terrain *cli_load_terrain(const cli_opts *o)
 {
     hz_err err = {0};
     hz_terrain_desc d = o->terrain;
+    if (o->dem_count > 1)
+        d.dem_paths = o->dems;
     d.progress = o->quiet ? NULL : hz_progress_stderr;
     hz_terrain *t = hz_terrain_create(&d, &err);
     if (!t) {
@@ -450,7 +472,7 @@ hz_terrain *cli_load_terrain(const cli_opts *o)
     if (t->note[0] && !o->quiet)
         fprintf(stderr, "horizon: %s\n", t->note);
     if (t->voids_filled && !o->quiet)
-        fprintf(stderr, "horizon: filled %llu void samples from their neighbours\n",
+        fprintf(stderr, "horizon: %llu nodata samples masked (not drawn; filled for the LOD bounds)\n",
                 (unsigned long long)t->voids_filled);
     if (hz_lod_prepare(t->lod, o->lod.mode) != HZ_OK) {
         fprintf(stderr, "horizon: out of memory preparing the %s LOD data\n", hz_lod_mode_name(o->lod.mode));
@@ -458,6 +480,44 @@ hz_terrain *cli_load_terrain(const cli_opts *o)
         return NULL;
     }
     return t;
+}
+
+void cli_print_georef_json(const hz_terrain *t, const hz_camera *cam)
+{
+    if (!t->georef) {
+        printf(",\"crs\":null");
+        return;
+    }
+    const hz_georef *g = t->georef;
+    double cx, cy, lon = 0, lat = 0;
+    hz_georef_local_to_crs(g, cam->pos[0], cam->pos[2], &cx, &cy);
+    bool ok = hz_georef_crs_to_lonlat(g, cx, cy, &lon, &lat, NULL) == HZ_OK;
+    double o_lon = 0, o_lat = 0;
+    bool ook = hz_georef_local_to_lonlat(g, 0, 0, &o_lon, &o_lat, NULL) == HZ_OK;
+    printf(",\"crs\":\"%s\",\"crs_name\":\"%s\",\"epsg\":%d,\"camera_crs\":[%.3f,%.3f,%.3f]", hz_georef_label(g),
+           hz_georef_name(g), hz_georef_epsg(g), cx, cy, (double)cam->pos[1]);
+    if (ok)
+        printf(",\"camera_lonlat\":[%.8f,%.8f]", lon, lat);
+    else
+        printf(",\"camera_lonlat\":null");
+    double ox, oy;
+    hz_georef_local_to_crs(g, 0, 0, &ox, &oy);
+    printf(",\"origin_crs\":[%.3f,%.3f]", ox, oy);
+    if (ook)
+        printf(",\"origin_lonlat\":[%.8f,%.8f]", o_lon, o_lat);
+}
+
+void cli_print_georef_text(const hz_terrain *t, const hz_camera *cam)
+{
+    if (!t->georef)
+        return;
+    const hz_georef *g = t->georef;
+    double cx, cy, lon = 0, lat = 0;
+    hz_georef_local_to_crs(g, cam->pos[0], cam->pos[2], &cx, &cy);
+    printf("camera CRS    %s (%s): %.1f, %.1f", hz_georef_label(g), hz_georef_name(g), cx, cy);
+    if (hz_georef_crs_to_lonlat(g, cx, cy, &lon, &lat, NULL) == HZ_OK)
+        printf("; lon %.6f, lat %.6f", lon, lat);
+    printf("\n");
 }
 
 hz_result cli_renderer_morph(hz_renderer *r, hz_terrain *t, hz_lod_mode mode, hz_err *err)
