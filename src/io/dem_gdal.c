@@ -314,6 +314,19 @@ static GDALDatasetH warp(const hz_dem_desc *d, GDALDatasetH src, const hz_georef
     hz_georef_spacing(g, &sx, &sy);
     double s = d->spacing > 0 ? d->spacing : (sx < sy ? sx : sy);
     *spacing = s;
+    /* Refuse before GDALWarp allocates it: the output is at least the input's
+     * extent at that spacing. */
+    uint32_t w, h;
+    hz_georef_size(g, &w, &h);
+    double ow = (double)w * sx / s, oh = (double)h * sy / s;
+    if (ow > HZ_IO_MAX_SIDE || oh > HZ_IO_MAX_SIDE) {
+        CPLFree(wkt);
+        hz_err_set(err, HZ_ERR_VALUE,
+                   "reprojected at %g m per sample the DEM would be about %.0fx%.0f samples; sides must be at "
+                   "most %u (pass a coarser --spacing)",
+                   s, ow, oh, HZ_IO_MAX_SIDE);
+        return NULL;
+    }
     char tr[64];
     snprintf(tr, sizeof tr, "%.17g", s / lu);
     char *argv[] = {"-of", "MEM", "-t_srs", wkt, "-tr", tr, tr, "-r", "bilinear", "-ot", "Float32",
@@ -462,7 +475,7 @@ hz_result hz_io_gdal_load(const hz_dem_desc *d, hz_grid *out, hz_dem_info *info,
         }
         warped = warp(d, src, g, &s, &prog, err);
         if (!warped) {
-            r = HZ_ERR_FORMAT;
+            r = err && err->code ? err->code : HZ_ERR_FORMAT;
             goto done;
         }
         hz_georef_destroy(g);
