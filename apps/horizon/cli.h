@@ -140,5 +140,6 @@ int cmd_render(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
 int cmd_view(int argc, char **argv);
 int cmd_tree(int argc, char **argv);
+int cmd_info(int argc, char **argv);
 
 #endif

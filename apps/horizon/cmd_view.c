@@ -1150,6 +1150,9 @@ static bool frame(view *v, bool *render_failed)
         *render_failed = true;
         return false;
     }
+    /* Triangles touching nodata or padding are not drawn (cdlod: the renderer's job). */
+    if (v->lod.mode != HZ_LOD_CDLOD)
+        v->il.count = hz_terrain_filter_triangles(v->t, v->il.data, v->il.count);
 
     /* Terrain (sky only in the fan view: the fans replace the shading). */
     v->fx_time += dt;
