@@ -36,6 +36,7 @@ void cli_usage_terrain(void)
             "                          VRT), 16-bit/8-bit or Terrarium PNG, .r16, .r32 (also .gz); repeat it\n"
             "                          or give a folder to mosaic several files into one terrain\n"
             "  --crs EPSG:N            metric CRS for geographic DEMs (default: UTM zone of the centre)\n"
+            "  --voids hole|fill       nodata inside the DEM: not drawn (default) or drawn filled\n"
             "  --format png|terrarium|hgt|r16|r32|gdal   override detection from the file name\n"
             "  --units m|ft|dm|raw     height units of PNG/raw values (default: from the name, else m)\n"
             "  --raw-size W[xH]        raw .r16/.r32 dimensions (default: square from the file size)\n"
@@ -127,6 +128,11 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             o->terrain.dem_path = o->dems[0];
             o->terrain.dem_paths = o->dem_count > 1 ? o->dems : NULL;
             o->terrain.dem_path_count = o->dem_count > 1 ? o->dem_count : 0;
+        } else if (!strcmp(a, "--voids")) {
+            NEEDV();
+            if (!strcmp(v, "hole")) o->terrain.fill_voids = false;
+            else if (!strcmp(v, "fill")) o->terrain.fill_voids = true;
+            else return bad(cmd, a, v, "hole or fill");
         } else if (!strcmp(a, "--crs")) {
             NEEDV();
             o->terrain.crs = v;

@@ -185,6 +185,15 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
             hz_water_plane plane = {.height = a->water_level, .rect = {0, 0, ext, ext}};
             if (sea)
                 memset(plane.rect, 0, sizeof plane.rect);
+            if (t->valid) {
+                /* A masked DEM (nodata, padding): water only over the DEM's own
+                 * rectangle; the level may come from the smooth fill of the
+                 * padding, which is not ground anyone sees. */
+                plane.rect[0] = (float)t->data_x * t->spacing;
+                plane.rect[1] = (float)t->data_y * t->spacing;
+                plane.rect[2] = (float)(t->data_x + t->data_w - 1) * t->spacing;
+                plane.rect[3] = (float)(t->data_y + t->data_h - 1) * t->spacing;
+            }
             /* A DEM's sea has no bathymetry (flat just under the plane): make it
              * look deep, murky within a metre. */
             hz_water_material mat = {.clarity = sea ? 0.3f : 0.0f};
@@ -200,8 +209,19 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
         hz_scatter_desc td = {.density = o->trees, .water_level = a->water ? a->water_level : -INFINITY,
                            .seed = t->hm.size ^ 0x7715u};
         hz_billboard *trees = NULL;
-        if (hz_trees_scatter(&t->hm, t->spacing, t->zscale, &td, &trees, &a->trees, &err) != HZ_OK ||
-            hz_renderer_set_billboards(r, trees, a->trees, &err) != HZ_OK) {
+        if (hz_trees_scatter(&t->hm, t->spacing, t->zscale, &td, &trees, &a->trees, &err) == HZ_OK && t->valid) {
+            /* No trees on nodata or padding (not drawn): keep those whose
+             * nearest sample is valid. */
+            size_t kept = 0;
+            const uint32_t n = t->hm.size;
+            for (size_t k = 0; k < a->trees; k++) {
+                long i = lroundf(trees[k].pos[0] / t->spacing), j = lroundf(trees[k].pos[2] / t->spacing);
+                if (i >= 0 && j >= 0 && i < (long)n && j < (long)n && t->valid[(size_t)j * n + (size_t)i])
+                    trees[kept++] = trees[k];
+            }
+            a->trees = kept;
+        }
+        if (err.msg[0] || hz_renderer_set_billboards(r, trees, a->trees, &err) != HZ_OK) {
             free(trees);
             fprintf(stderr, "horizon %s: trees: %s\n", cmd, err.msg);
             return 1;

@@ -29,6 +29,10 @@ typedef struct hz_terrain_desc {
     uint64_t seed;          /* generator seed */
     float amplitude;        /* generator relief, metres; 0 -> 1800 */
     hz_fit fit;             /* non-2^n+1 DEMs: 0 -> keep every sample (HZ_FIT_AUTO: padded, masked) */
+    bool fill_voids;        /* false: nodata samples are holes (masked, not drawn); true: voids
+                               enclosed by data are drawn with their filled heights (nodata
+                               connected to the grid's edge — padding, the area outside a
+                               reprojected footprint, ocean at a mosaic's edge — stays masked) */
     hz_layout layout;       /* 0 -> blocked */
     float spacing;          /* metres between samples; 0 -> from the DEM: a georeferenced one's own
                                (geographic ones: the finer of its two spacings at the centre),

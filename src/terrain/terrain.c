@@ -11,6 +11,67 @@ static const char *base_name(const char *p)
     return s ? s + 1 : p;
 }
 
+/* Marks every invalid sample that is not connected (4-neighbours, through
+ * invalid samples) to the grid's edge as valid: voids enclosed by data are
+ * drawn with their filled heights. Returns false if out of memory. */
+static bool unmask_enclosed(uint8_t *valid, uint32_t n, uint64_t *count)
+{
+    size_t cap = 1u << 16, top = 0;
+    uint32_t *stack = malloc(cap * sizeof *stack);
+    if (!stack)
+        return false;
+    /* 2 = invalid and reachable from the edge. */
+    for (uint32_t k = 0; k < n; k++) {
+        const uint32_t edge[4] = {k, (n - 1) * n + k, k * n, k * n + n - 1};
+        for (int e = 0; e < 4; e++)
+            if (valid[edge[e]] == 0) {
+                valid[edge[e]] = 2;
+                if (top == cap) {
+                    uint32_t *ns = realloc(stack, 2 * cap * sizeof *ns);
+                    if (!ns) {
+                        free(stack);
+                        return false;
+                    }
+                    stack = ns;
+                    cap *= 2;
+                }
+                stack[top++] = edge[e];
+            }
+    }
+    while (top) {
+        uint32_t v = stack[--top], i = v % n, j = v / n;
+        uint32_t nb[4];
+        int m = 0;
+        if (i > 0) nb[m++] = v - 1;
+        if (i + 1 < n) nb[m++] = v + 1;
+        if (j > 0) nb[m++] = v - n;
+        if (j + 1 < n) nb[m++] = v + n;
+        for (int q = 0; q < m; q++) {
+            if (valid[nb[q]] != 0)
+                continue;
+            valid[nb[q]] = 2;
+            if (top == cap) {
+                uint32_t *ns = realloc(stack, 2 * cap * sizeof *ns);
+                if (!ns) {
+                    free(stack);
+                    return false;
+                }
+                stack = ns;
+                cap *= 2;
+            }
+            stack[top++] = nb[q];
+        }
+    }
+    free(stack);
+    uint64_t c = 0;
+    for (size_t k = 0; k < (size_t)n * n; k++) {
+        valid[k] = valid[k] != 2;
+        c += valid[k];
+    }
+    *count = c;
+    return true;
+}
+
 hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
 {
     hz_terrain *t = calloc(1, sizeof *t);
@@ -68,6 +129,11 @@ hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
     }
     t->valid = fi.valid;
     t->valid_count = fi.valid_count;
+    if (t->valid && desc->fill_voids && !unmask_enclosed(t->valid, g.width, &t->valid_count)) {
+        hz_georef_destroy(geo);
+        hz_err_set(err, HZ_ERR_MEMORY, "terrain: out of memory finding the enclosed voids");
+        goto fail;
+    }
     t->data_x = fi.x0 > 0 ? (uint32_t)fi.x0 : 0;
     t->data_y = fi.y0 > 0 ? (uint32_t)fi.y0 : 0;
     t->data_w = fi.data_w;

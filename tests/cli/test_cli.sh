@@ -45,6 +45,7 @@ expect_fail "truncated in mosaic"   "N46E008_cut.tif"         $R --dem "$DATA/N4
 expect_fail "info on a missing file" "cannot open|no such"    $HZ info "$TMP/nope.tif"
 expect_fail "geographic --crs"      "not a projected CRS"     $R --dem "$DATA/N44W072.hgt" --crs EPSG:4326
 expect_fail "unknown --crs"         "unknown CRS"             $R --dem "$DATA/N44W072.hgt" --crs EPSG:999999
+expect_fail "bad --voids"           "invalid value.*hole or fill" $R --dem "$DATA/N46E008.tif" --voids maybe
 json=$($HZ info --json "$DATA/N44W072.hgt" "$DATA/heidelberg_dem_hd_utm32n_25m_float32.tif" "$DATA/N46E008.tif")
 rc=$?
 if [ $rc -eq 0 ] && python3 - "$json" <<'PY'

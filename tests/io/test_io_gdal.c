@@ -298,6 +298,22 @@ void test_gdal_nodata_terrain(void **state)
     assert_float_equal(cx, 465012.5 + 75, 1e-6);
     assert_float_equal(cy, 5479987.5 - 50, 1e-6);
     hz_terrain_destroy(t);
+    /* --voids fill: the enclosed hole is drawn (filled), the padding stays masked;
+     * a void touching the edge (row 0) stays masked too. */
+    for (int i = 30; i < 35; i++)
+        v[i] = (float)nd;
+    write_raster("GTiff", tmp("nodata_f32_edge.tif"), v, w, h, gt, "EPSG:32632", &nd, GDT_Float32, NULL);
+    t = hz_terrain_create(&(hz_terrain_desc){.dem_path = tmp("nodata_f32_edge.tif"), .fill_voids = true}, &err);
+    if (!t)
+        fail_msg("%s", err.msg);
+    assert_int_equal(t->voids_filled, 205);
+    assert_int_equal(t->valid_count, (uint64_t)(w * h - 5));
+    for (uint32_t j = 0; j < t->hm.size; j++)
+        for (uint32_t i = 0; i < t->hm.size; i++) {
+            bool in = i < (uint32_t)w && j < (uint32_t)h, edge_void = j == 0 && i >= 30 && i < 35;
+            assert_int_equal(t->valid[j * t->hm.size + i], in && !edge_void);
+        }
+    hz_terrain_destroy(t);
     free(v);
 }
 
