@@ -74,8 +74,10 @@ static bool identifies(const char *path)
     CPLPopErrorHandler();
     if (!drv)
         return false;
-    /* The PNG driver would claim our heightmap PNGs: those stay on libpng
-     * (units and Terrarium decoding are ours, and they carry no georeference). */
+    /* The PNG driver would claim our heightmap PNGs: those stay on libpng.
+     * NOTE: GDAL before 3.10.1 (Debian 12 has 3.6.2) decodes 16-bit
+     * interlaced PNGs wrongly on little-endian machines (OSGeo/gdal#11553);
+     * our round-trip test caught it when PNGs went through GDAL. */
     const char *d = GDALGetDriverShortName(drv);
     return d && strcmp(d, "PNG") != 0;
 }
