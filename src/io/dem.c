@@ -341,7 +341,7 @@ static hz_result unknown_format(const char *path, const name_info *ni, hz_err *e
                           "'%s' is not a TIFF file (GDAL does not recognise its header): corrupt, or not a GeoTIFF",
                           path);
     if (!strcmp(ni->ext, "zip"))
-        return hz_err_set(err, HZ_ERR_FORMAT, "'%s' is not a zip archive holding a raster GDAL can read", path);
+        return hz_err_set(err, HZ_ERR_FORMAT, "'%s': not a zip archive holding a raster GDAL can read (truncated or corrupt?)", path);
     if (!strcmp(ni->ext, "raw"))
         return hz_err_set(err, HZ_ERR_FORMAT,
                           "'%s': cannot tell the sample type of a .raw file from its name; "
