@@ -499,6 +499,36 @@ void test_gdal_units(void **state)
     assert_int_equal(info.units, HZ_UNITS_FT);
     assert_float_equal(g.z[10], v[10] * 0.3048f, 1e-3f);
     hz_grid_free(&g);
+    /* A band scale and offset apply, also through a reprojection. */
+    {
+        const double geo[6] = {10.0, 1.0 / 1200, 0, 45.0, 0, -1.0 / 1200};
+        GDALAllRegister();
+        GDALDatasetH ds = GDALCreate(GDALGetDriverByName("GTiff"), tmp("scaled.tif"), w, h, 1, GDT_Float32, NULL);
+        assert_non_null(ds);
+        GDALSetGeoTransform(ds, (double *)geo);
+        OGRSpatialReferenceH srs = OSRNewSpatialReference(NULL);
+        OSRSetFromUserInput(srs, "EPSG:4326");
+        GDALSetSpatialRef(ds, srs);
+        OSRDestroySpatialReference(srs);
+        GDALRasterBandH b = GDALGetRasterBand(ds, 1);
+        float c[9 * 7];
+        for (int k = 0; k < w * h; k++)
+            c[k] = 1000.0f; /* flat: reprojection keeps the value */
+        assert_int_equal(GDALRasterIO(b, GF_Write, 0, 0, w, h, c, w, h, GDT_Float32, 0, 0), CE_None);
+        GDALSetRasterScale(b, 0.5);
+        GDALSetRasterOffset(b, 100.0);
+        GDALClose(ds);
+        for (int metric = 0; metric < 2; metric++) {
+            assert_int_equal(hz_dem_load(&(hz_dem_desc){.path = tmp("scaled.tif"), .metric = metric}, &g, &info, &err),
+                             HZ_OK);
+            float lo, hi;
+            hz_grid_range(&g, &lo, &hi);
+            assert_float_equal(lo, 600.0f, 1e-3f);
+            assert_float_equal(hi, 600.0f, 1e-3f);
+            assert_int_equal(info.reprojected, metric);
+            hz_grid_free(&g);
+        }
+    }
     /* --units overrides the band's unit. */
     assert_int_equal(hz_dem_load(&(hz_dem_desc){.path = tmp("feet.tif"), .units = HZ_UNITS_M}, &g, &info, &err), HZ_OK);
     assert_float_equal(g.z[10], v[10], 1e-3f);
