@@ -209,6 +209,20 @@ void test_gdal_spacing_44n(void **state)
     hz_grid_free(&g);
     hz_georef_destroy(geo);
 
+    /* --spacing resamples a projected DEM (heidelberg, 25 m) to 50 m cells. */
+    if (load(&(hz_dem_desc){.path = HZ_DATA_DIR "/heidelberg_dem_hd_utm32n_25m_float32.tif", .metric = true,
+                            .spacing = 50},
+             &g, &info, &geo, &err) != HZ_OK)
+        fail_msg("%s", err.msg);
+    hz_georef_spacing(geo, &sx, &sy);
+    assert_float_equal(sx, 50.0, 1e-9);
+    assert_float_equal(sy, 50.0, 1e-9);
+    assert_true(info.reprojected);
+    assert_int_equal(hz_georef_epsg(geo), 32632);
+    assert_true(abs((int)g.width - 521) <= 1 && abs((int)g.height - 357) <= 1);
+    hz_grid_free(&g);
+    hz_georef_destroy(geo);
+
     /* --crs picks another zone; a geographic one is refused. */
     assert_int_equal(load(&(hz_dem_desc){.path = HZ_DATA_DIR "/N44W072.hgt", .metric = true, .crs = "EPSG:32618"}, &g,
                           &info, &geo, &err),
