@@ -9,6 +9,7 @@ PKGS=(
   libegl-dev libegl1-mesa-dev libgl1-mesa-dri libegl-mesa0   # EGL + Mesa llvmpipe (software GL 4.5)
   libstb-dev           # stb_image / stb_image_write
   libpng-dev zlib1g-dev
+  libgdal-dev          # DEM reading (GeoTIFF, SRTM, ENVI, ASCII grid, VRT), mosaics, reprojection (PROJ)
   libcmocka-dev        # unit tests
   python3              # CLI tests check JSON output
   libglfw3-dev libglx-mesa0   # horizon view: GLFW window, GLX on Mesa llvmpipe

@@ -21,6 +21,7 @@ uniform sampler2D u_cover;          // forest cover (R), 1 = forest
 
 in vec3 v_world;
 in vec3 v_normal;
+in float v_valid;
 out vec4 o_color;
 
 const vec3 lowland = vec3(0.26, 0.40, 0.16);
@@ -76,6 +77,10 @@ void main()
     // Below a water plane in its reflection pass. Only that variant may
     // discard: a shader that can discard loses llvmpipe's early depth test.
     if (FX_CLIP_PASS && fx_bits.y != 0 && dot(fx_clip, vec4(v_world, 1.0)) < 0.0)
+        discard;
+    // cdlod over missing data (only that variant discards): a triangle with a
+    // vertex without data interpolates below 1 everywhere but at its corners.
+    if (FX_MASKED && v_valid < 0.999)
         discard;
     vec3 n;
     if (u_normal_tex != 0) {

@@ -22,6 +22,7 @@ uniform int u_base[16];          // first layer of each tile level
 
 out vec3 v_world;
 out vec3 v_normal;
+out float v_valid; // 1 where the sample has data; triangles touching one without are discarded
 
 int low_bit(int v)
 {
@@ -105,6 +106,7 @@ void main()
         }
     }
     v_normal = vec3(0.0, 1.0, 0.0); // the fragment shader takes normals from the normal map
+    v_valid = (t.a & 2u) != 0u ? 0.0 : 1.0;
     v_world = p;
     gl_Position = u_viewproj * vec4(p, 1.0);
 }

@@ -12,6 +12,7 @@ uniform vec3 u_eye;              // world metres
 
 out vec3 v_world;
 out vec3 v_normal;
+out float v_valid; // index lists come without triangles over missing data
 
 float height_at(int i, int j)
 {
@@ -32,6 +33,7 @@ void main()
     float dz = (height_at(i, ju) - height_at(i, jd)) / (float(ju - jd) * u_spacing);
     v_normal = normalize(vec3(-dx, 1.0, -dz));
 
+    v_valid = 1.0;
     v_world = vec3(float(i) * u_spacing, y, float(j) * u_spacing);
     gl_Position = u_viewproj * vec4(v_world, 1.0);
 }

@@ -32,17 +32,23 @@ void cli_usage_terrain(void)
 {
     fprintf(stderr,
             "terrain:\n"
-            "  --dem PATH              16-bit/8-bit PNG, Terrarium PNG, SRTM .hgt, .r16, .r32 (each also .gz)\n"
-            "  --format png|terrarium|hgt|r16|r32   override detection from the file name\n"
+            "  --dem PATH              any raster GDAL reads (GeoTIFF, SRTM .hgt/.hgt.zip, ENVI, ASCII grid,\n"
+            "                          VRT), 16-bit/8-bit or Terrarium PNG, .r16, .r32 (also .gz); repeat it\n"
+            "                          or give a folder to mosaic several files into one terrain\n"
+            "  --crs EPSG:N            metric CRS for geographic DEMs (default: UTM zone of the centre)\n"
+            "  --voids hole|fill       nodata inside the DEM: not drawn (default) or drawn filled\n"
+            "  --format png|terrarium|hgt|r16|r32|gdal   override detection from the file name\n"
             "  --units m|ft|dm|raw     height units of PNG/raw values (default: from the name, else m)\n"
             "  --raw-size W[xH]        raw .r16/.r32 dimensions (default: square from the file size)\n"
             "  --generate perlin|diamond  generated terrain (default perlin when no --dem)\n"
             "  --size N                generated size, 2^n+1 (default 4097)\n"
             "  --seed S                generator seed (default 1)\n"
             "  --amplitude M           generated relief in metres (default 1800)\n"
-            "  --fit auto|crop|pad|refuse  non-2^n+1 DEMs (default auto: nearest valid size)\n"
+            "  --fit auto|crop|pad|nearest|refuse  non-2^n+1 DEMs (default auto: every sample shown,\n"
+            "                          padded to 2^n+1 and the padding not drawn)\n"
             "  --layout blocked|linear heightmap memory layout (default blocked 32x32)\n"
-            "  --spacing M             metres between samples (default: SRTM 90/30, generated 10)\n"
+            "  --spacing M             metres between samples (default: the DEM's georeference, else from\n"
+            "                          the name, SRTM 90/30, generated 10); georeferenced DEMs are resampled\n"
             "  --zscale Z              height multiplier (default 1)\n"
             "LOD:\n"
             "  --lod MODE              quadtree (default), remedy, bidirectional, roam or cdlod\n"
@@ -115,11 +121,26 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
     } while (0)
         if (!strcmp(a, "--dem")) {
             NEEDV();
-            o->terrain.dem_path = v;
+            if (o->dem_count >= CLI_MAX_DEMS) {
+                fprintf(stderr, "horizon %s: more than %u --dem; pass their folder instead\n", cmd, CLI_MAX_DEMS);
+                return 2;
+            }
+            o->dems[o->dem_count++] = v;
+            o->terrain.dem_path = o->dems[0];
+            o->terrain.dem_paths = o->dem_count > 1 ? o->dems : NULL;
+            o->terrain.dem_path_count = o->dem_count > 1 ? o->dem_count : 0;
+        } else if (!strcmp(a, "--voids")) {
+            NEEDV();
+            if (!strcmp(v, "hole")) o->terrain.fill_voids = false;
+            else if (!strcmp(v, "fill")) o->terrain.fill_voids = true;
+            else return bad(cmd, a, v, "hole or fill");
+        } else if (!strcmp(a, "--crs")) {
+            NEEDV();
+            o->terrain.crs = v;
         } else if (!strcmp(a, "--format")) {
             NEEDV();
             if (!hz_dem_format_parse(v, &o->terrain.format))
-                return bad(cmd, a, v, "png, terrarium, hgt, r16 or r32");
+                return bad(cmd, a, v, "png, terrarium, hgt, r16, r32 or gdal");
         } else if (!strcmp(a, "--units")) {
             NEEDV();
             if (!strcmp(v, "m")) o->terrain.units = HZ_UNITS_M;
@@ -162,7 +183,8 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             else if (!strcmp(v, "crop")) o->terrain.fit = HZ_FIT_CROP;
             else if (!strcmp(v, "pad")) o->terrain.fit = HZ_FIT_PAD;
             else if (!strcmp(v, "refuse")) o->terrain.fit = HZ_FIT_REFUSE;
-            else return bad(cmd, a, v, "auto, crop, pad or refuse");
+            else if (!strcmp(v, "nearest")) o->terrain.fit = HZ_FIT_NEAREST;
+            else return bad(cmd, a, v, "auto, crop, pad, nearest or refuse");
         } else if (!strcmp(a, "--layout")) {
             NEEDV();
             if (!strcmp(v, "blocked")) o->terrain.layout = HZ_LAYOUT_BLOCKED;
@@ -434,6 +456,10 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
         fprintf(stderr, "horizon %s: --tree-far must be larger than --tree-near\n", cmd);
         return 2;
     }
+    if (o->dem_count > 1) {
+        o->terrain.dem_paths = o->dems;
+        o->terrain.dem_path_count = o->dem_count;
+    }
     if (o->terrain.dem_path && o->terrain.generate) {
         fprintf(stderr, "horizon %s: give either --dem or --generate, not both\n", cmd);
         return 2;
@@ -446,6 +472,8 @@ hz_terrain *cli_load_terrain(const cli_opts *o)
 {
     hz_err err = {0};
     hz_terrain_desc d = o->terrain;
+    if (o->dem_count > 1)
+        d.dem_paths = o->dems;
     d.progress = o->quiet ? NULL : hz_progress_stderr;
     hz_terrain *t = hz_terrain_create(&d, &err);
     if (!t) {
@@ -455,7 +483,7 @@ hz_terrain *cli_load_terrain(const cli_opts *o)
     if (t->note[0] && !o->quiet)
         fprintf(stderr, "horizon: %s\n", t->note);
     if (t->voids_filled && !o->quiet)
-        fprintf(stderr, "horizon: filled %llu void samples from their neighbours\n",
+        fprintf(stderr, "horizon: %llu nodata samples masked (not drawn; filled for the LOD bounds)\n",
                 (unsigned long long)t->voids_filled);
     if (hz_lod_prepare(t->lod, o->lod.mode) != HZ_OK) {
         fprintf(stderr, "horizon: out of memory preparing the %s LOD data\n", hz_lod_mode_name(o->lod.mode));
@@ -465,11 +493,49 @@ hz_terrain *cli_load_terrain(const cli_opts *o)
     return t;
 }
 
+void cli_print_georef_json(const hz_terrain *t, const hz_camera *cam)
+{
+    if (!t->georef) {
+        printf(",\"crs\":null");
+        return;
+    }
+    const hz_georef *g = t->georef;
+    double cx, cy, lon = 0, lat = 0;
+    hz_georef_local_to_crs(g, cam->pos[0], cam->pos[2], &cx, &cy);
+    bool ok = hz_georef_crs_to_lonlat(g, cx, cy, &lon, &lat, NULL) == HZ_OK;
+    double o_lon = 0, o_lat = 0;
+    bool ook = hz_georef_local_to_lonlat(g, 0, 0, &o_lon, &o_lat, NULL) == HZ_OK;
+    printf(",\"crs\":\"%s\",\"crs_name\":\"%s\",\"epsg\":%d,\"camera_crs\":[%.3f,%.3f,%.3f]", hz_georef_label(g),
+           hz_georef_name(g), hz_georef_epsg(g), cx, cy, (double)cam->pos[1]);
+    if (ok)
+        printf(",\"camera_lonlat\":[%.8f,%.8f]", lon, lat);
+    else
+        printf(",\"camera_lonlat\":null");
+    double ox, oy;
+    hz_georef_local_to_crs(g, 0, 0, &ox, &oy);
+    printf(",\"origin_crs\":[%.3f,%.3f]", ox, oy);
+    if (ook)
+        printf(",\"origin_lonlat\":[%.8f,%.8f]", o_lon, o_lat);
+}
+
+void cli_print_georef_text(const hz_terrain *t, const hz_camera *cam)
+{
+    if (!t->georef)
+        return;
+    const hz_georef *g = t->georef;
+    double cx, cy, lon = 0, lat = 0;
+    hz_georef_local_to_crs(g, cam->pos[0], cam->pos[2], &cx, &cy);
+    printf("camera CRS    %s (%s): %.1f, %.1f", hz_georef_label(g), hz_georef_name(g), cx, cy);
+    if (hz_georef_crs_to_lonlat(g, cx, cy, &lon, &lat, NULL) == HZ_OK)
+        printf("; lon %.6f, lat %.6f", lon, lat);
+    printf("\n");
+}
+
 hz_result cli_renderer_morph(hz_renderer *r, hz_terrain *t, hz_lod_mode mode, hz_err *err)
 {
     if (mode != HZ_LOD_CDLOD)
         return HZ_OK;
-    return hz_renderer_set_cdlod(r, t->lod, err);
+    return hz_renderer_set_cdlod(r, t->lod, t->valid, err);
 }
 
 hz_result cli_lod_select(hz_terrain *t, const hz_camera *cam, const hz_lod_params *p, cli_lod_frame *f)
@@ -477,9 +543,17 @@ hz_result cli_lod_select(hz_terrain *t, const hz_camera *cam, const hz_lod_param
     f->patches = p->mode == HZ_LOD_CDLOD;
     f->il.count = 0;
     f->pl.count = 0;
+    f->masked = 0;
     if (f->patches)
         return hz_lod_select_patches(t->lod, cam, p, &f->pl, &f->st);
-    return hz_lod_select(t->lod, cam, p, &f->il, NULL, NULL, &f->st);
+    hz_result r = hz_lod_select(t->lod, cam, p, &f->il, NULL, NULL, &f->st);
+    if (r == HZ_OK && t->valid) {
+        /* Triangles touching nodata or padding are not drawn. */
+        const size_t before = f->il.count;
+        f->il.count = hz_terrain_filter_triangles(t, f->il.data, f->il.count);
+        f->masked = (before - f->il.count) / 3;
+    }
+    return r;
 }
 
 void cli_lod_scene(const cli_lod_frame *f, hz_scene_params *sp, const uint32_t **idx, uint32_t *count)
@@ -503,7 +577,14 @@ hz_result cli_lod_indices(hz_terrain *t, cli_lod_frame *f)
     if (!f->patches)
         return HZ_OK;
     f->il.count = 0;
-    return hz_lod_patches_to_indices(t->lod, f->pl.data, f->pl.count, &f->il);
+    hz_result r = hz_lod_patches_to_indices(t->lod, f->pl.data, f->pl.count, &f->il);
+    if (r == HZ_OK && t->valid) {
+        /* what the patch shader does not draw */
+        const size_t before = f->il.count;
+        f->il.count = hz_terrain_filter_triangles(t, f->il.data, f->il.count);
+        f->masked = (before - f->il.count) / 3;
+    }
+    return r;
 }
 
 void cli_lod_frame_free(cli_lod_frame *f)

@@ -7,8 +7,12 @@
 #include "horizon/terrain.h"
 #include "horizon/forest_render.h"
 
+#define CLI_MAX_DEMS 4096
+
 typedef struct cli_opts {
     hz_terrain_desc terrain;
+    const char *dems[CLI_MAX_DEMS]; /* every --dem (terrain.dem_paths points here when > 1) */
+    uint32_t dem_count;
     hz_lod_params lod;
     bool have_camera;
     float camera[5]; /* x, y, z, yaw, pitch */
@@ -94,6 +98,11 @@ hz_terrain *cli_load_terrain(const cli_opts *o);
 hz_result cli_renderer_morph(hz_renderer *r, hz_terrain *t, hz_lod_mode mode, hz_err *err);
 /* Uploads the heights (and, for cdlod, the morph data) to a renderer. */
 hz_result cli_renderer_setup(hz_renderer *r, hz_terrain *t, const cli_opts *o, hz_err *err);
+/* The terrain's georeference and the camera in its CRS and as lon/lat:
+ * JSON members (",\"crs\":..." appended to an open object; "crs": null when the
+ * terrain has none) or text lines. */
+void cli_print_georef_json(const hz_terrain *t, const hz_camera *cam);
+void cli_print_georef_text(const hz_terrain *t, const hz_camera *cam);
 /* Copies a frame's LOD figures the renderer needs (cdlod morphing) into sp. */
 void cli_scene_lod(hz_scene_params *sp, const hz_lod_stats *st);
 
@@ -104,6 +113,7 @@ typedef struct cli_lod_frame {
     hz_patch_list pl;   /* cdlod patches */
     hz_lod_stats st;
     bool patches;
+    size_t masked;      /* triangles dropped because they touch nodata or padding (index lists) */
 } cli_lod_frame;
 
 /* Selects the frame for cam with p (p->mode). */
@@ -150,5 +160,6 @@ int cmd_render(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
 int cmd_view(int argc, char **argv);
 int cmd_tree(int argc, char **argv);
+int cmd_info(int argc, char **argv);
 
 #endif

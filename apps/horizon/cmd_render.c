@@ -118,6 +118,9 @@ int cmd_render(int argc, char **argv)
     }
     const hz_index_list il = lf.il;
     const hz_lod_stats st = lf.st;
+    /* Triangles touching nodata or padding are not drawn (cli_lod_select
+     * drops them from index lists; the patch shader for cdlod). */
+    const size_t masked_tris = lf.masked;
     /* roam refines from its previous mesh: the first selection builds it,
      * later ones from the same camera change nothing. */
     double lod_first = lod_ms[0];
@@ -204,6 +207,10 @@ int cmd_render(int argc, char **argv)
                hz_lod_bytes_per_sample(t->lod), hz_lod_memory_bytes(t->lod), t->load_ms, t->prep_ms,
                (double)hz_peak_rss_bytes() / (1024.0 * 1024.0), out, fxs, afx.setup_ms, afx.lightmap_ms, afx.trees,
                ds.billboards, ds.particles, ds.reflections, (double)ds.sun_visible, water);
+        printf(",\"triangles_masked\":%zu,\"data_size\":[%u,%u],\"samples_valid\":%llu,\"file_samples\":%llu",
+               masked_tris, t->data_w, t->data_h, (unsigned long long)t->valid_count,
+               (unsigned long long)t->file_samples);
+        cli_print_georef_json(t, &cam);
         if (cf) {
             const hz_forest_frame *fr = &cf->frame;
             printf(",\"forest_trees\":%u,\"trees_in_frustum\":%u,\"trees_detailed\":%u,\"trees_hull\":%u,"
@@ -221,6 +228,7 @@ int cmd_render(int argc, char **argv)
         printf("camera        %.0f,%.0f,%.0f yaw %.1f pitch %.1f fov %.0f far %.0f m\n", (double)cam.pos[0],
                (double)cam.pos[1], (double)cam.pos[2], (double)cam.yaw, (double)cam.pitch,
                (double)cam.fov_y, (double)cam.zfar);
+        cli_print_georef_text(t, &cam);
         if (o.lod.pixel_error > 0 || o.lod.mode == HZ_LOD_ROAM || o.lod.mode == HZ_LOD_CDLOD)
             printf("LOD mode      %s, pixel error %g px\n", hz_lod_mode_name(o.lod.mode),
                    (double)(o.lod.pixel_error > 0 ? o.lod.pixel_error : 1.0f));

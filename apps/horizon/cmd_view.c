@@ -917,7 +917,7 @@ static void queue_boxes(view *v, const hz_node_list *nodes, const float rgba[4],
 static void queue_hud(view *v, uint32_t boxes_drawn, size_t boxes_wanted)
 {
     const float sc = v->hud_scale, lh = 12.0f * sc, x0 = 8.0f * sc;
-    char lines[12][256];
+    char lines[14][256];
     int nl = 0;
     const hz_terrain *t = v->t;
     const hz_camera *c = &v->fc.cam;
@@ -942,6 +942,14 @@ static void queue_hud(view *v, uint32_t boxes_drawn, size_t boxes_wanted)
              (double)c->pitch, (double)v->fc.speed);
     snprintf(lines[nl++], 256, "ground %.1f m   above ground %.1f m%s", (double)g, (double)(c->pos[1] - g),
              v->path_active ? "   (on camera path)" : "");
+    if (t->georef) { /* where the camera is on Earth */
+        double ex, ny, lon, lat;
+        hz_georef_local_to_crs(t->georef, c->pos[0], c->pos[2], &ex, &ny);
+        int n = snprintf(lines[nl], 256, "%s  E %.1f  N %.1f", hz_georef_label(t->georef), ex, ny);
+        if (n > 0 && n < 200 && hz_georef_crs_to_lonlat(t->georef, ex, ny, &lon, &lat, NULL) == HZ_OK)
+            snprintf(lines[nl] + n, (size_t)(256 - n), "   lon %.5f  lat %.5f", lon, lat);
+        nl++;
+    }
     if (v->cf) {
         const hz_forest_frame *fr = &v->cf->frame;
         snprintf(lines[nl++], 256, "forest %u trees, %u in view (%u hulls)  %.2f M of %.2f M tris  %.1f ms  %s%s",
@@ -1157,6 +1165,9 @@ static bool frame(view *v, bool *render_failed)
         *render_failed = true;
         return false;
     }
+    /* Triangles touching nodata or padding are not drawn (cdlod: the patch shader's job). */
+    if (!patches)
+        v->il.count = hz_terrain_filter_triangles(v->t, v->il.data, v->il.count);
 
     /* Terrain (sky only in the fan view: the fans replace the shading). */
     v->fx_time += dt;

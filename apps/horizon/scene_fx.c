@@ -45,13 +45,66 @@ static int build_lightmap(app_fx *a, const hz_terrain *t, hz_renderer *r, const 
     return 0;
 }
 
-static int load_colormap(const char *path, hz_renderer *r, const char *cmd)
+/* The renderer spreads a colour map over the whole heightmap; a DEM that
+ * covers only part of it (--fit auto pads non-square DEMs) gets its image
+ * placed on a canvas so that the image spans exactly the DEM's samples
+ * (nearest pixel; grey outside, which is not drawn). NULL if out of memory. */
+static unsigned char *colormap_on_dem(const unsigned char *px, int w, int h, const hz_terrain *t, int *cw, int *ch)
+{
+    const double S = (double)(t->hm.size - 1);
+    const double dw = t->data_w > 1 ? (double)(t->data_w - 1) : 1.0, dh = t->data_h > 1 ? (double)(t->data_h - 1) : 1.0;
+    double fw = ceil((double)w * S / dw), fh = ceil((double)h * S / dh);
+    int W = (int)(fw < 8192 ? fw : 8192), H = (int)(fh < 8192 ? fh : 8192);
+    unsigned char *out = malloc((size_t)W * (size_t)H * 3);
+    if (!out)
+        return NULL;
+    for (int Y = 0; Y < H; Y++) {
+        double sj = ((Y + 0.5) / H * S - t->data_y) / dh; /* 0..1 across the DEM's rows */
+        int py = (int)floor(sj * h);
+        for (int X = 0; X < W; X++) {
+            double si = ((X + 0.5) / W * S - t->data_x) / dw;
+            int pxi = (int)floor(si * w);
+            unsigned char *o = out + ((size_t)Y * (size_t)W + (size_t)X) * 3;
+            if (pxi < 0 || py < 0 || pxi >= w || py >= h) {
+                o[0] = o[1] = o[2] = 128;
+                continue;
+            }
+            const unsigned char *p = px + ((size_t)py * (size_t)w + (size_t)pxi) * 3;
+            o[0] = p[0];
+            o[1] = p[1];
+            o[2] = p[2];
+        }
+    }
+    *cw = W;
+    *ch = H;
+    return out;
+}
+
+static int load_colormap(const char *path, hz_renderer *r, const char *cmd, const hz_terrain *t)
 {
     int w, h, n;
     unsigned char *px = stbi_load(path, &w, &h, &n, 3);
     if (!px) {
         fprintf(stderr, "horizon %s: cannot read colour map '%s': %s\n", cmd, path, stbi_failure_reason());
         return 1;
+    }
+    if (t->data_w && t->data_h &&
+        (t->data_x || t->data_y || t->data_w != t->hm.size || t->data_h != t->hm.size)) {
+        int cw, ch;
+        unsigned char *c = colormap_on_dem(px, w, h, t, &cw, &ch);
+        stbi_image_free(px);
+        if (!c) {
+            fprintf(stderr, "horizon %s: out of memory for the colour map\n", cmd);
+            return 1;
+        }
+        hz_err e2 = {0};
+        hz_result r2 = hz_renderer_set_colormap(r, c, (uint32_t)cw, (uint32_t)ch, &e2);
+        free(c);
+        if (r2 != HZ_OK) {
+            fprintf(stderr, "horizon %s: colour map '%s': %s\n", cmd, path, e2.msg);
+            return 1;
+        }
+        return 0;
     }
     hz_err err = {0};
     hz_result res = hz_renderer_set_colormap(r, px, (uint32_t)w, (uint32_t)h, &err);
@@ -132,6 +185,15 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
             hz_water_plane plane = {.height = a->water_level, .rect = {0, 0, ext, ext}};
             if (sea)
                 memset(plane.rect, 0, sizeof plane.rect);
+            if (t->valid) {
+                /* A masked DEM (nodata, padding): water only over the DEM's own
+                 * rectangle; the level may come from the smooth fill of the
+                 * padding, which is not ground anyone sees. */
+                plane.rect[0] = (float)t->data_x * t->spacing;
+                plane.rect[1] = (float)t->data_y * t->spacing;
+                plane.rect[2] = (float)(t->data_x + t->data_w - 1) * t->spacing;
+                plane.rect[3] = (float)(t->data_y + t->data_h - 1) * t->spacing;
+            }
             /* A DEM's sea has no bathymetry (flat just under the plane): make it
              * look deep, murky within a metre. */
             hz_water_material mat = {.clarity = sea ? 0.3f : 0.0f};
@@ -147,8 +209,19 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
         hz_scatter_desc td = {.density = o->trees, .water_level = a->water ? a->water_level : -INFINITY,
                            .seed = t->hm.size ^ 0x7715u};
         hz_billboard *trees = NULL;
-        if (hz_trees_scatter(&t->hm, t->spacing, t->zscale, &td, &trees, &a->trees, &err) != HZ_OK ||
-            hz_renderer_set_billboards(r, trees, a->trees, &err) != HZ_OK) {
+        if (hz_trees_scatter(&t->hm, t->spacing, t->zscale, &td, &trees, &a->trees, &err) == HZ_OK && t->valid) {
+            /* No trees on nodata or padding (not drawn): keep those whose
+             * nearest sample is valid. */
+            size_t kept = 0;
+            const uint32_t n = t->hm.size;
+            for (size_t k = 0; k < a->trees; k++) {
+                long i = lroundf(trees[k].pos[0] / t->spacing), j = lroundf(trees[k].pos[2] / t->spacing);
+                if (i >= 0 && j >= 0 && i < (long)n && j < (long)n && t->valid[(size_t)j * n + (size_t)i])
+                    trees[kept++] = trees[k];
+            }
+            a->trees = kept;
+        }
+        if (err.msg[0] || hz_renderer_set_billboards(r, trees, a->trees, &err) != HZ_OK) {
             free(trees);
             fprintf(stderr, "horizon %s: trees: %s\n", cmd, err.msg);
             return 1;
@@ -168,7 +241,7 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
             return 1;
         }
     }
-    if (o->colormap && load_colormap(o->colormap, r, cmd))
+    if (o->colormap && load_colormap(o->colormap, r, cmd, t))
         return 1;
     if (o->textures && load_textures(o->textures, r, cmd))
         return 1;
@@ -198,6 +271,7 @@ void app_fx_params(app_fx *a, const hz_terrain *t, const hz_camera *cam, const h
         p.pixel_error = 0.0f;
         p.c = 0.6f * (p.c > 0 ? p.c : 25.0f);
         if (hz_lod_select(t->lod, &mc, &p, &a->refl, NULL, NULL, NULL) == HZ_OK) {
+            a->refl.count = hz_terrain_filter_triangles(t, a->refl.data, a->refl.count);
             sp->reflection_indices = a->refl.data;
             sp->reflection_count = (uint32_t)a->refl.count;
         }

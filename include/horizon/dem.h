@@ -2,6 +2,7 @@
 #ifndef HORIZON_DEM_H
 #define HORIZON_DEM_H
 
+#include "horizon/georef.h"
 #include "horizon/grid.h"
 
 #ifdef __cplusplus
@@ -14,7 +15,10 @@ typedef enum hz_dem_format {
     HZ_DEM_TERRARIUM,  /* 8-bit RGB PNG, h = R*256 + G + B/256 - 32768 metres */
     HZ_DEM_HGT,        /* SRTM .hgt: int16 big-endian, square, side = sqrt(bytes/2), void -32768 */
     HZ_DEM_R16,        /* raw uint16 little-endian, side from desc.size (or sqrt(bytes/2)) */
-    HZ_DEM_R32         /* raw float32 little-endian, side from desc.size (or sqrt(bytes/4)) */
+    HZ_DEM_R32,        /* raw float32 little-endian, side from desc.size (or sqrt(bytes/4)) */
+    HZ_DEM_GDAL        /* anything GDAL reads (GeoTIFF, SRTM .hgt/.hgt.zip, ENVI, ASCII grid, VRT...);
+                          chosen by auto for every file GDAL identifies except PNG, and for
+                          several files or a folder (a mosaic) */
 } hz_dem_format;
 
 typedef enum hz_dem_units {
@@ -26,7 +30,20 @@ typedef enum hz_dem_units {
 } hz_dem_units;
 
 typedef struct hz_dem_desc {
-    const char *path;      /* required; a trailing ".gz" means gzip-compressed */
+    const char *path;      /* required unless path_count > 0; a trailing ".gz" means gzip-compressed;
+                              a folder means every raster GDAL identifies in it, mosaicked */
+    const char *const *paths; /* optional: path_count files or folders mosaicked as one terrain
+                                 (GDALBuildVRT; later files win where they overlap) */
+    uint32_t path_count;   /* 0 -> use path */
+    bool metric;           /* GDAL inputs: reproject (GDALWarp, bilinear) a geographic, rotated or
+                              non-square-cell grid to a metric CRS with square cells; false keeps the
+                              stored grid */
+    const char *crs;       /* target CRS for metric ("EPSG:32633", WKT, PROJ); NULL -> the input's own
+                              CRS if projected, else the WGS 84 UTM zone of the centre */
+    double spacing;        /* metres per sample of the reprojected grid; 0 -> the finer of the input's
+                              two spacings at its centre, so no detail is lost */
+    hz_georef **georef;    /* optional out: the georeference of the returned grid (NULL when the file
+                              has none); free with hz_georef_destroy */
     hz_dem_format format;  /* 0 -> auto */
     hz_dem_units units;    /* 0 -> auto */
     uint32_t width;        /* raw formats: samples per row; 0 -> square from the byte count */
@@ -41,7 +58,15 @@ typedef struct hz_dem_info {
     uint64_t voids;        /* samples that were void/nodata (stored as NaN in the grid) */
     float spacing_hint;    /* metres between samples if known from the format or name
                               (SRTM 1201 -> 90, 3601 -> 30, "_3as_" 90, "_1as_" 30,
-                              "_10m" 10 ...), else 0 */
+                              "_10m" 10 ...), else 0; for georeferenced files the
+                              grid's spacing in metres (the finer of x and y) */
+    char driver[32];       /* GDAL driver that read it ("GTiff", "SRTMHGT", "VRT"...); "" for ours */
+    uint32_t files;        /* inputs read (several for a mosaic) */
+    uint32_t file_width, file_height; /* the raster as stored (or the mosaic before reprojection) */
+    double file_spacing_x, file_spacing_y; /* its metres per sample at the centre; 0 if not georeferenced */
+    uint64_t file_voids;   /* nodata samples in the stored raster (before reprojection) */
+    bool reprojected;      /* GDALWarp made the returned grid (its voids include the area outside
+                              the input's footprint) */
 } hz_dem_info;
 
 /* Reads a DEM into out (allocated here; free with hz_grid_free). Voids become
@@ -54,7 +79,7 @@ hz_result hz_dem_load(const hz_dem_desc *desc, hz_grid *out, hz_dem_info *info, 
  * 0..65535; pass lo == hi to use the grid's range) — used by tests and import. */
 hz_result hz_dem_write_png16(const char *path, const hz_grid *g, float lo, float hi, hz_err *err);
 
-/* Names for the CLI: "png", "terrarium", "hgt", "r16", "r32"; parse returns false if unknown. */
+/* Names for the CLI: "png", "terrarium", "hgt", "r16", "r32", "gdal"; parse returns false if unknown. */
 const char *hz_dem_format_name(hz_dem_format f);
 bool hz_dem_format_parse(const char *s, hz_dem_format *out);
 

@@ -34,11 +34,33 @@ hz_result hz_grid_fill_voids(hz_grid *g, uint64_t *filled, hz_err *err);
 
 /* How to make a grid square with side 2^n + 1. */
 typedef enum hz_fit {
-    HZ_FIT_AUTO = 0, /* nearest valid side: crop if that is closer, else pad */
+    HZ_FIT_AUTO = 0, /* hz_grid_fit (the terrain's default): keep every sample — the smallest
+                        2^n+1 square >= max(width, height), the data at its north-west corner,
+                        the padding masked (not drawn) and filled smoothly from the data's edges.
+                        hz_grid_fit_pow2 (legacy): same as HZ_FIT_NEAREST */
     HZ_FIT_CROP,     /* largest 2^n+1 that fits in min(width, height); centred crop */
-    HZ_FIT_PAD,      /* smallest 2^n+1 >= max(width, height); edge values extended */
-    HZ_FIT_REFUSE    /* fail unless already square 2^n+1 */
+    HZ_FIT_PAD,      /* smallest 2^n+1 >= max(width, height); centred, edge values extended
+                        and drawn */
+    HZ_FIT_REFUSE,   /* fail unless already square 2^n+1 */
+    HZ_FIT_NEAREST   /* nearest valid side: crop if that is closer, else pad (the old default) */
 } hz_fit;
+
+/* What hz_grid_fit did. */
+typedef struct hz_grid_fit_info {
+    uint8_t *valid;          /* side*side, row-major like the grid: 1 = a sample of the input,
+                                0 = a void (nodata, NaN in the input) or masked padding;
+                                NULL when every sample is valid. Free with free(). */
+    uint64_t valid_count;    /* samples with valid = 1 (side*side when valid is NULL) */
+    int64_t x0, y0;          /* where the input's sample (0, 0) is in the fitted grid
+                                (negative when cropped) */
+    uint32_t data_w, data_h; /* columns and rows of the input inside the fitted grid */
+} hz_grid_fit_info;
+
+/* Makes *g a square 2^n+1 grid with every sample finite: marks the input's
+ * voids (NaN) and, for HZ_FIT_AUTO, the padding invalid in fi->valid, then
+ * fills them all (hz_grid_fill_voids) so LOD bounds stay plausible. Other
+ * modes fill the voids and call hz_grid_fit_pow2. note as there. */
+hz_result hz_grid_fit(hz_grid *g, hz_fit fit, hz_grid_fit_info *fi, char *note, size_t note_cap, hz_err *err);
 
 /* Makes *g square 2^n+1 (n >= 1, side >= 3) in place (reallocates). Writes a one-line
  * description of what was done to note (may be NULL; empty when nothing was

@@ -87,9 +87,11 @@ typedef void (*hz_draw_hook_fn)(void *user, const hz_pass_info *pass);
  * array of height tiles, the pyramid of the heightmap, each texel with the
  * sample's height, morph range and morph target; 8 bytes per texel, about
  * 11 bytes per sample in all) and the static patch grid. The heightmap must
- * be the one given to hz_renderer_set_heightmap. Frames then pass
+ * be the one given to hz_renderer_set_heightmap. valid (size * size, 0 =
+ * no data there, e.g. hz_terrain.valid) may be NULL; triangles touching a
+ * sample without data are not drawn. Frames then pass
  * hz_scene_params.patches. */
-hz_result hz_renderer_set_cdlod(hz_renderer *r, hz_lod *lod, hz_err *err);
+hz_result hz_renderer_set_cdlod(hz_renderer *r, hz_lod *lod, const uint8_t *valid, hz_err *err);
 
 #define HZ_MAX_HISTORY 8u /* motion blur history slots */
 

@@ -5,6 +5,7 @@
 #define HORIZON_TERRAIN_H
 
 #include "horizon/dem.h"
+#include "horizon/georef.h"
 #include "horizon/lod.h"
 #include "horizon/path.h"
 
@@ -15,6 +16,11 @@ extern "C" {
 typedef struct hz_terrain_desc {
     /* Source: a DEM file, or (when dem_path is NULL) a generated terrain. */
     const char *dem_path;
+    const char *const *dem_paths; /* optional: dem_path_count files or folders mosaicked as one
+                                     terrain (used instead of dem_path when the count is > 0) */
+    uint32_t dem_path_count;
+    const char *crs;        /* metric CRS geographic DEMs are reprojected to ("EPSG:32632");
+                               NULL -> the UTM zone of the centre (projected DEMs keep theirs) */
     hz_dem_format format;   /* 0 -> from the name */
     hz_dem_units units;     /* 0 -> from the name */
     uint32_t raw_width, raw_height; /* raw .r16/.r32 only; 0 -> square from the size */
@@ -22,10 +28,16 @@ typedef struct hz_terrain_desc {
     uint32_t gen_size;      /* 0 -> 4097 */
     uint64_t seed;          /* generator seed */
     float amplitude;        /* generator relief, metres; 0 -> 1800 */
-    hz_fit fit;             /* non-2^n+1 DEMs: 0 -> nearest valid size */
+    hz_fit fit;             /* non-2^n+1 DEMs: 0 -> keep every sample (HZ_FIT_AUTO: padded, masked) */
+    bool fill_voids;        /* false: nodata samples are holes (masked, not drawn); true: voids
+                               enclosed by data are drawn with their filled heights (nodata
+                               connected to the grid's edge — padding, the area outside a
+                               reprojected footprint, ocean at a mosaic's edge — stays masked) */
     hz_layout layout;       /* 0 -> blocked */
-    float spacing;          /* metres between samples; 0 -> from the DEM (SRTM 90/30 m ...),
-                               else 30 m for DEMs, 10 m for generated */
+    float spacing;          /* metres between samples; 0 -> from the DEM: a georeferenced one's own
+                               (geographic ones: the finer of its two spacings at the centre),
+                               else the name (SRTM 90/30 m, "_10m" ...), else 30 m for DEMs, 10 m
+                               for generated. A georeferenced DEM is resampled to it. */
     float zscale;           /* 0 -> 1 */
     float propagate_c;      /* see hz_lod_desc; 0 -> 25 */
     hz_progress_fn progress; /* optional */
@@ -42,11 +54,29 @@ typedef struct hz_terrain {
     char source[160];       /* "perlin 4097 seed 1" or the file name */
     char note[256];         /* what fitting did, empty if nothing */
     double load_ms, prep_ms;
+    /* Where the DEM is in the heightmap: data_w x data_h samples from (data_x, data_y)
+     * (0, 0 with the default fit; the whole map for generated terrains). */
+    uint32_t data_x, data_y, data_w, data_h;
+    /* Validity over the heightmap, row-major (j * hm.size + i): 1 = a real sample,
+     * 0 = nodata or padding (filled with plausible heights for the LOD bounds, not
+     * to be drawn). NULL when every sample is valid. */
+    uint8_t *valid;
+    uint64_t valid_count;   /* samples with valid = 1 */
+    uint64_t file_samples;  /* samples the file(s) hold, nodata included (0 for generated) */
+    /* Where the heightmap lies on Earth: local metres (world x, z) <-> CRS <->
+     * lon/lat, origin = the centre of heightmap sample (0, 0). NULL for
+     * generated terrains and files without a georeference. */
+    hz_georef *georef;
 } hz_terrain;
 
 /* NULL + err on failure (missing/corrupt file, NaN/inf, absurd parameters). */
 hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err);
 void hz_terrain_destroy(hz_terrain *t);
+
+/* Drops the triangles of an index list (3 vertex ids j * hm.size + i each) that
+ * touch an invalid sample (t->valid); keeps the order of the rest. Returns the
+ * new count (count when t->valid is NULL). */
+size_t hz_terrain_filter_triangles(const hz_terrain *t, uint32_t *idx, size_t count);
 
 /* Side of the map in metres ((size-1) * spacing). */
 float hz_terrain_extent(const hz_terrain *t);

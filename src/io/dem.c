@@ -42,13 +42,14 @@ const char *hz_dem_format_name(hz_dem_format f)
     case HZ_DEM_HGT: return "hgt";
     case HZ_DEM_R16: return "r16";
     case HZ_DEM_R32: return "r32";
+    case HZ_DEM_GDAL: return "gdal";
     }
     return "unknown";
 }
 
 bool hz_dem_format_parse(const char *s, hz_dem_format *out)
 {
-    static const hz_dem_format all[] = {HZ_DEM_AUTO, HZ_DEM_PNG, HZ_DEM_TERRARIUM, HZ_DEM_HGT, HZ_DEM_R16, HZ_DEM_R32};
+    static const hz_dem_format all[] = {HZ_DEM_AUTO, HZ_DEM_PNG, HZ_DEM_TERRARIUM, HZ_DEM_HGT, HZ_DEM_R16, HZ_DEM_R32, HZ_DEM_GDAL};
     if (!s)
         return false;
     for (size_t k = 0; k < sizeof all / sizeof *all; k++) {
@@ -68,6 +69,25 @@ static double units_factor(hz_dem_units u)
     case HZ_UNITS_DM: return 0.1;
     default: return 1.0;
     }
+}
+
+/* A GDAL band unit string ("m", "metre", "ft", "US survey foot", "dm"...). */
+static hz_dem_units units_from_string(const char *u)
+{
+    char b[64];
+    size_t n = 0;
+    for (; u[n] && n + 1 < sizeof b; n++)
+        b[n] = (char)tolower((unsigned char)u[n]);
+    b[n] = 0;
+    if (!strcmp(b, "ft") || !strcmp(b, "foot") || !strcmp(b, "feet") || strstr(b, "us survey foot") ||
+        !strcmp(b, "us-ft") || !strcmp(b, "international foot"))
+        return HZ_UNITS_FT;
+    if (!strcmp(b, "dm") || !strcmp(b, "decimetre") || !strcmp(b, "decimeter"))
+        return HZ_UNITS_DM;
+    if (!strcmp(b, "m") || !strcmp(b, "metre") || !strcmp(b, "meter") || !strcmp(b, "metres") ||
+        !strcmp(b, "meters"))
+        return HZ_UNITS_M;
+    return HZ_UNITS_AUTO;
 }
 
 /* ---- file reading ---- */
@@ -317,18 +337,20 @@ static float spacing_hint(const name_info *ni, hz_dem_format f, uint32_t w, uint
 static hz_result unknown_format(const char *path, const name_info *ni, hz_err *err)
 {
     if (!strcmp(ni->ext, "tif") || !strcmp(ni->ext, "tiff"))
-        return hz_err_set(err, HZ_ERR_UNSUPPORTED,
-                          "'%s': GeoTIFF is not supported; convert it, e.g. "
-                          "gdal_translate -ot Float32 -of ENVI '%s' out.r32, and load out.r32 with --raw-size WxH",
-                          path, path);
+        return hz_err_set(err, HZ_ERR_FORMAT,
+                          "'%s' is not a TIFF file (GDAL does not recognise its header): corrupt, or not a GeoTIFF",
+                          path);
+    if (!strcmp(ni->ext, "zip"))
+        return hz_err_set(err, HZ_ERR_FORMAT, "'%s': not a zip archive holding a raster GDAL can read (truncated or corrupt?)", path);
     if (!strcmp(ni->ext, "raw"))
         return hz_err_set(err, HZ_ERR_FORMAT,
                           "'%s': cannot tell the sample type of a .raw file from its name; "
                           "pass --format r16 (uint16 LE), r32 (float32 LE) or hgt (int16 big-endian)",
                           path);
     return hz_err_set(err, HZ_ERR_FORMAT,
-                      "'%s': unknown DEM format (extension '.%s'); supported: .png (16/8-bit grey, Terrarium RGB), "
-                      ".hgt (SRTM), .r16, .r32, *int16be*.raw, each optionally .gz; "
+                      "'%s': unknown DEM format (extension '.%s'): GDAL does not recognise it (GeoTIFF, SRTM .hgt/.hgt.zip, "
+                      "ENVI .hdr, ASCII grid, VRT ...), and ours are .png (16/8-bit grey, Terrarium RGB), "
+                      ".hgt, .r16, .r32, *int16be*.raw, each optionally .gz; "
                       "or pass --format png|terrarium|hgt|r16|r32",
                       path, ni->ext);
 }
@@ -458,15 +480,53 @@ hz_result hz_dem_load(const hz_dem_desc *desc, hz_grid *out, hz_dem_info *info, 
     HZ_ASSERT(desc && out);
     out->z = NULL;
     out->width = out->height = 0;
-    if (!desc->path || !desc->path[0])
+    if ((!desc->path || !desc->path[0]) && desc->path_count == 0)
         return hz_err_set(err, HZ_ERR_VALUE, "no DEM file given");
-    if ((unsigned)desc->format > HZ_DEM_R32)
+    if ((unsigned)desc->format > HZ_DEM_GDAL)
         return hz_err_set(err, HZ_ERR_VALUE, "'%s': invalid format value %d", desc->path, (int)desc->format);
     if ((unsigned)desc->units > HZ_UNITS_RAW)
         return hz_err_set(err, HZ_ERR_VALUE, "'%s': invalid units value %d", desc->path, (int)desc->units);
-    const char *path = desc->path;
+    if (desc->georef)
+        *desc->georef = NULL;
+    const char *path = desc->path && desc->path_count == 0 ? desc->path : "mosaic";
     name_info ni;
     analyse_name(path, &ni);
+    if (info)
+        memset(info, 0, sizeof *info);
+
+    if (desc->path_count > 0 || desc->format == HZ_DEM_GDAL ||
+        (desc->format == HZ_DEM_AUTO && hz_io_gdal_wants(path))) {
+        hz_dem_info gi;
+        memset(&gi, 0, sizeof gi);
+        char band_units[64];
+        hz_result r = hz_io_gdal_load(desc, out, &gi, band_units, sizeof band_units, err);
+        if (r != HZ_OK)
+            return r;
+        hz_dem_units units = desc->units;
+        if (units == HZ_UNITS_AUTO)
+            units = units_from_string(band_units);
+        if (units == HZ_UNITS_AUTO)
+            units = strstr(ni.base, "_ft16") ? HZ_UNITS_FT : strstr(ni.base, "_dm16") ? HZ_UNITS_DM : HZ_UNITS_M;
+        uint64_t voids = 0;
+        r = finish_values(desc->path_count > 0 ? "mosaic" : path, out, units_factor(units), &voids, err);
+        if (r != HZ_OK) {
+            hz_grid_free(out);
+            if (desc->georef) {
+                hz_georef_destroy(*desc->georef);
+                *desc->georef = NULL;
+            }
+            return r;
+        }
+        gi.units = units;
+        gi.voids = voids;
+        /* An SRTM tile keeps its name: it is the same data as our own .hgt reader gives. */
+        gi.format = !strcmp(gi.driver, "SRTMHGT") ? HZ_DEM_HGT : HZ_DEM_GDAL;
+        if (gi.spacing_hint <= 0)
+            gi.spacing_hint = spacing_hint(&ni, gi.format, out->width, out->height);
+        if (info)
+            *info = gi;
+        return HZ_OK;
+    }
 
     buf file = {0}, data = {0};
     hz_result r = read_file(path, &file, err);
@@ -542,6 +602,10 @@ hz_result hz_dem_load(const hz_dem_desc *desc, hz_grid *out, hz_dem_info *info, 
         info->units = units;
         info->voids = voids;
         info->spacing_hint = spacing_hint(&ni, f, out->width, out->height);
+        info->files = 1;
+        info->file_width = out->width;
+        info->file_height = out->height;
+        info->file_voids = voids;
     }
     return HZ_OK;
 }

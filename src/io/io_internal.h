@@ -33,4 +33,15 @@ hz_result hz_io_png_decode(const char *path, const uint8_t *data, size_t size, h
                            bool name_terrarium, hz_io_progress *prog, hz_grid *g, hz_png_result *res,
                            hz_err *err);
 
+/* True if auto detection should hand path to GDAL: a folder, or a file a GDAL
+ * driver other than PNG identifies (raw .r16/.r32/.raw and non-SRTM .gz stay ours). */
+bool hz_io_gdal_wants(const char *path);
+
+/* Reads d->path (or d->paths, mosaicked) through GDAL into out: band 1 as
+ * float, nodata -> NaN, band scale/offset applied, reprojected when d->metric
+ * asks; fills info's GDAL fields, voids and spacing_hint, and *d->georef.
+ * units receives the band's unit string ("m", "ft", "" ...). */
+hz_result hz_io_gdal_load(const hz_dem_desc *d, hz_grid *out, hz_dem_info *info, char *units, size_t units_cap,
+                          hz_err *err);
+
 #endif

@@ -64,6 +64,7 @@ typedef struct fx_frame {
 #define FX_VARIANT_COVER (1u << 17)
 #define FX_VARIANT_PATCH (1u << 18) /* terrain drawn as cdlod patches */
 #define FX_VARIANT_CLIP (1u << 19)  /* a reflection pass: discard below the water plane */
+#define FX_VARIANT_MASK (1u << 20)  /* cdlod patches over samples without data: discard there */
 #define FX_MAX_LOCS 24
 #define FX_MAX_VARIANTS 40 /* the --effect-costs run uses about 16 terrain variants */
 
@@ -132,6 +133,7 @@ struct hz_renderer {
     /* cdlod patches (terrain_patch.c) */
     GLuint tiles_tex;          /* GL_TEXTURE_2D_ARRAY, RGBA16UI tiles of the height pyramid */
     uint32_t tile_cells, tile_top, tile_layers;
+    bool tile_masked;          /* some samples have no data: the mask variant discards there */
     int32_t tile_base[16];     /* first layer per level */
     GLuint patch_vao, patch_ibo, patch_vbo;
     uint32_t patch_cells, patch_index_count;

@@ -70,12 +70,13 @@ static GLuint compile_shader(GLenum type, const char *src, const char *name, boo
             hz_err_set(err, HZ_ERR_GL, "GL: shader %s does not start with a #version line", name);
             return 0;
         }
-        char consts[200];
+        char consts[320];
         snprintf(consts, sizeof consts,
                  "const int FX_ENABLED = %u;\nconst bool FX_HAS_COLORMAP = %s;\nconst bool FX_HAS_COVER = %s;\n"
-                 "const bool FX_CLIP_PASS = %s;\n",
+                 "const bool FX_CLIP_PASS = %s;\nconst bool FX_MASKED = %s;\n",
                  variant & HZ_FX_ALL, (variant & FX_VARIANT_COLORMAP) ? "true" : "false",
-                 (variant & FX_VARIANT_COVER) ? "true" : "false", (variant & FX_VARIANT_CLIP) ? "true" : "false");
+                 (variant & FX_VARIANT_COVER) ? "true" : "false", (variant & FX_VARIANT_CLIP) ? "true" : "false",
+                 (variant & FX_VARIANT_MASK) ? "true" : "false");
         const char *parts[6] = {src, consts, "#line 1 1\n", hz_shader_fx_common, "\n#line 2 0\n", nl + 1};
         const GLint lens[6] = {(GLint)(nl + 1 - src), -1, -1, -1, -1, -1};
         return hz_gl_compile(type, 6, parts, lens, name, err);
@@ -174,7 +175,8 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
     }
     r->terrain_patch_cur = NULL;
     if (patches) {
-        r->terrain_patch_cur = prog_cache_get(&r->terrain, key | FX_VARIANT_PATCH, hz_shader_terrain_patch_vs,
+        const uint32_t pkey = key | FX_VARIANT_PATCH | (r->tile_masked ? FX_VARIANT_MASK : 0u);
+        r->terrain_patch_cur = prog_cache_get(&r->terrain, pkey, hz_shader_terrain_patch_vs,
                                               hz_shader_terrain_fs, "terrain (patches)", 2, terrain_names, err);
         if (!r->terrain_patch_cur)
             return HZ_ERR_GL;

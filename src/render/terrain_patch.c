@@ -11,11 +11,12 @@
 
 #include "horizon/lod.h"
 
-/* Tile texel: h16, morph q, morph target (sum of two h16, 17 bits) low and high. */
+/* Tile texel: h16, morph q, morph target (sum of two h16, 17 bits) low, and
+ * its high bit plus a no-data flag. */
 enum { TEXEL_CH = 4 };
 
-static void tile_fill(hz_lod *lod, const uint16_t *morph, uint32_t n, uint32_t T, uint32_t level, uint32_t tx,
-                      uint32_t tz, uint16_t *out)
+static void tile_fill(hz_lod *lod, const uint16_t *morph, const uint8_t *valid, uint32_t n, uint32_t T,
+                      uint32_t level, uint32_t tx, uint32_t tz, uint16_t *out)
 {
     const hz_heightmap *hm = hz_lod_query_heightmap(lod);
     const uint32_t cells = (n - 1) >> level;
@@ -34,12 +35,13 @@ static void tile_fill(hz_lod *lod, const uint16_t *morph, uint32_t n, uint32_t T
             o[0] = hz_heightmap_get16(hm, i, j);
             o[1] = morph[(size_t)j * n + i];
             o[2] = (uint16_t)(t2 & 0xffffu);
-            o[3] = (uint16_t)(t2 >> 16);
+            /* bit 0: the target's 17th bit; bit 1: no data here (not drawn) */
+            o[3] = (uint16_t)((t2 >> 16) | (valid && !valid[(size_t)j * n + i] ? 2u : 0u));
         }
     }
 }
 
-hz_result hz_renderer_set_cdlod(hz_renderer *r, hz_lod *lod, hz_err *err)
+hz_result hz_renderer_set_cdlod(hz_renderer *r, hz_lod *lod, const uint8_t *valid, hz_err *err)
 {
     HZ_ASSERT(r && lod);
     hz_result res = fx_check_context(r, err, "hz_renderer_set_cdlod");
@@ -97,7 +99,7 @@ hz_result hz_renderer_set_cdlod(hz_renderer *r, hz_lod *lod, hz_err *err)
         r->tile_base[l] = (int32_t)layer;
         for (uint32_t tz = 0; tz < m; tz++)
             for (uint32_t tx = 0; tx < m; tx++) {
-                tile_fill(lod, morph, n, T, l, tx, tz, buf);
+                tile_fill(lod, morph, valid, n, T, l, tx, tz, buf);
                 glTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, (GLint)layer, (GLsizei)(T + 1), (GLsizei)(T + 1), 1,
                                 GL_RGBA_INTEGER, GL_UNSIGNED_SHORT, buf);
                 layer++;
@@ -114,6 +116,9 @@ hz_result hz_renderer_set_cdlod(hz_renderer *r, hz_lod *lod, hz_err *err)
         return res;
     }
     r->tile_cells = T;
+    r->tile_masked = false;
+    for (size_t k = 0; valid && k < (size_t)n * n && !r->tile_masked; k++)
+        r->tile_masked = !valid[k];
     r->tile_top = top;
     r->tile_layers = layers;
 

@@ -11,6 +11,67 @@ static const char *base_name(const char *p)
     return s ? s + 1 : p;
 }
 
+/* Marks every invalid sample that is not connected (4-neighbours, through
+ * invalid samples) to the grid's edge as valid: voids enclosed by data are
+ * drawn with their filled heights. Returns false if out of memory. */
+static bool unmask_enclosed(uint8_t *valid, uint32_t n, uint64_t *count)
+{
+    size_t cap = 1u << 16, top = 0;
+    uint32_t *stack = malloc(cap * sizeof *stack);
+    if (!stack)
+        return false;
+    /* 2 = invalid and reachable from the edge. */
+    for (uint32_t k = 0; k < n; k++) {
+        const uint32_t edge[4] = {k, (n - 1) * n + k, k * n, k * n + n - 1};
+        for (int e = 0; e < 4; e++)
+            if (valid[edge[e]] == 0) {
+                valid[edge[e]] = 2;
+                if (top == cap) {
+                    uint32_t *ns = realloc(stack, 2 * cap * sizeof *ns);
+                    if (!ns) {
+                        free(stack);
+                        return false;
+                    }
+                    stack = ns;
+                    cap *= 2;
+                }
+                stack[top++] = edge[e];
+            }
+    }
+    while (top) {
+        uint32_t v = stack[--top], i = v % n, j = v / n;
+        uint32_t nb[4];
+        int m = 0;
+        if (i > 0) nb[m++] = v - 1;
+        if (i + 1 < n) nb[m++] = v + 1;
+        if (j > 0) nb[m++] = v - n;
+        if (j + 1 < n) nb[m++] = v + n;
+        for (int q = 0; q < m; q++) {
+            if (valid[nb[q]] != 0)
+                continue;
+            valid[nb[q]] = 2;
+            if (top == cap) {
+                uint32_t *ns = realloc(stack, 2 * cap * sizeof *ns);
+                if (!ns) {
+                    free(stack);
+                    return false;
+                }
+                stack = ns;
+                cap *= 2;
+            }
+            stack[top++] = nb[q];
+        }
+    }
+    free(stack);
+    uint64_t c = 0;
+    for (size_t k = 0; k < (size_t)n * n; k++) {
+        valid[k] = valid[k] != 2;
+        c += valid[k];
+    }
+    *count = c;
+    return true;
+}
+
 hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
 {
     hz_terrain *t = calloc(1, sizeof *t);
@@ -29,15 +90,27 @@ hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
     }
     double t0 = hz_time_ms();
     float default_spacing;
-    if (desc->dem_path) {
-        hz_dem_desc dd = {.path = desc->dem_path, .format = desc->format, .units = desc->units,
-                          .width = desc->raw_width, .height = desc->raw_height,
+    hz_georef *geo = NULL;
+    hz_grid_fit_info fi = {0};
+    if (desc->dem_path || desc->dem_path_count > 0) {
+        hz_dem_desc dd = {.path = desc->dem_path, .paths = desc->dem_paths, .path_count = desc->dem_path_count,
+                          .format = desc->format, .units = desc->units,
+                          .width = desc->raw_width, .height = desc->raw_height, .metric = true, .crs = desc->crs,
+                          .spacing = desc->spacing, .georef = &geo,
                           .progress = desc->progress, .progress_user = desc->progress_user};
         if (hz_dem_load(&dd, &g, &t->info, err) != HZ_OK)
             goto fail;
-        if (hz_grid_fill_voids(&g, &t->voids_filled, err) != HZ_OK)
-            goto fail;
-        snprintf(t->source, sizeof t->source, "%s", base_name(desc->dem_path));
+        t->voids_filled = t->info.voids;
+        t->file_samples = (uint64_t)t->info.file_width * t->info.file_height;
+        if (desc->dem_path_count > 1)
+            snprintf(t->source, sizeof t->source, "%u files (%s ...)", t->info.files,
+                     base_name(desc->dem_paths[0]));
+        else if (t->info.files > 1)
+            snprintf(t->source, sizeof t->source, "%s (%u files)",
+                     base_name(desc->dem_path_count ? desc->dem_paths[0] : desc->dem_path), t->info.files);
+        else
+            snprintf(t->source, sizeof t->source, "%s",
+                     base_name(desc->dem_path_count ? desc->dem_paths[0] : desc->dem_path));
         default_spacing = t->info.spacing_hint > 0 ? t->info.spacing_hint : 30.0f;
     } else {
         hz_gen_desc gd = {.kind = desc->generate ? desc->generate : HZ_GEN_PERLIN,
@@ -50,8 +123,30 @@ hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
                  gd.kind == HZ_GEN_DIAMOND ? "diamond" : "perlin", gd.size, (unsigned long long)gd.seed);
         default_spacing = 10.0f;
     }
-    if (hz_grid_fit_pow2(&g, desc->fit, t->note, sizeof t->note, err) != HZ_OK)
+    if (hz_grid_fit(&g, desc->fit, &fi, t->note, sizeof t->note, err) != HZ_OK) {
+        hz_georef_destroy(geo);
         goto fail;
+    }
+    t->valid = fi.valid;
+    t->valid_count = fi.valid_count;
+    if (t->valid && desc->fill_voids && !unmask_enclosed(t->valid, g.width, &t->valid_count)) {
+        hz_georef_destroy(geo);
+        hz_err_set(err, HZ_ERR_MEMORY, "terrain: out of memory finding the enclosed voids");
+        goto fail;
+    }
+    t->data_x = fi.x0 > 0 ? (uint32_t)fi.x0 : 0;
+    t->data_y = fi.y0 > 0 ? (uint32_t)fi.y0 : 0;
+    t->data_w = fi.data_w;
+    t->data_h = fi.data_h;
+    if (geo) {
+        /* The georeference of the heightmap grid: sample (0, 0) is the file's (-x0, -y0). */
+        t->georef = hz_georef_shifted(geo, -fi.x0, -fi.y0, g.width, g.height);
+        hz_georef_destroy(geo);
+        if (!t->georef) {
+            hz_err_set(err, HZ_ERR_MEMORY, "terrain: out of memory for the georeference");
+            goto fail;
+        }
+    }
     t->load_ms = hz_time_ms() - t0;
     t0 = hz_time_ms();
     if (hz_heightmap_create(&t->hm, &g, desc->layout, err) != HZ_OK)
@@ -81,7 +176,26 @@ void hz_terrain_destroy(hz_terrain *t)
         return;
     hz_lod_destroy(t->lod);
     hz_heightmap_destroy(&t->hm);
+    hz_georef_destroy(t->georef);
+    free(t->valid);
     free(t);
+}
+
+size_t hz_terrain_filter_triangles(const hz_terrain *t, uint32_t *idx, size_t count)
+{
+    if (!t->valid)
+        return count;
+    const uint8_t *v = t->valid;
+    size_t o = 0;
+    for (size_t k = 0; k + 2 < count; k += 3) {
+        uint32_t a = idx[k], b = idx[k + 1], c = idx[k + 2];
+        if (v[a] && v[b] && v[c]) {
+            idx[o++] = a;
+            idx[o++] = b;
+            idx[o++] = c;
+        }
+    }
+    return o;
 }
 
 float hz_terrain_extent(const hz_terrain *t)
@@ -122,13 +236,20 @@ float hz_terrain_surface_at(const hz_terrain *t, float x, float z)
     return h * t->zscale;
 }
 
+/* The centre of the DEM's samples (not of the padded map), world metres. */
+static void data_centre(const hz_terrain *t, float *x, float *z)
+{
+    uint32_t w = t->data_w ? t->data_w : t->hm.size, h = t->data_h ? t->data_h : t->hm.size;
+    *x = ((float)t->data_x + 0.5f * (float)(w - 1)) * t->spacing;
+    *z = ((float)t->data_y + 0.5f * (float)(h - 1)) * t->spacing;
+}
+
 hz_camera hz_terrain_default_camera(const hz_terrain *t, uint32_t width, uint32_t height)
 {
     float ext = hz_terrain_extent(t);
     float relief = (t->max_h - t->min_h) * t->zscale;
     hz_camera c = {0};
-    c.pos[0] = 0.5f * ext;
-    c.pos[2] = 0.5f * ext;
+    data_centre(t, &c.pos[0], &c.pos[2]);
     c.pos[1] = hz_terrain_height_at(t, c.pos[0], c.pos[2]) + 0.15f * relief + 0.01f * ext;
     if (c.pos[1] < t->max_h * t->zscale * 0.9f)
         c.pos[1] = t->max_h * t->zscale * 0.9f;
@@ -156,7 +277,11 @@ hz_result hz_terrain_path(const hz_terrain *t, const char *name, hz_path *out, h
     enum { MAXK = 160 };
     hz_path_key k[MAXK];
     size_t n = 0;
-    const float E = hz_terrain_extent(t), c = 0.5f * E;
+    /* Over the DEM's samples (the padding of a non-square DEM is not drawn). */
+    const uint32_t dmin = t->data_w && t->data_h ? (t->data_w < t->data_h ? t->data_w : t->data_h) : t->hm.size;
+    const float E = (float)(dmin - 1) * t->spacing;
+    float cx, cz;
+    data_centre(t, &cx, &cz);
     const float relief = (t->max_h - t->min_h) * t->zscale;
     const float duration = 60.0f;
     if (!strcmp(name, "flyover")) {
@@ -164,20 +289,20 @@ hz_result hz_terrain_path(const hz_terrain *t, const char *name, hz_path *out, h
          * map), centred on the diagonal. */
         const float clearance = fmaxf(60.0f, 0.05f * relief);
         const float len = fminf(0.8f * E, 300.0f * duration / sqrtf(2.0f)); /* along x (and z) */
-        const float x0 = 0.5f * E - 0.5f * len, x1 = 0.5f * E + 0.5f * len;
+        const float x0 = cx - 0.5f * len, x1 = cx + 0.5f * len, z0 = cz - 0.5f * len, z1 = cz + 0.5f * len;
         const float yaw = glm_deg(atan2f(1.0f, -1.0f)); /* toward +x +z */
         for (n = 0; n < 61; n++) {
-            float u = (float)n / 60.0f, x = x0 + u * (x1 - x0);
-            k[n] = (hz_path_key){u * duration, x, max_ground_near(t, x, x, 0.03f * E) + clearance, x, yaw, -8.0f};
+            float u = (float)n / 60.0f, x = x0 + u * (x1 - x0), z = z0 + u * (z1 - z0);
+            k[n] = (hz_path_key){u * duration, x, max_ground_near(t, x, z, 0.03f * E) + clearance, z, yaw, -8.0f};
         }
     } else if (!strcmp(name, "orbit")) {
         const float r = 0.3f * E, y = t->max_h * t->zscale + 0.25f * E;
-        const float pitch = -glm_deg(atanf((y - hz_terrain_height_at(t, c, c)) / r));
+        const float pitch = -glm_deg(atanf((y - hz_terrain_height_at(t, cx, cz)) / r));
         for (n = 0; n < 73; n++) {
             float a = glm_rad(5.0f * (float)n);
-            float x = c + r * sinf(a), z = c - r * cosf(a);
-            /* look at the centre: direction (c - x, c - z) */
-            float yaw = glm_deg(atan2f(c - x, -(c - z)));
+            float x = cx + r * sinf(a), z = cz - r * cosf(a);
+            /* look at the centre: direction (cx - x, cz - z) */
+            float yaw = glm_deg(atan2f(cx - x, -(cz - z)));
             k[n] = (hz_path_key){duration * (float)n / 72.0f, x, y, z, yaw, pitch};
         }
     } else if (!strcmp(name, "ground")) {
@@ -187,13 +312,13 @@ hz_result hz_terrain_path(const hz_terrain *t, const char *name, hz_path *out, h
          * eye 2 m above the highest point of the full-resolution surface within
          * 4 m, so the spline between keys stays above the ground. */
         const float speed = 5.0f, step = duration * speed / 120.0f;
-        const float eye0 = hz_terrain_surface_at(t, c, c) + 2.0f;
+        const float eye0 = hz_terrain_surface_at(t, cx, cz) + 2.0f;
         float best = INFINITY, best_yaw = 90.0f;
         for (int h = 0; h < 16; h++) {
             const float yaw = 22.5f * (float)h, dx = sinf(glm_rad(yaw)), dz = -cosf(glm_rad(yaw));
             float worst = -INFINITY;
             for (float d = 20.0f; d < 0.5f * E; d *= 1.15f)
-                worst = fmaxf(worst, (hz_terrain_surface_at(t, c + d * dx, c + d * dz) - eye0) / d);
+                worst = fmaxf(worst, (hz_terrain_surface_at(t, cx + d * dx, cz + d * dz) - eye0) / d);
             if (worst < best) {
                 best = worst;
                 best_yaw = yaw;
@@ -201,7 +326,7 @@ hz_result hz_terrain_path(const hz_terrain *t, const char *name, hz_path *out, h
         }
         const float dx = sinf(glm_rad(best_yaw)), dz = -cosf(glm_rad(best_yaw));
         for (n = 0; n < 121; n++) {
-            const float x = c + dx * step * (float)n, z = c + dz * step * (float)n;
+            const float x = cx + dx * step * (float)n, z = cz + dz * step * (float)n;
             float g = -INFINITY;
             for (int q = -4; q <= 4; q++)
                 for (int r = -4; r <= 4; r++)

@@ -38,6 +38,106 @@ python3 -c "import struct,sys; sys.stdout.buffer.write(struct.pack('<25f', *([1.
 expect_fail "inf in r32"            "inf|finite"              $R --dem "$TMP/inf.r32"
 expect_fail "unknown extension"     "format|extension"        $R --dem "$DATA/PROVENANCE.md"
 
+# GDAL input: info, georeferenced renders, mosaics, broken files.
+head -c 1500000 "$DATA/N46E008.tif" > "$TMP/N46E008_cut.tif"
+expect_fail "truncated GeoTIFF"     "N46E008_cut.tif.*(read|TIFF)" $R --dem "$TMP/N46E008_cut.tif"
+expect_fail "truncated in mosaic"   "N46E008_cut.tif"         $R --dem "$DATA/N46E008.tif" --dem "$TMP/N46E008_cut.tif"
+expect_fail "info on a missing file" "cannot open|no such"    $HZ info "$TMP/nope.tif"
+expect_fail "geographic --crs"      "not a projected CRS"     $R --dem "$DATA/N44W072.hgt" --crs EPSG:4326
+expect_fail "unknown --crs"         "unknown CRS"             $R --dem "$DATA/N44W072.hgt" --crs EPSG:999999
+expect_fail "bad --voids"           "invalid value.*hole or fill" $R --dem "$DATA/N46E008.tif" --voids maybe
+json=$($HZ info --json "$DATA/N44W072.hgt" "$DATA/heidelberg_dem_hd_utm32n_25m_float32.tif" "$DATA/N46E008.tif")
+rc=$?
+if [ $rc -eq 0 ] && python3 - "$json" <<'PY'
+import json, sys
+a = json.loads(sys.argv[1])
+n44, hd, n46 = a
+assert n44["crs"] == "EPSG:4326" and n44["width"] == 1201 and abs(n44["spacing_m"][0] - 66) <= 1, n44
+h = 1 / 2400
+assert abs(n44["corners_lonlat"]["nw"][0] - (-72 - h)) < 1e-7 and abs(n44["corners_lonlat"]["se"][1] - (44 - h)) < 1e-7
+assert n44["terrain"]["crs"] == "EPSG:32619" and n44["terrain"]["reprojected"]
+assert hd["crs"] == "EPSG:32632" and (hd["width"], hd["height"]) == (1041, 713) and hd["spacing_m"] == [25, 25]
+assert hd["height_min"] == 34 and hd["height_max"] == 581 and hd["nodata"] == 0, hd
+assert n46["nodata"] == 103743 and n46["height_min"] == 187 and n46["height_max"] == 4173, n46
+PY
+then ok "info --json: CRS, spacing, corners, nodata"; else bad "info --json (exit $rc): $json"; fi
+json=$($R --dem "$DATA/heidelberg_dem_hd_utm32n_25m_float32.tif" --effects none --json --out "$TMP/hd.png")
+rc=$?
+if [ $rc -eq 0 ] && python3 - "$json" <<'PY'
+import json, sys
+j = json.loads(sys.argv[1])
+# Every sample shown: 1041x713 in a 2049 grid, the padding masked.
+assert j["heightmap_size"] == 2049 and j["data_size"] == [1041, 713], j
+assert j["samples_valid"] == 1041 * 713 == j["file_samples"], j
+assert j["crs"] == "EPSG:32632" and j["triangles_masked"] > 0, j
+# The default camera is over the data's centre (gdalinfo: 478335.126, 5473887.890; 8d42'4.66"E 49d25'2.22"N).
+e, n, _ = j["camera_crs"]
+assert abs(e - 478335.126) < 0.01 and abs(n - 5473887.890) < 0.01, j["camera_crs"]
+lon, lat = j["camera_lonlat"]
+assert abs(lon - (8 + 42/60 + 4.66/3600)) < 1e-5 and abs(lat - (49 + 25/60 + 2.22/3600)) < 1e-5, j["camera_lonlat"]
+# The local origin is the centre of the north-west sample.
+assert abs(j["origin_crs"][0] - 465335.126) < 0.01 and abs(j["origin_crs"][1] - 5482787.890) < 0.01, j["origin_crs"]
+PY
+then ok "render --json: heidelberg whole, camera in UTM 32N and lon/lat"; else bad "render heidelberg (exit $rc): $json"; fi
+json=$($R --dem "$DATA/srtm_sierra_coast/N39W122.hgt.zip" --dem "$DATA/srtm_sierra_coast/N39W121.hgt.zip" --effects none --json --out "$TMP/two.png")
+rc=$?
+if [ $rc -eq 0 ] && python3 - "$json" <<'PY'
+import json, sys
+j = json.loads(sys.argv[1])
+assert j["crs"] == "EPSG:32610" and j["file_samples"] == 2401 * 1201, j
+lon, lat = j["camera_lonlat"]
+assert abs(lon + 121.0) < 0.02 and abs(lat - 39.5) < 0.02, j["camera_lonlat"]
+PY
+then ok "render two .hgt.zip as one mosaic"; else bad "mosaic render (exit $rc): $json"; fi
+
+# The colour map follows the DEM's extent: four coloured quarters over heidelberg (1041x713 in a
+# 2049 grid), seen from straight above, land on the four quarters of the DEM.
+python3 - "$TMP/quad.png" <<'PY'
+import zlib, struct, sys
+w, h = 1041, 713
+rows = b''.join(b'\0' + b''.join(bytes([220,40,40]) if (x < w//2 and y < h//2) else bytes([40,40,220]) if y < h//2
+       else bytes([40,200,40]) if x < w//2 else bytes([230,230,40]) for x in range(w)) for y in range(h))
+def chunk(t, d): return struct.pack('>I', len(d)) + t + d + struct.pack('>I', zlib.crc32(t + d) & 0xffffffff)
+open(sys.argv[1], 'wb').write(b'\x89PNG\r\n\x1a\n' + chunk(b'IHDR', struct.pack('>IIBBBBB', w, h, 8, 2, 0, 0, 0))
+    + chunk(b'IDAT', zlib.compress(rows)) + chunk(b'IEND', b''))
+PY
+$HZ render --quiet --width 640 --height 360 --dem "$DATA/heidelberg_dem_hd_utm32n_25m_float32.tif" --effects sky \
+  --camera 13000,30000,8900,0,-89 --far 80000 --colormap "$TMP/quad.png" --out "$TMP/cmap.png" >/dev/null
+rc=$?
+if [ $rc -eq 0 ] && python3 - "$TMP/cmap.png" <<'PY'
+import zlib, struct, sys
+d = open(sys.argv[1], 'rb').read(); i = 8; idat = b''
+while i < len(d):
+    n = struct.unpack('>I', d[i:i+4])[0]; t = d[i+4:i+8]; c = d[i+8:i+8+n]
+    if t == b'IHDR': w, h = struct.unpack('>II', c[:8]); bpp = 3 if c[9] == 2 else 4
+    if t == b'IDAT': idat += c
+    i += 12 + n
+raw = zlib.decompress(idat); stride = w * bpp; img = []; prev = bytearray(stride); k = 0
+for y in range(h):
+    f = raw[k]; line = bytearray(raw[k+1:k+1+stride]); k += 1 + stride
+    for x in range(stride):
+        a = line[x-bpp] if x >= bpp else 0; b = prev[x]; cc = prev[x-bpp] if x >= bpp else 0
+        if f == 1: line[x] = (line[x] + a) & 255
+        elif f == 2: line[x] = (line[x] + b) & 255
+        elif f == 3: line[x] = (line[x] + (a + b) // 2) & 255
+        elif f == 4:
+            p = a + b - cc; pa, pb, pc = abs(p - a), abs(p - b), abs(p - cc)
+            line[x] = (line[x] + (a if pa <= pb and pa <= pc else b if pb <= pc else cc)) & 255
+    img.append(line); prev = line
+def px(x, y): r = img[y]; return r[x*bpp], r[x*bpp+1], r[x*bpp+2]
+# The DEM (26 x 17.8 km) seen from 30 km: about 270 x 185 px around the centre.
+cx, cy = w // 2, h // 2
+q = {'nw': px(cx - 60, cy - 45), 'ne': px(cx + 60, cy - 45), 'sw': px(cx - 60, cy + 45), 'se': px(cx + 60, cy + 45)}
+nw, ne, sw, se = q['nw'], q['ne'], q['sw'], q['se']
+# (hazy: compare the quarters with each other; a map spread over the whole 2049 grid would put the
+# DEM in its red quarter only)
+assert nw[0] > ne[0] + 20 and ne[2] > nw[2] + 20 and sw[1] > nw[1] + 20, q
+assert se[0] > sw[0] + 20 and se[1] > ne[1] + 20 and se[2] + 20 < ne[2], q
+# Outside the DEM (the padding east and south of it) nothing is drawn: sky.
+assert px(cx + 250, cy) == px(10, 10) and px(cx, cy + 150) == px(10, 10), (px(cx + 250, cy), px(10, 10))
+PY
+then ok "colour map follows the DEM's extent, padding not drawn"; else bad "colour map on heidelberg (exit $rc)"; fi
+
 # A good run: JSON has every figure, OBJ matches it, the image exists.
 json=$($R --generate perlin --size 513 --seed 3 --json --out "$TMP/a.png" --dump-mesh "$TMP/a.obj")
 rc=$?

@@ -157,7 +157,7 @@ static void test_modes_close_to_reference(void **state)
         hz_scene_params sp = {0};
         if (m == HZ_LOD_CDLOD) {
             /* cdlod draws nodes as patches */
-            assert_int_equal(hz_renderer_set_cdlod(c->r, c->t->lod, &err), HZ_OK);
+            assert_int_equal(hz_renderer_set_cdlod(c->r, c->t->lod, NULL, &err), HZ_OK);
             assert_int_equal(hz_lod_select_patches(c->t->lod, &cam, &p, &pl, &st), HZ_OK);
             il.count = 0;
             sp.patches = pl.data;
@@ -195,7 +195,7 @@ static void test_gpu_morph_matches_cpu(void **state)
     hz_terrain *t = c->t;
     const uint32_t n = t->hm.size;
     assert_int_equal(hz_lod_prepare(t->lod, HZ_LOD_CDLOD), HZ_OK);
-    assert_int_equal(hz_renderer_set_cdlod(c->r, t->lod, &err), HZ_OK);
+    assert_int_equal(hz_renderer_set_cdlod(c->r, t->lod, NULL, &err), HZ_OK);
     hz_camera cam = hz_terrain_default_camera(t, W, H);
     cam.pitch = -4;
     hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = 12.0f, .viewport_height = H};

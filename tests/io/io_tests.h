@@ -7,6 +7,15 @@ void test_real_hgt(void **state);
 void test_real_png(void **state);
 void test_real_sierra_mosaic(void **state);
 void test_real_fill_voids_n46e008(void **state);
+void test_gdal_real_native(void **state);
+void test_gdal_spacing_44n(void **state);
+void test_gdal_nodata_terrain(void **state);
+void test_gdal_mosaic_equals_single(void **state);
+void test_gdal_formats(void **state);
+void test_gdal_units(void **state);
+void test_fit_keeps_every_sample(void **state);
+void test_gdal_broken(void **state);
+void test_gdal_sierra_coast(void **state);
 
 /* FNV-1a of the float bits of hz_generate(size 257, seed 2024). */
 #define GOLDEN_PERLIN_257_2024 0xd77b38417c60199cULL

@@ -267,7 +267,11 @@ static void test_missing_empty_dir(void **state)
         fx_write(fx_tmp(empties[i]), "", 0);
         expect_fail_path(fx_tmp(empties[i]), HZ_ERR_FORMAT, "empty", empties[i]);
     }
-    expect_fail_path(HZ_TEST_TMP, HZ_ERR_IO, "directory", NULL);
+    /* A folder is a mosaic of its rasters: one without any is refused. */
+    char dir[1024];
+    snprintf(dir, sizeof dir, "%s/no_rasters", HZ_TEST_TMP);
+    mkdir(dir, 0755);
+    expect_fail_path(dir, HZ_ERR_FORMAT, "no raster", "no_rasters");
     expect_fail(&(hz_dem_desc){.path = NULL}, HZ_ERR_VALUE, NULL, NULL);
     expect_fail(&(hz_dem_desc){.path = ""}, HZ_ERR_VALUE, NULL, NULL);
     expect_fail(&(hz_dem_desc){.path = fx_tmp("rt_tile.hgt"), .format = (hz_dem_format)99}, HZ_ERR_VALUE, NULL,
@@ -283,7 +287,7 @@ static void test_unknown_formats(void **state)
     fx_write(fx_tmp("mystery.raw"), "\0\0\0\0\0\0\0\0", 8);
     expect_fail_path(fx_tmp("mystery.raw"), HZ_ERR_FORMAT, "--format", "r16");
     fx_write(fx_tmp("dem.tif"), "II*\0", 4);
-    expect_fail_path(fx_tmp("dem.tif"), HZ_ERR_UNSUPPORTED, "GeoTIFF", NULL);
+    expect_fail_path(fx_tmp("dem.tif"), HZ_ERR_FORMAT, "dem.tif", "TIFF");
     /* No extension, but PNG content: loaded by content. */
     size_t n;
     uint8_t *b = fx_read(fx_tmp("rt_grey8.png"), &n);
@@ -875,6 +879,15 @@ int main(void)
         cmocka_unit_test(test_real_png),
         cmocka_unit_test(test_real_sierra_mosaic),
         cmocka_unit_test(test_real_fill_voids_n46e008),
+        cmocka_unit_test(test_gdal_real_native),
+        cmocka_unit_test(test_gdal_spacing_44n),
+        cmocka_unit_test(test_gdal_nodata_terrain),
+        cmocka_unit_test(test_gdal_mosaic_equals_single),
+        cmocka_unit_test(test_gdal_formats),
+        cmocka_unit_test(test_gdal_units),
+        cmocka_unit_test(test_fit_keeps_every_sample),
+        cmocka_unit_test(test_gdal_broken),
+        cmocka_unit_test(test_gdal_sierra_coast),
     };
     /* Fixture files first: several tests read them. */
     fx_case *cases;

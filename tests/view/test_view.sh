@@ -69,9 +69,9 @@ if run flight_gen "${GEN[@]}" --frames 60 --script "$TMP/flight.txt" --screensho
     'j["width"]==1280 and j["height"]==720 and j["sky"]>0.05 and j["terrain"]>0.2 and j["hud_text"]>0.01'
 fi
 
-# 2. The same on a real DEM (SRTM .hgt, cropped to 1025).
+# 2. The same on a real DEM (SRTM .hgt, reprojected to UTM 19N: 1252x1714 in a 2049 grid).
 if run flight_dem --dem "$DATA/N44W072.hgt" --frames 60 --script "$TMP/flight.txt" --screenshot "$TMP/flight_dem.png"; then
-  judge "DEM flight: 60 frames" "$OUT" 'j["frames"]==60 and j["triangles"]>1000 and j["heightmap_size"]==1025'
+  judge "DEM flight: 60 frames" "$OUT" 'j["frames"]==60 and j["triangles"]>1000 and j["heightmap_size"]==2049'
   s=$(shot "$TMP/flight_dem.png")
   judge "DEM flight screenshot: terrain, sky and HUD text" "$s" \
     'j["width"]==1280 and j["height"]==720 and j["sky"]>0.05 and j["terrain"]>0.2 and j["hud_text"]>0.01'
