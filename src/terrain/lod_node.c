@@ -1,0 +1,89 @@
+/* Node geometry shared by the LOD modes, below all of them: the fan of a
+ * quadtree leaf, the state of a node's same-level neighbour, the two
+ * triangles of a grid cell. The boxes, frustum tests and distances are
+ * inline in lod_internal.h. No GL. */
+#include "lod_internal.h"
+
+/* Appends a fan around (x, z) with half-size s; an edge midpoint is skipped when
+ * the neighbour across it is coarser. Triangles are counter-clockwise seen from
+ * above (+y). */
+uint32_t hz__emit_fan(uint32_t *dst, uint32_t n, uint32_t x, uint32_t z, uint32_t s,
+                         const uint8_t nb[4])
+{
+    const uint32_t c = z * n + x;
+    uint32_t ring[9];
+    uint32_t k = 0;
+    /* Ring order W, SW, S, SE, E, NE, N, NW (counter-clockwise from above). */
+    if (nb[DIR_W] != NB_ABSENT)
+        ring[k++] = z * n + (x - s);
+    ring[k++] = (z + s) * n + (x - s);
+    if (nb[DIR_S] != NB_ABSENT)
+        ring[k++] = (z + s) * n + x;
+    ring[k++] = (z + s) * n + (x + s);
+    if (nb[DIR_E] != NB_ABSENT)
+        ring[k++] = z * n + (x + s);
+    ring[k++] = (z - s) * n + (x + s);
+    if (nb[DIR_N] != NB_ABSENT)
+        ring[k++] = (z - s) * n + x;
+    ring[k++] = (z - s) * n + (x - s);
+    ring[k] = ring[0];
+    for (uint32_t t = 0; t < k; t++) {
+        dst[3 * t + 0] = c;
+        dst[3 * t + 1] = ring[t];
+        dst[3 * t + 2] = ring[t + 1];
+    }
+    return k;
+}
+
+/* Status of the same-level neighbour of node (x, z, s) at level l across dir.
+ * The neighbour exists iff its parent split this frame. Its parent is either
+ * our parent P (a sibling: exists) or P's neighbour Q across the same edge.
+ * Q's flag is only read when P saw Q exist (P's don't-care bit clear), so Q was
+ * visited this frame and its flag is fresh: the flag array never needs
+ * clearing. A culled Q means nothing is drawn there: don't care. */
+uint8_t hz__neighbour(const hz_lod *lod, uint32_t l, uint32_t x, uint32_t z, uint32_t s, int dir)
+{
+    const uint32_t n = lod->size;
+    switch (dir) {
+    case DIR_W: if (x == s) return NB_DONTCARE; break;
+    case DIR_E: if (x + s == n - 1) return NB_DONTCARE; break;
+    case DIR_N: if (z == s) return NB_DONTCARE; break;
+    default:    if (z + s == n - 1) return NB_DONTCARE; break;
+    }
+    if (l == 0)
+        return NB_DONTCARE;
+    const uint32_t ps = 2 * s;
+    const uint32_t px = centre_of(x, ps);
+    const uint32_t pz = centre_of(z, ps);
+    bool sibling;
+    uint32_t qx = px, qz = pz;
+    switch (dir) {
+    case DIR_W: sibling = x > px; qx = px - 2 * ps; break;
+    case DIR_E: sibling = x < px; qx = px + 2 * ps; break;
+    case DIR_N: sibling = z > pz; qz = pz - 2 * ps; break;
+    default:    sibling = z < pz; qz = pz + 2 * ps; break;
+    }
+    if (sibling)
+        return NB_EXISTS;
+    uint8_t pf = lod->flags[node_index(lod, l - 1, px, pz)];
+    if (pf & (1u << (DC_SHIFT + dir)))
+        return NB_DONTCARE;
+    uint8_t qf = lod->flags[node_index(lod, l - 1, qx, qz)] & ST_MASK;
+    if (qf == ST_SPLIT)
+        return NB_EXISTS;
+    if (qf == ST_CULLED)
+        return NB_DONTCARE;
+    return NB_ABSENT;
+}
+
+void hz_lod_cell_triangles(bool main_diagonal, uint32_t a, uint32_t b, uint32_t c, uint32_t d, uint32_t out[6])
+{
+    if (main_diagonal) {
+        out[0] = a, out[1] = b, out[2] = d;
+        out[3] = a, out[4] = d, out[5] = c;
+    } else {
+        out[0] = a, out[1] = b, out[2] = c;
+        out[3] = c, out[4] = b, out[5] = d;
+    }
+}
+
