@@ -209,7 +209,8 @@ static hz_result ensure_targets(hz_renderer *r, uint32_t n, hz_err *err)
     return HZ_OK;
 }
 
-hz_result fx_water_reflections(hz_renderer *r, const fx_frame *f, const fx_view *main, hz_err *err)
+hz_result fx_water_reflections(hz_renderer *r, const fx_frame *f, const fx_view *main, fx_scene_fn draw_scene,
+                               hz_err *err)
 {
     hz_result res = ensure_targets(r, r->n_refl, err);
     if (res != HZ_OK)
@@ -224,7 +225,7 @@ hz_result fx_water_reflections(hz_renderer *r, const fx_frame *f, const fx_view 
         glDepthMask(GL_TRUE);
         glClearColor(f->sp.sky_color[0], f->sp.sky_color[1], f->sp.sky_color[2], 1.0f);
         glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-        draw_scene_base(r, f, &mv, f->refl_ibo, f->refl_count);
+        draw_scene(r, f, &mv, f->refl_ibo, f->refl_count);
         if (k == 0 && (f->bits & HZ_FX_BILLBOARDS))
             fx_trees_draw(r, f, &mv); /* culled for the nearest plane's mirror */
     }

@@ -218,8 +218,10 @@ GLuint link_program(const char *vs_src, const char *fs_src, const char *name, in
 void fx_program_setup(GLuint prog);
 void fx_upload_common(hz_renderer *r, const fx_frame *f, const fx_view *v);
 /* Draws sky (plain or with effects), terrain and the object hook into the
- * bound framebuffer for a view. */
-void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v, GLuint ibo, uint32_t count);
+ * bound framebuffer for a view: what an effect pass gets from the frame
+ * driver when it must draw the scene (a reflection), so it never calls up
+ * into renderer.c. */
+typedef void (*fx_scene_fn)(hz_renderer *r, const fx_frame *f, const fx_view *v, GLuint ibo, uint32_t count);
 
 /* The terrain variant for a frame's effects (patches: the cdlod vertex shader). */
 hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_err *err);
@@ -260,7 +262,8 @@ hz_result fx_water_ensure(hz_renderer *r, const fx_frame *f, hz_err *err);
  * FX_MAX_REFLECTIONS), nearest first; returns the count. */
 uint32_t fx_water_visible(const hz_renderer *r, const fx_frame *f, const fx_view *v, float *levels);
 void fx_water_mirror_view(const fx_view *main, float level, fx_view *out);
-hz_result fx_water_reflections(hz_renderer *r, const fx_frame *f, const fx_view *main, hz_err *err);
+hz_result fx_water_reflections(hz_renderer *r, const fx_frame *f, const fx_view *main, fx_scene_fn draw_scene,
+                               hz_err *err);
 void fx_water_draw(hz_renderer *r, const fx_frame *f, const fx_view *v);
 void fx_water_destroy(hz_renderer *r);
 

@@ -37,116 +37,6 @@ static const char *fbo_status_name(GLenum s)
     return "unknown framebuffer status";
 }
 
-/* The renderer's GL names only mean something in the context that made them. */
-static hz_result check_context(const hz_renderer *r, hz_err *err, const char *what)
-{
-    void *cur = hz_gl_current_context();
-    if (!cur)
-        return hz_err_set(err, HZ_ERR_GL, "renderer: %s without a current OpenGL context", what);
-    if (cur != r->ctx)
-        return hz_err_set(err, HZ_ERR_GL, "renderer: %s with a different OpenGL context current than the one "
-                          "the renderer was created in", what);
-    return HZ_OK;
-}
-
-hz_result fx_check_context(const hz_renderer *r, hz_err *err, const char *what)
-{
-    return check_context(r, err, what);
-}
-
-/* ---- shaders ------------------------------------------------------------- */
-
-/* Compiles src; with `common`, shaders/fx_common.glsl is inserted after the
- * #version line (the GLSL has no #include); a variant is passed as
- * FX_VARIANT. */
-static GLuint compile_shader(GLenum type, const char *src, const char *name, bool common, uint32_t variant,
-                             hz_err *err)
-{
-    if (!common && !variant)
-        return hz_gl_compile(type, 1, &src, NULL, name, err);
-    const char *nl = strchr(src, '\n');
-    if (common) {
-        if (!nl || strncmp(src, "#version", 8) != 0) {
-            hz_err_set(err, HZ_ERR_GL, "GL: shader %s does not start with a #version line", name);
-            return 0;
-        }
-        char consts[320];
-        snprintf(consts, sizeof consts,
-                 "const int FX_ENABLED = %u;\nconst bool FX_HAS_COLORMAP = %s;\nconst bool FX_HAS_COVER = %s;\n"
-                 "const bool FX_CLIP_PASS = %s;\nconst bool FX_MASKED = %s;\n",
-                 variant & HZ_FX_ALL, (variant & FX_VARIANT_COLORMAP) ? "true" : "false",
-                 (variant & FX_VARIANT_COVER) ? "true" : "false", (variant & FX_VARIANT_CLIP) ? "true" : "false",
-                 (variant & FX_VARIANT_MASK) ? "true" : "false");
-        const char *parts[6] = {src, consts, "#line 1 1\n", hz_shader_fx_common, "\n#line 2 0\n", nl + 1};
-        const GLint lens[6] = {(GLint)(nl + 1 - src), -1, -1, -1, -1, -1};
-        return hz_gl_compile(type, 6, parts, lens, name, err);
-    }
-    if (!nl) {
-        hz_err_set(err, HZ_ERR_GL, "GL: shader %s is one line", name);
-        return 0;
-    }
-    char def[64];
-    snprintf(def, sizeof def, "#define FX_VARIANT %u\n#line 2\n", variant);
-    const char *parts[3] = {src, def, nl + 1};
-    const GLint lens[3] = {(GLint)(nl + 1 - src), -1, -1};
-    return hz_gl_compile(type, 3, parts, lens, name, err);
-}
-
-GLuint link_program(const char *vs_src, const char *fs_src, const char *name, int common, uint32_t variant,
-                    hz_err *err)
-{
-    char vs_name[64], fs_name[64];
-    snprintf(vs_name, sizeof vs_name, "%s_vs.glsl", name);
-    snprintf(fs_name, sizeof fs_name, "%s_fs.glsl", name);
-    GLuint vs = compile_shader(GL_VERTEX_SHADER, vs_src, vs_name, (common & 1) != 0, variant, err);
-    GLuint fs = vs ? compile_shader(GL_FRAGMENT_SHADER, fs_src, fs_name, (common & 2) != 0, variant, err) : 0;
-    GLuint p = hz_gl_link(vs, fs, name, err);
-    if (p && common)
-        fx_program_setup(p);
-    return p;
-}
-
-const prog_variant *prog_cache_get(prog_cache *c, uint32_t key, const char *vs, const char *fs, const char *name,
-                                   int common_mask, const char *const *names, hz_err *err)
-{
-    c->tick++;
-    for (uint32_t k = 0; k < c->n; k++)
-        if (c->v[k].key == key && c->v[k].prog) {
-            c->v[k].last_use = c->tick;
-            return &c->v[k];
-        }
-    GLuint p = link_program(vs, fs, name, common_mask, key, err);
-    if (!p)
-        return NULL;
-    uint32_t slot = c->n;
-    if (slot == FX_MAX_VARIANTS) { /* full: replace the least recently used */
-        slot = 0;
-        for (uint32_t k = 1; k < c->n; k++)
-            if (c->v[k].last_use < c->v[slot].last_use)
-                slot = k;
-        glDeleteProgram(c->v[slot].prog);
-    } else {
-        c->n++;
-    }
-    prog_variant *v = &c->v[slot];
-    memset(v, 0, sizeof *v);
-    v->key = key;
-    v->prog = p;
-    v->last_use = c->tick;
-    for (int k = 0; k < FX_MAX_LOCS; k++)
-        v->loc[k] = -1;
-    for (int k = 0; names && names[k] && k < FX_MAX_LOCS; k++)
-        v->loc[k] = glGetUniformLocation(p, names[k]);
-    return v;
-}
-
-void prog_cache_clear(prog_cache *c)
-{
-    for (uint32_t k = 0; k < c->n; k++)
-        glDeleteProgram(c->v[k].prog);
-    memset(c, 0, sizeof *c);
-}
-
 static const char *const terrain_names[] = {
     "u_size",    "u_spacing", "u_hscale", "u_hoffset",     "u_viewproj",    "u_sun_dir",    "u_sky_horizon",
     "u_eye",     "u_fog_density", "u_ambient", "u_hrange", "u_wire",        "u_morph_scale", "u_morph_start",
@@ -182,27 +72,6 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
             return HZ_ERR_GL;
     }
     return HZ_OK;
-}
-
-void fx_program_setup(GLuint p)
-{
-    GLuint block = glGetUniformBlockIndex(p, "FxCommon");
-    if (block != GL_INVALID_INDEX)
-        glUniformBlockBinding(p, block, FX_UBO_BINDING);
-    static const struct {
-        const char *name;
-        GLint unit;
-    } units[] = {{"u_heights", FX_UNIT_HEIGHTS},     {"u_lightmap", FX_UNIT_LIGHTMAP}, {"u_detail", FX_UNIT_DETAIL},
-                 {"u_colormap", FX_UNIT_COLORMAP},   {"u_cover", FX_UNIT_COVER},       {"u_tex", FX_UNIT_SPRITE},
-                 {"u_reflection", FX_UNIT_REFLECTION}, {"u_cloud_noise", FX_UNIT_CLOUDS}, {"u_bb", FX_UNIT_BB},
-                 {"u_normals", FX_UNIT_NORMALS}, {"u_tiles", FX_UNIT_TILES}};
-    glUseProgram(p);
-    for (size_t k = 0; k < sizeof units / sizeof units[0]; k++) {
-        GLint loc = glGetUniformLocation(p, units[k].name);
-        if (loc >= 0)
-            glUniform1i(loc, units[k].unit);
-    }
-    glUseProgram(0);
 }
 
 static hz_result make_programs(hz_renderer *r, hz_err *err)
@@ -376,7 +245,7 @@ hz_result hz_renderer_resize(hz_renderer *r, uint32_t width, uint32_t height, hz
     HZ_ASSERT(r);
     if (width == 0 || height == 0 || width > INT_MAX || height > INT_MAX)
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: bad target size %ux%u", width, height);
-    hz_result ctx_res = check_context(r, err, "hz_renderer_resize");
+    hz_result ctx_res = fx_check_context(r, err, "hz_renderer_resize");
     if (ctx_res != HZ_OK)
         return ctx_res;
     if (!r->to_default) {
@@ -509,7 +378,7 @@ hz_result hz_renderer_set_heightmap(hz_renderer *r, const hz_heightmap *hm, floa
                               bpr, hm->size);
     }
 
-    hz_result ctx_res = check_context(r, err, "hz_renderer_set_heightmap");
+    hz_result ctx_res = fx_check_context(r, err, "hz_renderer_set_heightmap");
     if (ctx_res != HZ_OK)
         return ctx_res;
     hz_gl_drain();
@@ -673,7 +542,7 @@ static void draw_plain_sky(hz_renderer *r, const fx_frame *f, const fx_view *v)
     glDrawArrays(GL_TRIANGLES, 0, 3);
 }
 
-void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v, GLuint ibo, uint32_t count)
+static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v, GLuint ibo, uint32_t count)
 {
     const hz_scene_params *sp = &f->sp;
     const bool mirrored = v->pass == HZ_PASS_REFLECTION;
@@ -875,7 +744,7 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: %u patches %s", npatch,
                           params->patches ? "and an index list in one frame" : "but no patch array");
 
-    hz_result ctx_res = check_context(r, err, "hz_renderer_draw");
+    hz_result ctx_res = fx_check_context(r, err, "hz_renderer_draw");
     if (ctx_res != HZ_OK)
         return ctx_res;
     const float zfar = cam->zfar > 0.0f ? cam->zfar : 100000.0f;
@@ -988,7 +857,7 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
     glClearDepth(0.0); /* reverse-Z: 0 is infinitely far */
 
-    if (r->n_refl && fx_water_reflections(r, &fr, &mv, err) != HZ_OK) {
+    if (r->n_refl && fx_water_reflections(r, &fr, &mv, draw_scene_base, err) != HZ_OK) {
         glBindVertexArray(0);
         return HZ_ERR_GL;
     }
@@ -1075,7 +944,7 @@ static bool flip_rows(uint8_t *p, size_t row_bytes, uint32_t rows)
 hz_result hz_renderer_read_rgb(hz_renderer *r, uint8_t *rgb, hz_err *err)
 {
     HZ_ASSERT(r && rgb);
-    hz_result ctx_res = check_context(r, err, "hz_renderer_read_rgb");
+    hz_result ctx_res = fx_check_context(r, err, "hz_renderer_read_rgb");
     if (ctx_res != HZ_OK)
         return ctx_res;
     hz_gl_drain();
@@ -1095,7 +964,7 @@ hz_result hz_renderer_read_sky_mask(hz_renderer *r, uint8_t *mask, hz_err *err)
     HZ_ASSERT(r && mask);
     if (r->to_default)
         return hz_err_set(err, HZ_ERR_UNSUPPORTED, "renderer: sky mask needs the internal framebuffer");
-    hz_result ctx_res = check_context(r, err, "hz_renderer_read_sky_mask");
+    hz_result ctx_res = fx_check_context(r, err, "hz_renderer_read_sky_mask");
     if (ctx_res != HZ_OK)
         return ctx_res;
     const size_t n = (size_t)r->width * r->height;
