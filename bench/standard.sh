@@ -94,9 +94,10 @@ if [ -f "$PEERS/tools/gen_testdata.py" ]; then
     rm -rf "$tmp"
   fi
   for m in 4097 1025; do
-    far=$(python3 -c "import math; n=$m; print(1.5*math.sqrt(2*((n-1)*10)**2 + 0))")
-    [ $m = 4097 ] && far=86939.3
-    P="--dem $PT/fractal$m.png --spacing 10 --zscale 0.03 --path $PT/flight120.csv --fps 30 --near 5 --far $far"
+    # the same 40.96 km terrain: 4097^2 at 10 m, every 4th sample (1025^2) at 40 m; the peers'
+    # automatic far plane (1.5 x the 3-D diagonal) is 86939.3 m for both
+    sp=10; [ $m = 1025 ] && sp=40
+    P="--dem $PT/fractal$m.png --spacing $sp --zscale 0.03 --path $PT/flight120.csv --fps 30 --near 5 --far 86939.3"
     for tau in 1 1.5 2; do
       lod "peers${m}_cdlod_tau$tau" 120 $P --lod cdlod --pixel-error $tau
       lod "peers${m}_cdlod_tau${tau}_speed" 120 $P --lod cdlod --pixel-error $tau --reference off --metrics off
