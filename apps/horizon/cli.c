@@ -60,6 +60,7 @@ void cli_usage_terrain(void)
             "  --bidir-distance M      bidirectional: coarsen beyond M metres, split nearer (default far/4)\n"
             "  --roam-budget N         roam: at most N triangles (default: no budget)\n"
             "  --morph-start A         cdlod: morphing starts at this fraction of a range, 0.8..0.95 (0.8)\n"
+            "  --patch-cells N         cdlod: grid cells per side of the patch each node draws (default 16)\n"
             "view:\n"
             "  --camera X,Y,Z,YAW,PITCH  metres and degrees (default: above the centre)\n"
             "  --fov DEG               vertical field of view (default 60)\n"
@@ -229,6 +230,11 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             NEEDV();
             if (!cli_parse_u32(v, 16, 100000000, &o->lod.roam_budget))
                 return bad(cmd, a, v, "triangles in [16, 1e8]");
+        } else if (!strcmp(a, "--patch-cells")) {
+            NEEDV();
+            if (!cli_parse_u32(v, 2, 256, &o->terrain.patch_cells) ||
+                (o->terrain.patch_cells & (o->terrain.patch_cells - 1)))
+                return bad(cmd, a, v, "a power of two in 2..256");
         } else if (!strcmp(a, "--morph-start")) {
             NEEDV();
             if (!cli_parse_float(v, 0.8f, 0.95f, &o->lod.morph_start))

@@ -157,7 +157,8 @@ hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
     t->min_h = t->hm.offset;
     t->max_h = t->hm.offset + 65535.0f * t->hm.scale;
     t->lod = hz_lod_create(&(hz_lod_desc){.hm = &t->hm, .spacing = t->spacing, .zscale = t->zscale,
-                                          .propagate_c = desc->propagate_c, .progress = desc->progress,
+                                          .propagate_c = desc->propagate_c, .patch_cells = desc->patch_cells,
+                                          .progress = desc->progress,
                                           .progress_user = desc->progress_user},
                            err);
     if (!t->lod)
