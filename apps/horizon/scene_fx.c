@@ -88,27 +88,23 @@ static int load_colormap(const char *path, hz_renderer *r, const char *cmd, cons
         fprintf(stderr, "horizon %s: cannot read colour map '%s': %s\n", cmd, path, stbi_failure_reason());
         return 1;
     }
+    unsigned char *c = px; /* stbi memory, or ours once remapped onto the DEM */
     if (t->data_w && t->data_h &&
         (t->data_x || t->data_y || t->data_w != t->hm.size || t->data_h != t->hm.size)) {
-        int cw, ch;
-        unsigned char *c = colormap_on_dem(px, w, h, t, &cw, &ch);
+        c = colormap_on_dem(px, w, h, t, &w, &h);
         stbi_image_free(px);
+        px = NULL;
         if (!c) {
             fprintf(stderr, "horizon %s: out of memory for the colour map\n", cmd);
             return 1;
         }
-        hz_err e2 = {0};
-        hz_result r2 = hz_renderer_set_colormap(r, c, (uint32_t)cw, (uint32_t)ch, &e2);
-        free(c);
-        if (r2 != HZ_OK) {
-            fprintf(stderr, "horizon %s: colour map '%s': %s\n", cmd, path, e2.msg);
-            return 1;
-        }
-        return 0;
     }
     hz_err err = {0};
-    hz_result res = hz_renderer_set_colormap(r, px, (uint32_t)w, (uint32_t)h, &err);
-    stbi_image_free(px);
+    hz_result res = hz_renderer_set_colormap(r, c, (uint32_t)w, (uint32_t)h, &err);
+    if (px)
+        stbi_image_free(px);
+    else
+        free(c);
     if (res != HZ_OK) {
         fprintf(stderr, "horizon %s: colour map '%s': %s\n", cmd, path, err.msg);
         return 1;

@@ -14,6 +14,23 @@ static const char *base_name(const char *p)
 /* Marks every invalid sample that is not connected (4-neighbours, through
  * invalid samples) to the grid's edge as valid: voids enclosed by data are
  * drawn with their filled heights. Returns false if out of memory. */
+/* Pushes v, growing the stack; false (the stack freed) when out of memory. */
+static bool stack_push(uint32_t **stack, size_t *top, size_t *cap, uint32_t v)
+{
+    if (*top == *cap) {
+        uint32_t *ns = realloc(*stack, 2 * *cap * sizeof *ns);
+        if (!ns) {
+            free(*stack);
+            *stack = NULL;
+            return false;
+        }
+        *stack = ns;
+        *cap *= 2;
+    }
+    (*stack)[(*top)++] = v;
+    return true;
+}
+
 static bool unmask_enclosed(uint8_t *valid, uint32_t n, uint64_t *count)
 {
     size_t cap = 1u << 16, top = 0;
@@ -26,16 +43,8 @@ static bool unmask_enclosed(uint8_t *valid, uint32_t n, uint64_t *count)
         for (int e = 0; e < 4; e++)
             if (valid[edge[e]] == 0) {
                 valid[edge[e]] = 2;
-                if (top == cap) {
-                    uint32_t *ns = realloc(stack, 2 * cap * sizeof *ns);
-                    if (!ns) {
-                        free(stack);
-                        return false;
-                    }
-                    stack = ns;
-                    cap *= 2;
-                }
-                stack[top++] = edge[e];
+                if (!stack_push(&stack, &top, &cap, edge[e]))
+                    return false;
             }
     }
     while (top) {
@@ -50,16 +59,8 @@ static bool unmask_enclosed(uint8_t *valid, uint32_t n, uint64_t *count)
             if (valid[nb[q]] != 0)
                 continue;
             valid[nb[q]] = 2;
-            if (top == cap) {
-                uint32_t *ns = realloc(stack, 2 * cap * sizeof *ns);
-                if (!ns) {
-                    free(stack);
-                    return false;
-                }
-                stack = ns;
-                cap *= 2;
-            }
-            stack[top++] = nb[q];
+            if (!stack_push(&stack, &top, &cap, nb[q]))
+                return false;
         }
     }
     free(stack);
