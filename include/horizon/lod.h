@@ -24,7 +24,7 @@ typedef struct hz_lod_desc {
     float propagate_c;      /* C for Röttger's upward propagation of d2,
                                K = C / (2 (C - 1)); 0 -> 25 (clamped to >= 2) */
     uint32_t patch_cells;   /* cdlod: grid cells per side of the patch every node is drawn
-                               with, a power of two >= 2; 0 -> 16 (clamped to the map) */
+                               with, a power of two >= 2; 0 -> 8 (clamped to the map) */
     hz_progress_fn progress; /* optional */
     void *progress_user;
 } hz_lod_desc;

@@ -40,7 +40,7 @@ typedef struct hz_terrain_desc {
                                for generated. A georeferenced DEM is resampled to it. */
     float zscale;           /* 0 -> 1 */
     float propagate_c;      /* see hz_lod_desc; 0 -> 25 */
-    uint32_t patch_cells;   /* cdlod patch grid cells per side (hz_lod_desc); 0 -> 16 */
+    uint32_t patch_cells;   /* cdlod patch grid cells per side (hz_lod_desc); 0 -> 8 */
     hz_progress_fn progress; /* optional */
     void *progress_user;
 } hz_terrain_desc;

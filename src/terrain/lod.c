@@ -46,7 +46,7 @@ hz_lod *hz_lod_create(const hz_lod_desc *desc, hz_err *err)
     lod->spacing = spacing;
     lod->zscale = zscale;
     /* cdlod patches: P x P cells, a power of two no larger than the map. */
-    uint32_t pcells = desc->patch_cells ? desc->patch_cells : 16u;
+    uint32_t pcells = desc->patch_cells ? desc->patch_cells : 8u;
     if (pcells < 2 || (pcells & (pcells - 1))) {
         hz_err_set(err, HZ_ERR_VALUE, "lod: patch cells must be a power of two >= 2 (got %u)", pcells);
         free(lod);
