@@ -219,6 +219,12 @@ typedef struct hz_hull_stats {
  * NULL. */
 hz_result hz_hull_build(hz_tree *t, const hz_hull_desc *desc, hz_hull_stats *stats, hz_err *err);
 
+/* A coarser copy of a mesh (meshoptimizer, sloppy when the topology-keeping
+ * simplification stops short) of about `triangles` triangles, normals
+ * recomputed; a mesh already that small is copied. out is allocated (free
+ * its arrays). For far LODs, where holes do not matter. */
+hz_result hz_mesh_simplify(const hz_tree_mesh *in, uint32_t triangles, hz_tree_mesh *out, hz_err *err);
+
 /* Topology of an indexed triangle mesh: counts edges used by other than
  * exactly two triangles with opposite orientation (open or non-manifold
  * edges), vertices whose triangle fan is not one cycle, and degenerate

@@ -558,10 +558,14 @@ static void test_select(void **state)
     assert_int_equal(fr.trees_in_frustum, 5); /* the one behind is culled */
     assert_int_equal(fr.triangles_drawn, fr.triangles_full);
     assert_int_equal(fr.triangles_full, 5 * hz_tree_triangles(t));
-    hz_forest_params simp = {.simplify = true, .enlarge = true, .hysteresis = false, .node_culling = true};
+    hz_forest_params simp = {.simplify = true, .enlarge = true, .hysteresis = false, .node_culling = true,
+                             .hull_dist = 40};
     assert_int_equal(hz_forest_update(f, &cam, &simp, 0, &fr, &err), HZ_OK);
     assert_true(fr.triangles_drawn < fr.triangles_full);
-    assert_int_equal(fr.trees_hull, 2); /* 200 m and more: beyond far / 2 = 40 m */
+    /* 200 m and more: beyond the impostor distance, max(far / 2, 2 x 40 m) */
+    assert_int_equal(fr.trees_impostor, 2);
+    assert_int_equal(fr.trees_hull, 0);
+    assert_int_equal(fr.draw_count, 3);
     /* Farther detailed trees keep fewer leaves. */
     uint64_t kept[5] = {0};
     for (uint32_t d = 0; d < fr.draw_count; d++)

@@ -171,8 +171,8 @@ static void test_forest_draw(void **state)
             fail_msg("forest draw: %s", hook.err.msg);
         assert_int_equal(hz_renderer_read_rgb(ren, outs[k], &err), HZ_OK);
     }
-    /* The simplified frame selected the far tree as a hull. */
-    assert_int_equal(fr.trees_hull, 1);
+    /* The simplified frame selected the far tree as an impostor. */
+    assert_int_equal(fr.trees_impostor, 1);
     char path[512];
     snprintf(path, sizeof path, "%s/forest_full.png", HZ_TEST_TMP);
     hz_image_write_png(path, full, W, H, &err);
