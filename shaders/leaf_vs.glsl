@@ -4,11 +4,11 @@
 // buffer gives 4 vertices per leaf (gl_VertexID / 4 = leaf). A leaf beyond
 // its node's kept count this frame is collapsed outside the clip volume, so
 // an unchanged node costs neither CPU nor upload. F4 enlargement about the
-// leaf centre: sqrt(n / kept), capped.
-uniform samplerBuffer u_leaves;  // 3 texels per leaf: (c, node), (u, rank in node), (v, node size)
+// leaf centre, by the coverage the node's prefix lost (set on the CPU).
+uniform samplerBuffer u_leaves;  // 3 texels per leaf: (c, node), (u, rank in node), (v, 0)
 uniform usamplerBuffer u_kept;   // kept leaves per (tree, node), persistent
+uniform samplerBuffer u_scales;  // F4 enlargement per (tree, node), persistent
 uniform int u_kept_base;         // this tree's first node in u_kept; < 0: every leaf, no enlargement
-uniform float u_max_enlarge;     // 0: no enlargement
 uniform mat4 u_model, u_viewproj;
 uniform vec4 u_clip_plane;
 uniform vec4 u_crown;            // model-space crown centre, radius
@@ -41,8 +41,7 @@ void main()
             gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
             return;
         }
-        if (u_max_enlarge > 0.0 && kept < t2.w)
-            s = min(sqrt(t2.w / kept), u_max_enlarge);
+        s = texelFetch(u_scales, u_kept_base + int(t0.w)).r;
     }
     vec3 u = t1.xyz, v = t2.xyz;
     vec3 p = t0.xyz + s * (k.x * u + k.y * v);

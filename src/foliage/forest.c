@@ -229,6 +229,7 @@ typedef struct model_info {
     uint64_t triangles;
     uint32_t *order, *pos; /* leaves interleaved by rank (hz_forest_model_order) */
     hz_tree_mesh hull;     /* coarse crown hull */
+    float *cov;            /* per leaf: coverage of its node's prefix (F4 by coverage) */
 } model_info;
 
 struct hz_forest {
@@ -339,6 +340,13 @@ hz_forest *hz_forest_create(const hz_tree *const *models, uint32_t model_count, 
         f->info[m].triangles = hz_tree_triangles(t);
         if (!model_order(t, &f->info[m]))
             goto oom;
+        f->info[m].cov = malloc((t->leaf_count ? t->leaf_count : 1) * sizeof *f->info[m].cov);
+        if (!f->info[m].cov)
+            goto oom;
+        if (hz_tree_prefix_coverage(t, f->info[m].cov, err) != HZ_OK) {
+            hz_forest_destroy(f);
+            return NULL;
+        }
         if (t->hull.index_count && hz_mesh_simplify(&t->hull, HZ_FOREST_HULL_TRIANGLES, &f->info[m].hull, err) != HZ_OK) {
             hz_forest_destroy(f);
             return NULL;
@@ -379,6 +387,7 @@ void hz_forest_destroy(hz_forest *f)
         free(f->info[m].hull.pos);
         free(f->info[m].hull.nrm);
         free(f->info[m].hull.idx);
+        free(f->info[m].cov);
     }
     free(f->models);
     free(f->info);
@@ -544,8 +553,10 @@ static void tree_nodes(hz_forest *f, uint32_t k, const hz_forest_params *P, cons
             if (kept > nd->count)
                 kept = nd->count;
         }
-        float scale = P->simplify && P->enlarge ? hz_enlarge(&P->rate, nd->count, kept) : 1.0f;
-        if (kept != *cnt || fresh) {
+        /* F4 by coverage: the prefix grows to cover what its node covered. */
+        float scale = P->simplify && P->enlarge ? hz_enlarge_coverage(P->rate.max_enlarge, mi->cov[nd->first + kept - 1])
+                                                : 1.0f;
+        if (kept != *cnt || fresh || scale != *sc) {
             kept_delta += (int64_t)kept - (int64_t)*cnt;
             *cnt = kept;
             if (n < lo)
@@ -575,7 +586,7 @@ static void tree_nodes(hz_forest *f, uint32_t k, const hz_forest_params *P, cons
             }
         }
         f->prefix[k] = pre;
-        fr->upload_bytes += (uint64_t)(hi - lo) * sizeof(uint32_t);
+        fr->upload_bytes += (uint64_t)(hi - lo) * (sizeof(uint32_t) + sizeof(float));
     }
     dr->dirty_lo = lo < hi ? lo : 0;
     dr->dirty_hi = lo < hi ? hi : 0;

@@ -38,7 +38,7 @@ typedef struct model_gpu {
 } model_gpu;
 
 typedef struct prog_u {
-    GLint leaves, kept, kept_base, max_enlarge, model, viewproj, clip, crown, color, sun, sky, eye, fog, ambient,
+    GLint leaves, kept, scales, kept_base, model, viewproj, clip, crown, color, sun, sky, eye, fog, ambient,
         hull, dither, albedo, normals, layer, tile, right, up, bound, trees, models, order, band, max_dist, views,
         el_step, rects, px_scale, tile_px, max_lod, lod, size;
 } prog_u;
@@ -50,6 +50,7 @@ struct hz_forest_gpu {
     prog_u lu, bu, iu;
     GLuint empty_vao;
     GLuint kept_buf, kept_tex;  /* R32UI per (tree, node) */
+    GLuint scale_buf, scale_tex;/* R32F per (tree, node) */
     GLuint tree_buf, tree_tex;  /* impostor data per tree */
     GLuint model_buf, model_tex;
     GLuint order_buf, order_tex;  /* R32UI: the frame's impostor trees */
@@ -66,7 +67,7 @@ static void get_u(GLuint p, prog_u *u)
     u->leaves = glGetUniformLocation(p, "u_leaves");
     u->kept = glGetUniformLocation(p, "u_kept");
     u->kept_base = glGetUniformLocation(p, "u_kept_base");
-    u->max_enlarge = glGetUniformLocation(p, "u_max_enlarge");
+    u->scales = glGetUniformLocation(p, "u_scales");
     u->model = glGetUniformLocation(p, "u_model");
     u->viewproj = glGetUniformLocation(p, "u_viewproj");
     u->clip = glGetUniformLocation(p, "u_clip_plane");
@@ -168,6 +169,8 @@ void hz_forest_gpu_destroy(hz_forest_gpu *g)
         glDeleteVertexArrays(1, &g->empty_vao);
         glDeleteBuffers(1, &g->kept_buf);
         glDeleteTextures(1, &g->kept_tex);
+        glDeleteBuffers(1, &g->scale_buf);
+        glDeleteTextures(1, &g->scale_tex);
         glDeleteBuffers(1, &g->tree_buf);
         glDeleteTextures(1, &g->tree_tex);
         glDeleteBuffers(1, &g->model_buf);
@@ -323,9 +326,9 @@ static hz_result bake_impostors(hz_forest_gpu *g, const hz_forest *f, GLuint lea
                 glUniform3fv(lu.color, 1, t->leaf_color);
                 glUniform4f(lu.crown, t->crown_center[0], t->crown_center[1], t->crown_center[2], t->crown_radius);
                 glUniform1i(lu.kept_base, -1);
-                glUniform1f(lu.max_enlarge, 0.0f);
                 glUniform1i(lu.leaves, 0);
                 glUniform1i(lu.kept, 1);
+                glUniform1i(lu.scales, 6);
                 glActiveTexture(GL_TEXTURE0);
                 glBindTexture(GL_TEXTURE_BUFFER, g->m[mi].leaf_tex);
                 glActiveTexture(GL_TEXTURE1);
@@ -446,6 +449,7 @@ hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err)
     for (uint32_t k = 0; k < g->tree_count; k++)
         g->node_total += hz_forest_model(f, trees[k].model)->node_count;
     buffer_texture(&g->kept_buf, &g->kept_tex, GL_R32UI, NULL, g->node_total * 4, GL_DYNAMIC_DRAW);
+    buffer_texture(&g->scale_buf, &g->scale_tex, GL_R32F, NULL, g->node_total * 4, GL_DYNAMIC_DRAW);
     float *td = malloc((size_t)(g->tree_count ? g->tree_count : 1) * 32);
     float *md = malloc((size_t)g->nm * 16);
     if (!td || !md) {
@@ -498,7 +502,7 @@ hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err)
             bool in_node = n != UINT32_MAX;
             o[0] = lf->c[0], o[1] = lf->c[1], o[2] = lf->c[2], o[3] = in_node ? (float)n : 0.0f;
             o[4] = lf->u[0], o[5] = lf->u[1], o[6] = lf->u[2], o[7] = in_node ? (float)(l - t->nodes[n].first) : 0.0f;
-            o[8] = lf->v[0], o[9] = lf->v[1], o[10] = lf->v[2], o[11] = in_node ? (float)t->nodes[n].count : 1.0f;
+            o[8] = lf->v[0], o[9] = lf->v[1], o[10] = lf->v[2], o[11] = 0.0f;
             static const uint32_t qi[6] = {0, 1, 2, 0, 2, 3};
             for (int j = 0; j < 6; j++)
                 q[(size_t)p * 6 + j] = 4 * p + qi[j];
@@ -550,9 +554,13 @@ static hz_result upload_counts(hz_forest_gpu *g, const hz_forest *f, const hz_fo
         }
         if (lo >= hi || (size_t)dr->node_base + hi > g->node_total)
             continue;
+        glBindBuffer(GL_TEXTURE_BUFFER, g->kept_buf);
         glBufferSubData(GL_TEXTURE_BUFFER, (GLintptr)(((size_t)dr->node_base + lo) * 4), (GLsizeiptr)((hi - lo) * 4),
                         fr->counts + dr->node_base + lo);
-        bytes += (uint64_t)(hi - lo) * 4;
+        glBindBuffer(GL_TEXTURE_BUFFER, g->scale_buf);
+        glBufferSubData(GL_TEXTURE_BUFFER, (GLintptr)(((size_t)dr->node_base + lo) * 4), (GLsizeiptr)((hi - lo) * 4),
+                        fr->scales + dr->node_base + lo);
+        bytes += (uint64_t)(hi - lo) * 8;
     }
     if (fr->impostors && fr->impostor_count && fr->impostor_count <= g->tree_count) {
         glBindBuffer(GL_TEXTURE_BUFFER, g->order_buf);
@@ -609,8 +617,10 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
     glActiveTexture(GL_TEXTURE1);
     glBindTexture(GL_TEXTURE_BUFFER, g->kept_tex);
     glUniform1i(g->lu.kept, 1);
+    glActiveTexture(GL_TEXTURE6);
+    glBindTexture(GL_TEXTURE_BUFFER, g->scale_tex);
+    glUniform1i(g->lu.scales, 6);
     glUniform1i(g->lu.leaves, 0);
-    glUniform1f(g->lu.max_enlarge, fr->enlarge ? fr->max_enlarge : 0.0f);
     glActiveTexture(GL_TEXTURE0);
     uint32_t bound_model = UINT32_MAX;
     for (uint32_t d = 0; d < fr->draw_count; d++) {
@@ -630,6 +640,8 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
         glUniform2f(g->lu.dither, dr->fade, 1.0f);
         draw_leaves(g, t, dr->model, dr->prefix);
     }
+    glBindTexture(GL_TEXTURE_BUFFER, 0);
+    glActiveTexture(GL_TEXTURE6);
     glBindTexture(GL_TEXTURE_BUFFER, 0);
     glActiveTexture(GL_TEXTURE1);
     glBindTexture(GL_TEXTURE_BUFFER, 0);

@@ -573,10 +573,18 @@ static void test_select(void **state)
             for (uint32_t n = 0; n < t->node_count; n++)
                 kept[fr.draws[d].tree] += fr.counts[fr.draws[d].node_base + n];
     assert_true(kept[0] > kept[1] && kept[1] > kept[2]);
-    /* Enlargement matches the kept fraction. */
+    /* Enlargement gives back the coverage the kept prefix lost (F4 by coverage). */
+    float *cov = malloc(t->leaf_count * sizeof *cov);
+    assert_int_equal(hz_tree_prefix_coverage(t, cov, &err), HZ_OK);
+    uint32_t enlarged = 0;
     for (uint32_t n = 0; n < t->node_count; n++)
-        if (fr.counts[n] && fr.counts[n] < t->nodes[n].count)
-            assert_float_equal(fr.scales[n], sqrtf((float)t->nodes[n].count / (float)fr.counts[n]), 1e-5);
+        if (fr.counts[n] && fr.counts[n] < t->nodes[n].count) {
+            float c = cov[t->nodes[n].first + fr.counts[n] - 1];
+            assert_float_equal(fr.scales[n], fminf(sqrtf(1.0f / c), 3.0f), 1e-5);
+            enlarged += fr.scales[n] > 1.0f;
+        }
+    assert_true(enlarged > 0);
+    free(cov);
     /* Hysteresis: a small move later does not change far nodes' rates. */
     hz_forest_params hy = simp;
     hy.hysteresis = true;
