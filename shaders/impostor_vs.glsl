@@ -59,7 +59,7 @@ void main()
     float az = atan(dm.x, dm.z), el = asin(clamp(dm.y, -1.0, 1.0));
     int ia = int(floor(az / 6.2831853 * float(u_views.x) + 0.5));
     ia = ((ia % u_views.x) + u_views.x) % u_views.x;
-    int ie = clamp(int(floor(el / abs(u_el_step) + 0.5)), 0, u_views.y - 1);
+    int ie = clamp(int(floor(el / u_el_step + 0.5)), 0, u_views.y - 1);
     vec3 fwd = -to_eye / dist;
     vec3 right = normalize(cross(fwd, vec3(0.0, 1.0, 0.0)));
     vec3 up = cross(right, fwd);

@@ -241,7 +241,7 @@ int cmd_tree(int argc, char **argv)
             goto done;
     }
     if (!no_rank && (!t->ranked || force_rank)) {
-        rd.progress = quiet ? NULL : hz_progress_stderr;
+        rd.progress = quiet ? NULL : cli_tree_progress;
         if (hz_tree_rank(t, &rd, &rs, &err) != HZ_OK)
             goto done;
     }

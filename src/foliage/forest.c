@@ -158,13 +158,18 @@ hz_result hz_forest_place(const hz_forest_desc *desc, hz_forest_tree *out, uint3
     for (int round = 0; round < 4 && n < d.count; round++, side *= 1.4142f) {
         uint64_t attempts = (uint64_t)d.count * 40;
         for (uint64_t a = 0; a < attempts && n < d.count; a++) {
-            /* A disc of the square's area, thinned by low-frequency noise
-             * toward its rim: ragged edges and a few clearings. */
-            const float R = 0.5642f * side;
-            float ang = rng_unit(&rng) * 6.2831853f, rr = R * sqrtf(rng_unit(&rng));
+            /* A disc of the square's area whose rim is pushed in and out
+             * by large-scale noise (lobes, bays), thinned by smaller noise
+             * toward it (ragged edges, stragglers) and inside (clearings). */
+            const float R = 0.5642f * side, Rmax = 1.3f * R;
+            float ang = rng_unit(&rng) * 6.2831853f, rr = Rmax * sqrtf(rng_unit(&rng));
             float x = d.center[0] + rr * cosf(ang), z = d.center[1] + rr * sinf(ang);
-            float keep = 1.3f * vnoise2(d.seed, x / (7.0f * spacing), z / (7.0f * spacing)) + 0.35f -
-                         0.9f * (rr / R) * (rr / R);
+            /* two octaves on rotated axes: value noise alone shows its grid */
+            float rx = (0.8f * x - 0.6f * z) / spacing, rz = (0.6f * x + 0.8f * z) / spacing;
+            float lobes = 0.6f + 0.45f * vnoise2(d.seed ^ 0x5bd1e995u, rx / 9.0f, rz / 9.0f) +
+                          0.25f * vnoise2(d.seed ^ 0x27d4eb2fu, rz / 4.0f + 17.0f, rx / 4.0f - 5.0f);
+            float q = rr / (R * lobes);
+            float keep = 1.3f * vnoise2(d.seed, x / (5.0f * spacing), z / (5.0f * spacing)) + 0.45f - 0.9f * q * q;
             if (rng_unit(&rng) > keep)
                 continue;
             if (d.extent_limit > 0 && (x < 0 || z < 0 || x > d.extent_limit || z > d.extent_limit))

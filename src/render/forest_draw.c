@@ -603,8 +603,6 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
     glDepthMask(GL_TRUE);
     glDisable(GL_BLEND);
     float model[16];
-    const char *sks = getenv("HZ_SKIP");
-    int skip = sks ? atoi(sks) : 0;
     glActiveTexture(GL_TEXTURE2);
     glBindTexture(GL_TEXTURE_2D_ARRAY, g->atlas[0]);
     glActiveTexture(GL_TEXTURE3);
@@ -625,7 +623,7 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
     uint32_t bound_model = UINT32_MAX;
     for (uint32_t d = 0; d < fr->draw_count; d++) {
         const hz_forest_draw *dr = &fr->draws[d];
-        if (dr->hull || dr->prefix == 0 || (skip & 4))
+        if (dr->hull || dr->prefix == 0)
             continue;
         const hz_tree *t = hz_forest_model(f, dr->model);
         if (bound_model != dr->model) {
@@ -662,8 +660,6 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
         for (uint32_t d = 0; d < fr->draw_count; d++) {
             const hz_forest_draw *dr = &fr->draws[d];
             if (hull && !dr->hull && !(dr->fade > 0))
-                continue;
-            if ((skip & 2) && hull)
                 continue;
             const hz_tree *t = hz_forest_model(f, dr->model);
             const model_gpu *m = &g->m[dr->model];
@@ -717,7 +713,7 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
     }
 
     /* Impostors: every tree in one draw; the shader keeps those in the band. */
-    if (fr->impostors && fr->impostor_count && fr->impostor_count <= g->tree_count && !(skip & 1)) {
+    if (fr->impostors && fr->impostor_count && fr->impostor_count <= g->tree_count) {
         glDisable(GL_CULL_FACE);
         glUseProgram(g->imp_prog);
         common_uniforms(&g->iu, pass);
@@ -740,7 +736,7 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
         glUniform2f(g->iu.band, fr->impostor_band[0], fr->impostor_band[1]);
         glUniform1f(g->iu.max_dist, isfinite(fr->max_dist) ? fr->max_dist : 3.0e38f);
         glUniform2i(g->iu.views, IMP_AZ, IMP_EL);
-        glUniform1f(g->iu.el_step, (skip & 16) ? -IMP_EL_STEP : IMP_EL_STEP);
+        glUniform1f(g->iu.el_step, IMP_EL_STEP);
         glBindVertexArray(g->empty_vao);
         glDrawArrays(GL_TRIANGLES, 0, (GLsizei)fr->impostor_count * 6);
         glActiveTexture(GL_TEXTURE5);
