@@ -243,7 +243,7 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
                     goto done;
             }
             if (!o->quiet)
-                hz_progress_stderr(NULL, RUN_NAME[run], f + 1, frames);
+                cli_tree_progress(NULL, RUN_NAME[run], f + 1, frames);
         }
     }
     /* Simplified against unsimplified on the sampled frames. */
@@ -283,7 +283,7 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
         }
         hz_tree_destroy(rnd);
         if (!o->quiet)
-            hz_progress_stderr(NULL, "precision/recall per species", m + 1, cf->model_count);
+            cli_tree_progress(NULL, "precision/recall per species", m + 1, cf->model_count);
     }
     for (uint32_t m = 0; m < cf->model_count; m++)
         sr[m].t = cf->models[m];

@@ -31,7 +31,8 @@ void cli_usage_forest(void)
             "  --no-enlarge            no leaf enlargement (F4)\n"
             "  --no-node-cull          no per-node frustum culling\n"
             "  --tree-near M --tree-far M  F3 distances near/far (default 5, 80)\n"
-            "  --hull-dist M           trees beyond are crown hulls (default: half of --tree-far)\n"
+            "  --hull-dist M           trees beyond are crown hulls (default: a quarter of --tree-far),\n"
+            "                          beyond max(half of --tree-far, 2 x M) impostors\n"
             "  --rate-weights W1,..,W5 F3 weights (default 0.2,0.1,0.2,0.3,0.2)\n");
 }
 
