@@ -27,7 +27,6 @@ void main()
     vec2 k = corners[gl_VertexID & 3];
     vec4 t0 = texelFetch(u_leaves, leaf * 3);
     vec4 t1 = texelFetch(u_leaves, leaf * 3 + 1);
-    vec4 t2 = texelFetch(u_leaves, leaf * 3 + 2);
     float s = 1.0;
     if (u_kept_base >= 0) {
         float kept = float(texelFetch(u_kept, u_kept_base + int(t0.w)).r);
@@ -43,7 +42,7 @@ void main()
         }
         s = texelFetch(u_scales, u_kept_base + int(t0.w)).r;
     }
-    vec3 u = t1.xyz, v = t2.xyz;
+    vec3 u = t1.xyz, v = texelFetch(u_leaves, leaf * 3 + 2).xyz;
     vec3 p = t0.xyz + s * (k.x * u + k.y * v);
     vec4 w = u_model * vec4(p, 1.0);
     v_world = w.xyz;

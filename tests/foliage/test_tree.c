@@ -585,6 +585,26 @@ static void test_select(void **state)
         }
     assert_true(enlarged > 0);
     free(cov);
+    /* Nothing changed, nothing to upload: with rates that depend on the view
+     * only (F3's density term feeds back on the last rate, so use a fixed
+     * rate), the same view again leaves every node's count as it was. */
+    hz_forest_params fx = simp;
+    fx.fixed_rate = true;
+    fx.fixed = 0.5f;
+    assert_int_equal(hz_forest_update(f, &cam, &fx, 0.25, &fr, &err), HZ_OK);
+    assert_true(fr.upload_bytes > 0);
+    uint32_t prefix0 = fr.draws[0].prefix;
+    assert_true(prefix0 > 0 && prefix0 <= t->leaf_count);
+    assert_int_equal(hz_forest_update(f, &cam, &fx, 0.5, &fr, &err), HZ_OK);
+    assert_int_equal(fr.upload_bytes, 0);
+    for (uint32_t d = 0; d < fr.draw_count; d++)
+        assert_true(fr.draws[d].dirty_lo >= fr.draws[d].dirty_hi);
+    assert_int_equal(fr.draws[0].prefix, prefix0);
+    /* The prefix holds every node's kept leaves (in interleaved order). */
+    const uint32_t *pos = hz_forest_model_pos(f, 0);
+    for (uint32_t n = 0; n < t->node_count; n++)
+        for (uint32_t i = 0; i < fr.counts[fr.draws[0].node_base + n]; i++)
+            assert_true(pos[t->nodes[n].first + i] < prefix0);
     /* Hysteresis: a small move later does not change far nodes' rates. */
     hz_forest_params hy = simp;
     hy.hysteresis = true;
