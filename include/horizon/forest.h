@@ -50,6 +50,15 @@ float hz_rate_f5(float cos_dir);
 float hz_rate_node(const hz_rate_params *p, uint32_t bsl, uint32_t bl, float dist, float LD, float ld0,
                    float cos_dir);
 
+/* The rate at which the node's own density is counted (LD = ld x the
+ * fraction kept at that very rate): the fixed point of hz_rate_node in LD,
+ * in closed form, Rs = (S - w3 + w3 ld/ld0) / (1 + w3 ld/ld0) with S the
+ * other terms; clamped likewise. Reading LD from the last frame's rate
+ * instead feeds the rate back on itself, so it oscillates under a still
+ * camera. ld: the node's initial leaf density. */
+float hz_rate_node_fixed(const hz_rate_params *p, uint32_t bsl, uint32_t bl, float dist, float ld, float ld0,
+                         float cos_dir);
+
 /* F4: remaining leaves grow by s = sqrt((1 - Rl) / (1 - Rc)) per change;
  * compounded from the full tree (R = 0) this is sqrt(1 / (1 - Rc)) =
  * sqrt(n / kept), which the shader applies to the original leaf size.

@@ -82,6 +82,18 @@ float hz_rate_node(const hz_rate_params *p, uint32_t bsl, uint32_t bl, float dis
     return fminf(fmaxf(r, 0.0f), p->max_rate);
 }
 
+float hz_rate_node_fixed(const hz_rate_params *p, uint32_t bsl, uint32_t bl, float dist, float ld, float ld0,
+                         float cos_dir)
+{
+    /* Rs = S + w3 (r (1 - Rs) - 1) with r = ld / ld0, S the other terms:
+     * Rs = (S - w3 + w3 r) / (1 + w3 r). */
+    float S = p->w[0] * hz_rate_f1(bsl) + p->w[1] * hz_rate_f2(p, bl, dist) + p->w[3] * hz_rate_f4(p, dist) +
+              p->w[4] * hz_rate_f5(cos_dir);
+    float r = ld0 > 0.0f ? ld / ld0 : 0.0f, w3 = ld0 > 0.0f ? p->w[2] : 0.0f;
+    float R = (S - w3 + w3 * r) / (1.0f + w3 * r);
+    return fminf(fmaxf(R, 0.0f), p->max_rate);
+}
+
 float hz_enlarge(const hz_rate_params *p, uint32_t n, uint32_t kept)
 {
     if (kept == 0 || kept >= n)
@@ -536,10 +548,9 @@ static void tree_nodes(hz_forest *f, uint32_t k, const hz_forest_params *P, cons
             float nd_dist = len * s;
             const hz_tree_branch *br = &t->branches[nd->branch];
             float *cur = &f->rate[sb + n], *since = &f->since[sb + n];
-            float kept_frac = *cur >= 0.0f ? 1.0f - *cur : 1.0f;
             float Rs = P->fixed_rate ? fminf(fmaxf(P->fixed, 0.0f), 0.999f)
-                                     : hz_rate_node(&P->rate, nd->bsl, br->level, nd_dist, nd->ld * kept_frac, ld0,
-                                                    v3_dot(los, br->dir));
+                                     : hz_rate_node_fixed(&P->rate, nd->bsl, br->level, nd_dist, nd->ld, ld0,
+                                                          v3_dot(los, br->dir));
             if (*cur < 0.0f) {
                 *cur = Rs;
                 *since = (float)now_s;

@@ -483,6 +483,13 @@ static void test_rate_break_points(void **state)
     float want = 0.2f * 0.4f + 0.1f * hz_rate_f2(&p, 3, 40.0f) + 0.2f * 0.5f + 0.3f * hz_rate_f4(&p, 40.0f) + 0.2f * 0.5f;
     assert_float_equal(rs, want, 1e-6);
     assert_float_equal(hz_rate_node(&p, 1, 1, 1.0f, 1.0f, 2.0f, -1.0f), 0.0f, 0); /* clamped at 0 */
+    /* The fixed point: the rate computed with LD = ld x (1 - that rate). */
+    for (int k = 0; k < 4; k++) {
+        float ld = 2.0f + 3.0f * (float)k, dist = 10.0f + 15.0f * (float)k;
+        float R = hz_rate_node_fixed(&p, 2, 3, dist, ld, 2.0f, 0.3f);
+        assert_true(R > 0.0f && R < p.max_rate);
+        assert_float_equal(hz_rate_node(&p, 2, 3, dist, ld * (1.0f - R), 2.0f, 0.3f), R, 1e-5);
+    }
     assert_float_equal(hz_rate_node(&p, 3, 4, 1e5f, 50.0f, 1.0f, 1.0f), p.max_rate, 0);
     /* F4: s = sqrt((1-Rl)/(1-Rc)) compounded from R = 0 */
     assert_float_equal(hz_enlarge(&p, 100, 50), sqrtf(2.0f), 1e-6);
@@ -585,18 +592,17 @@ static void test_select(void **state)
         }
     assert_true(enlarged > 0);
     free(cov);
-    /* Nothing changed, nothing to upload: with rates that depend on the view
-     * only (F3's density term feeds back on the last rate, so use a fixed
-     * rate), the same view again leaves every node's count as it was. */
+    /* Nothing changed, nothing to upload: rates are a function of the view
+     * (F3's density at the rate being set), so the same view again leaves
+     * every node's count as it was, hysteresis or not. */
     hz_forest_params fx = simp;
-    fx.fixed_rate = true;
-    fx.fixed = 0.5f;
-    assert_int_equal(hz_forest_update(f, &cam, &fx, 0.25, &fr, &err), HZ_OK);
+    assert_true(fr.upload_bytes > 0);
     assert_true(fr.upload_bytes > 0);
     uint32_t prefix0 = fr.draws[0].prefix;
     assert_true(prefix0 > 0 && prefix0 <= t->leaf_count);
     assert_int_equal(hz_forest_update(f, &cam, &fx, 0.5, &fr, &err), HZ_OK);
     assert_int_equal(fr.upload_bytes, 0);
+    assert_int_equal(fr.nodes_changed, 0);
     for (uint32_t d = 0; d < fr.draw_count; d++)
         assert_true(fr.draws[d].dirty_lo >= fr.draws[d].dirty_hi);
     assert_int_equal(fr.draws[0].prefix, prefix0);
