@@ -74,20 +74,38 @@ if os.path.exists(fp):
         print("### Forest ({} trees on {}, path {}, {} frames at {}x{})".format(
             f["trees"], f["terrain"], f["path"], f["frames"], f["width"], f["height"]))
         print()
-        print("| figure | this run | seed (F7) |")
-        print("|---|---|---|")
+        def n(v, fmt):
+            return "-" if v is None else format(v, fmt)
+        print("Median over frames (p95 in brackets); CPU ms = all threads of the process (the machine may be shared).")
+        print()
+        print("| figure | hysteresis | no hysteresis | unsimplified | bare terrain | seed (F7) |")
+        print("|---|---|---|---|---|---|")
         frows = [
-            ("trees", "{}".format(f["trees"]), "1 660"),
-            ("trees in the frustum (median)", "{:.0f} ({:.0f} as crown hulls)".format(f["trees_in_frustum"], f["trees_hull"]), "621"),
-            ("triangles in the frustum, full", "{:.2f} M".format(f["triangles_full"] / 1e6), "42.51 M"),
-            ("triangles drawn", "{:.2f} M".format(f["triangles_drawn"] / 1e6), "2.00 M"),
-            ("drawn / full", "{:.1f} %".format(100 * f["drawn_ratio"]), "4.7 %"),
-            ("frame ms simplified, with / without hysteresis", "{:.0f} / {:.0f}".format(f["frame_ms"], f["frame_ms_no_hysteresis"]), "33.1 (30.21 FPS) / 57 (17.6 FPS)"),
-            ("frame ms unsimplified vs simplified, same {} frames".format(f["full_frames"]), "{:.0f} vs {:.0f}".format(f["frame_ms_full"], f["frame_ms_simplified_same_frames"]), ""),
-            ("speedup", "{:.2f}x".format(f["speedup"]), "15.18x"),
+            ("frame ms", "{} ({})".format(n(f.get("frame_ms"), ".1f"), n(f.get("frame_ms_p95"), ".1f")),
+             "{} ({})".format(n(f.get("frame_ms_no_hysteresis"), ".1f"), n(f.get("frame_ms_p95_no_hysteresis"), ".1f")),
+             "{} ({})".format(n(f.get("frame_ms_full"), ".0f"), n(f.get("frame_ms_p95_full"), ".0f")),
+             "{} ({})".format(n(f.get("frame_ms_terrain"), ".1f"), n(f.get("frame_ms_p95_terrain"), ".1f")),
+             "33.1 / 57"),
+            ("CPU ms", n(f.get("cpu_ms"), ".1f"), n(f.get("cpu_ms_no_hysteresis"), ".1f"), n(f.get("cpu_ms_full"), ".0f"),
+             n(f.get("cpu_ms_terrain"), ".1f"), ""),
+            ("triangles drawn", n(f.get("triangles_drawn"), ".0f"), n(f.get("triangles_drawn_no_hysteresis"), ".0f"),
+             n(f.get("triangles_drawn_full"), ".0f"), "", "2.00 M of 42.51 M"),
+            ("trees in frustum: leaves / hulls / impostors",
+             "{} / {} / {}".format(n(f.get("trees_leaves"), ".0f"), n(f.get("trees_hull"), ".0f"), n(f.get("trees_impostor"), ".0f")),
+             "{} / {} / {}".format(n(f.get("trees_leaves_no_hysteresis"), ".0f"), n(f.get("trees_hull_no_hysteresis"), ".0f"),
+                                   n(f.get("trees_impostor_no_hysteresis"), ".0f")),
+             n(f.get("trees_in_frustum_full"), ".0f"), "", "621"),
+            ("selection CPU ms", n(f.get("select_ms"), ".2f"), n(f.get("select_ms_no_hysteresis"), ".2f"), n(f.get("select_ms_full"), ".2f"), "", ""),
+            ("upload bytes / frame", n(f.get("upload_bytes"), ".0f"), n(f.get("upload_bytes_no_hysteresis"), ".0f"), "", "", ""),
+            ("nodes changed / frame", n(f.get("nodes_changed"), ".0f"), n(f.get("nodes_changed_no_hysteresis"), ".0f"), "", "", ""),
         ]
         for r in frows:
-            print("| {} | {} | {} |".format(*r))
+            print("| {} | {} | {} | {} | {} | {} |".format(*r))
+        print()
+        print("Speed-up over unsimplified on the same {} frames: {}x (seed 15.18x); simplified / bare terrain: {}x; "
+              "against unsimplified: PSNR {} dB, tree silhouette error {} % of pixels.".format(
+                  f.get("full_frames"), n(f.get("speedup"), ".1f"), n(f.get("terrain_ratio"), ".2f"),
+                  n(f.get("psnr_db"), ".1f"), n(None if f.get("silhouette_frac") is None else 100 * f["silhouette_frac"], ".2f")))
         print()
         sp = f.get("species", [])
         if sp and "vmi_precision" in sp[0]:

@@ -1,45 +1,60 @@
 #version 330 core
-// Bark (u_hull = 0) or crown hull (1): Lambert, fog. The hull gets a leafy
-// mottle from value noise so that far crowns do not look like plastic.
+// Bark (u_hull = 0) or crown hull (1), Lambert and fog. The hull is shaded
+// from the tree's own impostor: each fragment looks up the baked view
+// nearest the eye (albedo with alpha, model-space normal) where it projects,
+// so the hull reads as the same foliage as the impostor and the leaves, with
+// the hull's depth; transparent texels are holes.
 uniform vec3 u_color;
 uniform vec3 u_sun_dir, u_sky_horizon, u_eye;
 uniform float u_fog_density, u_ambient;
 uniform int u_hull;
+uniform vec2 u_dither;           // keep pixels whose dither value is in [x, y)
+uniform sampler2DArray u_albedo, u_normals;
+uniform float u_layer;           // the model's atlas layer
+uniform vec4 u_tile;             // atlas uv of the view's tile: offset xy, size zw
+uniform vec3 u_right, u_up;      // the view's image axes, model space
+uniform vec4 u_bound;            // model-space bounding sphere (image frame)
+uniform mat4 u_model;
+uniform int u_lod;               // atlas level for the hull's size on screen
+uniform vec2 u_size;             // atlas size in texels at that level
 in vec3 v_world;
 in vec3 v_normal;
 in vec3 v_local;
 out vec4 o_color;
 
-float hash(vec3 p)
+float dither(vec2 p)
 {
-    return fract(sin(dot(p, vec3(12.9898, 78.233, 37.719))) * 43758.5453);
-}
-
-// Smooth value noise in [0, 1].
-float vnoise(vec3 p)
-{
-    vec3 i = floor(p), f = fract(p);
-    f = f * f * (3.0 - 2.0 * f);
-    float a = mix(hash(i), hash(i + vec3(1, 0, 0)), f.x);
-    float b = mix(hash(i + vec3(0, 1, 0)), hash(i + vec3(1, 1, 0)), f.x);
-    float c = mix(hash(i + vec3(0, 0, 1)), hash(i + vec3(1, 0, 1)), f.x);
-    float d = mix(hash(i + vec3(0, 1, 1)), hash(i + vec3(1, 1, 1)), f.x);
-    return mix(mix(a, b, f.y), mix(c, d, f.y), f.z);
+    return fract(52.9829189 * fract(dot(p, vec2(0.06711056, 0.00583715))));
 }
 
 void main()
 {
+    float dv = dither(gl_FragCoord.xy);
+    if (dv < u_dither.x || dv >= u_dither.y)
+        discard;
     vec3 n = normalize(v_normal);
-    float light = max(dot(n, u_sun_dir), 0.0);
     vec3 albedo = u_color;
+    vec3 to_eye = u_eye - v_world;
+    float light;
     if (u_hull != 0) {
-        // Clumps of foliage: two octaves of noise, darker underneath, light
-        // wrapped round a little as through a crown's outer leaves.
-        float m = 0.6 * vnoise(v_local * 1.8) + 0.4 * vnoise(v_local * 5.5);
-        albedo *= (0.35 + 0.55 * m) * (0.8 + 0.2 * n.y);
-        light = 0.2 + 0.8 * light;
+        vec3 d = v_local - u_bound.xyz;
+        vec2 q = vec2(dot(d, u_right), dot(d, u_up)) / u_bound.w * 0.5 + 0.5;
+        vec2 t = (u_tile.xy + clamp(q, 0.0, 1.0) * u_tile.zw) * u_size;
+        ivec3 uv = ivec3(ivec2(min(t, u_size - 1.0)), int(u_layer));
+        vec4 a = texelFetch(u_albedo, uv, u_lod);
+        if (a.a < 0.5)
+            discard;
+        vec4 nn = texelFetch(u_normals, uv, u_lod);
+        albedo = a.rgb / a.a;
+        n = normalize(mat3(u_model) * (nn.rgb / max(nn.a, 1e-3) * 2.0 - 1.0));
+        if (dot(n, to_eye) < 0.0)
+            n = -n;
+        float ndl = dot(n, u_sun_dir);
+        light = max(ndl, 0.0) + 0.35 * max(-ndl, 0.0);
+    } else {
+        light = max(dot(n, u_sun_dir), 0.0);
     }
     vec3 c = albedo * (u_ambient + (1.0 - u_ambient) * light * vec3(1.0, 0.97, 0.90));
-    float f = u_fog_density > 0.0 ? exp(-u_fog_density * length(u_eye - v_world)) : 1.0;
+    float f = u_fog_density > 0.0 ? exp(-u_fog_density * length(to_eye)) : 1.0;
     o_color = vec4(mix(u_sky_horizon, c, f), 1.0);
 }

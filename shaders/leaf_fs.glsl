@@ -1,9 +1,12 @@
 #version 330 core
 // Forest leaves: leaf-shaped cut-out, two-sided Lambert with some light
 // through the leaf, occlusion toward the crown centre, exponential fog.
+// u_dither: the pixel is kept when its dither value lies in [x, y) (the
+// cross-fade between LOD states; (0, 1) keeps all).
 uniform vec3 u_color;
 uniform vec3 u_sun_dir, u_sky_horizon, u_eye;
 uniform float u_fog_density, u_ambient;
+uniform vec2 u_dither;
 in vec3 v_world;
 in vec3 v_normal;
 in vec2 v_uv;
@@ -11,9 +14,17 @@ in float v_ao;
 flat in float v_tint;
 out vec4 o_color;
 
+float dither(vec2 p)
+{
+    return fract(52.9829189 * fract(dot(p, vec2(0.06711056, 0.00583715))));
+}
+
 void main()
 {
     if (abs(v_uv.y) > 0.9 * (1.0 - v_uv.x * v_uv.x))
+        discard;
+    float dv = dither(gl_FragCoord.xy);
+    if (dv < u_dither.x || dv >= u_dither.y)
         discard;
     vec3 n = normalize(v_normal);
     vec3 to_eye = u_eye - v_world;

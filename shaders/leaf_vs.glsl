@@ -1,9 +1,14 @@
 #version 330 core
-// Forest leaves: vertex-less, gl_VertexID / 6 = leaf (the per-frame index list
-// holds the kept prefix of every node), F4 enlargement about the leaf centre.
-uniform samplerBuffer u_leaves;  // 3 texels per leaf: (c, node), (u, 0), (v, 0)
-uniform samplerBuffer u_scales;  // per (tree, node) enlargement, this frame
-uniform int u_scale_base;
+// Forest leaves: vertex-less. The model's leaves are stored interleaved by
+// rank (every node's kept leaves lie in one prefix); a static quad index
+// buffer gives 4 vertices per leaf (gl_VertexID / 4 = leaf). A leaf beyond
+// its node's kept count this frame is collapsed outside the clip volume, so
+// an unchanged node costs neither CPU nor upload. F4 enlargement about the
+// leaf centre, by the coverage the node's prefix lost (set on the CPU).
+uniform samplerBuffer u_leaves;  // 3 texels per leaf: (c, node), (u, rank in node), (v, 0)
+uniform usamplerBuffer u_kept;   // kept leaves per (tree, node), persistent
+uniform samplerBuffer u_scales;  // F4 enlargement per (tree, node), persistent
+uniform int u_kept_base;         // this tree's first node in u_kept; < 0: every leaf, no enlargement
 uniform mat4 u_model, u_viewproj;
 uniform vec4 u_clip_plane;
 uniform vec4 u_crown;            // model-space crown centre, radius
@@ -14,16 +19,30 @@ out vec2 v_uv;
 out float v_ao;
 flat out float v_tint;
 
-const vec2 corners[6] = vec2[6](vec2(-1, -1), vec2(1, -1), vec2(1, 1), vec2(-1, -1), vec2(1, 1), vec2(-1, 1));
+const vec2 corners[4] = vec2[4](vec2(-1, -1), vec2(1, -1), vec2(1, 1), vec2(-1, 1));
 
 void main()
 {
-    int leaf = gl_VertexID / 6;
-    vec2 k = corners[gl_VertexID % 6];
+    int leaf = gl_VertexID >> 2;
+    vec2 k = corners[gl_VertexID & 3];
     vec4 t0 = texelFetch(u_leaves, leaf * 3);
-    vec3 u = texelFetch(u_leaves, leaf * 3 + 1).xyz;
-    vec3 v = texelFetch(u_leaves, leaf * 3 + 2).xyz;
-    float s = texelFetch(u_scales, u_scale_base + int(t0.w)).r;
+    vec4 t1 = texelFetch(u_leaves, leaf * 3 + 1);
+    float s = 1.0;
+    if (u_kept_base >= 0) {
+        float kept = float(texelFetch(u_kept, u_kept_base + int(t0.w)).r);
+        if (t1.w >= kept) {
+            v_world = vec3(0.0);
+            v_normal = vec3(0.0, 1.0, 0.0);
+            v_uv = vec2(0.0);
+            v_ao = 0.0;
+            v_tint = 0.0;
+            gl_ClipDistance[0] = -1.0;
+            gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
+            return;
+        }
+        s = texelFetch(u_scales, u_kept_base + int(t0.w)).r;
+    }
+    vec3 u = t1.xyz, v = texelFetch(u_leaves, leaf * 3 + 2).xyz;
     vec3 p = t0.xyz + s * (k.x * u + k.y * v);
     vec4 w = u_model * vec4(p, 1.0);
     v_world = w.xyz;
@@ -31,7 +50,8 @@ void main()
     v_uv = k;
     // Darker toward the inside of the crown: a cheap stand-in for occlusion.
     v_ao = 0.45 + 0.55 * clamp(length(t0.xyz - u_crown.xyz) / u_crown.w, 0.0, 1.0);
-    v_tint = fract(sin(float(leaf) * 12.9898) * 43758.5453);
+    // Tint per leaf (its position in the model, so that simplification keeps it).
+    v_tint = fract(sin(dot(t0.xyz, vec3(12.9898, 78.233, 37.719))) * 43758.5453);
     gl_ClipDistance[0] = dot(u_clip_plane, w);
     gl_Position = u_viewproj * w;
 }

@@ -1,22 +1,39 @@
-/* horizon bench --forest: the seed's forest table (SPEC F7). Flies a path
- * over a forest and measures, in the same run, simplified frames with and
- * without hysteresis and unsimplified frames (on a subset: they are slow in
- * software GL), then precision/recall of every species' VMI order against
- * random pruning. */
+/* horizon bench --forest: the forest table (SPEC F7, issue 16). Flies a path
+ * over a forest and measures, on the same frames: simplified with and
+ * without hysteresis, the bare terrain (no trees), and on a subset the
+ * unsimplified forest (slow in software GL), with the image PSNR and the
+ * tree-silhouette error of the simplified frames against the unsimplified
+ * ones; then precision/recall of every species' VMI order against random
+ * pruning. */
 #include "bench_forest.h"
 
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
+
+#include "horizon/metrics.h"
+
+enum { RUN_HYST, RUN_NOHYST, RUN_FULL, RUN_TERRAIN, RUNS };
+static const char *const RUN_NAME[RUNS] = {"forest frames (hysteresis)", "forest frames (no hysteresis)",
+                                           "forest frames (unsimplified)", "bare terrain frames"};
 
 typedef struct frow {
-    double frame_ms, frame_ms_nohyst, frame_ms_full, frame_ms_at_full;
-    double forest_ms, select_ms;
-    uint32_t in_frustum, detailed, hulls, changed, held, changed_nohyst;
-    uint64_t tri_full, tri_drawn, tri_drawn_nohyst;
-    bool has_full;
+    bool done;
+    double frame_ms, cpu_ms, draw_ms, select_ms;
+    uint64_t tri_full, tri_drawn, upload;
+    uint32_t in_frustum, leaves, hulls, impostors, fading, changed, held;
 } frow;
+
+/* CPU time of the whole process (all of llvmpipe's threads), ms: less
+ * sensitive than wall time to other load on a shared machine. */
+static double cpu_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
+}
 
 static int cmp_d(const void *a, const void *b)
 {
@@ -24,59 +41,103 @@ static int cmp_d(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* Median of a field over rows (only rows with has_full when full_only). */
-static double med(const frow *r, size_t n, size_t off, bool is_u64, bool is_u32, bool full_only)
+/* Percentile q (0.5 = median) of a field over the frames a run measured;
+ * only_full: only the frames the unsimplified run also measured. */
+static double pct(const frow *r, const frow *full, uint32_t n, size_t off, char kind, double q)
 {
     double *v = malloc((n ? n : 1) * sizeof *v);
-    size_t m = 0;
-    for (size_t i = 0; i < n; i++) {
-        if (full_only && !r[i].has_full)
+    uint32_t m = 0;
+    if (!v)
+        return NAN;
+    for (uint32_t i = 0; i < n; i++) {
+        if (!r[i].done || (full && !full[i].done))
             continue;
         const char *p = (const char *)&r[i] + off;
-        v[m++] = is_u64 ? (double)*(const uint64_t *)p : is_u32 ? (double)*(const uint32_t *)p : *(const double *)p;
+        v[m++] = kind == 'q' ? (double)*(const uint64_t *)p : kind == 'u' ? (double)*(const uint32_t *)p
+                                                                          : *(const double *)p;
     }
-    double res = 0;
+    double res = NAN;
     if (m) {
         qsort(v, m, sizeof *v, cmp_d);
-        res = m % 2 ? v[m / 2] : 0.5 * (v[m / 2 - 1] + v[m / 2]);
+        double x = q * (double)(m - 1);
+        size_t lo = (size_t)floor(x), hi = lo + 1 < m ? lo + 1 : lo;
+        res = v[lo] + (v[hi] - v[lo]) * (x - (double)lo);
     }
     free(v);
     return res;
 }
 
-#define MD(f) med(rows, frames, offsetof(frow, f), false, false, false)
-#define MD64(f) med(rows, frames, offsetof(frow, f), true, false, false)
-#define MD32(f) med(rows, frames, offsetof(frow, f), false, true, false)
-#define MDF(f) med(rows, frames, offsetof(frow, f), false, false, true)
+#define MED(run, f) pct(rows[run], NULL, frames, offsetof(frow, f), 'd', 0.5)
+#define P95(run, f) pct(rows[run], NULL, frames, offsetof(frow, f), 'd', 0.95)
+#define MEDQ(run, f) pct(rows[run], NULL, frames, offsetof(frow, f), 'q', 0.5)
+#define MEDU(run, f) pct(rows[run], NULL, frames, offsetof(frow, f), 'u', 0.5)
+#define MEDF(run, f) pct(rows[run], rows[RUN_FULL], frames, offsetof(frow, f), 'd', 0.5)
 
 typedef struct species_row {
     const hz_tree *t;
     hz_pr_result pr[4]; /* vmi, vmi enlarged, random, random enlarged */
 } species_row;
 
-/* One frame: terrain LOD + forest selection + draw. */
+/* One frame: terrain LOD + forest selection + draw (no forest: terrain only). */
 static bool frame(hz_renderer *ren, const hz_terrain *t, cli_opts *o, cli_forest *cf, const hz_camera *cam,
-                  const hz_forest_params *fp, double now, hz_index_list *il, double *ms, hz_err *err)
+                  const hz_forest_params *fp, double now, hz_index_list *il, frow *r, hz_err *err)
 {
-    double t0 = hz_time_ms();
+    double t0 = hz_time_ms(), c0 = cpu_ms();
     hz_lod_stats st;
     if (hz_lod_select(t->lod, cam, &o->lod, il, NULL, NULL, &st) != HZ_OK) {
         hz_err_set(err, HZ_ERR_MEMORY, "LOD selection out of memory");
         return false;
     }
-    if (hz_forest_update(cf->forest, cam, fp, now, &cf->frame, err) != HZ_OK)
-        return false;
     hz_scene_params sp = {0};
     cli_scene_lod(&sp, &st);
-    cli_forest_hook(cf, &sp);
+    if (fp) {
+        if (hz_forest_update(cf->forest, cam, fp, now, &cf->frame, err) != HZ_OK)
+            return false;
+        cli_forest_hook(cf, &sp);
+    }
     if (hz_renderer_draw(ren, cam, &sp, il->data, (uint32_t)il->count, NULL, err) != HZ_OK)
         return false;
-    if (cf->hook.failed) {
+    if (fp && cf->hook.failed) {
         *err = cf->hook.err;
         return false;
     }
-    *ms = hz_time_ms() - t0;
+    r->frame_ms = hz_time_ms() - t0;
+    r->cpu_ms = cpu_ms() - c0;
+    r->done = true;
+    if (fp) {
+        const hz_forest_frame *fr = &cf->frame;
+        r->draw_ms = cf->hook.draw_ms;
+        r->select_ms = fr->select_ms;
+        r->in_frustum = fr->trees_in_frustum;
+        r->leaves = fr->trees_detailed;
+        r->hulls = fr->trees_hull;
+        r->impostors = fr->trees_impostor;
+        r->fading = fr->trees_fading;
+        r->tri_full = fr->triangles_full;
+        r->tri_drawn = fr->triangles_drawn;
+        r->changed = fr->nodes_changed;
+        r->held = fr->nodes_held;
+        r->upload = hz_forest_gpu_upload_bytes(cf->gpu);
+    }
     return true;
+}
+
+/* Pixels where the trees are: differing from the bare terrain frame. */
+static void tree_mask(const uint8_t *img, const uint8_t *bare, size_t npx, uint8_t *mask)
+{
+    for (size_t p = 0; p < npx; p++)
+        mask[p] = abs(img[p * 3] - bare[p * 3]) + abs(img[p * 3 + 1] - bare[p * 3 + 1]) +
+                      abs(img[p * 3 + 2] - bare[p * 3 + 2]) >
+                  24;
+}
+
+static void json_num(FILE *f, const char *key, double v, const char *fmt)
+{
+    fprintf(f, ",\"%s\":", key);
+    if (isfinite(v))
+        fprintf(f, fmt, v);
+    else
+        fputs("null", f);
 }
 
 int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
@@ -88,11 +149,19 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
     cli_forest *cf = NULL;
     hz_path path = {0};
     hz_index_list il = {0};
-    frow *rows = calloc(bo->frames, sizeof *rows);
-    species_row *sr = NULL;
-    uint8_t *rgb = malloc((size_t)o->width * o->height * 3);
     const uint32_t frames = bo->frames;
-    if (!rows || !rgb) {
+    const size_t npx = (size_t)o->width * o->height;
+    frow *rows[RUNS] = {0};
+    species_row *sr = NULL;
+    uint8_t *rgb = malloc(npx * 3), *mask_a = malloc(npx), *mask_b = malloc(npx);
+    uint8_t **img[3] = {0}; /* sampled frames: simplified (hysteresis), unsimplified, bare terrain */
+    double *psnr = calloc(frames ? frames : 1, sizeof *psnr), *sil = calloc(frames ? frames : 1, sizeof *sil);
+    bool oom = !rgb || !mask_a || !mask_b || !psnr || !sil;
+    for (int r = 0; r < RUNS; r++)
+        oom |= !(rows[r] = calloc(frames ? frames : 1, sizeof *rows[r]));
+    for (int k = 0; k < 3; k++)
+        oom |= !(img[k] = calloc(frames ? frames : 1, sizeof *img[k]));
+    if (oom) {
         hz_err_set(&err, HZ_ERR_MEMORY, "out of memory");
         goto done;
     }
@@ -128,63 +197,72 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
     const uint32_t every = bo->full_every ? bo->full_every : (frames >= 6 ? frames / 6 : 1);
     /* Warm-up (shader compilation, buffer growth). */
     hz_path_sample(&path, 0.0f, &cam);
-    double ms;
-    if (!frame(ren, t, o, cf, &cam, &with, 0.0, &il, &ms, &err))
+    frow warm = {0};
+    if (!frame(ren, t, o, cf, &cam, &with, 0.0, &il, &warm, &err) ||
+        !frame(ren, t, o, cf, &cam, NULL, 0.0, &il, &warm, &err))
         goto done;
     /* 2 frames per path second unless --fps was given: the camera moves a
-     * few metres between frames (across the forest in a 36-frame run), and
-     * the hysteresis still sees consecutive frames. */
+     * few metres between frames, and the hysteresis still sees consecutive
+     * frames. Each run is a separate pass over the same frames, so that one
+     * does not disturb the other's caches. */
     const double dt = 1.0 / (bo->fps > 0 ? bo->fps : 2.0);
-    /* Run 0: simplified with hysteresis; 1: without; 2: unsimplified on
-     * every `every`-th frame. Separate runs, so that one does not disturb
-     * the other's caches. */
-    for (int run = 0; run < 3; run++) {
-        if (run == 2 && bo->no_full)
-            break;
+    for (int run = 0; run < RUNS; run++) {
+        if (run == RUN_FULL && bo->no_full)
+            continue;
         hz_forest_reset(cf->forest);
         for (uint32_t f = 0; f < frames; f++) {
-            frow *r = &rows[f];
-            if (run == 2 && f % every != 0)
+            bool sampled = f % every == 0;
+            if (run == RUN_FULL && !sampled)
                 continue;
             double now = (double)f * dt;
             hz_path_sample(&path, (float)now, &cam);
-            const hz_forest_params *fp = run == 0 ? &with : run == 1 ? &without : &full;
-            if (!frame(ren, t, o, cf, &cam, fp, now, &il, &ms, &err))
+            const hz_forest_params *fp = run == RUN_HYST ? &with : run == RUN_NOHYST ? &without
+                                                               : run == RUN_FULL   ? &full
+                                                                                   : NULL;
+            if (!frame(ren, t, o, cf, &cam, fp, now, &il, &rows[run][f], &err))
                 goto done;
-            const hz_forest_frame *fr = &cf->frame;
-            if (run == 0) {
-                r->frame_ms = ms;
-                r->forest_ms = cf->hook.draw_ms;
-                r->select_ms = fr->select_ms;
-                r->in_frustum = fr->trees_in_frustum;
-                r->detailed = fr->trees_detailed;
-                r->hulls = fr->trees_hull;
-                r->tri_full = fr->triangles_full;
-                r->tri_drawn = fr->triangles_drawn;
-                r->changed = fr->nodes_changed;
-                r->held = fr->nodes_held;
-            } else if (run == 1) {
-                r->frame_ms_nohyst = ms;
-                r->tri_drawn_nohyst = fr->triangles_drawn;
-                r->changed_nohyst = fr->nodes_changed;
-            } else {
-                r->frame_ms_at_full = r->frame_ms;
-                r->frame_ms_full = ms;
-                r->has_full = true;
+            int slot = run == RUN_HYST ? 0 : run == RUN_FULL ? 1 : run == RUN_TERRAIN ? 2 : -1;
+            bool keep = slot >= 0 && sampled && !bo->no_full;
+            if (keep || (bo->save_dir && run != RUN_NOHYST)) {
+                if (hz_renderer_read_rgb(ren, rgb, &err) != HZ_OK)
+                    goto done;
             }
-            if (bo->save_dir && run != 1) {
+            if (keep) {
+                img[slot][f] = malloc(npx * 3);
+                if (!img[slot][f]) {
+                    hz_err_set(&err, HZ_ERR_MEMORY, "out of memory");
+                    goto done;
+                }
+                memcpy(img[slot][f], rgb, npx * 3);
+            }
+            if (bo->save_dir && run != RUN_NOHYST) {
                 char name[1024];
-                snprintf(name, sizeof name, "%s/forest_%s%04u.png", bo->save_dir, run == 2 ? "full_" : "", f);
-                if (hz_renderer_read_rgb(ren, rgb, &err) != HZ_OK ||
-                    hz_image_write_png(name, rgb, o->width, o->height, &err) != HZ_OK)
+                static const char *const pre[RUNS] = {"", "", "full_", "terrain_"};
+                snprintf(name, sizeof name, "%s/forest_%s%04u.png", bo->save_dir, pre[run], f);
+                if (hz_image_write_png(name, rgb, o->width, o->height, &err) != HZ_OK)
                     goto done;
             }
             if (!o->quiet)
-                hz_progress_stderr(NULL, run == 0 ? "forest frames (hysteresis)" : run == 1 ? "forest frames (no hysteresis)"
-                                                                                   : "forest frames (unsimplified)",
-                                   f + 1, frames);
+                cli_tree_progress(NULL, RUN_NAME[run], f + 1, frames);
         }
     }
+    /* Simplified against unsimplified on the sampled frames. */
+    uint32_t ncmp = 0;
+    for (uint32_t f = 0; f < frames; f++)
+        if (img[0][f] && img[1][f] && img[2][f]) {
+            psnr[ncmp] = hz_metrics_psnr(img[0][f], img[1][f], npx);
+            tree_mask(img[0][f], img[2][f], npx, mask_a);
+            tree_mask(img[1][f], img[2][f], npx, mask_b);
+            uint64_t diff = 0;
+            for (size_t p = 0; p < npx; p++)
+                diff += mask_a[p] != mask_b[p];
+            sil[ncmp] = (double)diff / (double)npx;
+            ncmp++;
+        }
+    qsort(psnr, ncmp, sizeof *psnr, cmp_d);
+    qsort(sil, ncmp, sizeof *sil, cmp_d);
+    double psnr_med = ncmp ? psnr[ncmp / 2] : NAN, sil_med = ncmp ? sil[ncmp / 2] : NAN;
+    double sil_max = ncmp ? sil[ncmp - 1] : NAN;
     /* Image similarity per species: VMI order vs random pruning. */
     sr = calloc(cf->model_count, sizeof *sr);
     if (!sr) {
@@ -205,36 +283,56 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
         }
         hz_tree_destroy(rnd);
         if (!o->quiet)
-            hz_progress_stderr(NULL, "precision/recall per species", m + 1, cf->model_count);
+            cli_tree_progress(NULL, "precision/recall per species", m + 1, cf->model_count);
     }
     for (uint32_t m = 0; m < cf->model_count; m++)
         sr[m].t = cf->models[m];
 
-    double full_ms = MDF(frame_ms_full), at_full_ms = MDF(frame_ms_at_full);
-    double speedup = at_full_ms > 0 ? full_ms / at_full_ms : 0;
-    double tri_full = MD64(tri_full), tri_drawn = MD64(tri_drawn);
+    double full_ms = MEDF(RUN_FULL, frame_ms), at_full_ms = MEDF(RUN_HYST, frame_ms);
+    double speedup = at_full_ms > 0 && isfinite(full_ms) ? full_ms / at_full_ms : NAN;
+    double tri_full = MEDQ(RUN_HYST, tri_full), tri_drawn = MEDQ(RUN_HYST, tri_drawn);
+    double terrain_ms = MED(RUN_TERRAIN, frame_ms);
     const hz_forest_params *fp = &o->forest;
     hz_rate_params rp = hz_rate_params_defaults(&fp->rate);
-    float hull_dist = fp->hull_dist > 0 ? fp->hull_dist : 0.5f * rp.far_m;
+    const hz_forest_frame *lf = &cf->frame;
     if (!o->quiet || !bo->json_out) {
         printf("horizon bench --forest: %u trees on %s (%ux%u, %.0f m), path %s, %u frames at %ux%u\n",
                hz_forest_tree_count(cf->forest), t->source, t->hm.size, t->hm.size, (double)t->spacing, path.name,
                frames, o->width, o->height);
-        printf("F3 near %.0f m, far %.0f m, hulls beyond %.0f m; models prepared in %.1f s\n", (double)rp.near_m,
-               (double)rp.far_m, (double)hull_dist, cf->prep_ms / 1000.0);
-        printf("%-34s %14s %14s\n", "", "this run", "seed (F7)");
-        printf("%-34s %14u %14s\n", "trees", hz_forest_tree_count(cf->forest), "1 660");
-        printf("%-34s %14.0f %14s\n", "trees in frustum (median)", MD32(in_frustum), "621");
-        printf("%-34s %14.0f %14s\n", "  of them crown hulls", MD32(hulls), "");
-        printf("%-34s %14.0f %14s\n", "triangles, full", tri_full, "42.51 M");
-        printf("%-34s %14.0f %14s\n", "triangles, drawn", tri_drawn, "2.00 M");
-        printf("%-34s %13.1f%% %14s\n", "drawn / full", tri_full > 0 ? 100.0 * tri_drawn / tri_full : 0.0, "4.7%");
-        printf("%-34s %14.1f %14s\n", "frame ms, simplified (hysteresis)", MD(frame_ms), "33.1");
-        printf("%-34s %14.1f %14s\n", "frame ms, simplified (no hyst.)", MD(frame_ms_nohyst), "");
-        printf("%-34s %14.1f %14s\n", "frame ms, unsimplified (sampled)", full_ms, "");
-        printf("%-34s %13.2fx %14s\n", "speedup on the sampled frames", speedup, "15.18x");
-        printf("%-34s %14.0f %14s\n", "nodes changed/frame (hyst./none)", MD32(changed), "");
-        printf("%-34s %14.0f %14s\n", "", MD32(changed_nohyst), "");
+        printf("F3 near %.0f m, far %.0f m; leaves to %.0f m, crown hulls to %.0f m, impostors beyond "
+               "(dithered over the last %.0f%%); models prepared in %.1f s\n",
+               (double)rp.near_m, (double)rp.far_m, (double)lf->hull_band[1], (double)lf->impostor_band[1],
+               100.0 * (1.0 - (double)(lf->hull_band[0] / lf->hull_band[1])), cf->prep_ms / 1000.0);
+        printf("%-30s %12s %12s %12s %12s\n", "median (p95) over frames", "hysteresis", "no hyst.", "unsimplified",
+               "terrain");
+        printf("%-30s %12.1f %12.1f %12.1f %12.1f\n", "frame ms", MED(RUN_HYST, frame_ms), MED(RUN_NOHYST, frame_ms),
+               full_ms, terrain_ms);
+        printf("%-30s %12.1f %12.1f %12.1f %12.1f\n", "frame ms p95", P95(RUN_HYST, frame_ms),
+               P95(RUN_NOHYST, frame_ms), pct(rows[RUN_FULL], NULL, frames, offsetof(frow, frame_ms), 'd', 0.95),
+               P95(RUN_TERRAIN, frame_ms));
+        printf("%-30s %12.1f %12.1f %12.1f %12.1f\n", "CPU ms (all threads)", MED(RUN_HYST, cpu_ms),
+               MED(RUN_NOHYST, cpu_ms), MEDF(RUN_FULL, cpu_ms), MED(RUN_TERRAIN, cpu_ms));
+        printf("%-30s %12.1f %12.1f %12.1f\n", "forest draw ms", MED(RUN_HYST, draw_ms), MED(RUN_NOHYST, draw_ms),
+               MEDF(RUN_FULL, draw_ms));
+        printf("%-30s %12.0f %12.0f %12.0f\n", "triangles drawn", tri_drawn, MEDQ(RUN_NOHYST, tri_drawn),
+               MEDQ(RUN_FULL, tri_drawn));
+        printf("%-30s %12.0f %12.0f %12.0f\n", "trees in frustum", MEDU(RUN_HYST, in_frustum),
+               MEDU(RUN_NOHYST, in_frustum), MEDU(RUN_FULL, in_frustum));
+        printf("%-30s %12.0f %12.0f %12.0f\n", "  as leaves", MEDU(RUN_HYST, leaves), MEDU(RUN_NOHYST, leaves),
+               MEDU(RUN_FULL, leaves));
+        printf("%-30s %12.0f %12.0f\n", "  as crown hulls", MEDU(RUN_HYST, hulls), MEDU(RUN_NOHYST, hulls));
+        printf("%-30s %12.0f %12.0f\n", "  as impostors", MEDU(RUN_HYST, impostors), MEDU(RUN_NOHYST, impostors));
+        printf("%-30s %12.0f %12.0f\n", "  cross-fading", MEDU(RUN_HYST, fading), MEDU(RUN_NOHYST, fading));
+        printf("%-30s %12.2f %12.2f %12.2f\n", "selection CPU ms", MED(RUN_HYST, select_ms),
+               MED(RUN_NOHYST, select_ms), MEDF(RUN_FULL, select_ms));
+        printf("%-30s %12.0f %12.0f\n", "upload bytes/frame", MEDQ(RUN_HYST, upload), MEDQ(RUN_NOHYST, upload));
+        printf("%-30s %12.0f %12.0f\n", "nodes changed/frame", MEDU(RUN_HYST, changed), MEDU(RUN_NOHYST, changed));
+        printf("speedup over unsimplified on the %u sampled frames: %.1fx; simplified / bare terrain: %.2fx\n",
+               ncmp, speedup, MED(RUN_HYST, frame_ms) / terrain_ms);
+        printf("against unsimplified on the same frames: PSNR %.1f dB, tree silhouette error %.2f%% of pixels "
+               "(max %.2f%%)\n",
+               psnr_med, 100.0 * sil_med, 100.0 * sil_max);
+        printf("seed (F7): 621 trees in frustum, 42.51 M -> 2.00 M triangles, 33.1 ms, 15.18x\n");
         if (!bo->no_pr) {
             printf("precision/recall of leaf coverage at 50%% simplification (%u views, %ux%u):\n",
                    sr[0].pr[0].views, sr[0].pr[0].res, sr[0].pr[0].res);
@@ -260,19 +358,44 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
         }
         fprintf(jf,
                 "{\"bench\":\"forest\",\"terrain\":\"%s\",\"size\":%u,\"path\":\"%s\",\"frames\":%u,\"width\":%u,"
-                "\"height\":%u,\"trees\":%u,\"trees_in_frustum\":%.0f,\"trees_hull\":%.0f,\"trees_detailed\":%.0f,"
-                "\"triangles_full\":%.0f,\"triangles_drawn\":%.0f,\"drawn_ratio\":%.5f,"
-                "\"triangles_drawn_no_hysteresis\":%.0f,\"frame_ms\":%.3f,\"frame_ms_no_hysteresis\":%.3f,"
-                "\"frame_ms_full\":%.3f,\"frame_ms_simplified_same_frames\":%.3f,\"full_frames\":%u,"
-                "\"speedup\":%.3f,\"forest_draw_ms\":%.3f,\"select_ms\":%.3f,\"nodes_changed\":%.0f,"
-                "\"nodes_changed_no_hysteresis\":%.0f,\"nodes_held\":%.0f,\"near_m\":%g,\"far_m\":%g,"
-                "\"hull_dist_m\":%g,\"prep_s\":%.2f,\"peak_rss_mb\":%.1f,\"species\":[",
-                t->source, t->hm.size, path.name, frames, o->width, o->height, hz_forest_tree_count(cf->forest),
-                MD32(in_frustum), MD32(hulls), MD32(detailed), tri_full, tri_drawn,
-                tri_full > 0 ? tri_drawn / tri_full : 0.0, MD64(tri_drawn_nohyst), MD(frame_ms), MD(frame_ms_nohyst),
-                full_ms, at_full_ms, (frames + every - 1) / every, speedup, MD(forest_ms), MD(select_ms),
-                MD32(changed), MD32(changed_nohyst), MD32(held), (double)rp.near_m, (double)rp.far_m,
-                (double)hull_dist, cf->prep_ms / 1000.0, (double)hz_peak_rss_bytes() / 1048576.0);
+                "\"height\":%u,\"trees\":%u,\"full_frames\":%u,\"near_m\":%g,\"far_m\":%g,\"hull_dist_m\":%g,"
+                "\"impostor_dist_m\":%g,\"prep_s\":%.2f,\"peak_rss_mb\":%.1f",
+                t->source, t->hm.size, path.name, frames, o->width, o->height, hz_forest_tree_count(cf->forest), ncmp,
+                (double)rp.near_m, (double)rp.far_m, (double)lf->hull_band[1], (double)lf->impostor_band[1],
+                cf->prep_ms / 1000.0, (double)hz_peak_rss_bytes() / 1048576.0);
+        static const char *const sfx[RUNS] = {"", "_no_hysteresis", "_full", "_terrain"};
+        for (int run = 0; run < RUNS; run++) {
+            char key[96];
+            const frow *rr = rows[run];
+#define JK(name) (snprintf(key, sizeof key, "%s%s", name, sfx[run]), key)
+            json_num(jf, JK("frame_ms"), pct(rr, NULL, frames, offsetof(frow, frame_ms), 'd', 0.5), "%.3f");
+            json_num(jf, JK("frame_ms_p95"), pct(rr, NULL, frames, offsetof(frow, frame_ms), 'd', 0.95), "%.3f");
+            json_num(jf, JK("cpu_ms"), pct(rr, NULL, frames, offsetof(frow, cpu_ms), 'd', 0.5), "%.3f");
+            if (run == RUN_TERRAIN)
+                continue;
+            json_num(jf, JK("forest_draw_ms"), pct(rr, NULL, frames, offsetof(frow, draw_ms), 'd', 0.5), "%.3f");
+            json_num(jf, JK("select_ms"), pct(rr, NULL, frames, offsetof(frow, select_ms), 'd', 0.5), "%.3f");
+            json_num(jf, JK("triangles_drawn"), pct(rr, NULL, frames, offsetof(frow, tri_drawn), 'q', 0.5), "%.0f");
+            json_num(jf, JK("trees_in_frustum"), pct(rr, NULL, frames, offsetof(frow, in_frustum), 'u', 0.5), "%.0f");
+            json_num(jf, JK("trees_leaves"), pct(rr, NULL, frames, offsetof(frow, leaves), 'u', 0.5), "%.0f");
+            json_num(jf, JK("trees_hull"), pct(rr, NULL, frames, offsetof(frow, hulls), 'u', 0.5), "%.0f");
+            json_num(jf, JK("trees_impostor"), pct(rr, NULL, frames, offsetof(frow, impostors), 'u', 0.5), "%.0f");
+            json_num(jf, JK("trees_fading"), pct(rr, NULL, frames, offsetof(frow, fading), 'u', 0.5), "%.0f");
+            json_num(jf, JK("upload_bytes"), pct(rr, NULL, frames, offsetof(frow, upload), 'q', 0.5), "%.0f");
+            json_num(jf, JK("nodes_changed"), pct(rr, NULL, frames, offsetof(frow, changed), 'u', 0.5), "%.0f");
+#undef JK
+        }
+        json_num(jf, "trees_detailed", MEDU(RUN_HYST, leaves), "%.0f");
+        json_num(jf, "nodes_held", MEDU(RUN_HYST, held), "%.0f");
+        json_num(jf, "triangles_full", tri_full, "%.0f");
+        json_num(jf, "drawn_ratio", tri_full > 0 ? tri_drawn / tri_full : NAN, "%.5f");
+        json_num(jf, "frame_ms_simplified_same_frames", at_full_ms, "%.3f");
+        json_num(jf, "speedup", speedup, "%.3f");
+        json_num(jf, "terrain_ratio", MED(RUN_HYST, frame_ms) / terrain_ms, "%.3f");
+        json_num(jf, "psnr_db", psnr_med, "%.2f");
+        json_num(jf, "silhouette_frac", sil_med, "%.5f");
+        json_num(jf, "silhouette_frac_max", sil_max, "%.5f");
+        fputs(",\"species\":[", jf);
         for (uint32_t m = 0; m < cf->model_count; m++) {
             const hz_tree *tr = sr[m].t;
             fprintf(jf,
@@ -301,8 +424,18 @@ done:
     if (rc)
         fprintf(stderr, "horizon bench: %s\n", err.msg[0] ? err.msg : "failed");
     free(sr);
-    free(rows);
+    for (int r = 0; r < RUNS; r++)
+        free(rows[r]);
+    for (int k = 0; k < 3; k++) {
+        for (uint32_t f = 0; img[k] && f < frames; f++)
+            free(img[k][f]);
+        free(img[k]);
+    }
     free(rgb);
+    free(mask_a);
+    free(mask_b);
+    free(psnr);
+    free(sil);
     free(il.data);
     hz_path_free(&path);
     cli_forest_destroy(cf);

@@ -155,6 +155,9 @@ hz_camera cli_forest_camera(const cli_opts *o, const hz_terrain *t);
 /* The "forest" path: 60 s low over the forest, across and back. */
 hz_result cli_forest_path(const cli_forest *cf, const hz_terrain *t, hz_path *out, hz_err *err);
 void cli_usage_forest(void);
+/* hz_progress_fn for growing/ranking trees: a bar on a terminal, else a line
+ * every 10 % or 10 s. user: NULL or a line_progress (forest_cli.c). */
+void cli_tree_progress(void *user, const char *label, uint64_t done, uint64_t total);
 
 int cmd_render(int argc, char **argv);
 int cmd_bench(int argc, char **argv);

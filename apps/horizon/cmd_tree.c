@@ -79,7 +79,7 @@ static int preview(const hz_tree *t, const char *file, uint32_t size, float rate
     hz_camera cam = {.pos = {t->bound_center[0] + 0.35f * r, t->bound_center[1] + 0.2f * r, t->bound_center[2] + 2.6f * r},
                      .yaw = -7.7f, .pitch = -4.0f, .fov_y = 45.0f, .aspect = 1.0f, .znear = 0.05f, .zfar = 10.0f * r};
     hz_forest_params fp = {.simplify = true, .enlarge = true, .fixed_rate = true, .fixed = rate,
-                           .hull_dist = hull ? 1e-3f : 1e9f};
+                           .hull_dist = hull ? 1e-3f : 1e9f, .impostor_dist = 1e9f};
     hz_forest_frame fr;
     if (hz_forest_update(f, &cam, &fp, 0.0, &fr, err) != HZ_OK)
         goto done;
@@ -241,7 +241,7 @@ int cmd_tree(int argc, char **argv)
             goto done;
     }
     if (!no_rank && (!t->ranked || force_rank)) {
-        rd.progress = quiet ? NULL : hz_progress_stderr;
+        rd.progress = quiet ? NULL : cli_tree_progress;
         if (hz_tree_rank(t, &rd, &rs, &err) != HZ_OK)
             goto done;
     }

@@ -7,15 +7,18 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 void cli_usage_forest(void)
 {
     fprintf(stderr,
             "forest:\n"
             "  --forest N              place N trees around --forest-at (default the map centre)\n"
-            "  --forest-trees A.hzt,B.hzt  tree models to use (default: oak, maple, birch, conifer,\n"
-            "                          grown, VMI-ranked and cached on first use)\n"
+            "  --forest-trees A,B,...  tree models to use: .hzt files, or models assimp reads (OBJ,\n"
+            "                          glTF...; imported, ranked and cached); default: oak, maple,\n"
+            "                          birch, conifer, grown, VMI-ranked and cached on first use\n"
             "  --forest-leaves N       leaves per generated tree (default: each species' own)\n"
             "  --tree-cache DIR        cache of generated trees (default ~/.cache/horizon/trees)\n"
             "  --forest-density D      trees per hectare (default 400)\n"
@@ -28,11 +31,43 @@ void cli_usage_forest(void)
             "  --no-enlarge            no leaf enlargement (F4)\n"
             "  --no-node-cull          no per-node frustum culling\n"
             "  --tree-near M --tree-far M  F3 distances near/far (default 5, 80)\n"
-            "  --hull-dist M           trees beyond are crown hulls (default: half of --tree-far)\n"
+            "  --hull-dist M           trees beyond are crown hulls (default: a quarter of --tree-far),\n"
+            "                          beyond max(half of --tree-far, 2 x M) impostors\n"
             "  --rate-weights W1,..,W5 F3 weights (default 0.2,0.1,0.2,0.3,0.2)\n");
 }
 
 static const char *const SPECIES[] = {"oak", "maple", "birch", "conifer"};
+
+/* Progress of growing and ranking: a bar on a terminal, otherwise a line
+ * every 10 % or 10 s (logs, CI), so a long first run never looks hung. */
+typedef struct line_progress {
+    const char *what;
+    int last_pct;
+    double last_ms;
+} line_progress;
+
+void cli_tree_progress(void *user, const char *label, uint64_t done, uint64_t total)
+{
+    static line_progress shared = {.last_pct = -100};
+    line_progress *lp = user ? user : &shared;
+    if (done == 0 || (lp == &shared && lp->last_pct > (total ? (int)(done * 100 / total) : 100))) {
+        lp->last_pct = -100; /* a new run */
+        lp->last_ms = hz_time_ms();
+    }
+    if (isatty(STDERR_FILENO)) {
+        hz_progress_stderr(NULL, label, done, total);
+        return;
+    }
+    int pct = total ? (int)(done * 100 / total) : 100;
+    double now = hz_time_ms();
+    if (pct >= lp->last_pct + 10 || now - lp->last_ms > 10000.0 || done >= total) {
+        fprintf(stderr, "horizon: %s%s%s: %d%% (%llu/%llu)\n", lp->what ? lp->what : "", lp->what ? ": " : "",
+                label ? label : "", pct, (unsigned long long)done, (unsigned long long)total);
+        fflush(stderr);
+        lp->last_pct = pct;
+        lp->last_ms = now;
+    }
+}
 static const float SPECIES_HIGH[] = {0.0f, 0.3f, 0.55f, 1.0f};
 
 static bool mkdir_p(const char *dir)
@@ -49,24 +84,55 @@ static bool mkdir_p(const char *dir)
     return mkdir(buf, 0755) == 0 || errno == EEXIST;
 }
 
-/* A species from the cache, or grown + ranked + hulled and cached. */
-static hz_tree *species_model(const cli_opts *o, const char *name, hz_err *err)
+/* The tree cache directory (--tree-cache, XDG, ~/.cache); false: none. */
+static bool cache_dir(const cli_opts *o, char *dir, size_t cap)
 {
-    char dir[900], file[1024];
-    bool cache = !(o->tree_cache && !strcmp(o->tree_cache, "none"));
-    if (o->tree_cache)
-        snprintf(dir, sizeof dir, "%s", o->tree_cache);
-    else {
-        const char *xdg = getenv("XDG_CACHE_HOME"), *home = getenv("HOME");
-        if (xdg && *xdg)
-            snprintf(dir, sizeof dir, "%s/horizon/trees", xdg);
-        else if (home && *home)
-            snprintf(dir, sizeof dir, "%s/.cache/horizon/trees", home);
-        else
-            cache = false;
+    if (o->tree_cache && !strcmp(o->tree_cache, "none"))
+        return false;
+    if (o->tree_cache) {
+        snprintf(dir, cap, "%s", o->tree_cache);
+        return true;
     }
+    const char *xdg = getenv("XDG_CACHE_HOME"), *home = getenv("HOME");
+    if (xdg && *xdg)
+        snprintf(dir, cap, "%s/horizon/trees", xdg);
+    else if (home && *home)
+        snprintf(dir, cap, "%s/.cache/horizon/trees", home);
+    else
+        return false;
+    return true;
+}
+
+/* A tree from the cache, or made (grown from a species or imported from a
+ * model file), VMI-ranked, hulled and cached. The cache file is keyed by
+ * everything that makes the tree: the species and seed or the model file
+ * (name, size, time), the leaves asked, the ranking (views, resolution,
+ * layers) and hull parameters, and the generator's version. */
+static hz_tree *cached_model(const cli_opts *o, const char *species, const char *import, hz_err *err)
+{
+    const hz_rank_desc rank = {.views = 42, .res = 32, .layers = 4};
+    const hz_hull_desc hull = {.grid = 40, .triangles = 3000};
+    const uint64_t seed = 1;
+    char dir[700], file[1100], key[300];
+    if (import) {
+        struct stat ms;
+        if (stat(import, &ms) != 0) {
+            hz_err_set(err, HZ_ERR_IO, "cannot open '%s': %s", import, strerror(errno));
+            return NULL;
+        }
+        const char *base = strrchr(import, '/');
+        base = base ? base + 1 : import;
+        snprintf(key, sizeof key, "import-%.120s-%lld-%lld", base, (long long)ms.st_size, (long long)ms.st_mtime);
+        for (char *p = key; *p; p++)
+            if (*p == '/' || *p == ' ')
+                *p = '_';
+    } else {
+        snprintf(key, sizeof key, "%s-s%llu-l%u", species, (unsigned long long)seed, o->forest_leaves);
+    }
+    bool cache = cache_dir(o, dir, sizeof dir);
     if (cache) {
-        snprintf(file, sizeof file, "%s/%s-s1-l%u-v2.hzt", dir, name, o->forest_leaves);
+        snprintf(file, sizeof file, "%s/%s-v%ur%uk%u-h%ut%u-g3.hzt", dir, key, rank.views, rank.res, rank.layers,
+                 hull.grid, hull.triangles);
         struct stat sb;
         if (stat(file, &sb) == 0) {
             hz_tree *t = hz_tree_load(file, err);
@@ -77,13 +143,30 @@ static hz_tree *species_model(const cli_opts *o, const char *name, hz_err *err)
                 fprintf(stderr, "horizon: regenerating %s (%s)\n", file, err->msg);
         }
     }
-    if (!o->quiet)
-        fprintf(stderr, "horizon: growing and ranking a %s tree (cached for next time)\n", name);
-    hz_tree *t = hz_tree_grow(&(hz_tree_desc){.species = name, .seed = 1, .leaves = o->forest_leaves}, err);
+    const char *name = import ? import : species;
+    hz_tree *t;
+    if (import) {
+        if (!o->quiet)
+            fprintf(stderr, "horizon: importing and ranking %s (cached for next time)\n", import);
+        t = hz_tree_import(&(hz_tree_import_desc){.path = import}, err);
+    } else {
+        if (!o->quiet)
+            fprintf(stderr, "horizon: growing and ranking a %s tree (cached for next time)\n", species);
+        t = hz_tree_grow(&(hz_tree_desc){.species = species, .seed = seed, .leaves = o->forest_leaves}, err);
+    }
     if (!t)
         return NULL;
-    hz_rank_desc rd = {.progress = o->quiet ? NULL : hz_progress_stderr};
-    if (hz_tree_rank(t, &rd, NULL, err) != HZ_OK || hz_hull_build(t, NULL, NULL, err) != HZ_OK) {
+    line_progress lp = {.what = name, .last_pct = -100, .last_ms = hz_time_ms()};
+    hz_rank_desc rd = rank;
+    rd.progress = o->quiet ? NULL : cli_tree_progress;
+    rd.progress_user = &lp;
+    if (hz_tree_rank(t, &rd, NULL, err) != HZ_OK) {
+        hz_tree_destroy(t);
+        return NULL;
+    }
+    if (!o->quiet)
+        fprintf(stderr, "horizon: %s: crown hull\n", name);
+    if (hz_hull_build(t, &hull, NULL, err) != HZ_OK) {
         hz_tree_destroy(t);
         return NULL;
     }
@@ -95,6 +178,26 @@ static hz_tree *species_model(const cli_opts *o, const char *name, hz_err *err)
         }
     }
     return t;
+}
+
+/* A model named in --forest-trees: a .hzt file, or any model assimp reads
+ * (OBJ, glTF, FBX...), imported, ranked and cached like the species. */
+static hz_tree *model_file(const cli_opts *o, const char *path, hz_err *err)
+{
+    size_t n = strlen(path);
+    if (n >= 4 && !strcasecmp(path + n - 4, ".hzt")) {
+        hz_tree *m = hz_tree_load(path, err);
+        if (!m)
+            return NULL;
+        if (!m->hull.index_count && hz_hull_build(m, NULL, NULL, err) != HZ_OK) {
+            hz_tree_destroy(m);
+            return NULL;
+        }
+        if (!m->ranked && !o->quiet)
+            fprintf(stderr, "horizon: note: %s is not VMI-ranked; leaves are pruned in file order\n", path);
+        return m;
+    }
+    return cached_model(o, NULL, path, err);
 }
 
 /* x,z,model,scale,yaw lines ('#' comments, blank lines skipped). */
@@ -184,15 +287,9 @@ cli_forest *cli_forest_create(const cli_opts *o, const hz_terrain *t)
         }
         char *save = NULL;
         for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
-            hz_tree *m = hz_tree_load(tok, &err);
+            hz_tree *m = model_file(o, tok, &err);
             if (!m)
                 goto fail;
-            if (!m->hull.index_count && hz_hull_build(m, NULL, NULL, &err) != HZ_OK) {
-                hz_tree_destroy(m);
-                goto fail;
-            }
-            if (!m->ranked && !o->quiet)
-                fprintf(stderr, "horizon: note: %s is not VMI-ranked; leaves are pruned in file order\n", tok);
             high[cf->model_count] = !strcmp(m->species, "conifer") ? 1.0f : 0.3f;
             cf->models[cf->model_count++] = m;
         }
@@ -208,7 +305,7 @@ cli_forest *cli_forest_create(const cli_opts *o, const hz_terrain *t)
             goto fail;
         }
         for (int k = 0; k < 4; k++) {
-            hz_tree *m = species_model(o, SPECIES[k], &err);
+            hz_tree *m = cached_model(o, SPECIES[k], NULL, &err);
             if (!m)
                 goto fail;
             high[k] = SPECIES_HIGH[k];

@@ -50,6 +50,15 @@ float hz_rate_f5(float cos_dir);
 float hz_rate_node(const hz_rate_params *p, uint32_t bsl, uint32_t bl, float dist, float LD, float ld0,
                    float cos_dir);
 
+/* The rate at which the node's own density is counted (LD = ld x the
+ * fraction kept at that very rate): the fixed point of hz_rate_node in LD,
+ * in closed form, Rs = (S - w3 + w3 ld/ld0) / (1 + w3 ld/ld0) with S the
+ * other terms; clamped likewise. Reading LD from the last frame's rate
+ * instead feeds the rate back on itself, so it oscillates under a still
+ * camera. ld: the node's initial leaf density. */
+float hz_rate_node_fixed(const hz_rate_params *p, uint32_t bsl, uint32_t bl, float dist, float ld, float ld0,
+                         float cos_dir);
+
 /* F4: remaining leaves grow by s = sqrt((1 - Rl) / (1 - Rc)) per change;
  * compounded from the full tree (R = 0) this is sqrt(1 / (1 - Rc)) =
  * sqrt(n / kept), which the shader applies to the original leaf size.
@@ -108,28 +117,59 @@ typedef struct hz_forest_params {
     bool hysteresis;     /* F6 on */
     bool enlarge;        /* F4 on */
     bool node_culling;   /* per-node frustum culling within detailed trees */
-    float hull_dist;     /* trees beyond this are drawn as crown hull + trunk; 0 -> far_m / 2 */
+    float hull_dist;     /* trees beyond this are drawn as crown hull + trunk; 0 -> far_m / 4 */
+    float impostor_dist; /* trees beyond this are image impostors; 0 -> max(far_m / 2, 2 hull_dist) */
+    float fade_frac;     /* cross-fade band: the last fade_frac of each distance (dithered); 0 -> 0.15 */
+    float max_dist;      /* no tree beyond (the forest cover tints the ground there); 0 -> none */
     bool fixed_rate;     /* every node uses `fixed` instead of F3 (previews, measurements) */
     float fixed;
 } hz_forest_params;
 
-/* What to draw for one tree this frame. */
+/* The LOD chain of one tree: leaves (VMI prefixes), crown hull, impostor. */
+typedef enum hz_tree_lod { HZ_TREE_LEAVES = 0, HZ_TREE_HULL = 1, HZ_TREE_IMPOSTOR = 2 } hz_tree_lod;
+
+/* What to draw for one tree this frame (leaves or hull; impostor trees are
+ * drawn in one pass from the distance bands below, not listed here). */
 typedef struct hz_forest_draw {
     uint32_t tree;       /* index into the forest's trees */
     uint32_t model;
     bool hull;           /* crown hull + bark levels up to bark_levels */
     uint32_t bark_levels;/* bark levels to draw (1 = trunk only) */
-    uint32_t node_base;  /* detailed trees: offset of this tree's nodes in counts/scales */
+    uint32_t node_base;  /* detailed trees: offset of this tree's nodes in counts/scales (persistent) */
+    float fade;          /* 0..1: share of the next coarser state, dithered (cross-fade band) */
+    float dist;          /* metres from the eye to its bounding centre (draws are sorted by it) */
+    /* Detailed trees: leaves to draw in the model's interleaved rank order
+     * (hz_forest_model_order), which holds every node's kept prefix; and the
+     * range of nodes whose count changed since the last update (lo >= hi:
+     * none; a tree that was not detailed last frame is dirty throughout). */
+    uint32_t prefix;
+    uint32_t dirty_lo, dirty_hi;
 } hz_forest_draw;
 
 typedef struct hz_forest_frame {
     hz_forest_draw *draws;
     uint32_t draw_count;
-    uint32_t *counts;    /* leaves kept per node (prefix length), per detailed tree */
-    float *scales;       /* F4 enlargement per node */
-    uint32_t node_total; /* entries used in counts/scales */
+    /* Leaves kept per node (prefix length) and F4 enlargement, for every node
+     * of every tree (draws[].node_base): persistent, only changed nodes are
+     * rewritten. */
+    uint32_t *counts;
+    float *scales;
+    uint32_t node_total; /* entries in counts/scales */
+    /* Distance bands (metres from the eye to a tree's bounding centre):
+     * leaves fade to hulls over hull_band, hulls to impostors over
+     * impostor_band; nothing beyond max_dist. impostors false: no impostors
+     * (unsimplified). */
+    float hull_band[2], impostor_band[2], max_dist;
+    bool impostors;
+    /* Trees from impostor_band[0] on, in the frustum, nearest first (the
+     * impostor pass draws these; its shader fades them in over the band). */
+    const uint32_t *impostor_trees;
+    uint32_t impostor_count;
+    bool enlarge;        /* F4 on: the drawer scales kept leaves by hz_enlarge */
+    float max_enlarge;
     /* figures */
-    uint32_t trees, trees_in_frustum, trees_detailed, trees_hull;
+    uint32_t trees, trees_in_frustum, trees_detailed, trees_hull, trees_impostor, trees_fading;
+    uint64_t upload_bytes;     /* node counts the drawer must upload (dirty ranges) */
     uint32_t nodes_considered, nodes_culled, nodes_changed, nodes_held;
     uint64_t triangles_full;   /* trees in the frustum at full detail */
     uint64_t triangles_drawn;  /* leaves kept * 2 + bark + hulls */
@@ -160,6 +200,17 @@ hz_result hz_forest_update(hz_forest *f, const hz_camera *cam, const hz_forest_p
                            hz_forest_frame *frame, hz_err *err);
 /* Forgets the per-node state (as after a teleport). */
 void hz_forest_reset(hz_forest *f);
+
+/* The model's leaves interleaved by rank: order[p] is the leaf (index into
+ * t->leaves) at position p, sorted by (rank within its node + 0.5) / node
+ * size, so that the first p positions hold a prefix of every node. pos is
+ * the inverse (pos[order[p]] == p). */
+const uint32_t *hz_forest_model_order(const hz_forest *f, uint32_t k);
+const uint32_t *hz_forest_model_pos(const hz_forest *f, uint32_t k);
+/* The model's crown hull as drawn in the forest: simplified to about
+ * HZ_FOREST_HULL_TRIANGLES (its look comes from the impostor texture). */
+#define HZ_FOREST_HULL_TRIANGLES 320u
+const hz_tree_mesh *hz_forest_model_hull(const hz_forest *f, uint32_t k);
 
 #ifdef __cplusplus
 }

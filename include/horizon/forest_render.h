@@ -67,17 +67,24 @@ hz_tree *hz_tree_shuffled(const hz_tree *t, uint64_t seed, hz_err *err);
 
 typedef struct hz_forest_gpu hz_forest_gpu;
 
-/* Uploads the forest's models (leaves as texture buffers, bark and hull
- * meshes). NULL + err on GL failure or a context older than 3.3. */
+/* Uploads the forest's models (leaves interleaved by rank as texture
+ * buffers with a static quad index buffer, bark and hull meshes) and bakes
+ * each model's impostor atlas (12 azimuths x 4 elevations, albedo and
+ * normals, from the full tree). NULL + err on GL failure. */
 hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err);
 void hz_forest_gpu_destroy(hz_forest_gpu *g);
 
 /* Draws a frame's selection with a pass's matrices, lighting and fog:
- * detailed trees as leaf prefixes per node (one draw per tree, the per-frame
- * index list built from the node counts), F4 enlargement in the vertex
- * shader, bark by level, far trees as crown hulls. */
+ * detailed trees as leaf prefixes per node (one draw per tree over the
+ * static index buffer; only changed node counts are uploaded), F4
+ * enlargement in the vertex shader, bark by level, middle trees as crown
+ * hulls shaded from their impostor, far trees as impostors (one draw),
+ * dithered across the fade bands. */
 hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_forest_frame *fr,
                              const hz_pass_info *pass, hz_err *err);
+
+/* Bytes of node counts the last drawn frame uploaded (only changed nodes). */
+uint64_t hz_forest_gpu_upload_bytes(const hz_forest_gpu *g);
 
 /* Ready-made hz_draw_hook_fn: set draw_objects = hz_forest_draw_hook and
  * draw_objects_user = a hz_forest_hook. Errors land in hook->err/failed. */

@@ -192,6 +192,17 @@ hz_result hz_vmi_rank(const hz_vmi_input *in, uint32_t *order, hz_vmi_stats *sta
  * node's local order (a permutation of 0..count-1). */
 hz_result hz_tree_apply_order(hz_tree *t, const uint32_t *node_orders, hz_err *err);
 
+/* Coverage of leaf prefixes (F4 by coverage): cov[l] (one float per leaf,
+ * tree order) = the share of its node's projected leaf area, summed over 12
+ * views around the node, that the node's leaves up to and including l
+ * cover. 1 at each node's last leaf; VMI orders reach high values early.
+ * HZ_ERR_VALUE for a node of 65535 leaves or more. */
+hz_result hz_tree_prefix_coverage(const hz_tree *t, float *cov, hz_err *err);
+/* F4 by coverage: the enlargement that gives a prefix covering `cov` of its
+ * node's area the whole area back, sqrt(1 / cov), capped at max_enlarge
+ * (0 -> 3); 1 for cov >= 1. */
+float hz_enlarge_coverage(float max_enlarge, float cov);
+
 /* Viewpoints on the unit sphere: vertices of a subdivided icosahedron.
  * count must be 12, 42 or 162 (0, 1, 2 subdivisions); dirs: count * 3
  * floats, unit vectors. false for another count. */
@@ -218,6 +229,12 @@ typedef struct hz_hull_stats {
  * manifold), simplified with meshoptimizer. Replaces t->hull. stats may be
  * NULL. */
 hz_result hz_hull_build(hz_tree *t, const hz_hull_desc *desc, hz_hull_stats *stats, hz_err *err);
+
+/* A coarser copy of a mesh (meshoptimizer, sloppy when the topology-keeping
+ * simplification stops short) of about `triangles` triangles, normals
+ * recomputed; a mesh already that small is copied. out is allocated (free
+ * its arrays). For far LODs, where holes do not matter. */
+hz_result hz_mesh_simplify(const hz_tree_mesh *in, uint32_t triangles, hz_tree_mesh *out, hz_err *err);
 
 /* Topology of an indexed triangle mesh: counts edges used by other than
  * exactly two triangles with opposite orientation (open or non-manifold

@@ -82,6 +82,18 @@ float hz_rate_node(const hz_rate_params *p, uint32_t bsl, uint32_t bl, float dis
     return fminf(fmaxf(r, 0.0f), p->max_rate);
 }
 
+float hz_rate_node_fixed(const hz_rate_params *p, uint32_t bsl, uint32_t bl, float dist, float ld, float ld0,
+                         float cos_dir)
+{
+    /* Rs = S + w3 (r (1 - Rs) - 1) with r = ld / ld0, S the other terms:
+     * Rs = (S - w3 + w3 r) / (1 + w3 r). */
+    float S = p->w[0] * hz_rate_f1(bsl) + p->w[1] * hz_rate_f2(p, bl, dist) + p->w[3] * hz_rate_f4(p, dist) +
+              p->w[4] * hz_rate_f5(cos_dir);
+    float r = ld0 > 0.0f ? ld / ld0 : 0.0f, w3 = ld0 > 0.0f ? p->w[2] : 0.0f;
+    float R = (S - w3 + w3 * r) / (1.0f + w3 * r);
+    return fminf(fmaxf(R, 0.0f), p->max_rate);
+}
+
 float hz_enlarge(const hz_rate_params *p, uint32_t n, uint32_t kept)
 {
     if (kept == 0 || kept >= n)
@@ -158,13 +170,18 @@ hz_result hz_forest_place(const hz_forest_desc *desc, hz_forest_tree *out, uint3
     for (int round = 0; round < 4 && n < d.count; round++, side *= 1.4142f) {
         uint64_t attempts = (uint64_t)d.count * 40;
         for (uint64_t a = 0; a < attempts && n < d.count; a++) {
-            /* A disc of the square's area, thinned by low-frequency noise
-             * toward its rim: ragged edges and a few clearings. */
-            const float R = 0.5642f * side;
-            float ang = rng_unit(&rng) * 6.2831853f, rr = R * sqrtf(rng_unit(&rng));
+            /* A disc of the square's area whose rim is pushed in and out
+             * by large-scale noise (lobes, bays), thinned by smaller noise
+             * toward it (ragged edges, stragglers) and inside (clearings). */
+            const float R = 0.5642f * side, Rmax = 1.3f * R;
+            float ang = rng_unit(&rng) * 6.2831853f, rr = Rmax * sqrtf(rng_unit(&rng));
             float x = d.center[0] + rr * cosf(ang), z = d.center[1] + rr * sinf(ang);
-            float keep = 1.3f * vnoise2(d.seed, x / (7.0f * spacing), z / (7.0f * spacing)) + 0.35f -
-                         0.9f * (rr / R) * (rr / R);
+            /* two octaves on rotated axes: value noise alone shows its grid */
+            float rx = (0.8f * x - 0.6f * z) / spacing, rz = (0.6f * x + 0.8f * z) / spacing;
+            float lobes = 0.6f + 0.45f * vnoise2(d.seed ^ 0x5bd1e995u, rx / 9.0f, rz / 9.0f) +
+                          0.25f * vnoise2(d.seed ^ 0x27d4eb2fu, rz / 4.0f + 17.0f, rx / 4.0f - 5.0f);
+            float q = rr / (R * lobes);
+            float keep = 1.3f * vnoise2(d.seed, x / (5.0f * spacing), z / (5.0f * spacing)) + 0.45f - 0.9f * q * q;
             if (rng_unit(&rng) > keep)
                 continue;
             if (d.extent_limit > 0 && (x < 0 || z < 0 || x > d.extent_limit || z > d.extent_limit))
@@ -227,6 +244,9 @@ hz_result hz_forest_place(const hz_forest_desc *desc, hz_forest_tree *out, uint3
 typedef struct model_info {
     float ld0;
     uint64_t triangles;
+    uint32_t *order, *pos; /* leaves interleaved by rank (hz_forest_model_order) */
+    hz_tree_mesh hull;     /* coarse crown hull */
+    float *cov;            /* per leaf: coverage of its node's prefix (F4 by coverage) */
 } model_info;
 
 struct hz_forest {
@@ -240,10 +260,55 @@ struct hz_forest {
     float *since;           /* seconds: when it last changed */
     size_t state_total;
     hz_forest_draw *draws;
-    uint32_t *counts;
-    float *scales;
+    uint32_t *counts;       /* per (tree, node): leaves kept, persistent */
+    float *scales;          /* per (tree, node): F4 enlargement */
+    uint64_t *detailed_at;  /* per tree: serial of the last update that drew its leaves */
+    uint32_t *prefix;       /* per tree: leaves to draw in interleaved order */
+    uint64_t *kept_total;   /* per tree: sum of counts */
+    uint32_t *imp_list;     /* per frame: impostor trees, nearest first */
+    float *imp_dist;
+    uint32_t *sort_tmp;
+    bool last_enlarge;
     uint64_t serial;
 };
+
+typedef struct key_leaf {
+    float key;
+    uint32_t leaf;
+} key_leaf;
+
+static int cmp_key(const void *a, const void *b)
+{
+    const key_leaf *x = a, *y = b;
+    if (x->key != y->key)
+        return x->key < y->key ? -1 : 1;
+    return (x->leaf > y->leaf) - (x->leaf < y->leaf);
+}
+
+/* Interleaves a model's leaves by rank within their node. */
+static bool model_order(const hz_tree *t, model_info *mi)
+{
+    uint32_t n = t->leaf_count;
+    mi->order = malloc((n ? n : 1) * sizeof *mi->order);
+    mi->pos = malloc((n ? n : 1) * sizeof *mi->pos);
+    key_leaf *kl = malloc((n ? n : 1) * sizeof *kl);
+    if (!mi->order || !mi->pos || !kl) {
+        free(kl);
+        return false;
+    }
+    for (uint32_t k = 0; k < n; k++)
+        kl[k] = (key_leaf){1.0f, k}; /* leaves of no node go last */
+    for (uint32_t nd = 0; nd < t->node_count; nd++)
+        for (uint32_t i = 0; i < t->nodes[nd].count; i++)
+            kl[t->nodes[nd].first + i].key = ((float)i + 0.5f) / (float)t->nodes[nd].count;
+    qsort(kl, n, sizeof *kl, cmp_key);
+    for (uint32_t p = 0; p < n; p++) {
+        mi->order[p] = kl[p].leaf;
+        mi->pos[kl[p].leaf] = p;
+    }
+    free(kl);
+    return true;
+}
 
 hz_forest *hz_forest_create(const hz_tree *const *models, uint32_t model_count, const hz_forest_tree *trees,
                             uint32_t tree_count, hz_err *err)
@@ -262,12 +327,20 @@ hz_forest *hz_forest_create(const hz_tree *const *models, uint32_t model_count, 
         goto oom;
     f->model_count = model_count;
     f->tree_count = tree_count;
+    const size_t tc = tree_count ? tree_count : 1;
     f->models = malloc(model_count * sizeof *f->models);
     f->info = calloc(model_count, sizeof *f->info);
-    f->trees = malloc((tree_count ? tree_count : 1) * sizeof *f->trees);
-    f->state_base = malloc((tree_count ? tree_count : 1) * sizeof *f->state_base);
-    f->draws = malloc((tree_count ? tree_count : 1) * sizeof *f->draws);
-    if (!f->models || !f->info || !f->trees || !f->state_base || !f->draws)
+    f->trees = malloc(tc * sizeof *f->trees);
+    f->state_base = malloc(tc * sizeof *f->state_base);
+    f->draws = malloc(tc * sizeof *f->draws);
+    f->detailed_at = calloc(tc, sizeof *f->detailed_at);
+    f->prefix = calloc(tc, sizeof *f->prefix);
+    f->kept_total = calloc(tc, sizeof *f->kept_total);
+    f->imp_list = malloc(tc * sizeof *f->imp_list);
+    f->imp_dist = malloc(tc * sizeof *f->imp_dist);
+    f->sort_tmp = malloc(2 * tc * sizeof *f->sort_tmp);
+    if (!f->models || !f->info || !f->trees || !f->state_base || !f->draws || !f->detailed_at || !f->prefix ||
+        !f->kept_total || !f->imp_list || !f->imp_dist || !f->sort_tmp)
         goto oom;
     memcpy(f->models, models, model_count * sizeof *f->models);
     if (tree_count)
@@ -282,6 +355,19 @@ hz_forest *hz_forest_create(const hz_tree *const *models, uint32_t model_count, 
         double mean = t->node_count ? sum / t->node_count : 0.0;
         f->info[m].ld0 = t->node_count ? (float)fmin(mn, 0.5 * mean) : 0.0f;
         f->info[m].triangles = hz_tree_triangles(t);
+        if (!model_order(t, &f->info[m]))
+            goto oom;
+        f->info[m].cov = malloc((t->leaf_count ? t->leaf_count : 1) * sizeof *f->info[m].cov);
+        if (!f->info[m].cov)
+            goto oom;
+        if (hz_tree_prefix_coverage(t, f->info[m].cov, err) != HZ_OK) {
+            hz_forest_destroy(f);
+            return NULL;
+        }
+        if (t->hull.index_count && hz_mesh_simplify(&t->hull, HZ_FOREST_HULL_TRIANGLES, &f->info[m].hull, err) != HZ_OK) {
+            hz_forest_destroy(f);
+            return NULL;
+        }
     }
     size_t total = 0;
     for (uint32_t k = 0; k < tree_count; k++) {
@@ -296,7 +382,7 @@ hz_forest *hz_forest_create(const hz_tree *const *models, uint32_t model_count, 
     f->state_total = total;
     f->rate = malloc((total ? total : 1) * sizeof *f->rate);
     f->since = malloc((total ? total : 1) * sizeof *f->since);
-    f->counts = malloc((total ? total : 1) * sizeof *f->counts);
+    f->counts = calloc(total ? total : 1, sizeof *f->counts);
     f->scales = malloc((total ? total : 1) * sizeof *f->scales);
     if (!f->rate || !f->since || !f->counts || !f->scales)
         goto oom;
@@ -312,6 +398,14 @@ void hz_forest_destroy(hz_forest *f)
 {
     if (!f)
         return;
+    for (uint32_t m = 0; m < f->model_count && f->info; m++) {
+        free(f->info[m].order);
+        free(f->info[m].pos);
+        free(f->info[m].hull.pos);
+        free(f->info[m].hull.nrm);
+        free(f->info[m].hull.idx);
+        free(f->info[m].cov);
+    }
     free(f->models);
     free(f->info);
     free(f->trees);
@@ -321,6 +415,12 @@ void hz_forest_destroy(hz_forest *f)
     free(f->draws);
     free(f->counts);
     free(f->scales);
+    free(f->detailed_at);
+    free(f->prefix);
+    free(f->kept_total);
+    free(f->imp_list);
+    free(f->imp_dist);
+    free(f->sort_tmp);
     free(f);
 }
 
@@ -329,7 +429,12 @@ void hz_forest_reset(hz_forest *f)
     for (size_t k = 0; k < f->state_total; k++) {
         f->rate[k] = -1.0f;
         f->since[k] = 0.0f;
+        f->scales[k] = 1.0f;
     }
+    /* Every tree is re-evaluated in full when next drawn with leaves. */
+    for (uint32_t k = 0; k < f->tree_count; k++)
+        f->detailed_at[k] = 0;
+    f->serial += 2;
 }
 
 uint32_t hz_forest_tree_count(const hz_forest *f)
@@ -348,6 +453,18 @@ uint32_t hz_forest_model_count(const hz_forest *f)
 {
     return f->model_count;
 }
+const uint32_t *hz_forest_model_order(const hz_forest *f, uint32_t k)
+{
+    return k < f->model_count ? f->info[k].order : NULL;
+}
+const uint32_t *hz_forest_model_pos(const hz_forest *f, uint32_t k)
+{
+    return k < f->model_count ? f->info[k].pos : NULL;
+}
+const hz_tree_mesh *hz_forest_model_hull(const hz_forest *f, uint32_t k)
+{
+    return k < f->model_count ? &f->info[k].hull : NULL;
+}
 
 void hz_forest_tree_matrix(const hz_forest *f, uint32_t k, float m[16])
 {
@@ -364,19 +481,164 @@ static void xform_point(const float m[16], const float *p, float *o)
         o[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r];
 }
 
-static void xform_dir(const float m[16], const float *p, float *o)
-{
-    for (int r = 0; r < 3; r++)
-        o[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2];
-    v3_norm(o);
-}
-
 static bool sphere_visible(const vec4 planes[6], const float *c, float r)
 {
     for (int k = 0; k < 6; k++)
         if (planes[k][0] * c[0] + planes[k][1] * c[1] + planes[k][2] * c[2] + planes[k][3] < -r)
             return false;
     return true;
+}
+
+/* 0 below the band, 1 beyond it, linear between. */
+static float band_fade(const float band[2], float d)
+{
+    if (d <= band[0])
+        return 0.0f;
+    if (d >= band[1])
+        return 1.0f;
+    return (d - band[0]) / (band[1] - band[0]);
+}
+
+/* Per-node rates of one detailed tree, in model space (the tree's rotation
+ * and uniform scale keep angles; distances scale). Only nodes whose kept
+ * count changes are written; their range goes to dr->dirty_lo/hi. */
+static void tree_nodes(hz_forest *f, uint32_t k, const hz_forest_params *P, const vec4 planes[6], const float *eye,
+                       double now_s, bool fresh, hz_forest_draw *dr, hz_forest_frame *fr)
+{
+    const hz_forest_tree *tr = &f->trees[k];
+    const hz_tree *t = f->models[tr->model];
+    const model_info *mi = &f->info[tr->model];
+    /* eye and frustum planes in model space */
+    float cy = cosf(tr->yaw), sy = sinf(tr->yaw), s = tr->scale, inv = 1.0f / s;
+    float d[3] = {eye[0] - tr->pos[0], eye[1] - tr->pos[1], eye[2] - tr->pos[2]};
+    /* world = R(yaw) * s * model with R columns (c,0,-s), (0,1,0), (s,0,c) */
+    float em[3] = {(cy * d[0] - sy * d[2]) * inv, d[1] * inv, (sy * d[0] + cy * d[2]) * inv};
+    vec4 mp[6];
+    for (int p = 0; p < 6; p++) {
+        const float *w = planes[p];
+        /* n . (R s x + t) + w = (s R^T n) . x + (n . t + w) */
+        mp[p][0] = s * (cy * w[0] - sy * w[2]);
+        mp[p][1] = s * w[1];
+        mp[p][2] = s * (sy * w[0] + cy * w[2]);
+        mp[p][3] = w[0] * tr->pos[0] + w[1] * tr->pos[1] + w[2] * tr->pos[2] + w[3];
+    }
+    const uint32_t sb = f->state_base[k];
+    const float ld0 = mi->ld0;
+    uint32_t lo = fresh ? 0 : UINT32_MAX, hi = fresh ? t->node_count : 0;
+    int64_t kept_delta = 0;
+    for (uint32_t n = 0; n < t->node_count; n++) {
+        const hz_tree_node *nd = &t->nodes[n];
+        uint32_t *cnt = &f->counts[sb + n];
+        float *sc = &f->scales[sb + n];
+        fr->nodes_considered++;
+        uint32_t kept;
+        if (!P->simplify) {
+            kept = nd->count;
+        } else {
+            if (P->node_culling && !fresh && !sphere_visible((const vec4 *)mp, nd->center, nd->radius)) {
+                /* Out of view: keeps its count (the GPU clips it) and costs no rate. */
+                fr->nodes_culled++;
+                continue;
+            }
+            float los[3];
+            v3_sub(los, nd->center, em);
+            float len = v3_len(los);
+            if (len > 0)
+                v3_scale(los, los, 1.0f / len);
+            float nd_dist = len * s;
+            const hz_tree_branch *br = &t->branches[nd->branch];
+            float *cur = &f->rate[sb + n], *since = &f->since[sb + n];
+            float Rs = P->fixed_rate ? fminf(fmaxf(P->fixed, 0.0f), 0.999f)
+                                     : hz_rate_node_fixed(&P->rate, nd->bsl, br->level, nd_dist, nd->ld, ld0,
+                                                          v3_dot(los, br->dir));
+            if (*cur < 0.0f) {
+                *cur = Rs;
+                *since = (float)now_s;
+            } else if (Rs != *cur) {
+                if (!P->hysteresis || hz_hysteresis_allows(&P->rate, nd_dist, Rs - *cur, (float)(now_s - *since))) {
+                    *cur = Rs;
+                    *since = (float)now_s;
+                    fr->nodes_changed++;
+                } else {
+                    fr->nodes_held++;
+                }
+            }
+            kept = (uint32_t)ceilf((1.0f - *cur) * (float)nd->count - 1e-4f);
+            if (kept < 1)
+                kept = 1;
+            if (kept > nd->count)
+                kept = nd->count;
+        }
+        /* F4 by coverage: the prefix grows to cover what its node covered. */
+        float scale = P->simplify && P->enlarge ? hz_enlarge_coverage(P->rate.max_enlarge, mi->cov[nd->first + kept - 1])
+                                                : 1.0f;
+        if (kept != *cnt || fresh || scale != *sc) {
+            kept_delta += (int64_t)kept - (int64_t)*cnt;
+            *cnt = kept;
+            if (n < lo)
+                lo = n;
+            if (n + 1 > hi)
+                hi = n + 1;
+        }
+        *sc = scale;
+    }
+    if (fresh) {
+        uint64_t sum = 0;
+        for (uint32_t n = 0; n < t->node_count; n++)
+            sum += f->counts[sb + n];
+        f->kept_total[k] = sum;
+    } else {
+        f->kept_total[k] = (uint64_t)((int64_t)f->kept_total[k] + kept_delta);
+    }
+    if (lo < hi) {
+        /* The prefix that holds every node's kept leaves. */
+        uint32_t pre = 0;
+        for (uint32_t n = 0; n < t->node_count; n++) {
+            uint32_t c = f->counts[sb + n];
+            if (c) {
+                uint32_t p = mi->pos[t->nodes[n].first + c - 1] + 1;
+                if (p > pre)
+                    pre = p;
+            }
+        }
+        f->prefix[k] = pre;
+        fr->upload_bytes += (uint64_t)(hi - lo) * (sizeof(uint32_t) + sizeof(float));
+    }
+    dr->dirty_lo = lo < hi ? lo : 0;
+    dr->dirty_hi = lo < hi ? hi : 0;
+    dr->prefix = f->prefix[k];
+}
+
+/* Sorts ids[0..n) by key, ascending: LSD radix sort on the float bits
+ * (keys are non-negative distances), 2 passes of 16 bits. tmp: 2n. */
+static void sort_by_dist(uint32_t *ids, const float *key, uint32_t n, uint32_t *tmp)
+{
+    static uint32_t hist[65536];
+    uint32_t *k0 = tmp, *idx2 = tmp + n;
+    for (int pass = 0; pass < 2; pass++) {
+        memset(hist, 0, sizeof hist);
+        for (uint32_t i = 0; i < n; i++) {
+            uint32_t b;
+            memcpy(&b, &key[ids[i]], 4);
+            k0[i] = b;
+            hist[(b >> (16 * pass)) & 0xffff]++;
+        }
+        uint32_t sum = 0;
+        for (uint32_t h = 0; h < 65536; h++) {
+            uint32_t c = hist[h];
+            hist[h] = sum;
+            sum += c;
+        }
+        for (uint32_t i = 0; i < n; i++)
+            idx2[hist[(k0[i] >> (16 * pass)) & 0xffff]++] = ids[i];
+        memcpy(ids, idx2, n * sizeof *ids);
+    }
+}
+
+static int cmp_draw(const void *a, const void *b)
+{
+    const hz_forest_draw *x = a, *y = b;
+    return (x->dist > y->dist) - (x->dist < y->dist);
 }
 
 hz_result hz_forest_update(hz_forest *f, const hz_camera *cam, const hz_forest_params *params, double now_s,
@@ -386,13 +648,33 @@ hz_result hz_forest_update(hz_forest *f, const hz_camera *cam, const hz_forest_p
     double t0 = hz_time_ms();
     hz_forest_params P = params ? *params : (hz_forest_params){.simplify = true, .enlarge = true};
     P.rate = hz_rate_params_defaults(&P.rate);
-    const float hull_dist = P.hull_dist > 0 ? P.hull_dist : 0.5f * P.rate.far_m;
-    *fr = (hz_forest_frame){.draws = f->draws, .counts = f->counts, .scales = f->scales, .trees = f->tree_count,
-                            .serial = ++f->serial};
+    const float hull_dist = P.hull_dist > 0 ? P.hull_dist : 0.25f * P.rate.far_m;
+    const float imp_dist = P.impostor_dist > 0 ? P.impostor_dist : fmaxf(0.5f * P.rate.far_m, 2.0f * hull_dist);
+    const float ff = P.fade_frac > 0 ? fminf(P.fade_frac, 0.9f) : 0.15f;
+    const bool enlarge = P.simplify && P.enlarge;
+    /* Switching enlargement re-derives every scale. */
+    if (enlarge != f->last_enlarge) {
+        for (uint32_t k = 0; k < f->tree_count; k++)
+            f->detailed_at[k] = 0;
+        f->last_enlarge = enlarge;
+    }
+    const uint64_t serial = ++f->serial;
+    *fr = (hz_forest_frame){.draws = f->draws,
+                            .counts = f->counts,
+                            .scales = f->scales,
+                            .node_total = (uint32_t)f->state_total,
+                            .hull_band = {hull_dist * (1.0f - ff), hull_dist},
+                            .impostor_band = {imp_dist * (1.0f - ff), imp_dist},
+                            .max_dist = P.max_dist > 0 ? P.max_dist : INFINITY,
+                            .impostors = P.simplify,
+                            .enlarge = enlarge,
+                            .max_enlarge = P.rate.max_enlarge,
+                            .trees = f->tree_count,
+                            .serial = serial};
     vec4 planes[6];
     hz_camera_frustum(cam, planes);
     const float *eye = cam->pos;
-    uint32_t nodes_used = 0;
+    uint64_t leaves = 0;
     for (uint32_t k = 0; k < f->tree_count; k++) {
         const hz_forest_tree *tr = &f->trees[k];
         const hz_tree *t = f->models[tr->model];
@@ -401,86 +683,55 @@ hz_result hz_forest_update(hz_forest *f, const hz_camera *cam, const hz_forest_p
         xform_point(m, t->bound_center, c);
         if (!sphere_visible((const vec4 *)planes, c, t->bound_radius * tr->scale))
             continue;
+        float dist = v3_dist(c, eye);
+        if (dist > fr->max_dist)
+            continue;
         fr->trees_in_frustum++;
         fr->triangles_full += f->info[tr->model].triangles;
-        float dist = v3_dist(c, eye);
+        const bool has_hull = t->hull.index_count > 0;
+        if (P.simplify && dist >= fr->impostor_band[0]) {
+            f->imp_dist[k] = dist;
+            f->imp_list[fr->impostor_count++] = k;
+        }
+        if (P.simplify && dist >= fr->impostor_band[1]) {
+            fr->trees_impostor++;
+            fr->triangles_drawn += 2;
+            continue;
+        }
         hz_forest_draw *dr = &fr->draws[fr->draw_count++];
-        *dr = (hz_forest_draw){.tree = k, .model = tr->model, .bark_levels = t->levels, .node_base = nodes_used};
-        if (P.simplify && dist > hull_dist && t->hull.index_count) {
+        *dr = (hz_forest_draw){.tree = k, .model = tr->model, .bark_levels = t->levels,
+                               .node_base = f->state_base[k], .dist = dist};
+        if (P.simplify && has_hull && dist >= fr->hull_band[1]) {
             dr->hull = true;
             dr->bark_levels = 1;
+            dr->fade = band_fade(fr->impostor_band, dist);
             fr->trees_hull++;
-            fr->triangles_drawn += t->hull.index_count / 3 + t->bark_level_end[0] / 3;
+            fr->trees_fading += dr->fade > 0;
+            fr->triangles_drawn += f->info[tr->model].hull.index_count / 3 + t->bark_level_end[0] / 3 +
+                                   (dr->fade > 0 ? 2 : 0);
             continue;
         }
         fr->trees_detailed++;
-        if (P.simplify && dist > 0.5f * hull_dist && t->levels > 2)
-            dr->bark_levels = t->levels - 1; /* twigs are sub-pixel there */
+        if (P.simplify) {
+            dr->fade = band_fade(has_hull ? fr->hull_band : fr->impostor_band, dist);
+            fr->trees_fading += dr->fade > 0;
+            if (dr->fade > 0)
+                fr->triangles_drawn += has_hull ? f->info[tr->model].hull.index_count / 3 : 2;
+            if (dist > 0.5f * hull_dist && t->levels > 2)
+                dr->bark_levels = t->levels - 1; /* twigs are sub-pixel there */
+        }
         fr->triangles_drawn += t->bark_level_end[dr->bark_levels - 1] / 3;
-        const uint32_t sb = f->state_base[k];
-        const float ld0 = f->info[tr->model].ld0;
-        for (uint32_t n = 0; n < t->node_count; n++) {
-            const hz_tree_node *nd = &t->nodes[n];
-            uint32_t *cnt = &f->counts[nodes_used + n];
-            float *sc = &f->scales[nodes_used + n];
-            fr->nodes_considered++;
-            if (!P.simplify) {
-                *cnt = nd->count;
-                *sc = 1.0f;
-                continue;
-            }
-            float nc[3];
-            xform_point(m, nd->center, nc);
-            if (P.node_culling && !sphere_visible((const vec4 *)planes, nc, nd->radius * tr->scale)) {
-                *cnt = 0;
-                *sc = 1.0f;
-                fr->nodes_culled++;
-                continue;
-            }
-            float los[3], gdir[3];
-            v3_sub(los, nc, eye);
-            float nd_dist = v3_len(los);
-            if (nd_dist > 0)
-                v3_scale(los, los, 1.0f / nd_dist);
-            const hz_tree_branch *br = &t->branches[nd->branch];
-            xform_dir(m, br->dir, gdir);
-            float *cur = &f->rate[sb + n], *since = &f->since[sb + n];
-            float kept_frac = *cur >= 0.0f ? 1.0f - *cur : 1.0f;
-            float Rs = P.fixed_rate ? fminf(fmaxf(P.fixed, 0.0f), 0.999f)
-                                    : hz_rate_node(&P.rate, nd->bsl, br->level, nd_dist, nd->ld * kept_frac, ld0,
-                                                   v3_dot(los, gdir));
-            if (*cur < 0.0f) {
-                *cur = Rs;
-                *since = (float)now_s;
-            } else if (Rs != *cur) {
-                if (!P.hysteresis || hz_hysteresis_allows(&P.rate, nd_dist, Rs - *cur, (float)(now_s - *since))) {
-                    *cur = Rs;
-                    *since = (float)now_s;
-                    fr->nodes_changed++;
-                } else {
-                    fr->nodes_held++;
-                }
-            }
-            uint32_t kept = (uint32_t)ceilf((1.0f - *cur) * (float)nd->count - 1e-4f);
-            if (kept < 1)
-                kept = 1;
-            if (kept > nd->count)
-                kept = nd->count;
-            *cnt = kept;
-            *sc = P.enlarge ? hz_enlarge(&P.rate, nd->count, kept) : 1.0f;
-        }
-        nodes_used += t->node_count;
+        bool fresh = f->detailed_at[k] + 1 != serial;
+        tree_nodes(f, k, &P, (const vec4 *)planes, eye, now_s, fresh, dr, fr);
+        f->detailed_at[k] = serial;
+        leaves += f->kept_total[k];
     }
-    fr->node_total = nodes_used;
-    uint64_t leaves = 0;
-    for (uint32_t d = 0; d < fr->draw_count; d++)
-        if (!fr->draws[d].hull) {
-            const hz_tree *t = f->models[fr->draws[d].model];
-            for (uint32_t n = 0; n < t->node_count; n++)
-                leaves += fr->counts[fr->draws[d].node_base + n];
-        }
     fr->leaves_drawn = leaves;
     fr->triangles_drawn += 2 * leaves;
+    /* Nearest first, so that the depth test spares what is hidden. */
+    qsort(fr->draws, fr->draw_count, sizeof *fr->draws, cmp_draw);
+    sort_by_dist(f->imp_list, f->imp_dist, fr->impostor_count, f->sort_tmp);
+    fr->impostor_trees = f->imp_list;
     fr->select_ms = hz_time_ms() - t0;
     return HZ_OK;
 }

@@ -722,3 +722,62 @@ done:
     free(remap);
     return res;
 }
+
+hz_result hz_mesh_simplify(const hz_tree_mesh *in, uint32_t triangles, hz_tree_mesh *out, hz_err *err)
+{
+    *out = (hz_tree_mesh){0};
+    size_t target = (size_t)triangles * 3;
+    uint32_t *idx = malloc((in->index_count ? in->index_count : 1) * sizeof *idx);
+    unsigned int *remap = malloc((in->vertex_count ? in->vertex_count : 1) * sizeof *remap);
+    if (!idx || !remap) {
+        free(idx);
+        free(remap);
+        return hz_err_set(err, HZ_ERR_MEMORY, "hull: out of memory");
+    }
+    size_t ni = in->index_count;
+    if (ni > target) {
+        ni = meshopt_simplify(idx, in->idx, in->index_count, in->pos, in->vertex_count, 3 * sizeof(float), target,
+                              0.5f, 0, NULL);
+        if (ni > target + target / 2 || ni < 12)
+            ni = meshopt_simplifySloppy(idx, in->idx, in->index_count, in->pos, in->vertex_count, 3 * sizeof(float),
+                                        target, 0.5f, NULL);
+    }
+    if (ni < 12 || ni >= in->index_count) {
+        memcpy(idx, in->idx, in->index_count * sizeof *idx);
+        ni = in->index_count;
+    }
+    size_t nv = meshopt_optimizeVertexFetchRemap(remap, idx, ni, in->vertex_count);
+    out->pos = malloc((nv ? nv : 1) * 3 * sizeof(float));
+    out->nrm = calloc((nv ? nv : 1) * 3, sizeof(float));
+    out->idx = malloc((ni ? ni : 1) * sizeof(uint32_t));
+    if (!out->pos || !out->nrm || !out->idx) {
+        free(out->pos);
+        free(out->nrm);
+        free(out->idx);
+        *out = (hz_tree_mesh){0};
+        free(idx);
+        free(remap);
+        return hz_err_set(err, HZ_ERR_MEMORY, "hull: out of memory");
+    }
+    meshopt_remapIndexBuffer(out->idx, idx, ni, remap);
+    meshopt_remapVertexBuffer(out->pos, in->pos, in->vertex_count, 3 * sizeof(float), remap);
+    out->vertex_count = (uint32_t)nv;
+    out->index_count = (uint32_t)ni;
+    for (size_t k = 0; k < ni; k += 3) {
+        const uint32_t *ix = &out->idx[k];
+        float e1[3], e2[3], n[3];
+        v3_sub(e1, &out->pos[ix[1] * 3], &out->pos[ix[0] * 3]);
+        v3_sub(e2, &out->pos[ix[2] * 3], &out->pos[ix[0] * 3]);
+        v3_cross(n, e1, e2);
+        for (int c = 0; c < 3; c++)
+            v3_add(&out->nrm[ix[c] * 3], &out->nrm[ix[c] * 3], n);
+    }
+    for (size_t v = 0; v < nv; v++) {
+        v3_norm(&out->nrm[v * 3]);
+        if (!isfinite(out->nrm[v * 3]))
+            v3_set(&out->nrm[v * 3], 0, 1, 0);
+    }
+    free(idx);
+    free(remap);
+    return HZ_OK;
+}

@@ -1,15 +1,29 @@
-/* Forest drawing: the models once on the GPU, per frame one index list of
- * every detailed tree's kept leaf prefixes (node by node) and one draw per
- * tree; bark by level; far trees as crown hulls. Drawn through the
- * renderer's object hook so fog and reflections apply. */
+/* Forest drawing, one LOD chain per tree: VMI leaf prefixes near, the crown
+ * hull shaded from the tree's own impostor in the middle, image impostors
+ * far, cross-faded by dithering. Models live on the GPU once: leaves
+ * interleaved by rank with a static quad index buffer (a tree draws one
+ * prefix; the vertex shader drops leaves beyond their node's kept count,
+ * read from a persistent per-(tree, node) buffer of which only changed
+ * ranges are uploaded), bark and hull meshes, and an impostor atlas baked
+ * from the full tree (albedo + normals, several views). Far trees are one
+ * draw over a static buffer of all trees. Drawn through the renderer's
+ * object hook so fog and reflections apply. */
 #include "horizon/forest_render.h"
 
+#include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "gl_util.h"
 #include "hz_shaders.h"
+
+/* Impostor atlas: IMP_AZ azimuths x IMP_EL elevation rows (0, 25, 50, 75
+ * degrees) of IMP_TILE pixels, one texture-array layer per model. */
+#define IMP_AZ 12
+#define IMP_EL 4
+#define IMP_EL_STEP 0.436332313f /* 25 degrees */
+#define IMP_TILE 128
 
 typedef struct mesh_gpu {
     GLuint vao, vbo, ibo;
@@ -18,37 +32,42 @@ typedef struct mesh_gpu {
 
 typedef struct model_gpu {
     GLuint leaf_buf, leaf_tex;
+    GLuint quad_ibo;        /* 6 indices per leaf position: 4p + 0,1,2, 0,2,3 */
     mesh_gpu bark, hull;
     uint32_t bark_level_end[HZ_TREE_MAX_LEVELS];
 } model_gpu;
 
 typedef struct prog_u {
-    GLint leaves, scales, scale_base, model, viewproj, clip, crown, color, sun, sky, eye, fog, ambient, hull;
+    GLint leaves, kept, scales, kept_base, model, viewproj, clip, crown, color, sun, sky, eye, fog, ambient,
+        hull, dither, albedo, normals, layer, tile, right, up, bound, trees, models, order, band, max_dist, views,
+        el_step, rects, px_scale, tile_px, max_lod, lod, size;
 } prog_u;
 
 struct hz_forest_gpu {
     model_gpu *m;
     uint32_t nm;
-    GLuint leaf_prog, bark_prog;
-    prog_u lu, bu;
+    GLuint leaf_prog, bark_prog, imp_prog;
+    prog_u lu, bu, iu;
     GLuint empty_vao;
-    GLuint idx_buf;
-    size_t idx_gpu_cap;
-    GLuint scale_buf, scale_tex;
-    size_t scale_gpu_cap;
-    uint32_t *idx;          /* per-frame index list */
-    size_t idx_cap;
-    size_t *draw_off, *draw_cnt;
-    uint32_t draw_cap;
-    uint64_t built_serial;  /* frame serial the lists were built for */
-    bool built;
+    GLuint kept_buf, kept_tex;  /* R32UI per (tree, node) */
+    GLuint scale_buf, scale_tex;/* R32F per (tree, node) */
+    GLuint tree_buf, tree_tex;  /* impostor data per tree */
+    GLuint model_buf, model_tex;
+    GLuint order_buf, order_tex;  /* R32UI: the frame's impostor trees */
+    GLuint rect_buf, rect_tex;    /* RGBA32F per (model, view): the image's extent in its tile */
+    GLuint atlas[2];            /* albedo, normals: RGBA8 arrays */
+    uint32_t tree_count;
+    size_t node_total;
+    uint64_t last_serial;       /* frame whose counts were uploaded last */
+    uint64_t upload_bytes;      /* of the last frame */
 };
 
 static void get_u(GLuint p, prog_u *u)
 {
     u->leaves = glGetUniformLocation(p, "u_leaves");
+    u->kept = glGetUniformLocation(p, "u_kept");
+    u->kept_base = glGetUniformLocation(p, "u_kept_base");
     u->scales = glGetUniformLocation(p, "u_scales");
-    u->scale_base = glGetUniformLocation(p, "u_scale_base");
     u->model = glGetUniformLocation(p, "u_model");
     u->viewproj = glGetUniformLocation(p, "u_viewproj");
     u->clip = glGetUniformLocation(p, "u_clip_plane");
@@ -60,6 +79,27 @@ static void get_u(GLuint p, prog_u *u)
     u->fog = glGetUniformLocation(p, "u_fog_density");
     u->ambient = glGetUniformLocation(p, "u_ambient");
     u->hull = glGetUniformLocation(p, "u_hull");
+    u->dither = glGetUniformLocation(p, "u_dither");
+    u->albedo = glGetUniformLocation(p, "u_albedo");
+    u->normals = glGetUniformLocation(p, "u_normals");
+    u->layer = glGetUniformLocation(p, "u_layer");
+    u->tile = glGetUniformLocation(p, "u_tile");
+    u->right = glGetUniformLocation(p, "u_right");
+    u->up = glGetUniformLocation(p, "u_up");
+    u->bound = glGetUniformLocation(p, "u_bound");
+    u->trees = glGetUniformLocation(p, "u_trees");
+    u->models = glGetUniformLocation(p, "u_models");
+    u->order = glGetUniformLocation(p, "u_order");
+    u->rects = glGetUniformLocation(p, "u_rects");
+    u->px_scale = glGetUniformLocation(p, "u_px_scale");
+    u->tile_px = glGetUniformLocation(p, "u_tile_px");
+    u->max_lod = glGetUniformLocation(p, "u_max_lod");
+    u->lod = glGetUniformLocation(p, "u_lod");
+    u->size = glGetUniformLocation(p, "u_size");
+    u->band = glGetUniformLocation(p, "u_band");
+    u->max_dist = glGetUniformLocation(p, "u_max_dist");
+    u->views = glGetUniformLocation(p, "u_views");
+    u->el_step = glGetUniformLocation(p, "u_el_step");
 }
 
 static void mesh_upload(mesh_gpu *g, const hz_tree_mesh *m, uint32_t count)
@@ -99,6 +139,18 @@ static void mesh_free(mesh_gpu *g)
     glDeleteBuffers(1, &g->ibo);
 }
 
+static void buffer_texture(GLuint *buf, GLuint *tex, GLenum fmt, const void *data, size_t bytes, GLenum usage)
+{
+    glGenBuffers(1, buf);
+    glGenTextures(1, tex);
+    glBindBuffer(GL_TEXTURE_BUFFER, *buf);
+    glBufferData(GL_TEXTURE_BUFFER, (GLsizeiptr)(bytes ? bytes : 16), bytes ? data : NULL, usage);
+    glBindTexture(GL_TEXTURE_BUFFER, *tex);
+    glTexBuffer(GL_TEXTURE_BUFFER, fmt, *buf);
+    glBindTexture(GL_TEXTURE_BUFFER, 0);
+    glBindBuffer(GL_TEXTURE_BUFFER, 0);
+}
+
 void hz_forest_gpu_destroy(hz_forest_gpu *g)
 {
     if (!g)
@@ -107,174 +159,67 @@ void hz_forest_gpu_destroy(hz_forest_gpu *g)
         for (uint32_t k = 0; k < g->nm && g->m; k++) {
             glDeleteBuffers(1, &g->m[k].leaf_buf);
             glDeleteTextures(1, &g->m[k].leaf_tex);
+            glDeleteBuffers(1, &g->m[k].quad_ibo);
             mesh_free(&g->m[k].bark);
             mesh_free(&g->m[k].hull);
         }
         glDeleteProgram(g->leaf_prog);
         glDeleteProgram(g->bark_prog);
+        glDeleteProgram(g->imp_prog);
         glDeleteVertexArrays(1, &g->empty_vao);
-        glDeleteBuffers(1, &g->idx_buf);
+        glDeleteBuffers(1, &g->kept_buf);
+        glDeleteTextures(1, &g->kept_tex);
         glDeleteBuffers(1, &g->scale_buf);
         glDeleteTextures(1, &g->scale_tex);
+        glDeleteBuffers(1, &g->tree_buf);
+        glDeleteTextures(1, &g->tree_tex);
+        glDeleteBuffers(1, &g->model_buf);
+        glDeleteTextures(1, &g->model_tex);
+        glDeleteBuffers(1, &g->order_buf);
+        glDeleteTextures(1, &g->order_tex);
+        glDeleteBuffers(1, &g->rect_buf);
+        glDeleteTextures(1, &g->rect_tex);
+        glDeleteTextures(2, g->atlas);
     }
     free(g->m);
-    free(g->idx);
-    free(g->draw_off);
-    free(g->draw_cnt);
     free(g);
 }
 
-hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err)
+/* Mip levels of the atlas: down to 1 texel per tile. */
+static int imp_levels(void)
 {
-    if (!hz_gl_has_context()) {
-        hz_err_set(err, HZ_ERR_GL, "forest: no current OpenGL context");
-        return NULL;
-    }
-    hz_forest_gpu *g = calloc(1, sizeof *g);
-    if (!g) {
-        hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
-        return NULL;
-    }
-    hz_gl_drain();
-    g->nm = hz_forest_model_count(f);
-    g->m = calloc(g->nm, sizeof *g->m);
-    if (!g->m) {
-        hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
-        goto fail;
-    }
-    g->leaf_prog = hz_gl_program(hz_shader_leaf_vs, hz_shader_leaf_fs, "leaf", err);
-    if (!g->leaf_prog)
-        goto fail;
-    g->bark_prog = hz_gl_program(hz_shader_bark_vs, hz_shader_bark_fs, "bark", err);
-    if (!g->bark_prog)
-        goto fail;
-    get_u(g->leaf_prog, &g->lu);
-    get_u(g->bark_prog, &g->bu);
-    glGenVertexArrays(1, &g->empty_vao);
-    glGenBuffers(1, &g->idx_buf);
-    glGenBuffers(1, &g->scale_buf);
-    glGenTextures(1, &g->scale_tex);
-    for (uint32_t k = 0; k < g->nm; k++) {
-        const hz_tree *t = hz_forest_model(f, k);
-        model_gpu *m = &g->m[k];
-        float *d = malloc((size_t)t->leaf_count * 48 + 16);
-        if (!d) {
-            hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
-            goto fail;
-        }
-        for (uint32_t n = 0; n < t->node_count; n++)
-            for (uint32_t l = t->nodes[n].first; l < t->nodes[n].first + t->nodes[n].count; l++) {
-                float *o = d + (size_t)l * 12;
-                const hz_tree_leaf *lf = &t->leaves[l];
-                o[0] = lf->c[0], o[1] = lf->c[1], o[2] = lf->c[2], o[3] = (float)n;
-                o[4] = lf->u[0], o[5] = lf->u[1], o[6] = lf->u[2], o[7] = 0;
-                o[8] = lf->v[0], o[9] = lf->v[1], o[10] = lf->v[2], o[11] = 0;
-            }
-        glGenBuffers(1, &m->leaf_buf);
-        glGenTextures(1, &m->leaf_tex);
-        glBindBuffer(GL_TEXTURE_BUFFER, m->leaf_buf);
-        glBufferData(GL_TEXTURE_BUFFER, (GLsizeiptr)((size_t)t->leaf_count * 48 + 16), d, GL_STATIC_DRAW);
-        free(d);
-        glBindTexture(GL_TEXTURE_BUFFER, m->leaf_tex);
-        glTexBuffer(GL_TEXTURE_BUFFER, GL_RGBA32F, m->leaf_buf);
-        glBindTexture(GL_TEXTURE_BUFFER, 0);
-        glBindBuffer(GL_TEXTURE_BUFFER, 0);
-        mesh_upload(&m->bark, &t->bark, t->bark.index_count);
-        mesh_upload(&m->hull, &t->hull, t->hull.index_count);
-        memcpy(m->bark_level_end, t->bark_level_end, sizeof m->bark_level_end);
-    }
-    if (hz_gl_check(err, "forest upload") != HZ_OK)
-        goto fail;
-    return g;
-fail:
-    hz_forest_gpu_destroy(g);
-    return NULL;
+    int levels = 1;
+    for (int s = IMP_TILE; s > 1; s >>= 1)
+        levels++;
+    return levels;
 }
 
-/* The per-frame index list: 6 consecutive "vertex ids" per kept leaf. */
-static hz_result build_lists(hz_forest_gpu *g, const hz_forest *f, const hz_forest_frame *fr, hz_err *err)
+/* The image axes of view (ia, ie) in model space, as the impostor shader
+ * derives them: fwd from the viewer toward the tree. */
+static void view_axes(int ia, int ie, float right[3], float up[3], float fwd[3])
 {
-    if (g->draw_cap < fr->draw_count) {
-        free(g->draw_off);
-        free(g->draw_cnt);
-        g->draw_off = malloc(fr->draw_count * sizeof *g->draw_off);
-        g->draw_cnt = malloc(fr->draw_count * sizeof *g->draw_cnt);
-        if (!g->draw_off || !g->draw_cnt) {
-            g->draw_cap = 0;
-            return hz_err_set(err, HZ_ERR_MEMORY, "forest: out of memory");
-        }
-        g->draw_cap = fr->draw_count;
-    }
-    /* Trees drawn in full need no list: one glDrawArrays over all leaves. */
-    size_t need = 0;
-    for (uint32_t d = 0; d < fr->draw_count; d++) {
-        const hz_forest_draw *dr = &fr->draws[d];
-        if (dr->hull)
-            continue;
-        const hz_tree *t = hz_forest_model(f, dr->model);
-        size_t kept = 0;
-        for (uint32_t n = 0; n < t->node_count; n++)
-            kept += fr->counts[dr->node_base + n];
-        if (kept < t->leaf_count)
-            need += kept * 6;
-    }
-    if (need > g->idx_cap) {
-        free(g->idx);
-        g->idx_cap = need + need / 4 + 1024;
-        g->idx = malloc(g->idx_cap * sizeof *g->idx);
-        if (!g->idx) {
-            g->idx_cap = 0;
-            return hz_err_set(err, HZ_ERR_MEMORY, "forest: out of memory (%zu indices)", need);
-        }
-    }
-    size_t at = 0;
-    for (uint32_t d = 0; d < fr->draw_count; d++) {
-        const hz_forest_draw *dr = &fr->draws[d];
-        g->draw_off[d] = at;
-        g->draw_cnt[d] = 0;
-        if (dr->hull)
-            continue;
-        const hz_tree *t = hz_forest_model(f, dr->model);
-        size_t kept = 0;
-        for (uint32_t n = 0; n < t->node_count; n++)
-            kept += fr->counts[dr->node_base + n];
-        if (kept >= t->leaf_count) {
-            g->draw_off[d] = SIZE_MAX; /* all leaves, no list */
-            g->draw_cnt[d] = (size_t)t->leaf_count * 6;
-            continue;
-        }
-        for (uint32_t n = 0; n < t->node_count; n++) {
-            uint32_t c = fr->counts[dr->node_base + n];
-            uint32_t v = t->nodes[n].first * 6;
-            uint32_t *o = g->idx + at;
-            for (uint32_t k = 0; k < c * 6; k++)
-                o[k] = v + k;
-            at += (size_t)c * 6;
-        }
-        g->draw_cnt[d] = at - g->draw_off[d];
-    }
-    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, g->idx_buf);
-    size_t bytes = at * 4;
-    if (bytes > g->idx_gpu_cap)
-        g->idx_gpu_cap = bytes + bytes / 4 + 4096;
-    glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)g->idx_gpu_cap, NULL, GL_STREAM_DRAW);
-    if (bytes)
-        glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, (GLsizeiptr)bytes, g->idx);
-    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, 0);
-    glBindBuffer(GL_TEXTURE_BUFFER, g->scale_buf);
-    size_t sb = (size_t)fr->node_total * 4 + 16;
-    if (sb > g->scale_gpu_cap)
-        g->scale_gpu_cap = sb + sb / 4;
-    glBufferData(GL_TEXTURE_BUFFER, (GLsizeiptr)g->scale_gpu_cap, NULL, GL_STREAM_DRAW);
-    if (fr->node_total)
-        glBufferSubData(GL_TEXTURE_BUFFER, 0, (GLsizeiptr)((size_t)fr->node_total * 4), fr->scales);
-    glBindTexture(GL_TEXTURE_BUFFER, g->scale_tex);
-    glTexBuffer(GL_TEXTURE_BUFFER, GL_R32F, g->scale_buf);
-    glBindTexture(GL_TEXTURE_BUFFER, 0);
-    glBindBuffer(GL_TEXTURE_BUFFER, 0);
-    g->built = true;
-    g->built_serial = fr->serial;
-    return hz_gl_check(err, "forest per-frame upload");
+    float az = (float)ia * 6.2831853f / IMP_AZ, el = (float)ie * IMP_EL_STEP;
+    float toward[3] = {sinf(az) * cosf(el), sinf(el), cosf(az) * cosf(el)};
+    for (int c = 0; c < 3; c++)
+        fwd[c] = -toward[c];
+    /* right = normalize(cross(fwd, +y)), up = cross(right, fwd) */
+    right[0] = -fwd[2], right[1] = 0, right[2] = fwd[0];
+    float l = sqrtf(right[0] * right[0] + right[2] * right[2]);
+    right[0] /= l, right[2] /= l;
+    up[0] = right[1] * fwd[2] - right[2] * fwd[1];
+    up[1] = right[2] * fwd[0] - right[0] * fwd[2];
+    up[2] = right[0] * fwd[1] - right[1] * fwd[0];
+}
+
+/* The view nearest to where a tree is seen from (model-space unit vector
+ * from the tree toward the eye), as impostor_vs.glsl picks it. */
+static void nearest_view(const float dm[3], int *ia, int *ie)
+{
+    float az = atan2f(dm[0], dm[2]), el = asinf(fmaxf(-1.0f, fminf(1.0f, dm[1])));
+    int a = (int)floorf(az / 6.2831853f * IMP_AZ + 0.5f);
+    *ia = ((a % IMP_AZ) + IMP_AZ) % IMP_AZ;
+    int e = (int)floorf(el / IMP_EL_STEP + 0.5f);
+    *ie = e < 0 ? 0 : e >= IMP_EL ? IMP_EL - 1 : e;
 }
 
 static void common_uniforms(const prog_u *u, const hz_pass_info *pass)
@@ -291,14 +236,362 @@ static void common_uniforms(const prog_u *u, const hz_pass_info *pass)
     glUniform1f(u->ambient, pass->ambient);
 }
 
+static void draw_leaves(const hz_forest_gpu *g, const hz_tree *t, uint32_t model, uint32_t prefix)
+{
+    glBindVertexArray(g->empty_vao);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, g->m[model].quad_ibo);
+    glDrawElements(GL_TRIANGLES, (GLsizei)((size_t)(prefix < t->leaf_count ? prefix : t->leaf_count) * 6),
+                   GL_UNSIGNED_INT, (const void *)0);
+}
+
+/* Bakes every model's impostor atlas: the full tree (leaves and bark)
+ * orthographically from each view, framing its bounding sphere; albedo
+ * unlit, normals in model space; mipmapped. */
+static hz_result bake_impostors(hz_forest_gpu *g, const hz_forest *f, GLuint leaf_bake, GLuint bark_bake, hz_err *err)
+{
+    const GLsizei W = IMP_AZ * IMP_TILE, H = IMP_EL * IMP_TILE;
+    GLint old_fbo = 0, old_vp[4];
+    glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &old_fbo);
+    glGetIntegerv(GL_VIEWPORT, old_vp);
+    glGenTextures(2, g->atlas);
+    for (int k = 0; k < 2; k++) {
+        glBindTexture(GL_TEXTURE_2D_ARRAY, g->atlas[k]);
+        glTexStorage3D(GL_TEXTURE_2D_ARRAY, imp_levels(), GL_RGBA8, W, H, (GLsizei)g->nm);
+        glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_NEAREST);
+        glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+        glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+        glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    }
+    GLuint fbo = 0, depth = 0;
+    glGenFramebuffers(1, &fbo);
+    glGenRenderbuffers(1, &depth);
+    glBindRenderbuffer(GL_RENDERBUFFER, depth);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, W, H);
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth);
+    const GLenum bufs[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+    glDrawBuffers(2, bufs);
+    glDisable(GL_BLEND);
+    glDisable(GL_SCISSOR_TEST);
+    glDisable(GL_CULL_FACE);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glDepthMask(GL_TRUE);
+    prog_u lu, bu;
+    get_u(leaf_bake, &lu);
+    get_u(bark_bake, &bu);
+    hz_result r = HZ_OK;
+    for (uint32_t mi = 0; mi < g->nm && r == HZ_OK; mi++) {
+        const hz_tree *t = hz_forest_model(f, mi);
+        for (int k = 0; k < 2; k++)
+            glFramebufferTextureLayer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0 + k, g->atlas[k], 0, (GLint)mi);
+        if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+            r = hz_err_set(err, HZ_ERR_GL, "forest: impostor framebuffer incomplete");
+            break;
+        }
+        glViewport(0, 0, W, H);
+        const float zero[4] = {0, 0, 0, 0};
+        glClearBufferfv(GL_COLOR, 0, zero);
+        glClearBufferfv(GL_COLOR, 1, zero);
+        glClearDepth(1.0);
+        glClear(GL_DEPTH_BUFFER_BIT);
+        const float *c = t->bound_center, R = t->bound_radius;
+        const float ident[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+        for (int ie = 0; ie < IMP_EL; ie++)
+            for (int ia = 0; ia < IMP_AZ; ia++) {
+                float right[3], up[3], fwd[3];
+                view_axes(ia, ie, right, up, fwd);
+                /* clip = ((p-c).right / R, (p-c).up / R, ((p-c).fwd + R) / 2R, 1): z in [0, 1]
+                 * whatever the clip-control depth range. */
+                float vp[16] = {0};
+                for (int a = 0; a < 3; a++) {
+                    vp[a * 4 + 0] = right[a] / R;
+                    vp[a * 4 + 1] = up[a] / R;
+                    vp[a * 4 + 2] = fwd[a] / (2 * R);
+                }
+                vp[12] = -(c[0] * right[0] + c[1] * right[1] + c[2] * right[2]) / R;
+                vp[13] = -(c[0] * up[0] + c[1] * up[1] + c[2] * up[2]) / R;
+                vp[14] = (R - (c[0] * fwd[0] + c[1] * fwd[1] + c[2] * fwd[2])) / (2 * R);
+                vp[15] = 1;
+                float eye[3];
+                for (int a = 0; a < 3; a++)
+                    eye[a] = c[a] - fwd[a] * 100.0f * R;
+                glViewport(ia * IMP_TILE, ie * IMP_TILE, IMP_TILE, IMP_TILE);
+                /* leaves, all of them */
+                glUseProgram(leaf_bake);
+                glUniformMatrix4fv(lu.viewproj, 1, GL_FALSE, vp);
+                glUniformMatrix4fv(lu.model, 1, GL_FALSE, ident);
+                glUniform4f(lu.clip, 0, 0, 0, 1);
+                glUniform3fv(lu.eye, 1, eye);
+                glUniform3fv(lu.color, 1, t->leaf_color);
+                glUniform4f(lu.crown, t->crown_center[0], t->crown_center[1], t->crown_center[2], t->crown_radius);
+                glUniform1i(lu.kept_base, -1);
+                glUniform1i(lu.leaves, 0);
+                glUniform1i(lu.kept, 1);
+                glUniform1i(lu.scales, 6);
+                glActiveTexture(GL_TEXTURE0);
+                glBindTexture(GL_TEXTURE_BUFFER, g->m[mi].leaf_tex);
+                glActiveTexture(GL_TEXTURE1);
+                glBindTexture(GL_TEXTURE_BUFFER, g->kept_tex);
+                glActiveTexture(GL_TEXTURE0);
+                draw_leaves(g, t, mi, t->leaf_count);
+                /* bark, all levels */
+                glUseProgram(bark_bake);
+                glUniformMatrix4fv(bu.viewproj, 1, GL_FALSE, vp);
+                glUniformMatrix4fv(bu.model, 1, GL_FALSE, ident);
+                glUniform4f(bu.clip, 0, 0, 0, 1);
+                glUniform3fv(bu.color, 1, t->bark_color);
+                if (g->m[mi].bark.count) {
+                    glBindVertexArray(g->m[mi].bark.vao);
+                    glDrawElements(GL_TRIANGLES, (GLsizei)g->m[mi].bark.count, GL_UNSIGNED_INT, (const void *)0);
+                }
+            }
+    }
+    glBindVertexArray(0);
+    glUseProgram(0);
+    glActiveTexture(GL_TEXTURE1);
+    glBindTexture(GL_TEXTURE_BUFFER, 0);
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_BUFFER, 0);
+    glBindFramebuffer(GL_FRAMEBUFFER, (GLuint)old_fbo);
+    glViewport(old_vp[0], old_vp[1], old_vp[2], old_vp[3]);
+    glDeleteFramebuffers(1, &fbo);
+    glDeleteRenderbuffers(1, &depth);
+    for (int k = 0; k < 2; k++) {
+        glBindTexture(GL_TEXTURE_2D_ARRAY, g->atlas[k]);
+        glGenerateMipmap(GL_TEXTURE_2D_ARRAY);
+    }
+    if (r != HZ_OK) {
+        glBindTexture(GL_TEXTURE_2D_ARRAY, 0);
+        return r;
+    }
+    /* Each view's extent in its tile (texels with any coverage, one texel
+     * of margin), so impostor quads cover little more than the tree. */
+    const size_t nt = (size_t)IMP_AZ * IMP_EL;
+    uint8_t *px = malloc((size_t)W * H * 4 * g->nm);
+    float *rects = malloc(nt * g->nm * 16);
+    if (!px || !rects) {
+        free(px);
+        free(rects);
+        glBindTexture(GL_TEXTURE_2D_ARRAY, 0);
+        return hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
+    }
+    glBindTexture(GL_TEXTURE_2D_ARRAY, g->atlas[0]);
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glPixelStorei(GL_PACK_ROW_LENGTH, 0);
+    glGetTexImage(GL_TEXTURE_2D_ARRAY, 0, GL_RGBA, GL_UNSIGNED_BYTE, px);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, 0);
+    for (uint32_t mi = 0; mi < g->nm; mi++)
+        for (size_t tl = 0; tl < nt; tl++) {
+            int tx = (int)(tl % IMP_AZ) * IMP_TILE, ty = (int)(tl / IMP_AZ) * IMP_TILE;
+            int x0 = IMP_TILE, y0 = IMP_TILE, x1 = -1, y1 = -1;
+            for (int y = 0; y < IMP_TILE; y++)
+                for (int x = 0; x < IMP_TILE; x++)
+                    if (px[(((size_t)mi * H + (size_t)(ty + y)) * W + (size_t)(tx + x)) * 4 + 3]) {
+                        x0 = x < x0 ? x : x0, x1 = x > x1 ? x : x1;
+                        y0 = y < y0 ? y : y0, y1 = y > y1 ? y : y1;
+                    }
+            float *o = rects + (mi * nt + tl) * 4;
+            if (x1 < 0) {
+                o[0] = o[1] = o[2] = o[3] = 0.0f; /* empty view: a zero-area quad */
+                continue;
+            }
+            o[0] = fmaxf(-1.0f, 2.0f * (float)(x0 - 1) / IMP_TILE - 1.0f);
+            o[1] = fmaxf(-1.0f, 2.0f * (float)(y0 - 1) / IMP_TILE - 1.0f);
+            o[2] = fminf(1.0f, 2.0f * (float)(x1 + 2) / IMP_TILE - 1.0f);
+            o[3] = fminf(1.0f, 2.0f * (float)(y1 + 2) / IMP_TILE - 1.0f);
+        }
+    buffer_texture(&g->rect_buf, &g->rect_tex, GL_RGBA32F, rects, nt * g->nm * 16, GL_STATIC_DRAW);
+    free(px);
+    free(rects);
+    return hz_gl_check(err, "forest impostor bake");
+}
+
+hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err)
+{
+    if (!hz_gl_has_context()) {
+        hz_err_set(err, HZ_ERR_GL, "forest: no current OpenGL context");
+        return NULL;
+    }
+    hz_forest_gpu *g = calloc(1, sizeof *g);
+    if (!g) {
+        hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
+        return NULL;
+    }
+    GLuint leaf_bake = 0, bark_bake = 0;
+    hz_gl_drain();
+    g->nm = hz_forest_model_count(f);
+    g->m = calloc(g->nm, sizeof *g->m);
+    if (!g->m) {
+        hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
+        goto fail;
+    }
+    g->leaf_prog = hz_gl_program(hz_shader_leaf_vs, hz_shader_leaf_fs, "leaf", err);
+    if (!g->leaf_prog)
+        goto fail;
+    g->bark_prog = hz_gl_program(hz_shader_bark_vs, hz_shader_bark_fs, "bark", err);
+    if (!g->bark_prog)
+        goto fail;
+    g->imp_prog = hz_gl_program(hz_shader_impostor_vs, hz_shader_impostor_fs, "impostor", err);
+    if (!g->imp_prog)
+        goto fail;
+    leaf_bake = hz_gl_program(hz_shader_leaf_vs, hz_shader_leaf_bake_fs, "leaf_bake", err);
+    bark_bake = leaf_bake ? hz_gl_program(hz_shader_bark_vs, hz_shader_bark_bake_fs, "bark_bake", err) : 0;
+    if (!bark_bake)
+        goto fail;
+    get_u(g->leaf_prog, &g->lu);
+    get_u(g->bark_prog, &g->bu);
+    get_u(g->imp_prog, &g->iu);
+    glGenVertexArrays(1, &g->empty_vao);
+    /* Per (tree, node) kept counts, filled as trees become detailed. */
+    const hz_forest_tree *trees = hz_forest_trees(f);
+    g->tree_count = hz_forest_tree_count(f);
+    for (uint32_t k = 0; k < g->tree_count; k++)
+        g->node_total += hz_forest_model(f, trees[k].model)->node_count;
+    buffer_texture(&g->kept_buf, &g->kept_tex, GL_R32UI, NULL, g->node_total * 4, GL_DYNAMIC_DRAW);
+    buffer_texture(&g->scale_buf, &g->scale_tex, GL_R32F, NULL, g->node_total * 4, GL_DYNAMIC_DRAW);
+    float *td = malloc((size_t)(g->tree_count ? g->tree_count : 1) * 32);
+    float *md = malloc((size_t)g->nm * 16);
+    if (!td || !md) {
+        free(td);
+        free(md);
+        hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
+        goto fail;
+    }
+    for (uint32_t k = 0; k < g->tree_count; k++) {
+        const hz_forest_tree *tr = &trees[k];
+        float *o = td + (size_t)k * 8;
+        o[0] = tr->pos[0], o[1] = tr->pos[1], o[2] = tr->pos[2], o[3] = tr->yaw;
+        o[4] = tr->scale, o[5] = (float)tr->model, o[6] = 0, o[7] = 0;
+    }
+    for (uint32_t k = 0; k < g->nm; k++) {
+        const hz_tree *t = hz_forest_model(f, k);
+        md[k * 4 + 0] = t->bound_center[0], md[k * 4 + 1] = t->bound_center[1];
+        md[k * 4 + 2] = t->bound_center[2], md[k * 4 + 3] = t->bound_radius;
+    }
+    buffer_texture(&g->tree_buf, &g->tree_tex, GL_RGBA32F, td, (size_t)g->tree_count * 32, GL_STATIC_DRAW);
+    buffer_texture(&g->model_buf, &g->model_tex, GL_RGBA32F, md, (size_t)g->nm * 16, GL_STATIC_DRAW);
+    buffer_texture(&g->order_buf, &g->order_tex, GL_R32UI, NULL, (size_t)(g->tree_count ? g->tree_count : 1) * 4,
+                   GL_STREAM_DRAW);
+    free(td);
+    free(md);
+    for (uint32_t k = 0; k < g->nm; k++) {
+        const hz_tree *t = hz_forest_model(f, k);
+        const uint32_t *order = hz_forest_model_order(f, k);
+        model_gpu *m = &g->m[k];
+        /* leaf texels in interleaved rank order: (c, node), (u, rank), (v, node size) */
+        float *d = malloc((size_t)t->leaf_count * 48 + 16);
+        uint32_t *q = malloc((size_t)t->leaf_count * 24 + 16);
+        uint32_t *node_of = malloc((size_t)t->leaf_count * 4 + 16);
+        if (!d || !q || !node_of) {
+            free(d);
+            free(q);
+            free(node_of);
+            hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
+            goto fail;
+        }
+        for (uint32_t l = 0; l < t->leaf_count; l++)
+            node_of[l] = UINT32_MAX;
+        for (uint32_t n = 0; n < t->node_count; n++)
+            for (uint32_t l = t->nodes[n].first; l < t->nodes[n].first + t->nodes[n].count; l++)
+                node_of[l] = n;
+        for (uint32_t p = 0; p < t->leaf_count; p++) {
+            uint32_t l = order[p], n = node_of[l];
+            const hz_tree_leaf *lf = &t->leaves[l];
+            float *o = d + (size_t)p * 12;
+            bool in_node = n != UINT32_MAX;
+            o[0] = lf->c[0], o[1] = lf->c[1], o[2] = lf->c[2], o[3] = in_node ? (float)n : 0.0f;
+            o[4] = lf->u[0], o[5] = lf->u[1], o[6] = lf->u[2], o[7] = in_node ? (float)(l - t->nodes[n].first) : 0.0f;
+            o[8] = lf->v[0], o[9] = lf->v[1], o[10] = lf->v[2], o[11] = 0.0f;
+            static const uint32_t qi[6] = {0, 1, 2, 0, 2, 3};
+            for (int j = 0; j < 6; j++)
+                q[(size_t)p * 6 + j] = 4 * p + qi[j];
+        }
+        free(node_of);
+        buffer_texture(&m->leaf_buf, &m->leaf_tex, GL_RGBA32F, d, (size_t)t->leaf_count * 48, GL_STATIC_DRAW);
+        free(d);
+        glGenBuffers(1, &m->quad_ibo);
+        glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, m->quad_ibo);
+        glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)((size_t)t->leaf_count * 24 + 16), q, GL_STATIC_DRAW);
+        glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, 0);
+        free(q);
+        mesh_upload(&m->bark, &t->bark, t->bark.index_count);
+        const hz_tree_mesh *hull = hz_forest_model_hull(f, k);
+        mesh_upload(&m->hull, hull, hull->index_count);
+        memcpy(m->bark_level_end, t->bark_level_end, sizeof m->bark_level_end);
+    }
+    if (hz_gl_check(err, "forest upload") != HZ_OK)
+        goto fail;
+    if (bake_impostors(g, f, leaf_bake, bark_bake, err) != HZ_OK)
+        goto fail;
+    glDeleteProgram(leaf_bake);
+    glDeleteProgram(bark_bake);
+    return g;
+fail:
+    if (hz_gl_has_context()) {
+        glDeleteProgram(leaf_bake);
+        glDeleteProgram(bark_bake);
+    }
+    hz_forest_gpu_destroy(g);
+    return NULL;
+}
+
+/* Uploads the kept counts of the nodes that changed (all of a tree's when
+ * frames were missed). */
+static hz_result upload_counts(hz_forest_gpu *g, const hz_forest *f, const hz_forest_frame *fr, hz_err *err)
+{
+    bool all = fr->serial != g->last_serial + 1;
+    uint64_t bytes = 0;
+    glBindBuffer(GL_TEXTURE_BUFFER, g->kept_buf);
+    for (uint32_t d = 0; d < fr->draw_count; d++) {
+        const hz_forest_draw *dr = &fr->draws[d];
+        if (dr->hull)
+            continue;
+        uint32_t lo = dr->dirty_lo, hi = dr->dirty_hi;
+        if (all) {
+            lo = 0;
+            hi = hz_forest_model(f, dr->model)->node_count;
+        }
+        if (lo >= hi || (size_t)dr->node_base + hi > g->node_total)
+            continue;
+        glBindBuffer(GL_TEXTURE_BUFFER, g->kept_buf);
+        glBufferSubData(GL_TEXTURE_BUFFER, (GLintptr)(((size_t)dr->node_base + lo) * 4), (GLsizeiptr)((hi - lo) * 4),
+                        fr->counts + dr->node_base + lo);
+        glBindBuffer(GL_TEXTURE_BUFFER, g->scale_buf);
+        glBufferSubData(GL_TEXTURE_BUFFER, (GLintptr)(((size_t)dr->node_base + lo) * 4), (GLsizeiptr)((hi - lo) * 4),
+                        fr->scales + dr->node_base + lo);
+        bytes += (uint64_t)(hi - lo) * 8;
+    }
+    if (fr->impostors && fr->impostor_count && fr->impostor_count <= g->tree_count) {
+        glBindBuffer(GL_TEXTURE_BUFFER, g->order_buf);
+        glBufferSubData(GL_TEXTURE_BUFFER, 0, (GLsizeiptr)((size_t)fr->impostor_count * 4), fr->impostor_trees);
+        bytes += (uint64_t)fr->impostor_count * 4;
+    }
+    glBindBuffer(GL_TEXTURE_BUFFER, 0);
+    g->last_serial = fr->serial;
+    g->upload_bytes = bytes;
+    return hz_gl_check(err, "forest count upload");
+}
+
+uint64_t hz_forest_gpu_upload_bytes(const hz_forest_gpu *g)
+{
+    return g ? g->upload_bytes : 0;
+}
+
+static void bind_atlas(const prog_u *u)
+{
+    glUniform1i(u->albedo, 2);
+    glUniform1i(u->normals, 3);
+}
+
 hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_forest_frame *fr,
                              const hz_pass_info *pass, hz_err *err)
 {
     if (!hz_gl_has_context())
         return hz_err_set(err, HZ_ERR_GL, "forest: draw without a current OpenGL context");
     hz_gl_drain();
-    if (!g->built || g->built_serial != fr->serial) {
-        hz_result r = build_lists(g, f, fr, err);
+    if (fr->serial != g->last_serial) {
+        hz_result r = upload_counts(g, f, fr, err);
         if (r != HZ_OK)
             return r;
     }
@@ -310,22 +603,27 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
     glDepthMask(GL_TRUE);
     glDisable(GL_BLEND);
     float model[16];
+    glActiveTexture(GL_TEXTURE2);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, g->atlas[0]);
+    glActiveTexture(GL_TEXTURE3);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, g->atlas[1]);
 
-    /* Leaves: two-sided. */
+    /* Leaves: two-sided, one prefix draw per tree. */
     glDisable(GL_CULL_FACE);
     glUseProgram(g->leaf_prog);
     common_uniforms(&g->lu, pass);
-    glBindVertexArray(g->empty_vao);
-    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, g->idx_buf);
     glActiveTexture(GL_TEXTURE1);
+    glBindTexture(GL_TEXTURE_BUFFER, g->kept_tex);
+    glUniform1i(g->lu.kept, 1);
+    glActiveTexture(GL_TEXTURE6);
     glBindTexture(GL_TEXTURE_BUFFER, g->scale_tex);
-    glUniform1i(g->lu.scales, 1);
+    glUniform1i(g->lu.scales, 6);
     glUniform1i(g->lu.leaves, 0);
     glActiveTexture(GL_TEXTURE0);
     uint32_t bound_model = UINT32_MAX;
     for (uint32_t d = 0; d < fr->draw_count; d++) {
         const hz_forest_draw *dr = &fr->draws[d];
-        if (dr->hull || g->draw_cnt[d] == 0)
+        if (dr->hull || dr->prefix == 0)
             continue;
         const hz_tree *t = hz_forest_model(f, dr->model);
         if (bound_model != dr->model) {
@@ -336,30 +634,32 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
         }
         hz_forest_tree_matrix(f, dr->tree, model);
         glUniformMatrix4fv(g->lu.model, 1, GL_FALSE, model);
-        glUniform1i(g->lu.scale_base, (GLint)dr->node_base);
-        if (g->draw_off[d] == SIZE_MAX)
-            glDrawArrays(GL_TRIANGLES, 0, (GLsizei)g->draw_cnt[d]);
-        else
-            glDrawElements(GL_TRIANGLES, (GLsizei)g->draw_cnt[d], GL_UNSIGNED_INT,
-                           (const void *)(g->draw_off[d] * sizeof(uint32_t)));
+        glUniform1i(g->lu.kept_base, (GLint)dr->node_base);
+        glUniform2f(g->lu.dither, dr->fade, 1.0f);
+        draw_leaves(g, t, dr->model, dr->prefix);
     }
+    glBindTexture(GL_TEXTURE_BUFFER, 0);
+    glActiveTexture(GL_TEXTURE6);
     glBindTexture(GL_TEXTURE_BUFFER, 0);
     glActiveTexture(GL_TEXTURE1);
     glBindTexture(GL_TEXTURE_BUFFER, 0);
     glActiveTexture(GL_TEXTURE0);
 
     /* Bark and hulls: closed outward-facing meshes (bark tubes are open at
-     * the ends, which only shows at the tips of twigs). */
+     * the ends, which only shows at the tips of twigs). A hull is drawn for
+     * hull trees (fading out toward the impostor) and, dithered in, for
+     * leaf trees in their fade band. */
     glEnable(GL_CULL_FACE);
     glCullFace(GL_BACK);
-    glFrontFace(GL_CCW);
+    glFrontFace(pass->pass == HZ_PASS_REFLECTION ? GL_CW : GL_CCW);
     glUseProgram(g->bark_prog);
     common_uniforms(&g->bu, pass);
+    bind_atlas(&g->bu);
     for (int hull = 0; hull < 2; hull++) {
         glUniform1i(g->bu.hull, hull);
         for (uint32_t d = 0; d < fr->draw_count; d++) {
             const hz_forest_draw *dr = &fr->draws[d];
-            if (hull && !dr->hull)
+            if (hull && !dr->hull && !(dr->fade > 0))
                 continue;
             const hz_tree *t = hz_forest_model(f, dr->model);
             const model_gpu *m = &g->m[dr->model];
@@ -369,14 +669,97 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
                 continue;
             hz_forest_tree_matrix(f, dr->tree, model);
             glUniformMatrix4fv(g->bu.model, 1, GL_FALSE, model);
-            glUniform3fv(g->bu.color, 1, hull ? t->leaf_color : t->bark_color);
+            if (hull && !dr->hull)
+                glUniform2f(g->bu.dither, 0.0f, dr->fade); /* fading in from the leaves */
+            else if (dr->hull)
+                glUniform2f(g->bu.dither, dr->fade, 1.0f); /* fading out to the impostor */
+            else
+                glUniform2f(g->bu.dither, 0.0f, 1.0f);
+            if (hull) {
+                const hz_forest_tree *tr = &hz_forest_trees(f)[dr->tree];
+                /* the view the impostor would show */
+                float wc[3], dm[3];
+                float c = cosf(tr->yaw), s = sinf(tr->yaw);
+                const float *bc = t->bound_center;
+                wc[0] = tr->pos[0] + tr->scale * (c * bc[0] + s * bc[2]);
+                wc[1] = tr->pos[1] + tr->scale * bc[1];
+                wc[2] = tr->pos[2] + tr->scale * (-s * bc[0] + c * bc[2]);
+                float e[3] = {pass->cam->pos[0] - wc[0], pass->cam->pos[1] - wc[1], pass->cam->pos[2] - wc[2]};
+                float l = sqrtf(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+                if (l <= 0)
+                    l = 1;
+                dm[0] = (c * e[0] - s * e[2]) / l, dm[1] = e[1] / l, dm[2] = (s * e[0] + c * e[2]) / l;
+                int ia, ie;
+                nearest_view(dm, &ia, &ie);
+                float right[3], up[3], fwd[3];
+                view_axes(ia, ie, right, up, fwd);
+                glUniform3fv(g->bu.right, 1, right);
+                glUniform3fv(g->bu.up, 1, up);
+                glUniform4f(g->bu.tile, (float)ia / IMP_AZ, (float)ie / IMP_EL, 1.0f / IMP_AZ, 1.0f / IMP_EL);
+                glUniform4f(g->bu.bound, bc[0], bc[1], bc[2], t->bound_radius);
+                glUniform1f(g->bu.layer, (float)dr->model);
+                /* the level with about one texel per pixel */
+                float px = 2.0f * tr->scale * t->bound_radius / l * pass->proj[1][1] * 0.5f * (float)pass->height;
+                int lod = (int)floorf(log2f(fmaxf((float)IMP_TILE / fmaxf(px, 1e-3f), 1.0f)) + 0.5f);
+                lod = lod < 0 ? 0 : lod >= imp_levels() ? imp_levels() - 1 : lod;
+                glUniform1i(g->bu.lod, lod);
+                glUniform2f(g->bu.size, (float)((IMP_AZ * IMP_TILE) >> lod), (float)((IMP_EL * IMP_TILE) >> lod));
+            } else {
+                glUniform3fv(g->bu.color, 1, t->bark_color);
+            }
             glBindVertexArray(mesh->vao);
             glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
         }
     }
+
+    /* Impostors: every tree in one draw; the shader keeps those in the band. */
+    if (fr->impostors && fr->impostor_count && fr->impostor_count <= g->tree_count) {
+        glDisable(GL_CULL_FACE);
+        glUseProgram(g->imp_prog);
+        common_uniforms(&g->iu, pass);
+        bind_atlas(&g->iu);
+        glActiveTexture(GL_TEXTURE0);
+        glBindTexture(GL_TEXTURE_BUFFER, g->tree_tex);
+        glActiveTexture(GL_TEXTURE1);
+        glBindTexture(GL_TEXTURE_BUFFER, g->model_tex);
+        glActiveTexture(GL_TEXTURE5);
+        glBindTexture(GL_TEXTURE_BUFFER, g->rect_tex);
+        glUniform1i(g->iu.rects, 5);
+        glUniform1f(g->iu.px_scale, pass->proj[1][1] * 0.5f * (float)pass->height);
+        glUniform1i(g->iu.tile_px, IMP_TILE);
+        glUniform1i(g->iu.max_lod, imp_levels() - 1);
+        glActiveTexture(GL_TEXTURE4);
+        glBindTexture(GL_TEXTURE_BUFFER, g->order_tex);
+        glUniform1i(g->iu.trees, 0);
+        glUniform1i(g->iu.models, 1);
+        glUniform1i(g->iu.order, 4);
+        glUniform2f(g->iu.band, fr->impostor_band[0], fr->impostor_band[1]);
+        glUniform1f(g->iu.max_dist, isfinite(fr->max_dist) ? fr->max_dist : 3.0e38f);
+        glUniform2i(g->iu.views, IMP_AZ, IMP_EL);
+        glUniform1f(g->iu.el_step, IMP_EL_STEP);
+        glBindVertexArray(g->empty_vao);
+        glDrawArrays(GL_TRIANGLES, 0, (GLsizei)fr->impostor_count * 6);
+        glActiveTexture(GL_TEXTURE5);
+        glBindTexture(GL_TEXTURE_BUFFER, 0);
+        glActiveTexture(GL_TEXTURE4);
+        glBindTexture(GL_TEXTURE_BUFFER, 0);
+        glActiveTexture(GL_TEXTURE1);
+        glBindTexture(GL_TEXTURE_BUFFER, 0);
+        glActiveTexture(GL_TEXTURE1);
+        glBindTexture(GL_TEXTURE_BUFFER, 0);
+        glActiveTexture(GL_TEXTURE0);
+        glBindTexture(GL_TEXTURE_BUFFER, 0);
+    }
+    glActiveTexture(GL_TEXTURE3);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, 0);
+    glActiveTexture(GL_TEXTURE2);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, 0);
+    glActiveTexture(GL_TEXTURE0);
     glBindVertexArray(0);
     glUseProgram(0);
     glDisable(GL_CULL_FACE);
+    if (pass->pass == HZ_PASS_REFLECTION)
+        glFrontFace(GL_CW);
     if (clip)
         glDisable(GL_CLIP_DISTANCE0);
     return hz_gl_check(err, "forest draw");

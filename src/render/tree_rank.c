@@ -428,10 +428,13 @@ hz_result hz_tree_pr(const hz_tree *t, const hz_pr_desc *desc, hz_pr_result *out
     GLsizei *full = malloc((nn ? nn : 1) * sizeof *full), *kept = malloc((nn ? nn : 1) * sizeof *kept);
     float *ones = malloc((nn ? nn : 1) * sizeof *ones), *scales = malloc((nn ? nn : 1) * sizeof *scales);
     uint32_t *a = malloc((size_t)d.res * d.res * sizeof *a), *b = malloc((size_t)d.res * d.res * sizeof *b);
-    if (!first || !full || !kept || !ones || !scales || !a || !b) {
+    float *cov = d.enlarge ? malloc((t->leaf_count ? t->leaf_count : 1) * sizeof *cov) : NULL;
+    if (!first || !full || !kept || !ones || !scales || !a || !b || (d.enlarge && !cov)) {
         res = hz_err_set(err, HZ_ERR_MEMORY, "pr: out of memory");
         goto done;
     }
+    if (d.enlarge && (res = hz_tree_prefix_coverage(t, cov, err)) != HZ_OK)
+        goto done;
     hz_rate_params rp = hz_rate_params_defaults(NULL);
     rp.max_enlarge = 100.0f;
     for (uint32_t n = 0; n < nn; n++) {
@@ -443,7 +446,8 @@ hz_result hz_tree_pr(const hz_tree *t, const hz_pr_desc *desc, hz_pr_result *out
         full[n] = (GLsizei)(nd->count * 6);
         kept[n] = (GLsizei)(k * 6);
         ones[n] = 1.0f;
-        scales[n] = d.enlarge ? hz_enlarge(&rp, nd->count, k) : 1.0f;
+        /* F4 by coverage: the kept prefix grows to cover its node's area */
+        scales[n] = d.enlarge ? hz_enlarge_coverage(rp.max_enlarge, cov[nd->first + k - 1]) : 1.0f;
     }
     /* Views around the crown: 8 azimuths at 0 and 35 degrees elevation
      * (then more rings if more views are asked), framing the leaves. */
@@ -489,6 +493,7 @@ done:
     free(kept);
     free(ones);
     free(scales);
+    free(cov);
     free(a);
     free(b);
     ib_destroy(&ib);

@@ -483,6 +483,13 @@ static void test_rate_break_points(void **state)
     float want = 0.2f * 0.4f + 0.1f * hz_rate_f2(&p, 3, 40.0f) + 0.2f * 0.5f + 0.3f * hz_rate_f4(&p, 40.0f) + 0.2f * 0.5f;
     assert_float_equal(rs, want, 1e-6);
     assert_float_equal(hz_rate_node(&p, 1, 1, 1.0f, 1.0f, 2.0f, -1.0f), 0.0f, 0); /* clamped at 0 */
+    /* The fixed point: the rate computed with LD = ld x (1 - that rate). */
+    for (int k = 0; k < 4; k++) {
+        float ld = 2.0f + 3.0f * (float)k, dist = 10.0f + 15.0f * (float)k;
+        float R = hz_rate_node_fixed(&p, 2, 3, dist, ld, 2.0f, 0.3f);
+        assert_true(R > 0.0f && R < p.max_rate);
+        assert_float_equal(hz_rate_node(&p, 2, 3, dist, ld * (1.0f - R), 2.0f, 0.3f), R, 1e-5);
+    }
     assert_float_equal(hz_rate_node(&p, 3, 4, 1e5f, 50.0f, 1.0f, 1.0f), p.max_rate, 0);
     /* F4: s = sqrt((1-Rl)/(1-Rc)) compounded from R = 0 */
     assert_float_equal(hz_enlarge(&p, 100, 50), sqrtf(2.0f), 1e-6);
@@ -558,10 +565,14 @@ static void test_select(void **state)
     assert_int_equal(fr.trees_in_frustum, 5); /* the one behind is culled */
     assert_int_equal(fr.triangles_drawn, fr.triangles_full);
     assert_int_equal(fr.triangles_full, 5 * hz_tree_triangles(t));
-    hz_forest_params simp = {.simplify = true, .enlarge = true, .hysteresis = false, .node_culling = true};
+    hz_forest_params simp = {.simplify = true, .enlarge = true, .hysteresis = false, .node_culling = true,
+                             .hull_dist = 40};
     assert_int_equal(hz_forest_update(f, &cam, &simp, 0, &fr, &err), HZ_OK);
     assert_true(fr.triangles_drawn < fr.triangles_full);
-    assert_int_equal(fr.trees_hull, 2); /* 200 m and more: beyond far / 2 = 40 m */
+    /* 200 m and more: beyond the impostor distance, max(far / 2, 2 x 40 m) */
+    assert_int_equal(fr.trees_impostor, 2);
+    assert_int_equal(fr.trees_hull, 0);
+    assert_int_equal(fr.draw_count, 3);
     /* Farther detailed trees keep fewer leaves. */
     uint64_t kept[5] = {0};
     for (uint32_t d = 0; d < fr.draw_count; d++)
@@ -569,10 +580,37 @@ static void test_select(void **state)
             for (uint32_t n = 0; n < t->node_count; n++)
                 kept[fr.draws[d].tree] += fr.counts[fr.draws[d].node_base + n];
     assert_true(kept[0] > kept[1] && kept[1] > kept[2]);
-    /* Enlargement matches the kept fraction. */
+    /* Enlargement gives back the coverage the kept prefix lost (F4 by coverage). */
+    float *cov = malloc(t->leaf_count * sizeof *cov);
+    assert_int_equal(hz_tree_prefix_coverage(t, cov, &err), HZ_OK);
+    uint32_t enlarged = 0;
     for (uint32_t n = 0; n < t->node_count; n++)
-        if (fr.counts[n] && fr.counts[n] < t->nodes[n].count)
-            assert_float_equal(fr.scales[n], sqrtf((float)t->nodes[n].count / (float)fr.counts[n]), 1e-5);
+        if (fr.counts[n] && fr.counts[n] < t->nodes[n].count) {
+            float c = cov[t->nodes[n].first + fr.counts[n] - 1];
+            assert_float_equal(fr.scales[n], fminf(sqrtf(1.0f / c), 3.0f), 1e-5);
+            enlarged += fr.scales[n] > 1.0f;
+        }
+    assert_true(enlarged > 0);
+    free(cov);
+    /* Nothing changed, nothing to upload: rates are a function of the view
+     * (F3's density at the rate being set), so the same view again leaves
+     * every node's count as it was, hysteresis or not. */
+    hz_forest_params fx = simp;
+    assert_true(fr.upload_bytes > 0);
+    assert_true(fr.upload_bytes > 0);
+    uint32_t prefix0 = fr.draws[0].prefix;
+    assert_true(prefix0 > 0 && prefix0 <= t->leaf_count);
+    assert_int_equal(hz_forest_update(f, &cam, &fx, 0.5, &fr, &err), HZ_OK);
+    assert_int_equal(fr.upload_bytes, 0);
+    assert_int_equal(fr.nodes_changed, 0);
+    for (uint32_t d = 0; d < fr.draw_count; d++)
+        assert_true(fr.draws[d].dirty_lo >= fr.draws[d].dirty_hi);
+    assert_int_equal(fr.draws[0].prefix, prefix0);
+    /* The prefix holds every node's kept leaves (in interleaved order). */
+    const uint32_t *pos = hz_forest_model_pos(f, 0);
+    for (uint32_t n = 0; n < t->node_count; n++)
+        for (uint32_t i = 0; i < fr.counts[fr.draws[0].node_base + n]; i++)
+            assert_true(pos[t->nodes[n].first + i] < prefix0);
     /* Hysteresis: a small move later does not change far nodes' rates. */
     hz_forest_params hy = simp;
     hy.hysteresis = true;

@@ -1,0 +1,42 @@
+#version 330 core
+// Far trees: the baked albedo (premultiplied by coverage through the mips)
+// and model-space normal, lit and fogged like the leaves; dithered in over
+// the fade band.
+uniform sampler2DArray u_albedo, u_normals;
+uniform vec3 u_sun_dir, u_sky_horizon, u_eye;
+uniform float u_fog_density, u_ambient;
+in vec3 v_world;
+in vec2 v_uv;
+flat in float v_layer;
+flat in float v_fade;
+flat in vec2 v_rot;
+flat in int v_lod;
+flat in vec2 v_size;
+out vec4 o_color;
+
+float dither(vec2 p)
+{
+    return fract(52.9829189 * fract(dot(p, vec2(0.06711056, 0.00583715))));
+}
+
+void main()
+{
+    // One texel of the level that matches the screen size (no filtering:
+    // software GL pays per texel).
+    ivec3 uv = ivec3(ivec2(min(v_uv * v_size, v_size - 1.0)), int(v_layer));
+    vec4 a = texelFetch(u_albedo, uv, v_lod);
+    if (a.a < 0.5 || dither(gl_FragCoord.xy) >= v_fade)
+        discard;
+    vec4 nn = texelFetch(u_normals, uv, v_lod);
+    vec3 nm = nn.rgb / max(nn.a, 1e-3) * 2.0 - 1.0;
+    float c = v_rot.x, s = v_rot.y;
+    vec3 n = normalize(vec3(c * nm.x + s * nm.z, nm.y, -s * nm.x + c * nm.z));
+    vec3 to_eye = u_eye - v_world;
+    if (dot(n, to_eye) < 0.0)
+        n = -n;
+    float ndl = dot(n, u_sun_dir);
+    float light = max(ndl, 0.0) + 0.35 * max(-ndl, 0.0);
+    vec3 col = a.rgb / a.a * (u_ambient + (1.0 - u_ambient) * light * vec3(1.0, 0.97, 0.90));
+    float f = u_fog_density > 0.0 ? exp(-u_fog_density * length(to_eye)) : 1.0;
+    o_color = vec4(mix(u_sky_horizon, col, f), 1.0);
+}
