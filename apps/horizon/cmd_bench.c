@@ -753,7 +753,7 @@ int cmd_bench(int argc, char **argv)
             const uint32_t hi = !strcmp(a, "--pr-res") ? 4096 : 100000, lo = !strcmp(a, "--pr-res") ? 16 : 1;
             uint32_t x;
             if (!cli_parse_u32(v, lo, hi, &x)) {
-                fprintf(stderr, "horizon bench: invalid value '%s' for %s: expected %u..%u\n", v, a, lo, hi);
+                fprintf(stderr, "horizon bench: invalid value '%s' for %s: expected a count in [%u, %u]\n", v, a, lo, hi);
                 free(rest);
                 return 2;
             }
@@ -772,16 +772,16 @@ int cmd_bench(int argc, char **argv)
             reference = !strcmp(v, "on");
         } else if (!strcmp(a, "--frames")) {
             if (!cli_parse_u32(v, 1, 100000, &frames)) {
-                fprintf(stderr, "horizon bench: invalid value '%s' for --frames: expected 1..100000\n", v);
+                fprintf(stderr, "horizon bench: invalid value '%s' for --frames: expected a count in [1, 100000]\n", v);
                 free(rest);
                 return 2;
             }
         } else if (!strcmp(a, "--fps") || !strcmp(a, "--tune-p99")) {
             const bool is_fps = !strcmp(a, "--fps");
             float f;
-            if (!cli_parse_float(v, is_fps ? 0.1f : 0.01f, is_fps ? 10000.0f : 1000.0f, &f)) {
+            if (!cli_parse_float(v, is_fps ? 0.1 : 0.01, is_fps ? 10000.0 : 1000.0, &f)) {
                 fprintf(stderr, "horizon bench: invalid value '%s' for %s: expected %s\n", v, a,
-                        is_fps ? "0.1..10000" : "pixels in 0.01..1000");
+                        is_fps ? "frames per second in [0.1, 10000]" : "pixels in [0.01, 1000]");
                 free(rest);
                 return 2;
             }

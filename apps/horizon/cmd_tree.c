@@ -171,8 +171,8 @@ int cmd_tree(int argc, char **argv)
                     return bad(a, v, "y or z");
                 id.up = v[0];
             } else if (!strcmp(a, "--scale")) {
-                if (!cli_parse_float(v, 1e-6f, 1e6f, &id.scale))
-                    return bad(a, v, "a factor in (0, 1e6]");
+                if (!cli_parse_float(v, 1e-6, 1e6, &id.scale))
+                    return bad(a, v, "a factor in [1e-6, 1e6]");
             } else if (!strcmp(a, "--node-leaves")) {
                 if (!cli_parse_u32(v, 1, 4096, &id.node_leaves))
                     return bad(a, v, "a count in [1, 4096]");
@@ -195,7 +195,7 @@ int cmd_tree(int argc, char **argv)
                 if (!cli_parse_u32(v, 16, 1000000, &hd.triangles))
                     return bad(a, v, "a count in [16, 1000000]");
             } else if (!strcmp(a, "--rate")) {
-                if (!cli_parse_float(v, 0.0f, 0.99f, &rate))
+                if (!cli_parse_float(v, 0.0, 0.99, &rate))
                     return bad(a, v, "a rate in [0, 0.99]");
             } else if (!strcmp(a, "--size")) {
                 if (!cli_parse_u32(v, 16, 4096, &size))

@@ -15,6 +15,7 @@
 #include <time.h>
 
 #include "horizon/flycam.h"
+#include "horizon/gl_limits.h"
 #include "horizon/window.h"
 
 #define MAX_BOXES 30000u /* node boxes drawn per frame (leaves and culled) */
@@ -242,12 +243,12 @@ static int split_view_opts(int n, char **args, view_opts *vo, char **rest, int *
         else if (!strcmp(a, "--shot-dir")) vo->shot_dir = v;
         else if (!strcmp(a, "--path")) vo->path = v;
         else if (!strcmp(a, "--frames")) { ok = cli_parse_u32(v, 1, 100000000, &vo->frames); want = "a count in [1, 1e8]"; }
-        else if (!strcmp(a, "--dt")) { ok = cli_parse_float(v, 1e-4f, 10.0f, &vo->dt); want = "seconds in [0.0001, 10]"; }
-        else if (!strcmp(a, "--speed")) { ok = cli_parse_float(v, 0.1f, 100000.0f, &vo->speed); want = "m/s in [0.1, 100000]"; }
-        else if (!strcmp(a, "--walk-speed")) { ok = cli_parse_float(v, 0.1f, 100000.0f, &vo->walk_speed); want = "m/s in [0.1, 100000]"; }
-        else if (!strcmp(a, "--eye-height")) { ok = cli_parse_float(v, 0.01f, 100000.0f, &vo->eye_height); want = "metres in [0.01, 100000]"; }
-        else if (!strcmp(a, "--hud-scale")) { ok = cli_parse_float(v, 0.5f, 8.0f, &vo->hud_scale); want = "a number in [0.5, 8]"; }
-        else if (!strcmp(a, "--mouse-sens")) { ok = cli_parse_float(v, 0.001f, 10.0f, &vo->mouse_sens); want = "degrees per pixel in [0.001, 10]"; }
+        else if (!strcmp(a, "--dt")) { ok = cli_parse_float(v, 1e-4, 10.0, &vo->dt); want = "seconds in [0.0001, 10]"; }
+        else if (!strcmp(a, "--speed")) { ok = cli_parse_float(v, 0.1, 100000.0, &vo->speed); want = "m/s in [0.1, 100000]"; }
+        else if (!strcmp(a, "--walk-speed")) { ok = cli_parse_float(v, 0.1, 100000.0, &vo->walk_speed); want = "m/s in [0.1, 100000]"; }
+        else if (!strcmp(a, "--eye-height")) { ok = cli_parse_float(v, 0.01, 100000.0, &vo->eye_height); want = "metres in [0.01, 100000]"; }
+        else if (!strcmp(a, "--hud-scale")) { ok = cli_parse_float(v, 0.5, 8.0, &vo->hud_scale); want = "a number in [0.5, 8]"; }
+        else if (!strcmp(a, "--mouse-sens")) { ok = cli_parse_float(v, 0.001, 10.0, &vo->mouse_sens); want = "degrees per pixel in [0.001, 10]"; }
         if (!ok) {
             fprintf(stderr, "horizon view: invalid value '%s' for %s: expected %s\n", v, a, want);
             return 2;
@@ -329,7 +330,7 @@ static int button_from_name(const char *s)
 static bool floats(char **tok, int n, float *v)
 {
     for (int k = 0; k < n; k++)
-        if (!tok[k] || !cli_parse_float(tok[k], -1e8f, 1e8f, &v[k]))
+        if (!tok[k] || !cli_parse_float(tok[k], -1e8, 1e8, &v[k]))
             return false;
     return true;
 }
@@ -362,7 +363,7 @@ static int load_script(const char *file, float dt, script *s)
         float secs;
         if (tl > 1 && tok[0][tl - 1] == 's') {
             tok[0][tl - 1] = 0;
-            if (!cli_parse_float(tok[0], 0, 1e7f, &secs))
+            if (!cli_parse_float(tok[0], 0, 1e7, &secs))
                 why = "bad time (a frame number, or seconds like 1.5s)";
             else
                 frame = (uint32_t)lround((double)secs / (double)dt);
@@ -1373,6 +1374,7 @@ int cmd_view(int argc, char **argv)
     hz_terrain_desc td = v->o.terrain;
     td.progress = loading_progress;
     td.progress_user = &ld;
+    td.max_samples = hz_gl_query_max_heightmap_samples(); /* refused before the work */
     v->t = hz_terrain_create(&td, &v->err);
     if (!v->t) {
         fprintf(stderr, "horizon view: %s\n", v->err.msg);

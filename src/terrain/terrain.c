@@ -1,9 +1,33 @@
 #include "horizon/terrain.h"
 
+#include "horizon/safety.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* Peak bytes per heightmap sample of a command on a terrain: the float grid
+ * and its fitted copy, the heightmap, the LOD data and the renderer's and
+ * effects' per-sample copies. Measured (peak RSS difference 2049^2 -> 4097^2,
+ * `horizon render --generate perlin`): 16 for cdlod, 13 for roam; bench's
+ * reference surfaces add 8. */
+#define TERRAIN_BYTES_PER_SAMPLE 24u
+
+/* The terrain a side x side heightmap makes, checked against the budget and
+ * the sample limit before any work. */
+static hz_result check_side(const hz_terrain_desc *d, uint32_t side, const char *what, hz_err *err)
+{
+    const uint64_t n = (uint64_t)side * side;
+    if (d->max_samples && n > d->max_samples)
+        return hz_err_set(err, HZ_ERR_UNSUPPORTED,
+                          "%s: a %ux%u heightmap has %llu samples, more than this GPU takes "
+                          "(GL_MAX_TEXTURE_BUFFER_SIZE = %llu texels); use a smaller --size, or --fit crop for a DEM",
+                          what, side, side, (unsigned long long)n, (unsigned long long)d->max_samples);
+    char w[400];
+    snprintf(w, sizeof w, "%s: a %ux%u terrain", what, side, side);
+    return hz_mem_check(n * TERRAIN_BYTES_PER_SAMPLE, d->max_memory, w, err);
+}
 
 static const char *base_name(const char *p)
 {
@@ -32,8 +56,13 @@ hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
     if (desc->dem_path) {
         hz_dem_desc dd = {.path = desc->dem_path, .format = desc->format, .units = desc->units,
                           .width = desc->raw_width, .height = desc->raw_height,
-                          .progress = desc->progress, .progress_user = desc->progress_user};
+                          .progress = desc->progress, .progress_user = desc->progress_user,
+                          .max_memory = desc->max_memory};
         if (hz_dem_load(&dd, &g, &t->info, err) != HZ_OK)
+            goto fail;
+        /* What fitting will make of it, before filling voids and fitting. */
+        const uint32_t side = hz_grid_fit_side(g.width, g.height, desc->fit);
+        if (side && check_side(desc, side, base_name(desc->dem_path), err) != HZ_OK)
             goto fail;
         if (hz_grid_fill_voids(&g, &t->voids_filled, err) != HZ_OK)
             goto fail;
@@ -44,6 +73,8 @@ hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
                           .size = desc->gen_size ? desc->gen_size : 4097,
                           .seed = desc->seed, .amplitude = desc->amplitude,
                           .progress = desc->progress, .progress_user = desc->progress_user};
+        if (check_side(desc, gd.size, "generated terrain", err) != HZ_OK)
+            goto fail;
         if (hz_generate(&gd, &g, err) != HZ_OK)
             goto fail;
         snprintf(t->source, sizeof t->source, "%s %u seed %llu",
