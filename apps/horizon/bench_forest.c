@@ -10,6 +10,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "horizon/safety.h"
+
 typedef struct frow {
     double frame_ms, frame_ms_nohyst, frame_ms_full, frame_ms_at_full;
     double forest_ms, select_ms;
@@ -253,11 +255,10 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
         }
     }
     if (bo->json_out) {
-        FILE *jf = fopen(bo->json_out, "w");
-        if (!jf) {
-            hz_err_set(&err, HZ_ERR_IO, "cannot write '%s'", bo->json_out);
+        hz_outfile jof;
+        FILE *jf = hz_outfile_open(&jof, bo->json_out, &err);
+        if (!jf)
             goto done;
-        }
         fprintf(jf,
                 "{\"bench\":\"forest\",\"terrain\":\"%s\",\"size\":%u,\"path\":\"%s\",\"frames\":%u,\"width\":%u,"
                 "\"height\":%u,\"trees\":%u,\"trees_in_frustum\":%.0f,\"trees_hull\":%.0f,\"trees_detailed\":%.0f,"
@@ -291,10 +292,8 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
             fputc('}', jf);
         }
         fputs("]}\n", jf);
-        if (fclose(jf) != 0) {
-            hz_err_set(&err, HZ_ERR_IO, "cannot write '%s'", bo->json_out);
+        if (hz_outfile_close(&jof, jf, &err) != HZ_OK)
             goto done;
-        }
     }
     rc = 0;
 done:

@@ -6,6 +6,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#include "horizon/safety.h"
 #include <sys/stat.h>
 
 #include "horizon/forest_render.h"
@@ -91,8 +93,12 @@ static int preview(const hz_tree *t, const char *file, uint32_t size, float rate
         *err = hook.err;
         goto done;
     }
-    if (hz_renderer_read_rgb(ren, rgb, err) != HZ_OK || hz_image_write_png(file, rgb, size, size, err) != HZ_OK)
+    hz_outfile of = {0};
+    if (hz_renderer_read_rgb(ren, rgb, err) != HZ_OK || hz_outfile_begin(&of, file, err) != HZ_OK ||
+        hz_image_write_png(of.tmp, rgb, size, size, err) != HZ_OK || hz_outfile_commit(&of, err) != HZ_OK) {
+        hz_outfile_discard(&of);
         goto done;
+    }
     rc = 0;
 done:
     free(rgb);
@@ -220,6 +226,10 @@ int cmd_tree(int argc, char **argv)
         fprintf(stderr, "horizon tree: --rank and --no-rank contradict each other\n");
         return 2;
     }
+    const cli_file ins[] = {{in, "--in", CLI_FILE}, {id.path, "--import", CLI_FILE}};
+    const cli_file outs[] = {{out, "--out", CLI_FILE}, {preview_file, "--preview", CLI_FILE}};
+    if (cli_check_outputs("tree", outs, 2, ins, 2))
+        return 2;
     hz_err err = {0};
     double t0 = hz_time_ms();
     hz_tree *t = in ? hz_tree_load(in, &err) : id.path ? hz_tree_import(&id, &err) : hz_tree_grow(&gd, &err);
@@ -249,8 +259,15 @@ int cmd_tree(int argc, char **argv)
         if (hz_hull_build(t, &hd, &hs, &err) != HZ_OK)
             goto done;
     }
-    if (out && hz_tree_save(t, out, &err) != HZ_OK)
-        goto done;
+    if (out) {
+        hz_outfile of;
+        if (hz_outfile_begin(&of, out, &err) != HZ_OK)
+            goto done;
+        if (hz_tree_save(t, of.tmp, &err) != HZ_OK || hz_outfile_commit(&of, &err) != HZ_OK) {
+            hz_outfile_discard(&of);
+            goto done;
+        }
+    }
     if (preview_file && preview(t, preview_file, size, rate, hull_preview, &err))
         goto done;
     if (pr) {
