@@ -155,6 +155,11 @@ hz_camera cli_forest_camera(const cli_opts *o, const hz_terrain *t);
 /* The "forest" path: 60 s low over the forest, across and back. */
 hz_result cli_forest_path(const cli_forest *cf, const hz_terrain *t, hz_path *out, hz_err *err);
 void cli_usage_forest(void);
+/* Reads a --forest-file: x,z,model,scale,yaw lines ('#' comments, blank
+ * lines skipped), y from t. *out (allocated) receives *n trees. False after
+ * filling err. */
+bool cli_read_forest_file(const char *file, const hz_terrain *t, uint32_t models, hz_forest_tree **out, uint32_t *n,
+                          hz_err *err);
 
 int cmd_render(int argc, char **argv);
 int cmd_bench(int argc, char **argv);

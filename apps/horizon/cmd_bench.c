@@ -674,12 +674,13 @@ static hz_result plot(const bench *b, const char *plot_out, const frame_row *row
  * (0 if no --lod), -1 on a bad name (message printed). */
 static int parse_modes(const char *v, hz_lod_mode *modes, int cap)
 {
-    char buf[256];
-    snprintf(buf, sizeof buf, "%s", v);
+    char buf[256], *it[HZ_LOD_MODE_COUNT * 2];
+    const int nit = (int)(sizeof it / sizeof *it) < cap ? (int)(sizeof it / sizeof *it) : cap;
+    /* An empty item ("quadtree,,cdlod") is an error, not skipped. */
+    int count = snprintf(buf, sizeof buf, "%s", v) < (int)sizeof buf ? cli_split(buf, it, nit) : -1;
     int n = 0;
-    char *save = NULL;
-    for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
-        if (n == cap || !hz_lod_mode_from_name(tok, &modes[n])) {
+    for (int k = 0; k < (count < 0 ? 1 : count); k++) {
+        if (count < 0 || !hz_lod_mode_from_name(it[k], &modes[n])) {
             fprintf(stderr, "horizon bench: invalid value '%s' for --lod: expected quadtree, remedy, bidirectional, "
                             "roam or cdlod, or a comma-separated list of them\n",
                     v);

@@ -7,6 +7,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <errno.h>
+#include <sys/stat.h>
 
 #include "horizon/lightmap.h"
 
@@ -68,6 +70,15 @@ static int load_textures(const char *dir, hz_renderer *r, const char *cmd)
 {
     static const char *const ground[HZ_GROUND_COUNT] = {"grass", "rock", "snow", "sand"};
     static const char *const sprite[HZ_SPRITE_COUNT] = {"conifer", "broadleaf", "rain", "snowflake"};
+    struct stat st;
+    if (stat(dir, &st) != 0) {
+        fprintf(stderr, "horizon %s: cannot open the textures folder '%s': %s\n", cmd, dir, strerror(errno));
+        return 1;
+    }
+    if (!S_ISDIR(st.st_mode)) {
+        fprintf(stderr, "horizon %s: --textures takes a folder of PNGs, and '%s' is not a folder\n", cmd, dir);
+        return 1;
+    }
     int found = 0;
     for (int k = 0; k < HZ_GROUND_COUNT + HZ_SPRITE_COUNT; k++) {
         const bool is_ground = k < HZ_GROUND_COUNT;
@@ -86,11 +97,18 @@ static int load_textures(const char *dir, hz_renderer *r, const char *cmd)
         hz_err err = {0};
         hz_result res;
         if (is_ground) {
-            res = w == h ? hz_renderer_set_detail_texture(r, (hz_ground)k, px, (uint32_t)w, &err)
-                         : hz_err_set(&err, HZ_ERR_VALUE, "a detail texture must be square (got %dx%d)", w, h);
+            /* The renderer's limits, stated. */
+            const bool pow2 = w >= 4 && w <= 8192 && (w & (w - 1)) == 0;
+            res = w == h && pow2 ? hz_renderer_set_detail_texture(r, (hz_ground)k, px, (uint32_t)w, &err)
+                                 : hz_err_set(&err, HZ_ERR_VALUE,
+                                              "a ground texture must be square with a power-of-two side from 4 to "
+                                              "8192 pixels (4, 8, ..., 8192); got %dx%d",
+                                              w, h);
         } else {
-            res = hz_renderer_set_billboard_texture(r, (uint32_t)(k - HZ_GROUND_COUNT), px, (uint32_t)w, (uint32_t)h,
-                                                    &err);
+            res = w >= 1 && h >= 1 && w <= 4096 && h <= 4096
+                      ? hz_renderer_set_billboard_texture(r, (uint32_t)(k - HZ_GROUND_COUNT), px, (uint32_t)w,
+                                                          (uint32_t)h, &err)
+                      : hz_err_set(&err, HZ_ERR_VALUE, "a sprite may be at most 4096x4096 pixels; got %dx%d", w, h);
         }
         stbi_image_free(px);
         if (res != HZ_OK) {

@@ -53,12 +53,18 @@ hz_result hz_mem_check(uint64_t bytes, uint64_t budget, const char *what, hz_err
 
 bool hz_size_parse(const char *s, uint64_t min, uint64_t max, uint64_t *out)
 {
-    if (!s || !*s || *s == '-' || *s == '+')
+    if (!s || !*s)
+        return false;
+    /* Plain decimal digits and one point: no sign, exponent, hex, inf or nan. */
+    size_t digits = strspn(s, "0123456789."), dots = 0;
+    for (size_t k = 0; k < digits; k++)
+        dots += s[k] == '.';
+    if (digits == 0 || dots > 1)
         return false;
     char *end;
     errno = 0;
     double v = strtod(s, &end);
-    if (errno || end == s || !isfinite(v) || v < 0)
+    if (errno || end != s + digits || !isfinite(v) || v < 0)
         return false;
     double mul = 1;
     if (*end) {
