@@ -233,7 +233,7 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
         } else if (!strcmp(a, "--roam-budget")) {
             NEEDV();
             if (!cli_parse_u32(v, 16, 100000000, &o->lod.roam_budget))
-                return bad(cmd, a, v, "triangles in [16, 1e8]");
+                return bad(cmd, a, v, "triangles in [16, 100000000]");
         } else if (!strcmp(a, "--morph-start")) {
             NEEDV();
             if (!cli_parse_float(v, 0.8, 0.95, &o->lod.morph_start))

@@ -108,7 +108,7 @@ static int split_view_opts(int n, char **args, view_opts *vo, char **rest, int *
         else if (!strcmp(a, "--screenshot")) vo->screenshot = v;
         else if (!strcmp(a, "--shot-dir")) vo->shot_dir = v;
         else if (!strcmp(a, "--path")) vo->path = v;
-        else if (!strcmp(a, "--frames")) { ok = cli_parse_u32(v, 1, 100000000, &vo->frames); want = "a count in [1, 1e8]"; }
+        else if (!strcmp(a, "--frames")) { ok = cli_parse_u32(v, 1, 100000000, &vo->frames); want = "a count in [1, 100000000]"; }
         else if (!strcmp(a, "--dt")) { ok = cli_parse_float(v, 1e-4, 10.0, &vo->dt); want = "seconds in [0.0001, 10]"; }
         else if (!strcmp(a, "--speed")) { ok = cli_parse_float(v, 0.1, 100000.0, &vo->speed); want = "m/s in [0.1, 100000]"; }
         else if (!strcmp(a, "--walk-speed")) { ok = cli_parse_float(v, 0.1, 100000.0, &vo->walk_speed); want = "m/s in [0.1, 100000]"; }

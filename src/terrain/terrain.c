@@ -18,15 +18,19 @@
  * the sample limit before any work. */
 static hz_result check_side(const hz_terrain_desc *d, uint32_t side, const char *what, hz_err *err)
 {
+    /* The memory first: it is what the user can raise (--max-memory). */
     const uint64_t n = (uint64_t)side * side;
+    char w[400];
+    snprintf(w, sizeof w, "%s: a %ux%u terrain", what, side, side);
+    hz_result r = hz_mem_check(n * TERRAIN_BYTES_PER_SAMPLE, d->max_memory, w, err);
+    if (r != HZ_OK)
+        return r;
     if (d->max_samples && n > d->max_samples)
         return hz_err_set(err, HZ_ERR_UNSUPPORTED,
                           "%s: a %ux%u heightmap has %llu samples, more than this GPU takes "
                           "(GL_MAX_TEXTURE_BUFFER_SIZE = %llu texels); use a smaller --size, or --fit crop for a DEM",
                           what, side, side, (unsigned long long)n, (unsigned long long)d->max_samples);
-    char w[400];
-    snprintf(w, sizeof w, "%s: a %ux%u terrain", what, side, side);
-    return hz_mem_check(n * TERRAIN_BYTES_PER_SAMPLE, d->max_memory, w, err);
+    return HZ_OK;
 }
 
 static const char *base_name(const char *p)

@@ -144,7 +144,8 @@ static void test_wide_file_refused(void **state)
     hz_terrain_desc gd = {.generate = HZ_GEN_PERLIN, .gen_size = 16385, .max_memory = (uint64_t)256 << 20};
     expect_refused(&gd, HZ_ERR_MEMORY, "16385x16385", "--max-memory");
     /* And against a sample limit (the GPU's), before any work. */
-    hz_terrain_desc gs = {.generate = HZ_GEN_PERLIN, .gen_size = 16385, .max_samples = (uint64_t)1 << 27};
+    hz_terrain_desc gs = {.generate = HZ_GEN_PERLIN, .gen_size = 16385, .max_samples = (uint64_t)1 << 27,
+                          .max_memory = (uint64_t)1 << 40};
     expect_refused(&gs, HZ_ERR_UNSUPPORTED, "16385x16385", "GL_MAX_TEXTURE_BUFFER_SIZE");
 }
 
