@@ -11,6 +11,7 @@
 #include <sys/stat.h>
 
 #include "horizon/lightmap.h"
+#include "horizon/safety.h"
 
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wconversion"
@@ -47,9 +48,28 @@ static int build_lightmap(app_fx *a, const hz_terrain *t, hz_renderer *r, const 
     return 0;
 }
 
-static int load_colormap(const char *path, hz_renderer *r, const char *cmd)
+/* The decoded size an image's header asks for, against the memory budget,
+ * before stb_image allocates it. 0, or 1 after the message. */
+static int check_image(const char *path, int channels, uint64_t budget, const char *cmd)
 {
     int w, h, n;
+    if (!stbi_info(path, &w, &h, &n))
+        return 0; /* stbi_load reports why */
+    char what[1200];
+    snprintf(what, sizeof what, "image '%s' (%dx%d)", path, w, h);
+    hz_err err = {0};
+    if (hz_mem_check((uint64_t)w * (uint64_t)h * (uint64_t)channels, budget, what, &err) != HZ_OK) {
+        fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
+        return 1;
+    }
+    return 0;
+}
+
+static int load_colormap(const char *path, hz_renderer *r, const char *cmd, uint64_t budget)
+{
+    int w, h, n;
+    if (check_image(path, 3, budget, cmd))
+        return 1;
     unsigned char *px = stbi_load(path, &w, &h, &n, 3);
     if (!px) {
         fprintf(stderr, "horizon %s: cannot read colour map '%s': %s\n", cmd, path, stbi_failure_reason());
@@ -66,7 +86,7 @@ static int load_colormap(const char *path, hz_renderer *r, const char *cmd)
 }
 
 /* DIR/grass.png ... replace the procedural textures; at least one must be there. */
-static int load_textures(const char *dir, hz_renderer *r, const char *cmd)
+static int load_textures(const char *dir, hz_renderer *r, const char *cmd, uint64_t budget)
 {
     static const char *const ground[HZ_GROUND_COUNT] = {"grass", "rock", "snow", "sand"};
     static const char *const sprite[HZ_SPRITE_COUNT] = {"conifer", "broadleaf", "rain", "snowflake"};
@@ -89,6 +109,8 @@ static int load_textures(const char *dir, hz_renderer *r, const char *cmd)
             continue;
         fclose(f);
         int w, h, n;
+        if (check_image(path, 4, budget, cmd))
+            return 1;
         unsigned char *px = stbi_load(path, &w, &h, &n, 4);
         if (!px) {
             fprintf(stderr, "horizon %s: cannot read texture '%s': %s\n", cmd, path, stbi_failure_reason());
@@ -186,9 +208,9 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
             return 1;
         }
     }
-    if (o->colormap && load_colormap(o->colormap, r, cmd))
+    if (o->colormap && load_colormap(o->colormap, r, cmd, o->terrain.max_memory))
         return 1;
-    if (o->textures && load_textures(o->textures, r, cmd))
+    if (o->textures && load_textures(o->textures, r, cmd, o->terrain.max_memory))
         return 1;
     a->setup_ms = hz_time_ms() - t0;
     return 0;

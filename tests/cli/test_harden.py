@@ -229,6 +229,17 @@ rc, dt, rss, err = measured(["render", "--generate", "perlin", "--size", "4097",
 good = rc == 1 and dt < 2.0 and "--max-memory" in err and "4097x4097" in err
 (ok if good else bad)("--size 4097 --max-memory 64M refused in %.2f s: %s" % (dt, err))
 
+# Images sized by their header (colour map, textures) are checked too.
+def chunk(t, d):
+    return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
+with open(tmp("bigcm.png"), "wb") as f:
+    f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 16000, 16000, 8, 2, 0, 0, 0)) +
+            chunk(b"IDAT", zlib.compress(b"\0" * 100)) + chunk(b"IEND", b""))
+rc, dt, rss, err = measured(["render", "--generate", "perlin", "--size", "33", "--colormap", tmp("bigcm.png"),
+                             "--max-memory", "256M", "--out", tmp("c.png")])
+good = rc == 1 and "16000x16000" in err and "--max-memory" in err and rss < 300
+(ok if good else bad)("colour map 16000x16000 with --max-memory 256M refused in %.2f s, %.0f MB: %s" % (dt, rss, err))
+
 # ---------------------------------------------------------------------------
 # 5/6. Values out of range and silent acceptances.
 with open(tmp("huge.csv"), "w") as f:
