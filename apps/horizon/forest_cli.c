@@ -9,6 +9,8 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "horizon/safety.h"
+
 void cli_usage_forest(void)
 {
     fprintf(stderr,
@@ -89,7 +91,13 @@ static hz_tree *species_model(const cli_opts *o, const char *name, hz_err *err)
     }
     if (cache) {
         hz_err e2 = {0};
-        if (!mkdir_p(dir) || hz_tree_save(t, file, &e2) != HZ_OK) {
+        hz_outfile of = {0};
+        /* Through a temporary file: a run reading the cache meanwhile never
+         * sees half a tree. */
+        bool saved = mkdir_p(dir) && hz_outfile_begin(&of, file, &e2) == HZ_OK &&
+                     hz_tree_save(t, of.tmp, &e2) == HZ_OK && hz_outfile_commit(&of, &e2) == HZ_OK;
+        hz_outfile_discard(&of);
+        if (!saved) {
             if (!o->quiet)
                 fprintf(stderr, "horizon: cannot cache the tree in %s (%s)\n", dir, e2.msg[0] ? e2.msg : strerror(errno));
         }
