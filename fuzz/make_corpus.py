@@ -89,6 +89,8 @@ put("path", "bad", b"0,0,0,0,0,0\n0,1,1,1,1,1\n")
 put("forest_csv", "simple", b"10,20,0,1,0\n50,60,1,1.5,90\n# c\n\n70,80,2,0.5,-45\n")
 put("forest_csv", "edge", b"  -1e7,1e7,0,100,1e7\n0,0,2,1e-3,0\r\n")
 put("forest_csv", "bad", b"1,2,3\n")
+# Regression inputs found by the fuzzers are kept as files next to these
+# (regress_*: not written here, never deleted).
 
 # ---- view config ----
 put("view_config", "simple", b"# settings\nlod-c = 30\ngenerate = perlin\nsize = 257\nwireframe = true\n")

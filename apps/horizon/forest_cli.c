@@ -137,10 +137,10 @@ bool cli_read_forest_file(const char *file, const hz_terrain *t, uint32_t models
         /* Positions and angles in the range of --camera (also keeps the
          * float conversions below defined). */
         if (sscanf(p, "%lf,%lf,%u,%lf,%lf %c", &x, &z, &m, &sc, &yaw, &extra) != 5 || !(fabs(x) <= 1e7) ||
-            !(fabs(z) <= 1e7) || !(fabs(yaw) <= 1e7) || !(sc > 0 && sc <= 100) || m >= models) {
+            !(fabs(z) <= 1e7) || !(fabs(yaw) <= 1e7) || !(sc >= 1e-3 && sc <= 100) || m >= models) {
             hz_err_set(err, HZ_ERR_FORMAT,
                        "%s:%u: expected x,z,model,scale,yaw with x, z in [-1e7, 1e7] m, model < %u, scale in "
-                       "(0, 100] and yaw in [-1e7, 1e7] degrees",
+                       "[0.001, 100] and yaw in [-1e7, 1e7] degrees",
                        file, ln, models);
             fclose(f);
             free(*out);
