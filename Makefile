@@ -4,6 +4,9 @@
 #               shore against the sun) to out/demo.png, prints its figures
 #   make test   installs, builds and runs every test (ctest)
 #   make bench  the standard benchmark set -> out/bench/*.json, out/bench/summary.md
+#   make fuzz   every parser's libFuzzer target for FUZZ_SECONDS each (default 600)
+# make test also builds build-san/ (clang, ASan + UBSan, libFuzzer), runs the
+# unit tests there once more and every fuzzer for FUZZ_SHORT seconds.
 BUILD ?= build
 JOBS  ?= 2
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
@@ -11,8 +14,14 @@ ifeq ($(CI),true)
 CMAKE_FLAGS += -DHZ_WERROR=ON
 endif
 HORIZON = $(BUILD)/apps/horizon/horizon
+# Sanitizer + fuzzer build: clang, no -Werror (the gcc build is the warning
+# gate; clang's extra warnings would fail CI on code gcc accepts).
+SAN_BUILD ?= build-san
+SAN_FLAGS ?= -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHZ_SANITIZE=ON -DHZ_FUZZ=ON
+FUZZ_SHORT ?= 20
+FUZZ_SECONDS ?= 600
 
-.PHONY: all deps build demo test bench clean
+.PHONY: all deps build san demo test test-san bench fuzz clean
 
 all: build
 
@@ -28,12 +37,24 @@ demo: build
 	$(HORIZON) render --generate perlin --size 4097 --seed 1 --effects all --sun 20,14 --time 20 \
 	  --camera 13194,300,34469,-17,-4 --out out/demo.png
 
-test: build
+san: deps
+	@CC=clang cmake -S . -B $(SAN_BUILD) $(SAN_FLAGS) >/dev/null
+	@cmake --build $(SAN_BUILD) -j$(JOBS)
+
+test: build san
 	@cd $(BUILD) && ctest --output-on-failure -j$(JOBS)
+	@JOBS=$(JOBS) bash scripts/test-san.sh $(SAN_BUILD)
+	@bash scripts/fuzz.sh $(SAN_BUILD) $(FUZZ_SHORT)
+
+test-san: san
+	@JOBS=$(JOBS) bash scripts/test-san.sh $(SAN_BUILD)
+
+fuzz: san
+	@bash scripts/fuzz.sh $(SAN_BUILD) $(FUZZ_SECONDS)
 
 bench: build
 	@bash scripts/deps.sh bench
 	bash bench/standard.sh $(HORIZON) ../shared/data
 
 clean:
-	rm -rf $(BUILD) out
+	rm -rf $(BUILD) $(SAN_BUILD) out

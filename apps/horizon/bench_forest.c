@@ -19,6 +19,8 @@ enum { RUN_HYST, RUN_NOHYST, RUN_FULL, RUN_TERRAIN, RUNS };
 static const char *const RUN_NAME[RUNS] = {"forest frames (hysteresis)", "forest frames (no hysteresis)",
                                            "forest frames (unsimplified)", "bare terrain frames"};
 
+#include "horizon/safety.h"
+
 typedef struct frow {
     bool done;
     double frame_ms, cpu_ms, draw_ms, select_ms;
@@ -351,11 +353,10 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
         }
     }
     if (bo->json_out) {
-        FILE *jf = fopen(bo->json_out, "w");
-        if (!jf) {
-            hz_err_set(&err, HZ_ERR_IO, "cannot write '%s'", bo->json_out);
+        hz_outfile jof;
+        FILE *jf = hz_outfile_open(&jof, bo->json_out, &err);
+        if (!jf)
             goto done;
-        }
         fprintf(jf,
                 "{\"bench\":\"forest\",\"terrain\":\"%s\",\"size\":%u,\"path\":\"%s\",\"frames\":%u,\"width\":%u,"
                 "\"height\":%u,\"trees\":%u,\"full_frames\":%u,\"near_m\":%g,\"far_m\":%g,\"hull_dist_m\":%g,"
@@ -414,10 +415,8 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
             fputc('}', jf);
         }
         fputs("]}\n", jf);
-        if (fclose(jf) != 0) {
-            hz_err_set(&err, HZ_ERR_IO, "cannot write '%s'", bo->json_out);
+        if (hz_outfile_close(&jof, jf, &err) != HZ_OK)
             goto done;
-        }
     }
     rc = 0;
 done:

@@ -6,15 +6,37 @@
 #include <stdlib.h>
 #include <string.h>
 
-bool cli_parse_float(const char *s, float lo, float hi, float *out)
+#include "horizon/gl_limits.h"
+#include "horizon/safety.h"
+
+bool cli_parse_float(const char *s, double lo, double hi, float *out)
 {
     char *end;
     errno = 0;
     double v = strtod(s, &end);
+    /* NOTE: compared in double: a float bound (0.8f = 0.800000012) would
+     * refuse the documented value itself. ERANGE on an underflow (1e-400)
+     * is a refusal too. */
     if (errno || end == s || *end || !isfinite(v) || v < lo || v > hi)
         return false;
     *out = (float)v;
     return true;
+}
+
+int cli_split(char *s, char **items, int cap)
+{
+    int n = 0;
+    for (char *p = s;;) {
+        char *comma = strchr(p, ',');
+        if (comma)
+            *comma = 0;
+        if (!*p || n == cap)
+            return -1;
+        items[n++] = p;
+        if (!comma)
+            return n;
+        p = comma + 1;
+    }
 }
 
 bool cli_parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
@@ -50,6 +72,7 @@ void cli_usage_terrain(void)
             "  --spacing M             metres between samples (default: the DEM's georeference, else from\n"
             "                          the name, SRTM 90/30, generated 10); georeferenced DEMs are resampled\n"
             "  --zscale Z              height multiplier (default 1)\n"
+            "  --max-memory SIZE       refuse terrains needing more (e.g. 8G; default half the RAM)\n"
             "LOD:\n"
             "  --lod MODE              quadtree (default), remedy, bidirectional, roam or cdlod\n"
             "  --pixel-error TAU       screen-space error bound in pixels (roam and cdlod: default 1;\n"
@@ -138,6 +161,10 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
         } else if (!strcmp(a, "--crs")) {
             NEEDV();
             o->terrain.crs = v;
+        } else if (!strcmp(a, "--max-memory")) {
+            NEEDV();
+            if (!hz_size_parse(v, (uint64_t)1 << 20, (uint64_t)1 << 50, &o->terrain.max_memory))
+                return bad(cmd, a, v, "a size like 512M, 8G or 1.5T, in [1M, 1024T]");
         } else if (!strcmp(a, "--format")) {
             NEEDV();
             if (!hz_dem_format_parse(v, &o->terrain.format))
@@ -152,13 +179,14 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
         } else if (!strcmp(a, "--raw-size")) {
             NEEDV();
             char buf[64];
-            snprintf(buf, sizeof buf, "%s", v);
+            if (snprintf(buf, sizeof buf, "%s", v) >= (int)sizeof buf)
+                return bad(cmd, a, v, "a shorter value");
             char *x = strchr(buf, 'x');
             if (x)
                 *x = 0;
             if (!cli_parse_u32(buf, 2, 65537, &o->terrain.raw_width) ||
                 (x && !cli_parse_u32(x + 1, 2, 65537, &o->terrain.raw_height)))
-                return bad(cmd, a, v, "W or WxH, 2..65537");
+                return bad(cmd, a, v, "W or WxH, sides in [2, 65537]");
         } else if (!strcmp(a, "--generate")) {
             NEEDV();
             if (!hz_gen_kind_parse(v, &o->terrain.generate))
@@ -166,7 +194,7 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
         } else if (!strcmp(a, "--size")) {
             NEEDV();
             if (!cli_parse_u32(v, 3, 16385, &o->terrain.gen_size) || !hz_is_pow2_plus1(o->terrain.gen_size))
-                return bad(cmd, a, v, "2^n+1 between 3 and 16385 (e.g. 1025, 2049, 4097)");
+                return bad(cmd, a, v, "2^n+1 in [3, 16385] (e.g. 1025, 2049, 4097)");
         } else if (!strcmp(a, "--seed")) {
             NEEDV();
             char *end;
@@ -176,8 +204,8 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
                 return bad(cmd, a, v, "a non-negative integer");
         } else if (!strcmp(a, "--amplitude")) {
             NEEDV();
-            if (!cli_parse_float(v, 0.001f, 100000, &o->terrain.amplitude))
-                return bad(cmd, a, v, "metres in (0, 100000]");
+            if (!cli_parse_float(v, 0.001, 100000, &o->terrain.amplitude))
+                return bad(cmd, a, v, "metres in [0.001, 100000]");
         } else if (!strcmp(a, "--fit")) {
             NEEDV();
             if (!strcmp(v, "auto")) o->terrain.fit = HZ_FIT_AUTO;
@@ -193,20 +221,20 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             else return bad(cmd, a, v, "blocked or linear");
         } else if (!strcmp(a, "--spacing")) {
             NEEDV();
-            if (!cli_parse_float(v, 0.001f, 100000, &o->terrain.spacing))
-                return bad(cmd, a, v, "metres in (0, 100000]");
+            if (!cli_parse_float(v, 0.001, 100000, &o->terrain.spacing))
+                return bad(cmd, a, v, "metres in [0.001, 100000]");
         } else if (!strcmp(a, "--zscale")) {
             NEEDV();
-            if (!cli_parse_float(v, 0.0001f, 10000, &o->terrain.zscale))
-                return bad(cmd, a, v, "a number in (0, 10000]");
+            if (!cli_parse_float(v, 0.0001, 10000, &o->terrain.zscale))
+                return bad(cmd, a, v, "a number in [0.0001, 10000]");
         } else if (!strcmp(a, "--lod-c")) {
             NEEDV();
-            if (!cli_parse_float(v, 0.01f, 100000, &o->lod.c))
-                return bad(cmd, a, v, "a number in (0, 100000]");
+            if (!cli_parse_float(v, 0.01, 100000, &o->lod.c))
+                return bad(cmd, a, v, "a number in [0.01, 100000]");
         } else if (!strcmp(a, "--lod-c2")) {
             NEEDV();
-            if (!cli_parse_float(v, 0.01f, 100000, &o->lod.c2))
-                return bad(cmd, a, v, "a number in (0, 100000]");
+            if (!cli_parse_float(v, 0.01, 100000, &o->lod.c2))
+                return bad(cmd, a, v, "a number in [0.01, 100000]");
         } else if (!strcmp(a, "--criterion")) {
             NEEDV();
             if (!strcmp(v, "clamped")) o->lod.criterion = HZ_LOD_CLAMPED;
@@ -220,35 +248,35 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
                 return bad(cmd, a, v, "quadtree, remedy, bidirectional, roam or cdlod");
         } else if (!strcmp(a, "--pixel-error")) {
             NEEDV();
-            if (!cli_parse_float(v, 0.01f, 1000, &o->lod.pixel_error))
+            if (!cli_parse_float(v, 0.01, 1000, &o->lod.pixel_error))
                 return bad(cmd, a, v, "pixels in [0.01, 1000]");
         } else if (!strcmp(a, "--bidir-distance")) {
             NEEDV();
-            if (!cli_parse_float(v, 0.001f, 1e8f, &o->lod.bidir_distance))
-                return bad(cmd, a, v, "metres in (0, 1e8]");
+            if (!cli_parse_float(v, 0.001, 1e8, &o->lod.bidir_distance))
+                return bad(cmd, a, v, "metres in [0.001, 1e8]");
         } else if (!strcmp(a, "--roam-budget")) {
             NEEDV();
             if (!cli_parse_u32(v, 16, 100000000, &o->lod.roam_budget))
-                return bad(cmd, a, v, "triangles in [16, 1e8]");
+                return bad(cmd, a, v, "triangles in [16, 100000000]");
         } else if (!strcmp(a, "--patch-cells")) {
             NEEDV();
             if (!cli_parse_u32(v, 2, 256, &o->terrain.patch_cells) ||
                 (o->terrain.patch_cells & (o->terrain.patch_cells - 1)))
-                return bad(cmd, a, v, "a power of two in 2..256");
+                return bad(cmd, a, v, "a power of two in [2, 256]");
         } else if (!strcmp(a, "--morph-start")) {
             NEEDV();
-            if (!cli_parse_float(v, 0.8f, 0.95f, &o->lod.morph_start))
+            if (!cli_parse_float(v, 0.8, 0.95, &o->lod.morph_start))
                 return bad(cmd, a, v, "a fraction in [0.8, 0.95]");
         } else if (!strcmp(a, "--camera")) {
             NEEDV();
-            char buf[256], *save = NULL;
-            snprintf(buf, sizeof buf, "%s", v);
-            int k = 0;
-            for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save), k++)
-                if (k >= 5 || !cli_parse_float(tok, -1e7f, 1e7f, &o->camera[k]))
-                    return bad(cmd, a, v, "X,Y,Z,YAW,PITCH (metres, degrees)");
-            if (k != 5)
-                return bad(cmd, a, v, "X,Y,Z,YAW,PITCH (metres, degrees)");
+            char buf[256], *it[5];
+            if (snprintf(buf, sizeof buf, "%s", v) >= (int)sizeof buf)
+                return bad(cmd, a, v, "a shorter value");
+            bool ok = cli_split(buf, it, 5) == 5;
+            for (int k = 0; ok && k < 5; k++)
+                ok = cli_parse_float(it[k], -1e7, 1e7, &o->camera[k]);
+            if (!ok)
+                return bad(cmd, a, v, "X,Y,Z,YAW,PITCH (metres and degrees, each in [-1e7, 1e7])");
             o->have_camera = true;
         } else if (!strcmp(a, "--fov")) {
             NEEDV();
@@ -260,7 +288,7 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
                 return bad(cmd, a, v, "metres in 0.001..100000");
         } else if (!strcmp(a, "--far")) {
             NEEDV();
-            if (!cli_parse_float(v, 1, 1e8f, &o->far))
+            if (!cli_parse_float(v, 1, 1e8, &o->far))
                 return bad(cmd, a, v, "metres in [1, 1e8]");
         } else if (!strcmp(a, "--width")) {
             NEEDV();
@@ -305,14 +333,12 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
                 return bad(cmd, a, v, "trees per hectare in [1, 10000]");
         } else if (!strcmp(a, "--forest-at")) {
             NEEDV();
-            char buf[128], *comma;
-            snprintf(buf, sizeof buf, "%s", v);
-            comma = strchr(buf, ',');
-            if (!comma)
-                return bad(cmd, a, v, "X,Z in metres");
-            *comma = 0;
-            if (!cli_parse_float(buf, -1e7f, 1e7f, &o->forest_at[0]) || !cli_parse_float(comma + 1, -1e7f, 1e7f, &o->forest_at[1]))
-                return bad(cmd, a, v, "X,Z in metres");
+            char buf[128], *it[2];
+            if (snprintf(buf, sizeof buf, "%s", v) >= (int)sizeof buf)
+                return bad(cmd, a, v, "a shorter value");
+            if (cli_split(buf, it, 2) != 2 || !cli_parse_float(it[0], -1e7, 1e7, &o->forest_at[0]) ||
+                !cli_parse_float(it[1], -1e7, 1e7, &o->forest_at[1]))
+                return bad(cmd, a, v, "X,Z in metres, each in [-1e7, 1e7]");
             o->forest_at_set = true;
         } else if (!strcmp(a, "--forest-seed")) {
             NEEDV();
@@ -331,25 +357,25 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             o->forest.node_culling = false;
         } else if (!strcmp(a, "--tree-near")) {
             NEEDV();
-            if (!cli_parse_float(v, 0.01f, 100000, &o->forest.rate.near_m))
-                return bad(cmd, a, v, "metres in (0, 100000]");
+            if (!cli_parse_float(v, 0.01, 100000, &o->forest.rate.near_m))
+                return bad(cmd, a, v, "metres in [0.01, 100000]");
         } else if (!strcmp(a, "--tree-far")) {
             NEEDV();
-            if (!cli_parse_float(v, 0.1f, 1000000, &o->forest.rate.far_m))
-                return bad(cmd, a, v, "metres in (0, 1000000]");
+            if (!cli_parse_float(v, 0.1, 1000000, &o->forest.rate.far_m))
+                return bad(cmd, a, v, "metres in [0.1, 1000000]");
         } else if (!strcmp(a, "--hull-dist")) {
             NEEDV();
-            if (!cli_parse_float(v, 0.1f, 1000000, &o->forest.hull_dist))
-                return bad(cmd, a, v, "metres in (0, 1000000]");
+            if (!cli_parse_float(v, 0.1, 1000000, &o->forest.hull_dist))
+                return bad(cmd, a, v, "metres in [0.1, 1000000]");
         } else if (!strcmp(a, "--rate-weights")) {
             NEEDV();
-            char buf[256], *save = NULL;
-            snprintf(buf, sizeof buf, "%s", v);
-            int k = 0;
-            for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save), k++)
-                if (k >= 5 || !cli_parse_float(tok, 0, 10, &o->forest.rate.w[k]))
-                    return bad(cmd, a, v, "five weights W1,..,W5 in [0, 10]");
-            if (k != 5)
+            char buf[256], *it[5];
+            if (snprintf(buf, sizeof buf, "%s", v) >= (int)sizeof buf)
+                return bad(cmd, a, v, "a shorter value");
+            bool ok = cli_split(buf, it, 5) == 5;
+            for (int k = 0; ok && k < 5; k++)
+                ok = cli_parse_float(it[k], 0, 10, &o->forest.rate.w[k]);
+            if (!ok)
                 return bad(cmd, a, v, "five weights W1,..,W5 in [0, 10]");
         } else if (!strcmp(a, "--effects")) {
             NEEDV();
@@ -360,17 +386,17 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             }
         } else if (!strcmp(a, "--sun")) {
             NEEDV();
-            char buf[128], *save = NULL;
-            snprintf(buf, sizeof buf, "%s", v);
-            char *az = strtok_r(buf, ",", &save), *el = strtok_r(NULL, ",", &save);
-            if (!az || !el || strtok_r(NULL, ",", &save) || !cli_parse_float(az, -360, 720, &o->sun[0]) ||
-                !cli_parse_float(el, -90, 90, &o->sun[1]))
-                return bad(cmd, a, v, "AZIMUTH,ELEVATION in degrees (e.g. 245,30)");
+            char buf[128], *it[2];
+            if (snprintf(buf, sizeof buf, "%s", v) >= (int)sizeof buf)
+                return bad(cmd, a, v, "a shorter value");
+            if (cli_split(buf, it, 2) != 2 || !cli_parse_float(it[0], -360, 720, &o->sun[0]) ||
+                !cli_parse_float(it[1], -90, 90, &o->sun[1]))
+                return bad(cmd, a, v, "AZIMUTH,ELEVATION in degrees (e.g. 245,30; azimuth in [-360, 720], elevation in [-90, 90])");
             o->have_sun = true;
         } else if (!strcmp(a, "--time")) {
             NEEDV();
             float t;
-            if (!cli_parse_float(v, 0, 1e7f, &t))
+            if (!cli_parse_float(v, 0, 1e7, &t))
                 return bad(cmd, a, v, "seconds in [0, 1e7]");
             o->time = t;
         } else if (!strcmp(a, "--clouds")) {
@@ -381,13 +407,13 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
                 o->fx.cloud_cover = -1.0f; /* clear sky (0 means default) */
         } else if (!strcmp(a, "--wind")) {
             NEEDV();
-            char buf[128], *save = NULL;
-            snprintf(buf, sizeof buf, "%s", v);
-            char *sp = strtok_r(buf, ",", &save), *dir = strtok_r(NULL, ",", &save);
+            char buf[128], *it[2];
+            if (snprintf(buf, sizeof buf, "%s", v) >= (int)sizeof buf)
+                return bad(cmd, a, v, "a shorter value");
             float speed, deg;
-            if (!sp || !dir || strtok_r(NULL, ",", &save) || !cli_parse_float(sp, 0, 100, &speed) ||
-                !cli_parse_float(dir, -360, 720, &deg))
-                return bad(cmd, a, v, "SPEED,DIRECTION (m/s in [0, 100], degrees)");
+            if (cli_split(buf, it, 2) != 2 || !cli_parse_float(it[0], 0, 100, &speed) ||
+                !cli_parse_float(it[1], -360, 720, &deg))
+                return bad(cmd, a, v, "SPEED,DIRECTION (m/s in [0, 100], degrees in [-360, 720])");
             /* 0 means default: a calm wind is a tiny one. */
             speed = speed > 0.001f ? speed : 0.001f;
             o->fx.wind[0] = speed * sinf(glm_rad(deg));
@@ -399,13 +425,13 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             else return bad(cmd, a, v, "rain or snow");
         } else if (!strcmp(a, "--weather-intensity")) {
             NEEDV();
-            if (!cli_parse_float(v, 0.01f, 8, &o->fx.weather_intensity))
+            if (!cli_parse_float(v, 0.01, 8, &o->fx.weather_intensity))
                 return bad(cmd, a, v, "a factor in [0.01, 8]");
         } else if (!strcmp(a, "--water-level")) {
             NEEDV();
             if (!strcmp(v, "auto")) o->water_mode = 0;
             else if (!strcmp(v, "off")) o->water_mode = 1;
-            else if (cli_parse_float(v, -1e5f, 1e5f, &o->water_level)) o->water_mode = 2;
+            else if (cli_parse_float(v, -1e5, 1e5, &o->water_level)) o->water_mode = 2;
             else return bad(cmd, a, v, "metres, auto or off");
         } else if (!strcmp(a, "--fog")) {
             NEEDV();
@@ -420,20 +446,20 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
                 o->fx.height_fog = -1.0f;
         } else if (!strcmp(a, "--blur")) {
             NEEDV();
-            if (!cli_parse_float(v, 0.001f, 0.98f, &o->fx.blur))
-                return bad(cmd, a, v, "a feedback factor in (0, 0.98]");
+            if (!cli_parse_float(v, 0.001, 0.98, &o->fx.blur))
+                return bad(cmd, a, v, "a feedback factor in [0.001, 0.98]");
         } else if (!strcmp(a, "--exposure")) {
             NEEDV();
-            if (!cli_parse_float(v, 0.01f, 100, &o->fx.exposure))
+            if (!cli_parse_float(v, 0.01, 100, &o->fx.exposure))
                 return bad(cmd, a, v, "a factor in [0.01, 100]");
         } else if (!strcmp(a, "--gamma")) {
             NEEDV();
-            if (!cli_parse_float(v, 0.1f, 10, &o->fx.gamma))
+            if (!cli_parse_float(v, 0.1, 10, &o->fx.gamma))
                 return bad(cmd, a, v, "a gamma in [0.1, 10]");
         } else if (!strcmp(a, "--bloom")) {
             NEEDV();
-            if (!cli_parse_float(v, 0.001f, 10, &o->fx.bloom_strength))
-                return bad(cmd, a, v, "a strength in (0, 10]");
+            if (!cli_parse_float(v, 0.001, 10, &o->fx.bloom_strength))
+                return bad(cmd, a, v, "a strength in [0.001, 10]");
         } else if (!strcmp(a, "--trees")) {
             NEEDV();
             if (!cli_parse_float(v, 0, 1000, &o->trees))
@@ -474,12 +500,104 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
     return 0;
 }
 
+size_t cli_opts_inputs(const cli_opts *o, cli_file *ins, size_t n, size_t cap)
+{
+    const cli_file all[] = {{o->terrain.dem_path, "--dem", CLI_FILE},
+                            {o->colormap, "--colormap", CLI_FILE},
+                            {o->forest_file, "--forest-file", CLI_FILE},
+                            {o->forest_trees, "--forest-trees", CLI_LIST},
+                            {o->textures, "--textures", CLI_TEXTURES}};
+    for (size_t k = 0; k < sizeof all / sizeof *all && n < cap; k++)
+        if (all[k].path)
+            ins[n++] = all[k];
+    return n;
+}
+
+/* Calls fn on every file f names; stops at the first true. */
+static bool each_file(const cli_file *f, bool (*fn)(const char *path, const void *user), const void *user,
+                      const char **hit)
+{
+    if (!f->path)
+        return false;
+    if (f->kind == CLI_FILE) {
+        *hit = f->path;
+        return fn(f->path, user);
+    }
+    static char name[4200];
+    if (f->kind == CLI_TEXTURES) {
+        static const char *const tex[] = {"grass", "rock", "snow", "sand", "conifer", "broadleaf", "rain", "snowflake"};
+        for (size_t k = 0; k < sizeof tex / sizeof *tex; k++) {
+            snprintf(name, sizeof name, "%s/%s.png", f->path, tex[k]);
+            *hit = name;
+            if (fn(name, user))
+                return true;
+        }
+        return false;
+    }
+    const char *p = f->path;
+    while (*p) {
+        const char *c = strchr(p, ',');
+        size_t len = c ? (size_t)(c - p) : strlen(p);
+        snprintf(name, sizeof name, "%.*s", (int)(len < sizeof name ? len : sizeof name - 1), p);
+        *hit = name;
+        if (len && fn(name, user))
+            return true;
+        p += len + (c != NULL);
+    }
+    return false;
+}
+
+static bool same_as(const char *path, const void *user)
+{
+    return hz_same_file(path, user);
+}
+
+int cli_check_outputs(const char *cmd, const cli_file *outs, size_t nout, const cli_file *ins, size_t nin)
+{
+    for (size_t a = 0; a < nout; a++) {
+        if (!outs[a].path)
+            continue;
+        const char *hit = NULL;
+        for (size_t b = 0; b < nin; b++)
+            if (each_file(&ins[b], same_as, outs[a].path, &hit)) {
+                fprintf(stderr,
+                        "horizon %s: the output '%s' (%s) is the input '%s' (%s): refusing to overwrite it; "
+                        "choose another output file\n",
+                        cmd, outs[a].path, outs[a].opt, hit, ins[b].opt);
+                return 2;
+            }
+        for (size_t b = 0; b < a; b++)
+            if (outs[b].path && hz_same_file(outs[a].path, outs[b].path)) {
+                fprintf(stderr, "horizon %s: %s and %s both write '%s': give them different files\n", cmd,
+                        outs[b].opt, outs[a].opt, outs[a].path);
+                return 2;
+            }
+    }
+    return 0;
+}
+
+uint64_t cli_gpu_max_samples(void)
+{
+    hz_err err = {0};
+    hz_gl *gl = hz_gl_create_headless(&err);
+    if (!gl)
+        return 0; /* reported when the renderer is created */
+    uint64_t n = hz_gl_query_max_heightmap_samples();
+    hz_gl_destroy(gl);
+    return n;
+}
+
 hz_terrain *cli_load_terrain(const cli_opts *o)
 {
     hz_err err = {0};
     hz_terrain_desc d = o->terrain;
     if (o->dem_count > 1)
         d.dem_paths = o->dems;
+    /* The GPU's heightmap limit, checked before reading and preparing (a
+     * 16385^2 terrain takes a minute and gigabytes before the upload would
+     * refuse it). */
+    if (!d.max_samples)
+        d.max_samples = cli_gpu_max_samples();
     d.progress = o->quiet ? NULL : hz_progress_stderr;
     hz_terrain *t = hz_terrain_create(&d, &err);
     if (!t) {

@@ -84,14 +84,43 @@ void app_fx_sun_angles(const app_fx *a, float *azimuth, float *elevation);
 
 /* A finite number / a decimal integer in [lo, hi], the whole string; false
  * otherwise (out untouched). */
-bool cli_parse_float(const char *s, float lo, float hi, float *out);
+bool cli_parse_float(const char *s, double lo, double hi, float *out);
 bool cli_parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out);
+/* Splits s (modified in place) at commas into at most cap items. Returns the
+ * count, or -1 when an item is empty ("a,,b", "a,") or there are more than
+ * cap. */
+int cli_split(char *s, char **items, int cap);
 
 /* Parses argv[first..argc). Returns 0 on success, 2 on bad usage (message
  * printed). Unknown options are errors. */
 int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd);
 void cli_usage_terrain(void);
-/* Loads the terrain with a progress bar; NULL after printing the error. */
+/* A file a command reads or writes and the option that names it. */
+typedef enum cli_file_kind {
+    CLI_FILE = 0,  /* path is one file */
+    CLI_LIST,      /* path is a comma-separated list of files (--forest-trees) */
+    CLI_TEXTURES   /* path is the --textures folder: its grass.png ... snowflake.png */
+} cli_file_kind;
+typedef struct cli_file {
+    const char *path; /* NULL entries are skipped */
+    const char *opt;  /* "--dem" */
+    cli_file_kind kind;
+} cli_file;
+
+/* Appends o's inputs (--dem, --colormap, --forest-file, --forest-trees,
+ * --textures) to ins[n..cap); returns the new count. */
+size_t cli_opts_inputs(const cli_opts *o, cli_file *ins, size_t n, size_t cap);
+/* Refuses, with a message naming both options, an output that is the same
+ * file as an input or as another output (same device and inode, or the same
+ * resolved path; horizon/safety.h). Returns 0, or 2 after the message. */
+int cli_check_outputs(const char *cmd, const cli_file *outs, size_t nout, const cli_file *ins, size_t nin);
+
+/* GL_MAX_TEXTURE_BUFFER_SIZE of a short-lived headless context: the most
+ * heightmap samples the renderer takes; 0 when unknown. */
+uint64_t cli_gpu_max_samples(void);
+/* Loads the terrain with a progress bar; NULL after printing the error.
+ * Refuses a terrain over the GPU's heightmap limit (cli_gpu_max_samples) or
+ * the memory budget before the work. */
 hz_terrain *cli_load_terrain(const cli_opts *o);
 /* Uploads cdlod's morph data to a renderer when mode needs it (nothing for
  * the other modes). */
@@ -158,6 +187,11 @@ void cli_usage_forest(void);
 /* hz_progress_fn for growing/ranking trees: a bar on a terminal, else a line
  * every 10 % or 10 s. user: NULL or a line_progress (forest_cli.c). */
 void cli_tree_progress(void *user, const char *label, uint64_t done, uint64_t total);
+/* Reads a --forest-file: x,z,model,scale,yaw lines ('#' comments, blank
+ * lines skipped), y from t. *out (allocated) receives *n trees. False after
+ * filling err. */
+bool cli_read_forest_file(const char *file, const hz_terrain *t, uint32_t models, hz_forest_tree **out, uint32_t *n,
+                          hz_err *err);
 
 int cmd_render(int argc, char **argv);
 int cmd_bench(int argc, char **argv);

@@ -12,6 +12,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "horizon/safety.h"
+
 #include "bench_forest.h"
 #include "horizon/lightmap.h"
 #include "horizon/metrics.h"
@@ -218,11 +220,10 @@ static int effect_costs(const cli_opts *o, hz_terrain *t, hz_renderer *ren, app_
         memcpy(tmp, ms + (size_t)c * frames, frames * sizeof *tmp);
         med[c] = median_of(tmp, frames);
     }
-    FILE *jf = json_out ? fopen(json_out, "w") : NULL;
-    if (json_out && !jf) {
-        fprintf(stderr, "horizon bench: cannot write '%s'\n", json_out);
+    hz_outfile jof;
+    FILE *jf = json_out ? hz_outfile_open(&jof, json_out, &err) : NULL;
+    if (json_out && !jf)
         goto out;
-    }
     if (!o->quiet || !jf)
         printf("horizon bench --effect-costs: %s (%ux%u), path %s, %u frames at %ux%u on %s\n"
                "%-12s %10s %10s\n%-12s %10.2f\n%-12s %10.2f\n", t->source, t->hm.size, t->hm.size, path->name,
@@ -252,10 +253,8 @@ static int effect_costs(const cli_opts *o, hz_terrain *t, hz_renderer *ren, app_
         printf("light map %ux%u: %.1f ms (1 thread), %.1f ms (2 threads)\n", t->hm.size, t->hm.size, lm[0], lm[1]);
     if (jf) {
         fputs("}}\n", jf);
-        if (fclose(jf) != 0) {
-            fprintf(stderr, "horizon bench: cannot write '%s'\n", json_out);
+        if (hz_outfile_close(&jof, jf, &err) != HZ_OK)
             goto out;
-        }
     }
     rc = 0;
 out:
@@ -751,38 +750,48 @@ static void write_json(FILE *jf, const bench *b, const hz_lod_params *lod, const
 
 static hz_result plot(const bench *b, const char *plot_out, const frame_row *rows, hz_err *err)
 {
-    char dat[1100];
-    snprintf(dat, sizeof dat, "%s.dat", plot_out);
-    FILE *df = fopen(dat, "w");
+    /* The data goes to a temporary file next to the chart (never committed),
+     * the chart to another one renamed into place once gnuplot succeeded. */
+    char dname[1100];
+    snprintf(dname, sizeof dname, "%s.dat", plot_out);
+    hz_outfile datf, pngf;
+    FILE *df = hz_outfile_open(&datf, dname, err);
     if (!df)
-        return hz_err_set(err, HZ_ERR_IO, "cannot write '%s'", dat);
+        return HZ_ERR_IO;
+    const char *dat = datf.tmp;
     for (size_t i = 0; i < b->frames; i++)
         fprintf(df, "%u %u %.3f %.4f\n", (unsigned)i, rows[i].triangles, rows[i].frame_ms, rows[i].px_p99);
-    fclose(df);
-    char cmd[4096];
+    if (fclose(df) != 0 || hz_outfile_begin(&pngf, plot_out, err) != HZ_OK) {
+        hz_outfile_discard(&datf);
+        return hz_err_set(err, HZ_ERR_IO, "cannot write '%s'", plot_out);
+    }
+    char cmd[24576];
     snprintf(cmd, sizeof cmd,
              "gnuplot -e \"set terminal pngcairo size 1000,700 noenhanced; set output '%s'; set multiplot layout 3,1 "
              "title '%s %s'; set xlabel 'frame'; set ylabel 'triangles'; plot '%s' using 1:2 with lines notitle; "
              "set ylabel 'frame ms'; plot '%s' using 1:3 with lines notitle; "
              "set ylabel 'px error p99'; plot '%s' using 1:4 with lines notitle; unset multiplot\"",
-             plot_out, b->t->source, b->path.name, dat, dat, dat);
-    if (system(cmd) != 0)
+             pngf.tmp, b->t->source, b->path.name, dat, dat, dat);
+    if (system(cmd) != 0) {
+        hz_outfile_discard(&pngf);
         return hz_err_set(err, HZ_ERR_IO, "gnuplot failed or is not installed (apt-get install gnuplot-nox); data in %s",
                           dat);
-    remove(dat);
-    return HZ_OK;
+    }
+    hz_outfile_discard(&datf);
+    return hz_outfile_commit(&pngf, err);
 }
 
 /* Splits "--lod a,b,c" off argv: modes[] receives them. Returns the count
  * (0 if no --lod), -1 on a bad name (message printed). */
 static int parse_modes(const char *v, hz_lod_mode *modes, int cap)
 {
-    char buf[256];
-    snprintf(buf, sizeof buf, "%s", v);
+    char buf[256], *it[HZ_LOD_MODE_COUNT * 2];
+    const int nit = (int)(sizeof it / sizeof *it) < cap ? (int)(sizeof it / sizeof *it) : cap;
+    /* An empty item ("quadtree,,cdlod") is an error, not skipped. */
+    int count = snprintf(buf, sizeof buf, "%s", v) < (int)sizeof buf ? cli_split(buf, it, nit) : -1;
     int n = 0;
-    char *save = NULL;
-    for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
-        if (n == cap || !hz_lod_mode_from_name(tok, &modes[n])) {
+    for (int k = 0; k < (count < 0 ? 1 : count); k++) {
+        if (count < 0 || !hz_lod_mode_from_name(it[k], &modes[n])) {
             fprintf(stderr, "horizon bench: invalid value '%s' for --lod: expected quadtree, remedy, bidirectional, "
                             "roam or cdlod, or a comma-separated list of them\n",
                     v);
@@ -865,7 +874,7 @@ int cmd_bench(int argc, char **argv)
             const uint32_t hi = !strcmp(a, "--pr-res") ? 4096 : 100000, lo = !strcmp(a, "--pr-res") ? 16 : 1;
             uint32_t x;
             if (!cli_parse_u32(v, lo, hi, &x)) {
-                fprintf(stderr, "horizon bench: invalid value '%s' for %s: expected %u..%u\n", v, a, lo, hi);
+                fprintf(stderr, "horizon bench: invalid value '%s' for %s: expected a count in [%u, %u]\n", v, a, lo, hi);
                 free(rest);
                 return 2;
             }
@@ -898,16 +907,16 @@ int cmd_bench(int argc, char **argv)
             reference = !strcmp(v, "on");
         } else if (!strcmp(a, "--frames")) {
             if (!cli_parse_u32(v, 1, 100000, &frames)) {
-                fprintf(stderr, "horizon bench: invalid value '%s' for --frames: expected 1..100000\n", v);
+                fprintf(stderr, "horizon bench: invalid value '%s' for --frames: expected a count in [1, 100000]\n", v);
                 free(rest);
                 return 2;
             }
         } else if (!strcmp(a, "--fps") || !strcmp(a, "--tune-p99")) {
             const bool is_fps = !strcmp(a, "--fps");
             float f;
-            if (!cli_parse_float(v, is_fps ? 0.1f : 0.01f, is_fps ? 10000.0f : 1000.0f, &f)) {
+            if (!cli_parse_float(v, is_fps ? 0.1 : 0.01, is_fps ? 10000.0 : 1000.0, &f)) {
                 fprintf(stderr, "horizon bench: invalid value '%s' for %s: expected %s\n", v, a,
-                        is_fps ? "0.1..10000" : "pixels in 0.01..1000");
+                        is_fps ? "frames per second in [0.1, 10000]" : "pixels in [0.01, 1000]");
                 free(rest);
                 return 2;
             }
@@ -936,6 +945,17 @@ int cmd_bench(int argc, char **argv)
     if (b.o.out || b.o.dump_mesh) {
         fprintf(stderr, "horizon bench: --out/--dump-mesh belong to render; use --save-frames DIR\n");
         return 2;
+    }
+    {
+        cli_file ins[8];
+        size_t nin = cli_opts_inputs(&b.o, ins, 0, 7);
+        const size_t pl = path_name ? strlen(path_name) : 0;
+        if (pl > 4 && !strcmp(path_name + pl - 4, ".csv")) /* else a built-in path's name */
+            ins[nin++] = (cli_file){path_name, "--path", CLI_FILE};
+        const cli_file outs[] = {{json_out, "--json", CLI_FILE}, {plot_out, "--plot", CLI_FILE},
+                                 {costs_out, "--effect-costs", CLI_FILE}};
+        if ((rc = cli_check_outputs("bench", outs, 3, ins, nin)))
+            return rc;
     }
     if (nmodes == 0)
         modes[nmodes++] = b.o.lod.mode;
@@ -980,6 +1000,7 @@ int cmd_bench(int argc, char **argv)
     rc = 1;
     hz_gl *gl = NULL;
     FILE *jf = NULL;
+    hz_outfile jof;
     frame_row *rows = NULL;
     b.npx = (size_t)b.o.width * b.o.height;
     b.cache_ref = reference && nmodes > 1;
@@ -1027,11 +1048,9 @@ int cmd_bench(int argc, char **argv)
     if (b.cache_ref && cache_references(&b) != HZ_OK)
         goto done;
     if (json_out) {
-        jf = fopen(json_out, "w");
-        if (!jf) {
-            hz_err_set(&b.err, HZ_ERR_IO, "cannot write '%s'", json_out);
+        jf = hz_outfile_open(&jof, json_out, &b.err);
+        if (!jf)
             goto done;
-        }
         if (nmodes > 1)
             fputs("{\"compare\":[", jf);
     }
@@ -1059,12 +1078,10 @@ int cmd_bench(int argc, char **argv)
     }
     if (jf) {
         fputs(nmodes > 1 ? "]}\n" : "\n", jf);
-        int closed = fclose(jf);
+        hz_result closed = hz_outfile_close(&jof, jf, &b.err);
         jf = NULL;
-        if (closed != 0) {
-            hz_err_set(&b.err, HZ_ERR_IO, "cannot write '%s'", json_out);
+        if (closed != HZ_OK)
             goto done;
-        }
     }
     if (plot_out && nmodes > 1)
         fprintf(stderr, "horizon bench: --plot charts a single mode; skipped for %d modes\n", nmodes);
@@ -1072,8 +1089,10 @@ int cmd_bench(int argc, char **argv)
 done:
     if (rc)
         fprintf(stderr, "horizon bench: %s\n", b.err.msg[0] ? b.err.msg : "failed");
-    if (jf)
+    if (jf) {
         fclose(jf);
+        hz_outfile_discard(&jof); /* a failed run leaves the old file as it was */
+    }
     app_fx_free(&b.afx);
     hz_renderer_destroy(b.ren);
     hz_gl_destroy(gl);

@@ -5,6 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "horizon/safety.h"
+
 static int cmp_double(const void *a, const void *b)
 {
     double x = *(const double *)a, y = *(const double *)b;
@@ -37,14 +39,17 @@ static int write_obj(const char *path, const hz_terrain *t, const hz_index_list 
                      const hz_lod_stats *st)
 {
     const uint32_t n = t->hm.size;
-    FILE *f = fopen(path, "w");
+    hz_outfile of;
+    hz_err err = {0};
+    FILE *f = hz_outfile_open(&of, path, &err);
     if (!f) {
-        perror(path);
+        fprintf(stderr, "horizon render: %s\n", err.msg);
         return 1;
     }
     uint32_t *remap = calloc((size_t)n * n, sizeof *remap);
     if (!remap) {
         fclose(f);
+        hz_outfile_discard(&of);
         fprintf(stderr, "horizon render: out of memory writing %s\n", path);
         return 1;
     }
@@ -65,8 +70,8 @@ static int write_obj(const char *path, const hz_terrain *t, const hz_index_list 
     for (size_t k = 0; k < il->count; k += 3)
         fprintf(f, "f %u %u %u\n", remap[il->data[k]], remap[il->data[k + 1]], remap[il->data[k + 2]]);
     free(remap);
-    if (fclose(f) != 0) {
-        perror(path);
+    if (hz_outfile_close(&of, f, &err) != HZ_OK) {
+        fprintf(stderr, "horizon render: %s\n", err.msg);
         return 1;
     }
     return 0;
@@ -94,6 +99,11 @@ int cmd_render(int argc, char **argv)
     if (rc)
         return rc;
     const char *out = o.out ? o.out : "render.png";
+    cli_file ins[8];
+    const size_t nin = cli_opts_inputs(&o, ins, 0, 8);
+    const cli_file outs[] = {{out, "--out", CLI_FILE}, {o.dump_mesh, "--dump-mesh", CLI_FILE}};
+    if ((rc = cli_check_outputs("render", outs, 2, ins, nin)))
+        return rc;
     hz_terrain *t = cli_load_terrain(&o);
     if (!t)
         return 1;
@@ -172,8 +182,13 @@ int cmd_render(int argc, char **argv)
     hz_fx_format(o.effects, fxs, sizeof fxs);
     double draw_med = median(draw, 3);
     uint8_t *rgb = malloc((size_t)o.width * o.height * 3);
-    if (!rgb || hz_renderer_read_rgb(ren, rgb, &err) != HZ_OK ||
-        hz_image_write_png(out, rgb, o.width, o.height, &err) != HZ_OK) {
+    hz_outfile png;
+    if (!rgb || hz_renderer_read_rgb(ren, rgb, &err) != HZ_OK || hz_outfile_begin(&png, out, &err) != HZ_OK) {
+        free(rgb);
+        goto done;
+    }
+    if (hz_image_write_png(png.tmp, rgb, o.width, o.height, &err) != HZ_OK || hz_outfile_commit(&png, &err) != HZ_OK) {
+        hz_outfile_discard(&png);
         free(rgb);
         goto done;
     }

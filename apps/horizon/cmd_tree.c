@@ -6,6 +6,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#include "horizon/safety.h"
 #include <sys/stat.h>
 
 #include "horizon/forest_render.h"
@@ -91,8 +93,12 @@ static int preview(const hz_tree *t, const char *file, uint32_t size, float rate
         *err = hook.err;
         goto done;
     }
-    if (hz_renderer_read_rgb(ren, rgb, err) != HZ_OK || hz_image_write_png(file, rgb, size, size, err) != HZ_OK)
+    hz_outfile of = {0};
+    if (hz_renderer_read_rgb(ren, rgb, err) != HZ_OK || hz_outfile_begin(&of, file, err) != HZ_OK ||
+        hz_image_write_png(of.tmp, rgb, size, size, err) != HZ_OK || hz_outfile_commit(&of, err) != HZ_OK) {
+        hz_outfile_discard(&of);
         goto done;
+    }
     rc = 0;
 done:
     free(rgb);
@@ -171,8 +177,8 @@ int cmd_tree(int argc, char **argv)
                     return bad(a, v, "y or z");
                 id.up = v[0];
             } else if (!strcmp(a, "--scale")) {
-                if (!cli_parse_float(v, 1e-6f, 1e6f, &id.scale))
-                    return bad(a, v, "a factor in (0, 1e6]");
+                if (!cli_parse_float(v, 1e-6, 1e6, &id.scale))
+                    return bad(a, v, "a factor in [1e-6, 1e6]");
             } else if (!strcmp(a, "--node-leaves")) {
                 if (!cli_parse_u32(v, 1, 4096, &id.node_leaves))
                     return bad(a, v, "a count in [1, 4096]");
@@ -195,7 +201,7 @@ int cmd_tree(int argc, char **argv)
                 if (!cli_parse_u32(v, 16, 1000000, &hd.triangles))
                     return bad(a, v, "a count in [16, 1000000]");
             } else if (!strcmp(a, "--rate")) {
-                if (!cli_parse_float(v, 0.0f, 0.99f, &rate))
+                if (!cli_parse_float(v, 0.0, 0.99, &rate))
                     return bad(a, v, "a rate in [0, 0.99]");
             } else if (!strcmp(a, "--size")) {
                 if (!cli_parse_u32(v, 16, 4096, &size))
@@ -220,6 +226,10 @@ int cmd_tree(int argc, char **argv)
         fprintf(stderr, "horizon tree: --rank and --no-rank contradict each other\n");
         return 2;
     }
+    const cli_file ins[] = {{in, "--in", CLI_FILE}, {id.path, "--import", CLI_FILE}};
+    const cli_file outs[] = {{out, "--out", CLI_FILE}, {preview_file, "--preview", CLI_FILE}};
+    if (cli_check_outputs("tree", outs, 2, ins, 2))
+        return 2;
     hz_err err = {0};
     double t0 = hz_time_ms();
     hz_tree *t = in ? hz_tree_load(in, &err) : id.path ? hz_tree_import(&id, &err) : hz_tree_grow(&gd, &err);
@@ -249,8 +259,15 @@ int cmd_tree(int argc, char **argv)
         if (hz_hull_build(t, &hd, &hs, &err) != HZ_OK)
             goto done;
     }
-    if (out && hz_tree_save(t, out, &err) != HZ_OK)
-        goto done;
+    if (out) {
+        hz_outfile of;
+        if (hz_outfile_begin(&of, out, &err) != HZ_OK)
+            goto done;
+        if (hz_tree_save(t, of.tmp, &err) != HZ_OK || hz_outfile_commit(&of, &err) != HZ_OK) {
+            hz_outfile_discard(&of);
+            goto done;
+        }
+    }
     if (preview_file && preview(t, preview_file, size, rate, hull_preview, &err))
         goto done;
     if (pr) {

@@ -15,7 +15,10 @@
 #include <time.h>
 
 #include "horizon/flycam.h"
+#include "horizon/gl_limits.h"
+#include "horizon/safety.h"
 #include "horizon/window.h"
+#include "view_input.h"
 
 #define MAX_BOXES 30000u /* node boxes drawn per frame (leaves and culled) */
 
@@ -32,19 +35,6 @@ typedef struct view_opts {
     float mouse_sens;     /* degrees per pixel; 0 -> 0.15 */
     bool walk, free_cam, fans, boxes, no_hud, no_vsync;
 } view_opts;
-
-/* Options that take no value: those of the shared parser and ours. */
-static const char *const flag_opts[] = {"no-cull", "json",     "wireframe",     "quiet",      "walk",
-                                        "free",    "fans",     "boxes",         "no-hud",     "no-vsync",
-                                        "no-simplify", "no-hysteresis", "no-enlarge", "no-node-cull"};
-
-static bool is_flag(const char *name)
-{
-    for (size_t k = 0; k < sizeof flag_opts / sizeof flag_opts[0]; k++)
-        if (!strcmp(name, flag_opts[k]))
-            return true;
-    return false;
-}
 
 static void usage(void)
 {
@@ -84,129 +74,6 @@ static void usage(void)
             "      C rain/snow, X motion blur, Z bloom, [ ] sun azimuth, - = sun elevation\n");
 }
 
-/* Growable list of strings we own (config tokens). */
-typedef struct strlist {
-    char **s;
-    size_t count, cap;
-} strlist;
-
-static bool strlist_add(strlist *l, const char *s)
-{
-    if (l->count == l->cap) {
-        size_t cap = l->cap ? 2 * l->cap : 16;
-        char **p = realloc(l->s, cap * sizeof *p);
-        if (!p)
-            return false;
-        l->s = p;
-        l->cap = cap;
-    }
-    char *d = strdup(s);
-    if (!d)
-        return false;
-    l->s[l->count++] = d;
-    return true;
-}
-
-static void strlist_free(strlist *l)
-{
-    for (size_t k = 0; k < l->count; k++)
-        free(l->s[k]);
-    free(l->s);
-    *l = (strlist){0};
-}
-
-static char *trim(char *s)
-{
-    while (isspace((unsigned char)*s))
-        s++;
-    size_t n = strlen(s);
-    while (n && isspace((unsigned char)s[n - 1]))
-        s[--n] = 0;
-    return s;
-}
-
-/* Reads `key = value` lines into "--key value" tokens. skip_source: the
- * command line names the terrain itself, so --dem/--generate here are dropped
- * (cli_parse refuses both at once). Returns 0 or 2 (message printed). */
-static int read_config(const char *file, strlist *out, bool skip_source)
-{
-    FILE *f = fopen(file, "r");
-    if (!f) {
-        fprintf(stderr, "horizon view: cannot open config %s: %s\n", file, strerror(errno));
-        return 2;
-    }
-    char line[1024];
-    int lineno = 0, rc = 0;
-    while (!rc && fgets(line, sizeof line, f)) {
-        lineno++;
-        if (!strchr(line, '\n') && !feof(f)) {
-            fprintf(stderr, "horizon view: %s:%d: line too long\n", file, lineno);
-            rc = 2;
-            break;
-        }
-        char *s = trim(line);
-        if (!*s || *s == '#' || *s == ';')
-            continue;
-        char *eq = strchr(s, '=');
-        if (!eq) {
-            fprintf(stderr, "horizon view: %s:%d: expected 'key = value', got '%s'\n", file, lineno, s);
-            rc = 2;
-            break;
-        }
-        *eq = 0;
-        char *key = trim(s), *val = trim(eq + 1);
-        /* A trailing comment after whitespace. */
-        for (char *h = val; *h; h++)
-            if (*h == '#' && h > val && isspace((unsigned char)h[-1])) {
-                *h = 0;
-                val = trim(val);
-                break;
-            }
-        size_t vl = strlen(val);
-        if (vl >= 2 && ((val[0] == '"' && val[vl - 1] == '"') || (val[0] == '\'' && val[vl - 1] == '\''))) {
-            val[vl - 1] = 0;
-            val++;
-        }
-        while (*key == '-')
-            key++;
-        if (!*key) {
-            fprintf(stderr, "horizon view: %s:%d: empty key\n", file, lineno);
-            rc = 2;
-            break;
-        }
-        if (!strcmp(key, "config")) {
-            fprintf(stderr, "horizon view: %s:%d: config files do not nest\n", file, lineno);
-            rc = 2;
-            break;
-        }
-        if (skip_source && (!strcmp(key, "dem") || !strcmp(key, "generate")))
-            continue;
-        char opt[128];
-        snprintf(opt, sizeof opt, "--%s", key);
-        if (is_flag(key)) {
-            if (!strcmp(val, "true") || !strcmp(val, "yes") || !strcmp(val, "on") || !strcmp(val, "1")) {
-                if (!strlist_add(out, opt))
-                    rc = 1;
-            } else if (strcmp(val, "false") && strcmp(val, "no") && strcmp(val, "off") && strcmp(val, "0")) {
-                fprintf(stderr, "horizon view: %s:%d: '%s' takes true or false, got '%s'\n", file, lineno, key, val);
-                rc = 2;
-            }
-            continue;
-        }
-        if (!*val) {
-            fprintf(stderr, "horizon view: %s:%d: '%s' needs a value\n", file, lineno, key);
-            rc = 2;
-            break;
-        }
-        if (!strlist_add(out, opt) || !strlist_add(out, val))
-            rc = 1;
-    }
-    if (rc == 1)
-        fprintf(stderr, "horizon view: out of memory reading %s\n", file);
-    fclose(f);
-    return rc;
-}
-
 /* Takes our options out of args, leaves the rest (argv[0], "view", ...) in
  * rest for cli_parse. Later occurrences win. Returns 0, or 2 (message printed). */
 static int split_view_opts(int n, char **args, view_opts *vo, char **rest, int *nrest)
@@ -241,13 +108,13 @@ static int split_view_opts(int n, char **args, view_opts *vo, char **rest, int *
         else if (!strcmp(a, "--screenshot")) vo->screenshot = v;
         else if (!strcmp(a, "--shot-dir")) vo->shot_dir = v;
         else if (!strcmp(a, "--path")) vo->path = v;
-        else if (!strcmp(a, "--frames")) { ok = cli_parse_u32(v, 1, 100000000, &vo->frames); want = "a count in [1, 1e8]"; }
-        else if (!strcmp(a, "--dt")) { ok = cli_parse_float(v, 1e-4f, 10.0f, &vo->dt); want = "seconds in [0.0001, 10]"; }
-        else if (!strcmp(a, "--speed")) { ok = cli_parse_float(v, 0.1f, 100000.0f, &vo->speed); want = "m/s in [0.1, 100000]"; }
-        else if (!strcmp(a, "--walk-speed")) { ok = cli_parse_float(v, 0.1f, 100000.0f, &vo->walk_speed); want = "m/s in [0.1, 100000]"; }
-        else if (!strcmp(a, "--eye-height")) { ok = cli_parse_float(v, 0.01f, 100000.0f, &vo->eye_height); want = "metres in [0.01, 100000]"; }
-        else if (!strcmp(a, "--hud-scale")) { ok = cli_parse_float(v, 0.5f, 8.0f, &vo->hud_scale); want = "a number in [0.5, 8]"; }
-        else if (!strcmp(a, "--mouse-sens")) { ok = cli_parse_float(v, 0.001f, 10.0f, &vo->mouse_sens); want = "degrees per pixel in [0.001, 10]"; }
+        else if (!strcmp(a, "--frames")) { ok = cli_parse_u32(v, 1, 100000000, &vo->frames); want = "a count in [1, 100000000]"; }
+        else if (!strcmp(a, "--dt")) { ok = cli_parse_float(v, 1e-4, 10.0, &vo->dt); want = "seconds in [0.0001, 10]"; }
+        else if (!strcmp(a, "--speed")) { ok = cli_parse_float(v, 0.1, 100000.0, &vo->speed); want = "m/s in [0.1, 100000]"; }
+        else if (!strcmp(a, "--walk-speed")) { ok = cli_parse_float(v, 0.1, 100000.0, &vo->walk_speed); want = "m/s in [0.1, 100000]"; }
+        else if (!strcmp(a, "--eye-height")) { ok = cli_parse_float(v, 0.01, 100000.0, &vo->eye_height); want = "metres in [0.01, 100000]"; }
+        else if (!strcmp(a, "--hud-scale")) { ok = cli_parse_float(v, 0.5, 8.0, &vo->hud_scale); want = "a number in [0.5, 8]"; }
+        else if (!strcmp(a, "--mouse-sens")) { ok = cli_parse_float(v, 0.001, 10.0, &vo->mouse_sens); want = "degrees per pixel in [0.001, 10]"; }
         if (!ok) {
             fprintf(stderr, "horizon view: invalid value '%s' for %s: expected %s\n", v, a, want);
             return 2;
@@ -257,194 +124,6 @@ static int split_view_opts(int n, char **args, view_opts *vo, char **rest, int *
 }
 
 /* ---- scripts --------------------------------------------------------------- */
-
-typedef enum ev_kind {
-    EV_KEY,        /* key down/up */
-    EV_BUTTON,     /* mouse button down/up */
-    EV_MOUSE,      /* mouse motion, pixels */
-    EV_LOOK,       /* yaw/pitch delta, degrees */
-    EV_SCROLL,
-    EV_RESIZE,
-    EV_CAMERA,     /* x y z yaw pitch */
-    EV_SCREENSHOT,
-    EV_QUIT
-} ev_kind;
-
-typedef struct script_event {
-    uint32_t frame;
-    uint32_t seq;  /* file order, for a stable sort */
-    ev_kind kind;
-    int code;      /* key or button */
-    bool down;
-    float v[5];
-    char *file;    /* screenshot (owned) */
-} script_event;
-
-typedef struct script {
-    script_event *ev;
-    size_t count, cap, next;
-} script;
-
-static void script_free(script *s)
-{
-    for (size_t k = 0; k < s->count; k++)
-        free(s->ev[k].file);
-    free(s->ev);
-    *s = (script){0};
-}
-
-static script_event *script_push(script *s)
-{
-    if (s->count == s->cap) {
-        size_t cap = s->cap ? 2 * s->cap : 64;
-        script_event *p = realloc(s->ev, cap * sizeof *p);
-        if (!p)
-            return NULL;
-        s->ev = p;
-        s->cap = cap;
-    }
-    script_event *e = &s->ev[s->count];
-    memset(e, 0, sizeof *e);
-    e->seq = (uint32_t)s->count++;
-    return e;
-}
-
-static int cmp_event(const void *a, const void *b)
-{
-    const script_event *x = a, *y = b;
-    if (x->frame != y->frame)
-        return x->frame < y->frame ? -1 : 1;
-    return (x->seq > y->seq) - (x->seq < y->seq);
-}
-
-static int button_from_name(const char *s)
-{
-    if (!strcmp(s, "left")) return HZ_MOUSE_LEFT;
-    if (!strcmp(s, "right")) return HZ_MOUSE_RIGHT;
-    if (!strcmp(s, "middle")) return HZ_MOUSE_MIDDLE;
-    return -1;
-}
-
-/* Parses floats tok[0..n) into v. */
-static bool floats(char **tok, int n, float *v)
-{
-    for (int k = 0; k < n; k++)
-        if (!tok[k] || !cli_parse_float(tok[k], -1e8f, 1e8f, &v[k]))
-            return false;
-    return true;
-}
-
-/* Reads a script: "WHEN VERB ARGS" per line, WHEN = frame number or seconds
- * with an 's' suffix (converted with dt). Returns 0 or 2 (message printed). */
-static int load_script(const char *file, float dt, script *s)
-{
-    FILE *f = fopen(file, "r");
-    if (!f) {
-        fprintf(stderr, "horizon view: cannot open script %s: %s\n", file, strerror(errno));
-        return 2;
-    }
-    char line[1024];
-    int lineno = 0, rc = 0;
-    while (!rc && fgets(line, sizeof line, f)) {
-        lineno++;
-        char *hash = strchr(line, '#');
-        if (hash)
-            *hash = 0;
-        char *tok[8] = {0}, *save = NULL;
-        int nt = 0;
-        for (char *t = strtok_r(line, " \t\r\n", &save); t && nt < 8; t = strtok_r(NULL, " \t\r\n", &save))
-            tok[nt++] = t;
-        if (nt == 0)
-            continue;
-        const char *why = NULL;
-        uint32_t frame = 0;
-        size_t tl = strlen(tok[0]);
-        float secs;
-        if (tl > 1 && tok[0][tl - 1] == 's') {
-            tok[0][tl - 1] = 0;
-            if (!cli_parse_float(tok[0], 0, 1e7f, &secs))
-                why = "bad time (a frame number, or seconds like 1.5s)";
-            else
-                frame = (uint32_t)lround((double)secs / (double)dt);
-        } else if (!cli_parse_u32(tok[0], 0, 100000000, &frame)) {
-            why = "bad frame number (a frame number, or seconds like 1.5s)";
-        }
-        script_event *e = why ? NULL : script_push(s);
-        if (!why && !e) {
-            rc = 1;
-            break;
-        }
-        if (e)
-            e->frame = frame;
-        const char *verb = nt > 1 ? tok[1] : "";
-        if (why) {
-        } else if (!strcmp(verb, "key") || !strcmp(verb, "button")) {
-            bool key = !strcmp(verb, "key");
-            e->kind = key ? EV_KEY : EV_BUTTON;
-            e->code = nt > 2 ? (key ? hz_key_from_name(tok[2]) : button_from_name(tok[2])) : -1;
-            const char *act = nt > 3 ? tok[3] : "";
-            if (e->code < 0)
-                why = key ? "unknown key name (e.g. W, TAB, F3, SHIFT, ESC, UP)" : "unknown button (left, right, middle)";
-            else if (nt != 4 || (strcmp(act, "down") && strcmp(act, "up") && strcmp(act, "press")))
-                why = "expected: WHEN key|button NAME down|up|press";
-            else if (!strcmp(act, "press")) {
-                /* Down this frame, up the next. NOTE: script_push may move
-                 * the array, so e is not used after it. */
-                e->down = true;
-                const ev_kind kind = e->kind;
-                const int code = e->code;
-                script_event *u = script_push(s);
-                if (!u) {
-                    rc = 1;
-                    break;
-                }
-                u->kind = kind;
-                u->code = code;
-                u->frame = frame + 1;
-                u->down = false;
-            } else {
-                e->down = !strcmp(act, "down");
-            }
-        } else if (!strcmp(verb, "mouse") || !strcmp(verb, "look")) {
-            e->kind = verb[0] == 'm' ? EV_MOUSE : EV_LOOK;
-            if (nt != 4 || !floats(tok + 2, 2, e->v))
-                why = "expected: WHEN mouse DX DY (pixels) or WHEN look DYAW DPITCH (degrees)";
-        } else if (!strcmp(verb, "scroll")) {
-            e->kind = EV_SCROLL;
-            if (nt != 3 || !floats(tok + 2, 1, e->v))
-                why = "expected: WHEN scroll NOTCHES";
-        } else if (!strcmp(verb, "resize")) {
-            e->kind = EV_RESIZE;
-            if (nt != 4 || !floats(tok + 2, 2, e->v) || e->v[0] < 16 || e->v[1] < 16 || e->v[0] > 8192 ||
-                e->v[1] > 8192)
-                why = "expected: WHEN resize W H (16..8192 pixels)";
-        } else if (!strcmp(verb, "camera")) {
-            e->kind = EV_CAMERA;
-            if (nt != 7 || !floats(tok + 2, 5, e->v))
-                why = "expected: WHEN camera X Y Z YAW PITCH";
-        } else if (!strcmp(verb, "screenshot")) {
-            e->kind = EV_SCREENSHOT;
-            if (nt != 3 || !(e->file = strdup(tok[2])))
-                why = "expected: WHEN screenshot FILE.png";
-        } else if (!strcmp(verb, "quit")) {
-            e->kind = EV_QUIT;
-            if (nt != 2)
-                why = "expected: WHEN quit";
-        } else {
-            why = "unknown event (key, button, mouse, look, scroll, resize, camera, screenshot, quit)";
-        }
-        if (why) {
-            fprintf(stderr, "horizon view: %s:%d: %s\n", file, lineno, why);
-            rc = 2;
-        }
-    }
-    fclose(f);
-    if (rc == 1)
-        fprintf(stderr, "horizon view: out of memory reading %s\n", file);
-    if (!rc && s->count)
-        qsort(s->ev, s->count, sizeof *s->ev, cmp_event);
-    return rc;
-}
 
 /* ---- the viewer ------------------------------------------------------------ */
 
@@ -628,8 +307,11 @@ static bool write_shot(view *v, const char *file)
     size_t n = (size_t)v->width * v->height * 3;
     uint8_t *rgb = malloc(n);
     hz_err err = {0};
-    bool ok = rgb && hz_renderer_read_rgb(v->ren, rgb, &err) == HZ_OK &&
-              hz_image_write_png(file, rgb, v->width, v->height, &err) == HZ_OK;
+    hz_outfile of = {0};
+    bool ok = rgb && hz_renderer_read_rgb(v->ren, rgb, &err) == HZ_OK && hz_outfile_begin(&of, file, &err) == HZ_OK &&
+              hz_image_write_png(of.tmp, rgb, v->width, v->height, &err) == HZ_OK &&
+              hz_outfile_commit(&of, &err) == HZ_OK;
+    hz_outfile_discard(&of);
     free(rgb);
     if (ok) {
         v->shots++;
@@ -1317,7 +999,7 @@ int cmd_view(int argc, char **argv)
         if (!strcmp(argv[i], "--dem") || !strcmp(argv[i], "--generate"))
             cmd_source = true;
     }
-    if (config && read_config(config, &cfg, cmd_source))
+    if (config && view_config_read(config, &cfg, cmd_source))
         goto out;
     int nargs = 0;
     args = calloc((size_t)argc + cfg.count + 1, sizeof *args);
@@ -1348,7 +1030,7 @@ int cmd_view(int argc, char **argv)
         vo->mouse_sens = 0.15f;
     bool scripted = vo->script || vo->path || vo->frames;
     v->dt_fixed = vo->dt > 0 ? vo->dt : scripted ? 1.0f / 30.0f : 0.0f;
-    if (vo->script && load_script(vo->script, v->dt_fixed > 0 ? v->dt_fixed : 1.0f / 30.0f, &v->sc))
+    if (vo->script && view_script_load(vo->script, v->dt_fixed > 0 ? v->dt_fixed : 1.0f / 30.0f, &v->sc))
         goto out;
     if (vo->path && ends_with(vo->path, ".csv")) {
         if (hz_path_load_csv(vo->path, &v->path, &v->err) != HZ_OK) {
@@ -1356,6 +1038,23 @@ int cmd_view(int argc, char **argv)
             goto out;
         }
         v->have_path = true;
+    }
+    {
+        /* No output may overwrite an input (config, script, path, DEM...). */
+        cli_file ins[12];
+        size_t nin = cli_opts_inputs(&v->o, ins, 0, 9);
+        ins[nin++] = (cli_file){config, "--config", CLI_FILE};
+        ins[nin++] = (cli_file){vo->script, "--script", CLI_FILE};
+        if (vo->path && ends_with(vo->path, ".csv"))
+            ins[nin++] = (cli_file){vo->path, "--path", CLI_FILE};
+        const cli_file shot = {vo->screenshot, "--screenshot", CLI_FILE};
+        if (cli_check_outputs("view", &shot, 1, ins, nin))
+            goto out;
+        for (size_t k = 0; k < v->sc.count; k++) {
+            const cli_file ev = {v->sc.ev[k].file, "a screenshot event of --script", CLI_FILE};
+            if (ev.path && cli_check_outputs("view", &ev, 1, ins, nin))
+                goto out;
+        }
     }
 
     /* Window first: it shows the loading progress. But a DEM that is not
@@ -1395,6 +1094,7 @@ int cmd_view(int argc, char **argv)
     hz_terrain_desc td = v->o.terrain;
     td.progress = loading_progress;
     td.progress_user = &ld;
+    td.max_samples = hz_gl_query_max_heightmap_samples(); /* refused before the work */
     v->t = hz_terrain_create(&td, &v->err);
     if (!v->t) {
         fprintf(stderr, "horizon view: %s\n", v->err.msg);

@@ -11,6 +11,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "horizon/safety.h"
+
 void cli_usage_forest(void)
 {
     fprintf(stderr,
@@ -172,7 +174,13 @@ static hz_tree *cached_model(const cli_opts *o, const char *species, const char 
     }
     if (cache) {
         hz_err e2 = {0};
-        if (!mkdir_p(dir) || hz_tree_save(t, file, &e2) != HZ_OK) {
+        hz_outfile of = {0};
+        /* Through a temporary file: a run reading the cache meanwhile never
+         * sees half a tree. */
+        bool saved = mkdir_p(dir) && hz_outfile_begin(&of, file, &e2) == HZ_OK &&
+                     hz_tree_save(t, of.tmp, &e2) == HZ_OK && hz_outfile_commit(&of, &e2) == HZ_OK;
+        hz_outfile_discard(&of);
+        if (!saved) {
             if (!o->quiet)
                 fprintf(stderr, "horizon: cannot cache the tree in %s (%s)\n", dir, e2.msg[0] ? e2.msg : strerror(errno));
         }
@@ -201,7 +209,7 @@ static hz_tree *model_file(const cli_opts *o, const char *path, hz_err *err)
 }
 
 /* x,z,model,scale,yaw lines ('#' comments, blank lines skipped). */
-static bool read_forest_file(const char *file, const hz_terrain *t, uint32_t models, hz_forest_tree **out,
+bool cli_read_forest_file(const char *file, const hz_terrain *t, uint32_t models, hz_forest_tree **out,
                              uint32_t *n, hz_err *err)
 {
     FILE *f = fopen(file, "r");
@@ -215,6 +223,13 @@ static bool read_forest_file(const char *file, const hz_terrain *t, uint32_t mod
     *n = 0;
     while (fgets(line, sizeof line, f)) {
         ln++;
+        if (!strchr(line, '\n') && !feof(f)) {
+            hz_err_set(err, HZ_ERR_FORMAT, "%s:%u: line too long (over %zu bytes)", file, ln, sizeof line - 2);
+            fclose(f);
+            free(*out);
+            *out = NULL;
+            return false;
+        }
         char *p = line;
         while (*p == ' ' || *p == '\t')
             p++;
@@ -223,11 +238,14 @@ static bool read_forest_file(const char *file, const hz_terrain *t, uint32_t mod
         double x, z, sc, yaw;
         unsigned m;
         char extra;
-        if (sscanf(p, "%lf,%lf,%u,%lf,%lf %c", &x, &z, &m, &sc, &yaw, &extra) != 5 || !isfinite(x) ||
-            !isfinite(z) || !isfinite(yaw) || !(sc > 0 && sc <= 100) || m >= models) {
+        /* Positions and angles in the range of --camera (also keeps the
+         * float conversions below defined). */
+        if (sscanf(p, "%lf,%lf,%u,%lf,%lf %c", &x, &z, &m, &sc, &yaw, &extra) != 5 || !(fabs(x) <= 1e7) ||
+            !(fabs(z) <= 1e7) || !(fabs(yaw) <= 1e7) || !(sc >= 1e-3 && sc <= 100) || m >= models) {
             hz_err_set(err, HZ_ERR_FORMAT,
-                       "%s:%u: expected x,z,model,scale,yaw with model < %u and scale in (0, 100]", file, ln,
-                       models);
+                       "%s:%u: expected x,z,model,scale,yaw with x, z in [-1e7, 1e7] m, model < %u, scale in "
+                       "[0.001, 100] and yaw in [-1e7, 1e7] degrees",
+                       file, ln, models);
             fclose(f);
             free(*out);
             *out = NULL;
@@ -318,7 +336,7 @@ cli_forest *cli_forest_create(const cli_opts *o, const hz_terrain *t)
     float density = o->forest_density > 0 ? o->forest_density : 400.0f;
     uint32_t placed = 0;
     if (o->forest_file) {
-        if (!read_forest_file(o->forest_file, t, cf->model_count, &trees, &placed, &err))
+        if (!cli_read_forest_file(o->forest_file, t, cf->model_count, &trees, &placed, &err))
             goto fail;
         float lo2[2] = {INFINITY, INFINITY}, hi2[2] = {-INFINITY, -INFINITY};
         for (uint32_t k = 0; k < placed; k++) {

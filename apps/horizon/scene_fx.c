@@ -7,8 +7,11 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <errno.h>
+#include <sys/stat.h>
 
 #include "horizon/lightmap.h"
+#include "horizon/safety.h"
 
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wconversion"
@@ -80,9 +83,28 @@ static unsigned char *colormap_on_dem(const unsigned char *px, int w, int h, con
     return out;
 }
 
-static int load_colormap(const char *path, hz_renderer *r, const char *cmd, const hz_terrain *t)
+/* The decoded size an image's header asks for, against the memory budget,
+ * before stb_image allocates it. 0, or 1 after the message. */
+static int check_image(const char *path, int channels, uint64_t budget, const char *cmd)
 {
     int w, h, n;
+    if (!stbi_info(path, &w, &h, &n))
+        return 0; /* stbi_load reports why */
+    char what[1200];
+    snprintf(what, sizeof what, "image '%s' (%dx%d)", path, w, h);
+    hz_err err = {0};
+    if (hz_mem_check((uint64_t)w * (uint64_t)h * (uint64_t)channels, budget, what, &err) != HZ_OK) {
+        fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
+        return 1;
+    }
+    return 0;
+}
+
+static int load_colormap(const char *path, hz_renderer *r, const char *cmd, const hz_terrain *t, uint64_t budget)
+{
+    int w, h, n;
+    if (check_image(path, 3, budget, cmd))
+        return 1;
     unsigned char *px = stbi_load(path, &w, &h, &n, 3);
     if (!px) {
         fprintf(stderr, "horizon %s: cannot read colour map '%s': %s\n", cmd, path, stbi_failure_reason());
@@ -113,10 +135,19 @@ static int load_colormap(const char *path, hz_renderer *r, const char *cmd, cons
 }
 
 /* DIR/grass.png ... replace the procedural textures; at least one must be there. */
-static int load_textures(const char *dir, hz_renderer *r, const char *cmd)
+static int load_textures(const char *dir, hz_renderer *r, const char *cmd, uint64_t budget)
 {
     static const char *const ground[HZ_GROUND_COUNT] = {"grass", "rock", "snow", "sand"};
     static const char *const sprite[HZ_SPRITE_COUNT] = {"conifer", "broadleaf", "rain", "snowflake"};
+    struct stat st;
+    if (stat(dir, &st) != 0) {
+        fprintf(stderr, "horizon %s: cannot open the textures folder '%s': %s\n", cmd, dir, strerror(errno));
+        return 1;
+    }
+    if (!S_ISDIR(st.st_mode)) {
+        fprintf(stderr, "horizon %s: --textures takes a folder of PNGs, and '%s' is not a folder\n", cmd, dir);
+        return 1;
+    }
     int found = 0;
     for (int k = 0; k < HZ_GROUND_COUNT + HZ_SPRITE_COUNT; k++) {
         const bool is_ground = k < HZ_GROUND_COUNT;
@@ -127,6 +158,8 @@ static int load_textures(const char *dir, hz_renderer *r, const char *cmd)
             continue;
         fclose(f);
         int w, h, n;
+        if (check_image(path, 4, budget, cmd))
+            return 1;
         unsigned char *px = stbi_load(path, &w, &h, &n, 4);
         if (!px) {
             fprintf(stderr, "horizon %s: cannot read texture '%s': %s\n", cmd, path, stbi_failure_reason());
@@ -135,11 +168,18 @@ static int load_textures(const char *dir, hz_renderer *r, const char *cmd)
         hz_err err = {0};
         hz_result res;
         if (is_ground) {
-            res = w == h ? hz_renderer_set_detail_texture(r, (hz_ground)k, px, (uint32_t)w, &err)
-                         : hz_err_set(&err, HZ_ERR_VALUE, "a detail texture must be square (got %dx%d)", w, h);
+            /* The renderer's limits, stated. */
+            const bool pow2 = w >= 4 && w <= 8192 && (w & (w - 1)) == 0;
+            res = w == h && pow2 ? hz_renderer_set_detail_texture(r, (hz_ground)k, px, (uint32_t)w, &err)
+                                 : hz_err_set(&err, HZ_ERR_VALUE,
+                                              "a ground texture must be square with a power-of-two side from 4 to "
+                                              "8192 pixels (4, 8, ..., 8192); got %dx%d",
+                                              w, h);
         } else {
-            res = hz_renderer_set_billboard_texture(r, (uint32_t)(k - HZ_GROUND_COUNT), px, (uint32_t)w, (uint32_t)h,
-                                                    &err);
+            res = w >= 1 && h >= 1 && w <= 4096 && h <= 4096
+                      ? hz_renderer_set_billboard_texture(r, (uint32_t)(k - HZ_GROUND_COUNT), px, (uint32_t)w,
+                                                          (uint32_t)h, &err)
+                      : hz_err_set(&err, HZ_ERR_VALUE, "a sprite may be at most 4096x4096 pixels; got %dx%d", w, h);
         }
         stbi_image_free(px);
         if (res != HZ_OK) {
@@ -237,9 +277,9 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
             return 1;
         }
     }
-    if (o->colormap && load_colormap(o->colormap, r, cmd, t))
+    if (o->colormap && load_colormap(o->colormap, r, cmd, t, o->terrain.max_memory))
         return 1;
-    if (o->textures && load_textures(o->textures, r, cmd))
+    if (o->textures && load_textures(o->textures, r, cmd, o->terrain.max_memory))
         return 1;
     a->setup_ms = hz_time_ms() - t0;
     return 0;

@@ -50,6 +50,8 @@ typedef struct hz_dem_desc {
     uint32_t height;       /* raw formats: rows; 0 -> same as width */
     hz_progress_fn progress; /* optional */
     void *progress_user;
+    uint64_t max_memory;   /* bytes the decoded grid (and decompressed data) may take, checked
+                              before allocating; 0 -> hz_mem_budget_default() */
 } hz_dem_desc;
 
 typedef struct hz_dem_info {

@@ -68,6 +68,10 @@ hz_result hz_grid_fit(hz_grid *g, hz_fit fit, hz_grid_fit_info *fi, char *note, 
  * border is flat continuation of the edge). */
 hz_result hz_grid_fit_pow2(hz_grid *g, hz_fit fit, char *note, size_t note_cap, hz_err *err);
 
+/* The side hz_grid_fit would make a width x height grid with fit; 0 when
+ * it would refuse. Lets callers check the memory before the work. */
+uint32_t hz_grid_fit_side(uint32_t width, uint32_t height, hz_fit fit);
+
 /* True if n = 2^k + 1 for some k >= 1. */
 bool hz_is_pow2_plus1(uint32_t n);
 

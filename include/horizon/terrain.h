@@ -41,6 +41,10 @@ typedef struct hz_terrain_desc {
     float zscale;           /* 0 -> 1 */
     float propagate_c;      /* see hz_lod_desc; 0 -> 25 */
     uint32_t patch_cells;   /* cdlod patch grid cells per side (hz_lod_desc); 0 -> 8 */
+    uint64_t max_memory;    /* bytes the terrain may take while prepared (grid, heightmap, LOD
+                               data), checked before allocating; 0 -> hz_mem_budget_default() */
+    uint64_t max_samples;   /* refuse a (fitted) heightmap of more samples than this before
+                               any work, e.g. a GPU limit; 0 -> no limit */
     hz_progress_fn progress; /* optional */
     void *progress_user;
 } hz_terrain_desc;

@@ -396,6 +396,12 @@ static hz_tree *parse(const uint8_t *data, size_t size, hz_err *err)
             hz_err_set(err, HZ_ERR_FORMAT, "tree file: bark vertex %u is not finite or absurdly large", v / 3);
             goto fail;
         }
+    for (uint32_t v = 0; v < t->hull.vertex_count * 3; v++) /* bounded like the bark */
+        if (!isfinite(t->hull.pos[v]) || fabsf(t->hull.pos[v]) > 1e6f) {
+            hz_err_set(err, HZ_ERR_FORMAT, "tree file: hull vertex %u is not finite or absurdly large (|x| > 1e6 m)",
+                       v / 3);
+            goto fail;
+        }
     hz_tree_finish(t);
     if (hz_tree_validate(t, err) != HZ_OK)
         goto fail;

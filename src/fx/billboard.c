@@ -232,6 +232,11 @@ size_t hz_bb_field_cull(const hz_bb_field *f, const hz_camera *cam, float max_di
     /* Only the cells within max_dist of the eye (in x/z). */
     float ax = (e[0] - max_dist - f->x0) / f->size, bx = (e[0] + max_dist - f->x0) / f->size;
     float az = (e[2] - max_dist - f->z0) / f->size, bz = (e[2] + max_dist - f->z0) / f->size;
+    /* Clamped to the grid before the int conversion: an eye far outside it
+     * (or non-finite) would overflow int (undefined behaviour). */
+    const float gx = (float)f->nx + 1.0f, gz = (float)f->nz + 1.0f;
+    ax = fmaxf(fminf(ax, gx), -1.0f), bx = fmaxf(fminf(bx, gx), -1.0f);
+    az = fmaxf(fminf(az, gz), -1.0f), bz = fmaxf(fminf(bz, gz), -1.0f);
     /* One cell of margin: a billboard's sphere may reach out of its cell. */
     int cx0 = (int)floorf(ax) - 1, cx1 = (int)floorf(bx) + 1, cz0 = (int)floorf(az) - 1, cz1 = (int)floorf(bz) + 1;
     cx0 = cx0 < 0 ? 0 : cx0, cz0 = cz0 < 0 ? 0 : cz0;

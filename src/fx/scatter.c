@@ -167,6 +167,9 @@ void hz_forest_cover_map(const hz_heightmap *hm, float spacing, float zscale, co
             float x = ((float)u + 0.5f) / (float)side * r.extent, z = ((float)v + 0.5f) / (float)side * r.extent;
             float gx, gz, h = ground(hm, spacing, zscale, x, z, &gx, &gz);
             float p = hz_forest_density(&r.d, x, z) * suitability(&r, h, gx, gz);
+            /* Clamped (NaN -> 0) before the conversion: an absurd relief can
+             * make p NaN or out of [0, 1], and NaN -> uint8 is undefined. */
+            p = p > 0.0f ? (p < 1.0f ? p : 1.0f) : 0.0f;
             out[(size_t)v * side + u] = (uint8_t)(p * 255.0f + 0.5f);
         }
 }

@@ -3,6 +3,8 @@
 #define _POSIX_C_SOURCE 200809L
 #include "io_internal.h"
 
+#include "horizon/safety.h"
+
 #include <ctype.h>
 #include <errno.h>
 #include <math.h>
@@ -142,7 +144,8 @@ static hz_result read_file(const char *path, buf *out, hz_err *err)
     return HZ_OK;
 }
 
-static hz_result gunzip(const char *path, const buf *in, buf *out, hz_io_progress *prog, hz_err *err)
+static hz_result gunzip(const char *path, const buf *in, buf *out, uint64_t budget, hz_io_progress *prog,
+                        hz_err *err)
 {
     out->data = NULL;
     out->size = 0;
@@ -159,6 +162,11 @@ static hz_result gunzip(const char *path, const buf *in, buf *out, hz_io_progres
     const uint8_t *t = in->data + in->size - 4;
     size_t isize = (size_t)t[0] | (size_t)t[1] << 8 | (size_t)t[2] << 16 | (size_t)t[3] << 24;
     size_t cap = in->size < HZ_IO_MAX_GUNZIP / 1100 ? in->size * 1100 : HZ_IO_MAX_GUNZIP;
+    /* The decompressed data is sized by the input: within the memory budget. */
+    const uint64_t mem = budget ? budget : hz_mem_budget_default();
+    const bool budget_cap = cap > mem;
+    if (budget_cap)
+        cap = (size_t)mem;
     size_t alloc = isize > 0 && isize <= cap ? isize : in->size * 4;
     if (alloc > cap)
         alloc = cap;
@@ -184,6 +192,12 @@ static hz_result gunzip(const char *path, const buf *in, buf *out, hz_io_progres
     prog->total = in->size;
     for (;;) {
         if (out_len == alloc) {
+            if (alloc >= cap && budget_cap) {
+                char what[600];
+                snprintf(what, sizeof what, "'%s': decompressing", path);
+                r = hz_mem_check((uint64_t)cap + 1, mem, what, err);
+                goto done;
+            }
             if (alloc >= cap) {
                 r = hz_err_set(err, HZ_ERR_FORMAT,
                                "'%s' decompresses to more than %zu bytes: too large for a DEM, refused", path, cap);
@@ -421,6 +435,10 @@ static hz_result decode_raw(const char *path, hz_dem_format f, const buf *b, con
     hz_result r = raw_shape(path, f, b->size, bps, d->width, d->height, &w, &h, err);
     if (r != HZ_OK)
         return r;
+    char what[600];
+    snprintf(what, sizeof what, "'%s': a %ux%u grid", path, w, h);
+    if ((r = hz_mem_check((uint64_t)w * h * sizeof(float), d->max_memory, what, err)) != HZ_OK)
+        return r;
     if ((r = hz_grid_alloc(g, w, h, err)) != HZ_OK)
         return r;
     size_t n = (size_t)w * h;
@@ -534,7 +552,7 @@ hz_result hz_dem_load(const hz_dem_desc *desc, hz_grid *out, hz_dem_info *info, 
         return r;
     if (ni.gz) {
         hz_io_progress prog = {desc->progress, desc->progress_user, "decompress", 0, -1};
-        r = gunzip(path, &file, &data, &prog, err);
+        r = gunzip(path, &file, &data, desc->max_memory, &prog, err);
         free(file.data);
         if (r != HZ_OK)
             return r;
@@ -569,6 +587,26 @@ hz_result hz_dem_load(const hz_dem_desc *desc, hz_grid *out, hz_dem_info *info, 
 
     hz_dem_units units = desc->units;
     bool name_terrarium = strstr(ni.base, "terrarium") != NULL;
+    if ((f == HZ_DEM_PNG || f == HZ_DEM_TERRARIUM) && data.size >= 24 && !memcmp(data.data + 12, "IHDR", 4)) {
+        /* The grid the header asks for (decoded as floats) and, for an
+         * interlaced image, the whole decoded image too: before decoding. */
+        const uint8_t *p = data.data + 16;
+        uint64_t pw = (uint64_t)p[0] << 24 | (uint64_t)p[1] << 16 | (uint64_t)p[2] << 8 | p[3];
+        uint64_t ph = (uint64_t)p[4] << 24 | (uint64_t)p[5] << 16 | (uint64_t)p[6] << 8 | p[7];
+        uint64_t px_bytes = sizeof(float);
+        if (data.size >= 29 && data.data[28] != 0) {
+            static const uint8_t channels[7] = {1, 0, 3, 1, 2, 0, 4};
+            uint64_t ch = data.data[25] < 7 && channels[data.data[25]] ? channels[data.data[25]] : 4;
+            px_bytes += ch * (data.data[24] > 8 ? 2 : 1);
+        }
+        char what[600];
+        snprintf(what, sizeof what, "'%s': a %llux%llu grid", path, (unsigned long long)pw, (unsigned long long)ph);
+        if (pw <= HZ_IO_MAX_SIDE && ph <= HZ_IO_MAX_SIDE &&
+            (r = hz_mem_check(pw * ph * px_bytes, desc->max_memory, what, err)) != HZ_OK) {
+            free(data.data);
+            return r;
+        }
+    }
     if (f == HZ_DEM_PNG || f == HZ_DEM_TERRARIUM) {
         hz_io_progress prog = {desc->progress, desc->progress_user, "decode png", 0, -1};
         hz_png_result pr;

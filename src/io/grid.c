@@ -308,6 +308,21 @@ static void set_note(char *note, size_t cap, const char *fmt, ...)
     va_end(ap);
 }
 
+uint32_t hz_grid_fit_side(uint32_t w, uint32_t h, hz_fit fit)
+{
+    if (w == h && hz_is_pow2_plus1(w))
+        return w;
+    const uint32_t lo = w < h ? w : h, hi = w > h ? w : h;
+    uint32_t crop = lo >= 3 ? pow2p1_floor(lo) : 0, pad = pow2p1_ceil(hi);
+    switch (fit) {
+    case HZ_FIT_REFUSE: return 0;
+    case HZ_FIT_CROP: return crop;
+    case HZ_FIT_PAD:
+    case HZ_FIT_AUTO: return pad; /* auto keeps every sample: the square around them */
+    default: return crop && hi - crop < pad - hi ? crop : pad;
+    }
+}
+
 hz_result hz_grid_fit_pow2(hz_grid *g, hz_fit fit, char *note, size_t note_cap, hz_err *err)
 {
     HZ_ASSERT(g && g->z);

@@ -15,6 +15,9 @@ void hz_path_free(hz_path *p)
     memset(p, 0, sizeof *p);
 }
 
+/* Times (s), coordinates (m) and angles (degrees): the range of --camera. */
+#define HZ_PATH_MAX_ABS 1e7
+
 hz_result hz_path_from_keys(const hz_path_key *keys, size_t count, const char *name, hz_path *out,
                             hz_err *err)
 {
@@ -26,6 +29,13 @@ hz_result hz_path_from_keys(const hz_path_key *keys, size_t count, const char *n
         if (!isfinite(k->t) || !isfinite(k->x) || !isfinite(k->y) || !isfinite(k->z) || !isfinite(k->yaw) ||
             !isfinite(k->pitch))
             return hz_err_set(err, HZ_ERR_VALUE, "path '%s': keyframe %zu is not finite", name, i + 1);
+        const float v[6] = {k->t, k->x, k->y, k->z, k->yaw, k->pitch};
+        for (int c = 0; c < 6; c++)
+            if (fabsf(v[c]) > HZ_PATH_MAX_ABS)
+                return hz_err_set(err, HZ_ERR_VALUE,
+                                  "path '%s': keyframe %zu: %g is out of range: times, metres and degrees must lie "
+                                  "in [-1e7, 1e7] (as for --camera)",
+                                  name, i + 1, (double)v[c]);
         if (i && !(k->t > keys[i - 1].t))
             return hz_err_set(err, HZ_ERR_VALUE, "path '%s': time must increase (keyframe %zu: %g after %g)",
                               name, i + 1, (double)k->t, (double)keys[i - 1].t);
@@ -64,6 +74,13 @@ hz_result hz_path_load_csv(const char *file, hz_path *out, hz_err *err)
             double d = strtod(p, &end);
             if (end == p || errno)
                 break;
+            if (!(fabs(d) <= HZ_PATH_MAX_ABS)) { /* also keeps the float conversion defined */
+                r = hz_err_set(err, HZ_ERR_VALUE,
+                               "path '%s' line %zu: %g is out of range: times, metres and degrees must lie in "
+                               "[-1e7, 1e7] (as for --camera)",
+                               file, line_no, d);
+                goto done;
+            }
             v[k] = (float)d;
             p = end;
             while (*p == ' ' || *p == '\t')

@@ -1,9 +1,37 @@
 #include "horizon/terrain.h"
 
+#include "horizon/safety.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* Peak bytes per heightmap sample of a command on a terrain: the float grid
+ * and its fitted copy, the heightmap, the LOD data and the renderer's and
+ * effects' per-sample copies. Measured (peak RSS difference 2049^2 -> 4097^2,
+ * `horizon render --generate perlin`): 16 for cdlod, 13 for roam; bench's
+ * reference surfaces add 8. */
+#define TERRAIN_BYTES_PER_SAMPLE 24u
+
+/* The terrain a side x side heightmap makes, checked against the budget and
+ * the sample limit before any work. */
+static hz_result check_side(const hz_terrain_desc *d, uint32_t side, const char *what, hz_err *err)
+{
+    /* The memory first: it is what the user can raise (--max-memory). */
+    const uint64_t n = (uint64_t)side * side;
+    char w[400];
+    snprintf(w, sizeof w, "%s: a %ux%u terrain", what, side, side);
+    hz_result r = hz_mem_check(n * TERRAIN_BYTES_PER_SAMPLE, d->max_memory, w, err);
+    if (r != HZ_OK)
+        return r;
+    if (d->max_samples && n > d->max_samples)
+        return hz_err_set(err, HZ_ERR_UNSUPPORTED,
+                          "%s: a %ux%u heightmap has %llu samples, more than this GPU takes "
+                          "(GL_MAX_TEXTURE_BUFFER_SIZE = %llu texels); use a smaller --size, or --fit crop for a DEM",
+                          what, side, side, (unsigned long long)n, (unsigned long long)d->max_samples);
+    return HZ_OK;
+}
 
 static const char *base_name(const char *p)
 {
@@ -98,9 +126,17 @@ hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
                           .format = desc->format, .units = desc->units,
                           .width = desc->raw_width, .height = desc->raw_height, .metric = true, .crs = desc->crs,
                           .spacing = desc->spacing, .georef = &geo,
-                          .progress = desc->progress, .progress_user = desc->progress_user};
+                          .progress = desc->progress, .progress_user = desc->progress_user,
+                          .max_memory = desc->max_memory};
         if (hz_dem_load(&dd, &g, &t->info, err) != HZ_OK)
             goto fail;
+        /* What fitting will make of it, before filling and fitting. */
+        const uint32_t side = hz_grid_fit_side(g.width, g.height, desc->fit);
+        if (side && check_side(desc, side, base_name(desc->dem_path_count ? desc->dem_paths[0] : desc->dem_path),
+                               err) != HZ_OK) {
+            hz_georef_destroy(geo);
+            goto fail;
+        }
         t->voids_filled = t->info.voids;
         t->file_samples = (uint64_t)t->info.file_width * t->info.file_height;
         if (desc->dem_path_count > 1)
@@ -118,6 +154,8 @@ hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
                           .size = desc->gen_size ? desc->gen_size : 4097,
                           .seed = desc->seed, .amplitude = desc->amplitude,
                           .progress = desc->progress, .progress_user = desc->progress_user};
+        if (check_side(desc, gd.size, "generated terrain", err) != HZ_OK)
+            goto fail;
         if (hz_generate(&gd, &g, err) != HZ_OK)
             goto fail;
         snprintf(t->source, sizeof t->source, "%s %u seed %llu",

@@ -1,0 +1,106 @@
+#!/usr/bin/env python3
+"""Writes the fuzzers' seed corpora (fuzz/corpus/<target>/): small valid
+inputs of every kind each parser reads, plus a few edge cases. Run from the
+repo root: python3 fuzz/make_corpus.py. The output is committed; crashes
+found later are added next to these as regression inputs (see README)."""
+import gzip, os, struct, zlib
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "corpus")
+
+
+def put(target, name, data):
+    d = os.path.join(ROOT, target)
+    os.makedirs(d, exist_ok=True)
+    with open(os.path.join(d, name), "wb") as f:
+        f.write(data)
+
+
+def gz(b):
+    return gzip.compress(b, mtime=0)
+
+
+def png(w, h, depth, ctype, rows, interlace=0, palette=None):
+    def chunk(t, d):
+        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
+    out = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, depth, ctype, 0, 0, interlace))
+    if palette:
+        out += chunk(b"PLTE", palette)
+    raw = b"".join(b"\x00" + r for r in rows)
+    return out + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b"")
+
+
+# ---- DEM: first byte picks the file name (fuzz_dem.c's names[]) ----
+NAMES = ["f.png", "f_terrarium_z9_x270_y178.png", "f_dm16.png", "f.hgt", "f.r16", "f.r32", "f_int16be.raw",
+         "f.png.gz", "f.hgt.gz", "f.r16.gz", "f.r32.gz", "f_terrarium.png.gz", "f.bin"]
+sel = {n: bytes([i]) for i, n in enumerate(NAMES)}
+g16 = png(5, 5, 16, 0, [b"".join(struct.pack(">H", 1000 + 37 * (i + 5 * j)) for i in range(5)) for j in range(5)])
+g8 = png(4, 3, 8, 0, [bytes([10 * i + j for i in range(4)]) for j in range(3)])
+pal = png(3, 3, 8, 3, [bytes([0, 1, 2]), bytes([2, 1, 0]), bytes([1, 1, 1])], palette=bytes([0, 0, 0, 90, 90, 90, 200, 200, 200]))
+terr = png(3, 3, 8, 2, [bytes([128, i * 10, j * 20] * 1) * 1 + bytes([128, 5, 0, 128, 6, 0]) for i, j in [(0, 0), (1, 1), (2, 2)]])
+inter = png(5, 5, 16, 0, [b"".join(struct.pack(">H", 500 + i * j) for i in range(5)) for j in range(5)], interlace=1)
+ga16 = png(3, 3, 16, 4, [b"".join(struct.pack(">HH", 100 * i, 65535) for i in range(3)) for _ in range(3)])
+hgt = b"".join(struct.pack(">h", v) for v in [100, 120, 140, 110, -32768, 150, 90, 95, 130])
+r16 = b"".join(struct.pack("<H", 1000 + 10 * k) for k in range(9))
+r32 = b"".join(struct.pack("<f", v) for v in [1.5, 2.5, float("nan"), 4.0, 5.0, 6.0, 7.0, 8.0, 9.0])
+r16w = b"".join(struct.pack("<H", k) for k in range(3 * 2))  # 3x2 with an explicit width byte
+for name, data in [("png16", sel["f.png"] + g16), ("png8", sel["f.png"] + g8), ("palette", sel["f.png"] + pal),
+                   ("terrarium", sel["f_terrarium_z9_x270_y178.png"] + terr), ("interlaced", sel["f.png"] + inter),
+                   ("grey_alpha16", sel["f_dm16.png"] + ga16), ("hgt", sel["f.hgt"] + hgt), ("r16", sel["f.r16"] + r16),
+                   ("r32", sel["f.r32"] + r32), ("int16be", sel["f_int16be.raw"] + hgt),
+                   ("png16_gz", sel["f.png.gz"] + gz(g16)), ("hgt_gz", sel["f.hgt.gz"] + gz(hgt)),
+                   ("r16_gz", sel["f.r16.gz"] + gz(r16)), ("r32_gz", sel["f.r32.gz"] + gz(r32)),
+                   ("terrarium_gz", sel["f_terrarium.png.gz"] + gz(terr)), ("bin_png", sel["f.bin"] + g16),
+                   ("wide_r16_gz", sel["f.r16.gz"] + gz(bytes(65537 * 2 * 2)))]:
+    put("dem", name, data)
+
+# ---- .hzt: a minimal valid tree (trunk + one branch with a leaf node) ----
+def hzt(hull):
+    f = lambda *v: struct.pack("<%df" % len(v), *v)
+    u = lambda *v: struct.pack("<%dI" % len(v), *v)
+    NONE = 0xffffffff
+    bark_pos = [0, 0, 0, 0.1, 0, 0, 0, 2, 0, 0, 2, 0, 0.5, 2.5, 0, 0.5, 2.5, 0.1]
+    bark_nrm = [0, 0, 1] * 6
+    bark_idx = [0, 1, 2, 3, 4, 5]
+    hull_pos = [0, 2, 0, 1, 2, 0, 0, 3, 0, 0, 2, 1] if hull else []
+    hull_nrm = [0, 1, 0] * 4 if hull else []
+    hull_idx = [0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3] if hull else []
+    b = b"HZTREE\r\n" + u(1) + b"fuzzseed".ljust(32, b"\0") + struct.pack("<Q", 7)
+    b += u(2, 2, 1, 2, 6, 6, len(hull_pos) // 3, len(hull_idx))
+    b += f(0.2, 0.5, 0.1, 0.4, 0.3, 0.2) + u(0, 0, 0, 0) + struct.pack("<d", 0.0) + u(3, 6, 6, 6, 6, 6)
+    b += u(NONE, 1, NONE) + f(2, 0.1, 0, 0, 0, 0, 2, 0, 0, 1, 0)
+    b += u(0, 2, 0) + f(0.7, 0.05, 0, 2, 0, 0.5, 2.5, 0, 0.707, 0.707, 0)
+    b += u(1, 0, 2)
+    b += f(0.5, 2.5, 0, 0.1, 0, 0, 0, 0.1, 0) + f(0.6, 2.6, 0.1, 0.1, 0, 0, 0, 0, 0.1)
+    b += f(*bark_pos) + f(*bark_nrm) + u(*bark_idx)
+    if hull:
+        b += f(*hull_pos) + f(*hull_nrm) + u(*hull_idx)
+    return b + u(zlib.crc32(b) & 0xffffffff)
+put("hzt", "minimal", hzt(False))
+put("hzt", "minimal_hull", hzt(True))
+put("hzt", "truncated", hzt(True)[:100])
+
+# ---- camera path CSV ----
+put("path", "simple", b"0,0,100,0,0,-5\n1,10,100,0,45,-5\n2,20,110,5,90,0\n")
+put("path", "header", b"t,x,y,z,yaw,pitch\n0,1,2,3,4,5\n0.5,1.5,2,3,-170,5\n1,2,2,3,170,-89\n")
+put("path", "comments", b"# flight\n\n  0 , 0 , 1 , 0 , 0 , 0\r\n1e-3,1e7,-1e7,0,359,90\r\n")
+put("path", "bad", b"0,0,0,0,0,0\n0,1,1,1,1,1\n")
+
+# ---- forest CSV ----
+put("forest_csv", "simple", b"10,20,0,1,0\n50,60,1,1.5,90\n# c\n\n70,80,2,0.5,-45\n")
+put("forest_csv", "edge", b"  -1e7,1e7,0,100,1e7\n0,0,2,1e-3,0\r\n")
+put("forest_csv", "bad", b"1,2,3\n")
+# Regression inputs found by the fuzzers are kept as files next to these
+# (regress_*: not written here, never deleted).
+
+# ---- view config ----
+put("view_config", "simple", b"# settings\nlod-c = 30\ngenerate = perlin\nsize = 257\nwireframe = true\n")
+put("view_config", "quoted", b"dem = \"../x y.png\"  # comment\nspeed='12.5'\nno-hud = off\n; ini comment\n")
+put("view_config", "all", b"morph-start = 0.95\nlod = cdlod\ncamera = 1,2,3,4,5\neffects = all,-weather\n"
+    b"sun = 245,30\nwind = 6.7,63\nmax-memory = 1G\nfog = off\nmouse-sens = 0.001\n")
+put("view_config", "bad", b"key without value\n=3\n")
+
+# ---- view script ----
+put("view_script", "simple", b"# fly\n0 key W down\n30 key F3 press\n2s key W up\n60 look 45 -10\n61 screenshot a.png\n62 quit\n")
+put("view_script", "all", b"0 button left down\n1 mouse 10 -5\n2 button left up\n3 scroll -2\n4 resize 640 480\n"
+    b"5 camera 100 200 300 45 -10\n6 key SHIFT down\n7 key PAGEUP press\n1.5s key ESC press\n")
+put("view_script", "bad", b"x key W down\n")
