@@ -153,7 +153,8 @@ typedef struct hz_patch {
     uint8_t coarse;    /* bit (1 << dir), dir W=0 E=1 N=2 S=3: the neighbour across that
                           edge is coarser (the edge is stitched) */
     uint16_t level;    /* quadtree level (0 = root) */
-    float dist;        /* eye to the node's box, metres; patches come sorted nearest first */
+    float dist;        /* eye to the node's box, metres; patches come nearest first (ordered by
+                          distance to within 1/32 of a doubling, about 2 %) */
 } hz_patch;
 
 typedef struct hz_patch_list {

@@ -160,6 +160,7 @@ void hz_lod_destroy(hz_lod *lod)
     free(lod->stack_lv);
     free(lod->cd_err);
     free(lod->morph_err);
+    free(lod->patch_tmp);
     for (int l = 0; l < 32; l++)
         free(lod->lv[l]);
     free(lod);

@@ -419,10 +419,37 @@ static uint32_t patch_triangles(uint32_t P, uint8_t coarse)
     return t;
 }
 
-static int cmp_patch(const void *a, const void *b)
+enum { SORT_BUCKETS = 1024 };
+
+static inline uint32_t dist_bucket(float d)
 {
-    const hz_patch *p = a, *q = b;
-    return (p->dist > q->dist) - (p->dist < q->dist);
+    /* log2(d + 1) in 1/32 steps from the float's exponent and top mantissa bits */
+    union {
+        float f;
+        uint32_t u;
+    } v = {.f = d + 1.0f};
+    const uint32_t k = (v.u >> 18) - (127u << 5);
+    return k < SORT_BUCKETS ? k : SORT_BUCKETS - 1;
+}
+
+static hz_result sort_patches(hz_lod *lod, hz_patch_list *out)
+{
+    const size_t n = out->count;
+    if (n < 2)
+        return HZ_OK;
+    if (list_reserve((void **)&lod->patch_tmp, &lod->patch_tmp_cap, n, sizeof(hz_patch)))
+        return HZ_ERR_MEMORY;
+    uint32_t start[SORT_BUCKETS + 1];
+    memset(start, 0, sizeof start);
+    for (size_t k = 0; k < n; k++)
+        start[dist_bucket(out->data[k].dist) + 1]++;
+    for (uint32_t b = 0; b < SORT_BUCKETS; b++)
+        start[b + 1] += start[b];
+    hz_patch *tmp = lod->patch_tmp;
+    for (size_t k = 0; k < n; k++)
+        tmp[start[dist_bucket(out->data[k].dist)]++] = out->data[k];
+    memcpy(out->data, tmp, n * sizeof *tmp);
+    return HZ_OK;
 }
 
 /* The selection proper; leaves end in lod->lv[] with their flags final. */
@@ -502,9 +529,10 @@ static hz_result emit_patches(hz_lod *lod, const hz_camera *cam, hz_patch_list *
                 st->max_level = l;
         }
     }
-    /* Nearest first: the depth test then rejects hidden fragments early. */
-    qsort(out->data, out->count, sizeof *out->data, cmp_patch);
-    return HZ_OK;
+    /* Nearest first, so the depth test rejects hidden fragments early: a
+     * counting sort on the distance's logarithm (32 steps per doubling),
+     * O(nodes); a comparison sort took half the selection's time. */
+    return sort_patches(lod, out);
 }
 
 hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params, hz_patch_list *out,

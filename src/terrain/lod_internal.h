@@ -63,6 +63,8 @@ struct hz_lod {
     uint16_t *morph_err;
     uint32_t patch;       /* cdlod patch cells per side (power of two) */
     uint32_t patch_level; /* finest level drawn as patches: half-size patch / 2 */
+    void *patch_tmp;      /* scratch of the patch sort */
+    size_t patch_tmp_cap;
     /* cdlod per-level node lists (forced splits add to earlier levels). */
     qnode *lv[32];
     size_t lv_n[32], lv_cap[32];
