@@ -154,7 +154,7 @@ typedef struct hz_patch {
                           edge is coarser (the edge is stitched) */
     uint16_t level;    /* quadtree level (0 = root) */
     float dist;        /* eye to the node's box, metres; patches come nearest first (ordered by
-                          distance to within 1/32 of a doubling, about 2 %) */
+                          distance to within 1/32 of a doubling, at most 3 %) */
 } hz_patch;
 
 typedef struct hz_patch_list {

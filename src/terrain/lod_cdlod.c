@@ -530,7 +530,7 @@ static hz_result emit_patches(hz_lod *lod, const hz_camera *cam, hz_patch_list *
         }
     }
     /* Nearest first, so the depth test rejects hidden fragments early: a
-     * counting sort on the distance's logarithm (32 steps per doubling),
+     * counting sort on the distance's logarithm (32 steps per doubling, 3 %),
      * O(nodes); a comparison sort took half the selection's time. */
     return sort_patches(lod, out);
 }

@@ -254,9 +254,9 @@ static void test_pixel_error_bound(void **state)
                 assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
                 const uint32_t lp_level = (uint32_t)(log2((t.hm.size - 1) / hz_lod_patch_cells(t.lod)));
                 for (size_t q = 0; q < pl.count; q++) {
-                    /* nearest first, to within 1/32 of a doubling */
+                    /* nearest first, to within 1/32 of a doubling (3 %) */
                     if (q)
-                        assert_true(pl.data[q].dist >= (pl.data[q - 1].dist + 1.0f) * 0.978f - 1.0f);
+                        assert_true(pl.data[q].dist >= (pl.data[q - 1].dist + 1.0f) * 0.969f - 1.0f);
                     if (pl.data[q].level >= lp_level)
                         continue; /* the finest patches are exact */
                     const float range = st.morph_scale * hz_lod_patch_error(t.lod, &pl.data[q]);
