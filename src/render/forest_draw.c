@@ -139,17 +139,6 @@ static void mesh_free(mesh_gpu *g)
     glDeleteBuffers(1, &g->ibo);
 }
 
-static void buffer_texture(GLuint *buf, GLuint *tex, GLenum fmt, const void *data, size_t bytes, GLenum usage)
-{
-    glGenBuffers(1, buf);
-    glGenTextures(1, tex);
-    glBindBuffer(GL_TEXTURE_BUFFER, *buf);
-    glBufferData(GL_TEXTURE_BUFFER, (GLsizeiptr)(bytes ? bytes : 16), bytes ? data : NULL, usage);
-    glBindTexture(GL_TEXTURE_BUFFER, *tex);
-    glTexBuffer(GL_TEXTURE_BUFFER, fmt, *buf);
-    glBindTexture(GL_TEXTURE_BUFFER, 0);
-    glBindBuffer(GL_TEXTURE_BUFFER, 0);
-}
 
 void hz_forest_gpu_destroy(hz_forest_gpu *g)
 {
@@ -401,7 +390,7 @@ static hz_result bake_impostors(hz_forest_gpu *g, const hz_forest *f, GLuint lea
             o[2] = fminf(1.0f, 2.0f * (float)(x1 + 2) / IMP_TILE - 1.0f);
             o[3] = fminf(1.0f, 2.0f * (float)(y1 + 2) / IMP_TILE - 1.0f);
         }
-    buffer_texture(&g->rect_buf, &g->rect_tex, GL_RGBA32F, rects, nt * g->nm * 16, GL_STATIC_DRAW);
+    hz_gl_buffer_texture(&g->rect_buf, &g->rect_tex, GL_RGBA32F, rects, nt * g->nm * 16, GL_STATIC_DRAW);
     free(px);
     free(rects);
     return hz_gl_check(err, "forest impostor bake");
@@ -448,8 +437,8 @@ hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err)
     g->tree_count = hz_forest_tree_count(f);
     for (uint32_t k = 0; k < g->tree_count; k++)
         g->node_total += hz_forest_model(f, trees[k].model)->node_count;
-    buffer_texture(&g->kept_buf, &g->kept_tex, GL_R32UI, NULL, g->node_total * 4, GL_DYNAMIC_DRAW);
-    buffer_texture(&g->scale_buf, &g->scale_tex, GL_R32F, NULL, g->node_total * 4, GL_DYNAMIC_DRAW);
+    hz_gl_buffer_texture(&g->kept_buf, &g->kept_tex, GL_R32UI, NULL, g->node_total * 4, GL_DYNAMIC_DRAW);
+    hz_gl_buffer_texture(&g->scale_buf, &g->scale_tex, GL_R32F, NULL, g->node_total * 4, GL_DYNAMIC_DRAW);
     float *td = malloc((size_t)(g->tree_count ? g->tree_count : 1) * 32);
     float *md = malloc((size_t)g->nm * 16);
     if (!td || !md) {
@@ -469,9 +458,9 @@ hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err)
         md[k * 4 + 0] = t->bound_center[0], md[k * 4 + 1] = t->bound_center[1];
         md[k * 4 + 2] = t->bound_center[2], md[k * 4 + 3] = t->bound_radius;
     }
-    buffer_texture(&g->tree_buf, &g->tree_tex, GL_RGBA32F, td, (size_t)g->tree_count * 32, GL_STATIC_DRAW);
-    buffer_texture(&g->model_buf, &g->model_tex, GL_RGBA32F, md, (size_t)g->nm * 16, GL_STATIC_DRAW);
-    buffer_texture(&g->order_buf, &g->order_tex, GL_R32UI, NULL, (size_t)(g->tree_count ? g->tree_count : 1) * 4,
+    hz_gl_buffer_texture(&g->tree_buf, &g->tree_tex, GL_RGBA32F, td, (size_t)g->tree_count * 32, GL_STATIC_DRAW);
+    hz_gl_buffer_texture(&g->model_buf, &g->model_tex, GL_RGBA32F, md, (size_t)g->nm * 16, GL_STATIC_DRAW);
+    hz_gl_buffer_texture(&g->order_buf, &g->order_tex, GL_R32UI, NULL, (size_t)(g->tree_count ? g->tree_count : 1) * 4,
                    GL_STREAM_DRAW);
     free(td);
     free(md);
@@ -508,7 +497,7 @@ hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err)
                 q[(size_t)p * 6 + j] = 4 * p + qi[j];
         }
         free(node_of);
-        buffer_texture(&m->leaf_buf, &m->leaf_tex, GL_RGBA32F, d, (size_t)t->leaf_count * 48, GL_STATIC_DRAW);
+        hz_gl_buffer_texture(&m->leaf_buf, &m->leaf_tex, GL_RGBA32F, d, (size_t)t->leaf_count * 48, GL_STATIC_DRAW);
         free(d);
         glGenBuffers(1, &m->quad_ibo);
         glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, m->quad_ibo);

@@ -126,3 +126,17 @@ GLuint hz_gl_program(const char *vs_src, const char *fs_src, const char *name, h
     GLuint fs = vs ? hz_gl_compile(GL_FRAGMENT_SHADER, 1, &fs_src, NULL, fn, err) : 0;
     return hz_gl_link(vs, fs, name, err);
 }
+
+void hz_gl_buffer_texture(GLuint *buf, GLuint *tex, GLenum fmt, const void *data, size_t bytes, GLenum usage)
+{
+    if (!*buf)
+        glGenBuffers(1, buf);
+    if (!*tex)
+        glGenTextures(1, tex);
+    glBindBuffer(GL_TEXTURE_BUFFER, *buf);
+    glBufferData(GL_TEXTURE_BUFFER, (GLsizeiptr)(bytes ? bytes : 16), bytes ? data : NULL, usage);
+    glBindTexture(GL_TEXTURE_BUFFER, *tex);
+    glTexBuffer(GL_TEXTURE_BUFFER, fmt, *buf);
+    glBindTexture(GL_TEXTURE_BUFFER, 0);
+    glBindBuffer(GL_TEXTURE_BUFFER, 0);
+}

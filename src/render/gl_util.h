@@ -18,6 +18,11 @@ GLuint hz_gl_link(GLuint vs, GLuint fs, const char *name, hz_err *err);
 GLuint hz_gl_program(const char *vs_src, const char *fs_src, const char *name, hz_err *err);
 /* HZ_OK, or HZ_ERR_GL naming `what` and the GL error. Clears the error flag. */
 hz_result hz_gl_check(hz_err *err, const char *what);
+
+/* A texture buffer of format fmt holding bytes of data (NULL: uninitialised;
+ * 0 bytes: a 16-byte placeholder). Creates *buf and *tex when they are 0,
+ * else refills them. */
+void hz_gl_buffer_texture(GLuint *buf, GLuint *tex, GLenum fmt, const void *data, size_t bytes, GLenum usage);
 /* Discards stale GL errors. */
 void hz_gl_drain(void);
 /* The current context of any API (EGL, or GLX through an already loaded

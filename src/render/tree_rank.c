@@ -38,19 +38,6 @@ static void ib_destroy(itembuf *ib)
     memset(ib, 0, sizeof *ib);
 }
 
-static void buffer_texture(GLuint *buf, GLuint *tex, GLenum fmt, const void *data, size_t bytes)
-{
-    if (!*buf)
-        glGenBuffers(1, buf);
-    if (!*tex)
-        glGenTextures(1, tex);
-    glBindBuffer(GL_TEXTURE_BUFFER, *buf);
-    glBufferData(GL_TEXTURE_BUFFER, (GLsizeiptr)(bytes ? bytes : 16), bytes ? data : NULL, GL_DYNAMIC_DRAW);
-    glBindTexture(GL_TEXTURE_BUFFER, *tex);
-    glTexBuffer(GL_TEXTURE_BUFFER, fmt, *buf);
-    glBindTexture(GL_TEXTURE_BUFFER, 0);
-    glBindBuffer(GL_TEXTURE_BUFFER, 0);
-}
 
 /* Leaf texels: (c, node), (u, 0), (v, 0). */
 static float *leaf_texels(const hz_tree *t)
@@ -102,7 +89,7 @@ static hz_result ib_create(itembuf *ib, const hz_tree *t, uint32_t w, uint32_t h
         ib_destroy(ib);
         return hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
     }
-    buffer_texture(&ib->leaf_buf, &ib->leaf_tex, GL_RGBA32F, lt, (size_t)t->leaf_count * 48);
+    hz_gl_buffer_texture(&ib->leaf_buf, &ib->leaf_tex, GL_RGBA32F, lt, (size_t)t->leaf_count * 48, GL_DYNAMIC_DRAW);
     free(lt);
     ib->w = w;
     ib->h = h;
@@ -286,7 +273,7 @@ hz_result hz_tree_rank(hz_tree *t, const hz_rank_desc *desc, hz_rank_stats *stat
             o[6] = (float)nd->first, o[7] = 0;
             lists[s].n = 0;
         }
-        buffer_texture(&ib.node_buf, &ib.node_tex, GL_RGBA32F, nodes, (size_t)(b1 - b0) * 32);
+        hz_gl_buffer_texture(&ib.node_buf, &ib.node_tex, GL_RGBA32F, nodes, (size_t)(b1 - b0) * 32, GL_DYNAMIC_DRAW);
         range_draw rd = {(GLint)(t->nodes[b0].first * 6),
                          (GLsizei)((t->nodes[b1 - 1].first + t->nodes[b1 - 1].count - t->nodes[b0].first) * 6)};
         ib_begin(&ib, 0);
@@ -464,7 +451,7 @@ hz_result hz_tree_pr(const hz_tree *t, const hz_pr_desc *desc, hz_pr_result *out
         mat4 vp;
         hz_camera_viewproj(&cam, vp);
         for (int pass = 0; pass < 2; pass++) {
-            buffer_texture(&ib.scale_buf, &ib.scale_tex, GL_R32F, pass ? scales : ones, nn * sizeof(float));
+            hz_gl_buffer_texture(&ib.scale_buf, &ib.scale_tex, GL_R32F, pass ? scales : ones, nn * sizeof(float), GL_DYNAMIC_DRAW);
             ib_begin(&ib, 1);
             glUniformMatrix4fv(ib.u_viewproj, 1, GL_FALSE, (const float *)vp);
             multi_draw md = {first, pass ? kept : full, (GLsizei)nn};

@@ -1,5 +1,11 @@
 #include "mesh_check.h"
 
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <cmocka.h>
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -183,4 +189,19 @@ hz_camera test_random_camera(uint64_t *state, const hz_heightmap *hm, float spac
     const float reach = 1.3f * sqrtf(dx * dx + dy * dy + dz * dz);
     c.zfar = c.zfar < reach ? reach : c.zfar;
     return c;
+}
+
+void mesh_assert_valid(const mesh_report *r, bool levels, const char *label)
+{
+    if (r->edges_over_two || r->open_interior || r->t_junctions || r->degenerate || r->flipped ||
+        (levels && r->level_jumps))
+        fprintf(stderr, "%s: tris %zu over2 %zu open %zu tj %zu degen %zu flip %zu jumps %zu\n", label, r->triangles,
+                r->edges_over_two, r->open_interior, r->t_junctions, r->degenerate, r->flipped, r->level_jumps);
+    assert_int_equal(r->edges_over_two, 0);
+    assert_int_equal(r->open_interior, 0);
+    assert_int_equal(r->t_junctions, 0);
+    assert_int_equal(r->degenerate, 0);
+    assert_int_equal(r->flipped, 0);
+    if (levels)
+        assert_int_equal(r->level_jumps, 0);
 }

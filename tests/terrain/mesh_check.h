@@ -22,6 +22,12 @@ typedef struct mesh_report {
 mesh_report mesh_check(const hz_heightmap *hm, float spacing, float zscale, const uint32_t *idx,
                        size_t count, const vec4 *planes, const hz_node_list *leaves);
 
+/* cmocka assertions that a report shows a valid mesh: no edge shared by
+ * three triangles, no hole, no T-junction, no degenerate or flipped
+ * triangle and (levels) no neighbouring leaves two levels apart. Prints
+ * the report under label when it does not. */
+void mesh_assert_valid(const mesh_report *r, bool levels, const char *label);
+
 /* Deterministic test randomness (splitmix64) over the caller's state. */
 uint64_t test_rnd(uint64_t *state);
 float test_frand(uint64_t *state, float lo, float hi);
