@@ -218,6 +218,12 @@ int cmd_tree(int argc, char **argv)
             }
         }
     }
+    if (!in && !id.path && !have_species && !gd.leaves) {
+        /* Bare "horizon tree" would grow an oak for a minute and save nothing. */
+        usage();
+        fprintf(stderr, "horizon tree: give a source: --species NAME (or --leaves N), --import FILE or --in FILE\n");
+        return 2;
+    }
     if ((in != NULL) + (id.path != NULL) + (have_species || gd.leaves) > 1) {
         fprintf(stderr, "horizon tree: give one source: --species/--leaves, --import or --in\n");
         return 2;

@@ -321,6 +321,7 @@ expect_fail "tree missing file"     "cannot open"             $T --in "$TMP/nope
 expect_fail "tree missing import"   "cannot read"             $T --import "$TMP/nope.obj"
 expect_fail "tree not a tree file"  "not a horizon tree"      $T --in "$DATA/PROVENANCE.md"
 expect_fail "tree unknown option"   "unknown option"          $T --frob
+expect_fail "tree without a source" "give a source"          $T --out "$TMP/none.hzt"
 expect_fail "tree leaves 0"         "invalid value"           $T --leaves 0
 tj=$($T --species birch --seed 2 --leaves 800 --views 12 --rank-res 16 --out "$TMP/b.hzt" --json --pr --pr-views 4 --pr-res 64 --preview "$TMP/b.png" --size 96 2>"$TMP/tree.err")
 rc=$?
