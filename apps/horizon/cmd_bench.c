@@ -781,6 +781,36 @@ static hz_result plot(const bench *b, const char *plot_out, const frame_row *row
     return hz_outfile_commit(&pngf, err);
 }
 
+/* --save-frames DIR writes DIR/<mode>_NNNN.png and DIR/ref_NNNN.png: refuses
+ * (2, after a message) an input that is one of those files, before any work. */
+static int check_frame_outputs(const char *dir, const cli_file *ins, size_t nin)
+{
+    for (size_t k = 0; k < nin; k++) {
+        if (!ins[k].path || ins[k].kind != CLI_FILE)
+            continue;
+        const char *slash = strrchr(ins[k].path, '/');
+        const char *base = slash ? slash + 1 : ins[k].path;
+        char mode[32], tail[8];
+        unsigned num;
+        if (sscanf(base, "%31[a-z]_%4u.%7s", mode, &num, tail) != 3 || strcmp(tail, "png"))
+            continue;
+        hz_lod_mode m;
+        if (strcmp(mode, "ref") && !hz_lod_mode_from_name(mode, &m))
+            continue;
+        char in_dir[4096];
+        if (slash)
+            snprintf(in_dir, sizeof in_dir, "%.*s", (int)(slash - ins[k].path), ins[k].path);
+        else
+            snprintf(in_dir, sizeof in_dir, ".");
+        if (hz_same_file(in_dir[0] ? in_dir : "/", dir)) {
+            fprintf(stderr, "horizon bench: --save-frames %s would overwrite the %s input '%s'; choose another "
+                            "folder\n", dir, ins[k].opt, ins[k].path);
+            return 2;
+        }
+    }
+    return 0;
+}
+
 /* Splits "--lod a,b,c" off argv: modes[] receives them. Returns the count
  * (0 if no --lod), -1 on a bad name (message printed). */
 static int parse_modes(const char *v, hz_lod_mode *modes, int cap)
@@ -955,6 +985,8 @@ int cmd_bench(int argc, char **argv)
         const cli_file outs[] = {{json_out, "--json", CLI_FILE}, {plot_out, "--plot", CLI_FILE},
                                  {costs_out, "--effect-costs", CLI_FILE}};
         if ((rc = cli_check_outputs("bench", outs, 3, ins, nin)))
+            return rc;
+        if (save_dir && (rc = check_frame_outputs(save_dir, ins, nin)))
             return rc;
     }
     if (nmodes == 0)

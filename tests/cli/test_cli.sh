@@ -309,6 +309,10 @@ assert j["tuned_for_silhouette"] == 0.002 and j["pixel_error"] > 0.05, j["pixel_
 assert statistics.median(f["silhouette_frac"] for f in j["per_frame"]) <= 0.002 * 1.5
 PY
 then ok "bench --tune-silhouette"; else bad "bench tune silhouette: $(cat "$TMP/ts.err")"; fi
+mkdir -p "$TMP/frames"; cp "$TMP/d.png" "$TMP/frames/ref_0000.png" 2>/dev/null || $R --generate perlin --size 257 --out "$TMP/frames/ref_0000.png" >/dev/null 2>&1
+sum0=$(md5sum < "$TMP/frames/ref_0000.png")
+expect_fail "bench frames over an input" "would overwrite"  $HZ bench --quiet --dem "$TMP/frames/ref_0000.png" --frames 1 --save-frames "$TMP/frames"
+[ "$(md5sum < "$TMP/frames/ref_0000.png")" = "$sum0" ] && ok "the input frame file is intact" || bad "the input frame file changed"
 expect_fail "bench both tunings"   "alternatives"            $HZ bench --quiet --size 257 --tune-p99 1 --tune-silhouette 0.01
 expect_fail "bench bad metrics"    "on or off"               $HZ bench --quiet --size 257 --metrics maybe
 # ---- trees and forests ---------------------------------------------------------
