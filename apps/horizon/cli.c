@@ -742,8 +742,15 @@ hz_camera cli_camera(const cli_opts *o, const hz_terrain *t)
     }
     if (o->fov > 0)
         c.fov_y = o->fov;
-    if (o->far > 0)
+    if (o->far > 0) {
         c.zfar = o->far;
+    } else {
+        /* The default view distance follows the camera's height: from high
+         * above, the map is farther than 1.5 map sides. */
+        const float above = c.pos[1] - t->min_h * t->zscale;
+        if (above > 0.0f)
+            c.zfar += above;
+    }
     if (o->near > 0)
         c.znear = o->near;
     return c;

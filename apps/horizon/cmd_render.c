@@ -196,6 +196,13 @@ int cmd_render(int argc, char **argv)
     if (o.dump_mesh && write_obj(o.dump_mesh, t, &il, &cam, &st))
         goto done;
 
+    /* Never a blank image without a word: no terrain triangle in the frustum. */
+    const bool in_view = il.count > 0;
+    if (!in_view)
+        fprintf(stderr, "horizon render: the terrain is not in view from camera %.0f,%.0f,%.0f yaw %.1f pitch %.1f "
+                        "(far %.0f m): the image shows only sky\n",
+                (double)cam.pos[0], (double)cam.pos[1], (double)cam.pos[2], (double)cam.yaw, (double)cam.pitch,
+                (double)cam.zfar);
     char water[32] = "null";
     if (afx.water)
         snprintf(water, sizeof water, "%.2f", (double)afx.water_level);
@@ -222,6 +229,7 @@ int cmd_render(int argc, char **argv)
                hz_lod_bytes_per_sample(t->lod), hz_lod_memory_bytes(t->lod), t->load_ms, t->prep_ms,
                (double)hz_peak_rss_bytes() / (1024.0 * 1024.0), out, fxs, afx.setup_ms, afx.lightmap_ms, afx.trees,
                ds.billboards, ds.particles, ds.reflections, (double)ds.sun_visible, water);
+        printf(",\"terrain_in_view\":%s", in_view ? "true" : "false");
         printf(",\"triangles_masked\":%zu,\"data_size\":[%u,%u],\"samples_valid\":%llu,\"file_samples\":%llu",
                masked_tris, t->data_w, t->data_h, (unsigned long long)t->valid_count,
                (unsigned long long)t->file_samples);

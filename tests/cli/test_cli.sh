@@ -313,6 +313,15 @@ mkdir -p "$TMP/frames"; cp "$TMP/d.png" "$TMP/frames/ref_0000.png" 2>/dev/null |
 sum0=$(md5sum < "$TMP/frames/ref_0000.png")
 expect_fail "bench frames over an input" "would overwrite"  $HZ bench --quiet --dem "$TMP/frames/ref_0000.png" --frames 1 --save-frames "$TMP/frames"
 [ "$(md5sum < "$TMP/frames/ref_0000.png")" = "$sum0" ] && ok "the input frame file is intact" || bad "the input frame file changed"
+# A camera high above the map still sees it (the far plane follows its height); one looking
+# away says so.
+hi=$($R --generate perlin --size 257 --camera 1280,60000,1280,0,-89.5 --json --out "$TMP/hi.png" 2>/dev/null |
+     python3 -c "import json,sys; j=json.load(sys.stdin); print(j['terrain_in_view'], j['triangles'] > 0)")
+[ "$hi" = "True True" ] && ok "a camera 60 km up sees the map" || bad "camera 60 km up: $hi"
+away=$($R --generate perlin --size 257 --camera 1280,3000,1280,0,80 --json --out "$TMP/away.png" 2>"$TMP/away.err" |
+       python3 -c "import json,sys; print(json.load(sys.stdin)['terrain_in_view'])")
+[ "$away" = "False" ] && grep -q "not in view" "$TMP/away.err" && ok "terrain out of view is reported" ||
+  bad "terrain out of view: $away $(cat "$TMP/away.err")"
 expect_fail "bench both tunings"   "alternatives"            $HZ bench --quiet --size 257 --tune-p99 1 --tune-silhouette 0.01
 expect_fail "bench bad metrics"    "on or off"               $HZ bench --quiet --size 257 --metrics maybe
 # ---- trees and forests ---------------------------------------------------------
