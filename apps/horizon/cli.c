@@ -662,6 +662,16 @@ hz_result cli_renderer_morph(hz_renderer *r, hz_terrain *t, hz_lod_mode mode, hz
     return hz_renderer_set_cdlod(r, t->lod, t->valid, err);
 }
 
+/* Drops the frame's triangles touching nodata or padding (not drawn). */
+static void mask_triangles(const hz_terrain *t, cli_lod_frame *f)
+{
+    if (!t->valid)
+        return;
+    const size_t before = f->il.count;
+    f->il.count = hz_terrain_filter_triangles(t, f->il.data, f->il.count);
+    f->masked = (before - f->il.count) / 3;
+}
+
 hz_result cli_lod_select(hz_terrain *t, const hz_camera *cam, const hz_lod_params *p, cli_lod_frame *f)
 {
     f->patches = p->mode == HZ_LOD_CDLOD;
@@ -671,12 +681,8 @@ hz_result cli_lod_select(hz_terrain *t, const hz_camera *cam, const hz_lod_param
     if (f->patches)
         return hz_lod_select_patches(t->lod, cam, p, &f->pl, &f->st);
     hz_result r = hz_lod_select(t->lod, cam, p, &f->il, NULL, NULL, &f->st);
-    if (r == HZ_OK && t->valid) {
-        /* Triangles touching nodata or padding are not drawn. */
-        const size_t before = f->il.count;
-        f->il.count = hz_terrain_filter_triangles(t, f->il.data, f->il.count);
-        f->masked = (before - f->il.count) / 3;
-    }
+    if (r == HZ_OK)
+        mask_triangles(t, f);
     return r;
 }
 
@@ -702,12 +708,8 @@ hz_result cli_lod_indices(hz_terrain *t, cli_lod_frame *f)
         return HZ_OK;
     f->il.count = 0;
     hz_result r = hz_lod_patches_to_indices(t->lod, f->pl.data, f->pl.count, &f->il);
-    if (r == HZ_OK && t->valid) {
-        /* what the patch shader does not draw */
-        const size_t before = f->il.count;
-        f->il.count = hz_terrain_filter_triangles(t, f->il.data, f->il.count);
-        f->masked = (before - f->il.count) / 3;
-    }
+    if (r == HZ_OK)
+        mask_triangles(t, f); /* what the patch shader does not draw */
     return r;
 }
 

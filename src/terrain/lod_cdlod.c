@@ -83,28 +83,40 @@ static inline uint32_t low_bit(uint32_t v)
     return v ? v & (~v + 1u) : 0x80000000u;
 }
 
-uint32_t hz_lod_morph_target2(const hz_lod *lod, uint32_t i, uint32_t j)
+/* The two neighbours a vertex collapses between, at the spacing where it
+ * first appears: along x, along z, or on the diagonal (main or anti by the
+ * coarser cell's parity, union jack) of the coarser cell it centres. False
+ * for a sample on every level's grid (the map's corners). */
+static bool morph_neighbours(const hz_lod *lod, uint32_t i, uint32_t j, uint32_t ni[2], uint32_t nj[2])
 {
-    const uint32_t bi = low_bit(i), bj = low_bit(j);
-    const uint32_t n = lod->size;
+    const uint32_t bi = low_bit(i), bj = low_bit(j), n = lod->size;
     if (bi == bj) {
-        /* The centre of a coarser cell of side 2s: on that cell's diagonal,
-         * main or anti by the cell's parity (union jack). */
         const uint32_t s = bi;
         if (i < s || j < s || i + s >= n || j + s >= n)
-            return 2u * h16(lod, i, j); /* the map's corner (0, 0) */
-        if (cell_main_diagonal((i - s) / (2 * s), (j - s) / (2 * s)))
-            return (uint32_t)h16(lod, i - s, j - s) + h16(lod, i + s, j + s);
-        return (uint32_t)h16(lod, i - s, j + s) + h16(lod, i + s, j - s);
-    }
-    if (bi < bj) {
+            return false;
+        const bool main = cell_main_diagonal((i - s) / (2 * s), (j - s) / (2 * s));
+        ni[0] = i - s, nj[0] = main ? j - s : j + s;
+        ni[1] = i + s, nj[1] = main ? j + s : j - s;
+    } else if (bi < bj) {
         if (i < bi || i + bi >= n)
-            return 2u * h16(lod, i, j);
-        return (uint32_t)h16(lod, i - bi, j) + h16(lod, i + bi, j);
+            return false;
+        ni[0] = i - bi, nj[0] = j;
+        ni[1] = i + bi, nj[1] = j;
+    } else {
+        if (j < bj || j + bj >= n)
+            return false;
+        ni[0] = i, nj[0] = j - bj;
+        ni[1] = i, nj[1] = j + bj;
     }
-    if (j < bj || j + bj >= n)
+    return true;
+}
+
+uint32_t hz_lod_morph_target2(const hz_lod *lod, uint32_t i, uint32_t j)
+{
+    uint32_t ni[2], nj[2];
+    if (!morph_neighbours(lod, i, j, ni, nj))
         return 2u * h16(lod, i, j);
-    return (uint32_t)h16(lod, i, j - bj) + h16(lod, i, j + bj);
+    return (uint32_t)h16(lod, ni[0], nj[0]) + h16(lod, ni[1], nj[1]);
 }
 
 static void prep_progress(const hz_lod *lod, uint64_t done, uint64_t total)
@@ -274,36 +286,6 @@ float hz_lod_morph_factor(hz_lod *lod, const hz_camera *cam, const hz_lod_stats 
     return m < 0.0f ? 0.0f : (m > 1.0f ? 1.0f : m);
 }
 
-/* The two neighbours a vertex collapses between (as hz_lod_morph_target2);
- * false for a sample that lies on every level's grid (the map's corners). */
-static bool morph_neighbours(const hz_lod *lod, uint32_t i, uint32_t j, uint32_t nb[2])
-{
-    const uint32_t bi = low_bit(i), bj = low_bit(j), n = lod->size;
-    if (bi == bj) {
-        const uint32_t s = bi;
-        if (i < s || j < s || i + s >= n || j + s >= n)
-            return false;
-        if (cell_main_diagonal((i - s) / (2 * s), (j - s) / (2 * s))) {
-            nb[0] = (j - s) * n + (i - s);
-            nb[1] = (j + s) * n + (i + s);
-        } else {
-            nb[0] = (j + s) * n + (i - s);
-            nb[1] = (j - s) * n + (i + s);
-        }
-    } else if (bi < bj) {
-        if (i < bi || i + bi >= n)
-            return false;
-        nb[0] = j * n + i - bi;
-        nb[1] = j * n + i + bi;
-    } else {
-        if (j < bj || j + bj >= n)
-            return false;
-        nb[0] = (j - bj) * n + i;
-        nb[1] = (j + bj) * n + i;
-    }
-    return true;
-}
-
 /* A vertex moved toward its true-height target (one level of morphing). */
 static float morph1(hz_lod *lod, const hz_camera *cam, const hz_lod_stats *stats, uint32_t index)
 {
@@ -321,13 +303,14 @@ float hz_lod_morph_height(hz_lod *lod, const hz_camera *cam, const hz_lod_stats 
     const uint32_t n = lod->size, i = index % n, j = index / n;
     const float h = hworld(lod, i, j);
     const float m = hz_lod_morph_factor(lod, cam, stats, index);
-    uint32_t nb[2];
-    if (m <= 0.0f || !morph_neighbours(lod, i, j, nb))
+    uint32_t ni[2], nj[2];
+    if (m <= 0.0f || !morph_neighbours(lod, i, j, ni, nj))
         return h;
     /* Toward the midpoint of the neighbours as they are drawn (themselves
      * morphed one level): a vertex a split brings in (m = 1) then lies on
      * the coarser node's drawn surface even while that surface morphs. */
-    const float target = 0.5f * (morph1(lod, cam, stats, nb[0]) + morph1(lod, cam, stats, nb[1]));
+    const float target =
+        0.5f * (morph1(lod, cam, stats, nj[0] * n + ni[0]) + morph1(lod, cam, stats, nj[1] * n + ni[1]));
     return h + m * (target - h);
 }
 
