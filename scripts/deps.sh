@@ -9,6 +9,8 @@ PKGS=(
   libegl-dev libegl1-mesa-dev libgl1-mesa-dri libegl-mesa0   # EGL + Mesa llvmpipe (software GL 4.5)
   libstb-dev           # stb_image / stb_image_write
   libpng-dev zlib1g-dev
+  libzstd-dev libxxhash-dev  # terrain pyramids: tile compression and checksums
+  libjansson-dev       # JSON written by the commands
   libgdal-dev          # DEM reading (GeoTIFF, SRTM, ENVI, ASCII grid, VRT), mosaics, reprojection (PROJ)
   libcmocka-dev        # unit tests
   python3              # CLI tests check JSON output

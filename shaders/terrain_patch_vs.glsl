@@ -19,6 +19,8 @@ uniform int u_map;               // samples per side of the map
 uniform int u_tile;              // T: cells per tile side
 uniform int u_top;               // the coarsest tile level (one tile)
 uniform int u_base[16];          // first layer of each tile level
+uniform int u_stream;            // 1: a streamed pyramid; tiles are cache slots, neighbours come
+                                 // from the patch's own tile, normals from the heights
 
 out vec3 v_world;
 out vec3 v_normal;
@@ -56,12 +58,37 @@ float target_of(uvec4 t)
 }
 
 // A neighbour moved one level toward its own target.
-float morph1(int i, int j)
+float morph1_texel(uvec4 t, int i, int j)
 {
-    uvec4 t = sample_texel(i, j);
     float h = u_hoffset + u_hscale * float(t.r);
     float m = morph_factor(t, vec3(float(i) * u_spacing, h, float(j) * u_spacing));
     return mix(h, target_of(t), m);
+}
+
+float morph1(int i, int j)
+{
+    return morph1_texel(sample_texel(i, j), i, j);
+}
+
+// Streamed: the texel of sample (i, j) in the patch's tile (level shift), if it lies there.
+bool tile_texel(int i, int j, ivec2 org, int shift, int layer, out uvec4 t)
+{
+    ivec2 l = (ivec2(i, j) - org) >> shift;
+    bool ok = all(greaterThanEqual(l, ivec2(0))) && all(lessThanEqual(l, ivec2(u_tile))) &&
+              ((ivec2(i, j) - org) & ((1 << shift) - 1)) == ivec2(0);
+    t = ok ? texelFetch(u_tiles, ivec3(l, layer), 0) : uvec4(0u);
+    return ok;
+}
+
+// Height of sample (i, j) if the patch's tile holds it; ok says so.
+float stream_h(int i, int j, ivec2 org, int shift, int layer, float fallback, out float ok)
+{
+    uvec4 t;
+    ok = 0.0;
+    if (i < 0 || j < 0 || i > u_map - 1 || j > u_map - 1 || !tile_texel(i, j, org, shift, layer, t))
+        return fallback;
+    ok = 1.0;
+    return u_hoffset + u_hscale * float(t.r);
 }
 
 void main()
@@ -83,6 +110,7 @@ void main()
     int i = int(a_patch.x) + (u << shift), j = int(a_patch.y) + (w << shift);
     float h = u_hoffset + u_hscale * float(t.r);
     vec3 p = vec3(float(i) * u_spacing, h, float(j) * u_spacing);
+    ivec2 org = ivec2(a_patch.xy) - (ivec2(ox, oz) << shift);
     if (u_morph_scale > 0.0) {
         float m = morph_factor(t, p);
         if (m > 0.0) {
@@ -102,10 +130,32 @@ void main()
                 a = ivec2(i, j - bj);
                 b = ivec2(i, j + bj);
             }
-            p.y = mix(h, 0.5 * (morph1(a.x, a.y) + morph1(b.x, b.y)), m);
+            if (u_stream == 0) {
+                p.y = mix(h, 0.5 * (morph1(a.x, a.y) + morph1(b.x, b.y)), m);
+            } else {
+                uvec4 ta, tb;
+                // A tile's corners have their neighbours outside it: there the
+                // target is the midpoint of the unmorphed neighbours.
+                if (tile_texel(a.x, a.y, org, shift, layer, ta) && tile_texel(b.x, b.y, org, shift, layer, tb))
+                    p.y = mix(h, 0.5 * (morph1_texel(ta, a.x, a.y) + morph1_texel(tb, b.x, b.y)), m);
+                else
+                    p.y = mix(h, target_of(t), m);
+            }
         }
     }
-    v_normal = vec3(0.0, 1.0, 0.0); // the fragment shader takes normals from the normal map
+    if (u_stream != 0) {
+        // No full-resolution normal map: the normal of the heights at this level.
+        int st = 1 << shift;
+        float ow, oe, on, os;
+        float hw = stream_h(i - st, j, org, shift, layer, h, ow), he = stream_h(i + st, j, org, shift, layer, h, oe);
+        float hn = stream_h(i, j - st, org, shift, layer, h, on), hs = stream_h(i, j + st, org, shift, layer, h, os);
+        // one-sided at the tile's (or map's) edge
+        float dx = max(ow + oe, 1.0), dz = max(on + os, 1.0);
+        v_normal = normalize(vec3(-(he - hw) / (dx * float(st) * u_spacing), 1.0,
+                                  -(hs - hn) / (dz * float(st) * u_spacing)));
+    } else {
+        v_normal = vec3(0.0, 1.0, 0.0); // the fragment shader takes normals from the normal map
+    }
     v_valid = (t.a & 2u) != 0u ? 0.0 : 1.0;
     v_world = p;
     gl_Position = u_viewproj * vec4(p, 1.0);

@@ -199,4 +199,12 @@ int cmd_view(int argc, char **argv);
 int cmd_tree(int argc, char **argv);
 int cmd_info(int argc, char **argv);
 
+ /* streamed pyramids (cmd_stream.c) */
+int cmd_import(int argc, char **argv);
+int pyramid_info(const char *path, bool verify, bool json);
+int stream_render(int argc, char **argv);
+int stream_bench(int argc, char **argv);
+/* True when argv (from first) holds --terrain: the command streams a pyramid. */
+bool cli_wants_stream(int argc, char **argv, int first);
+
 #endif

@@ -838,6 +838,8 @@ static int parse_modes(const char *v, hz_lod_mode *modes, int cap)
 
 int cmd_bench(int argc, char **argv)
 {
+    if (cli_wants_stream(argc, argv, 2))
+        return stream_bench(argc, argv);
     /* Split off bench-only options, pass the rest to the common parser. */
     const char *path_name = NULL, *json_out = NULL, *plot_out = NULL, *save_dir = NULL, *costs_out = NULL;
     bench_forest_opts bfo = {0};

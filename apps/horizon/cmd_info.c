@@ -120,7 +120,7 @@ static int info_one(const char *path, const char *crs, bool json, bool first)
 
 int cmd_info(int argc, char **argv)
 {
-    bool json = false;
+    bool json = false, verify = false;
     const char *crs = NULL;
     int files = 0;
     for (int i = 2; i < argc; i++) {
@@ -130,11 +130,14 @@ int cmd_info(int argc, char **argv)
                             "and nodata count as stored, and the grid --dem makes of it (a folder is read\n"
                             "as one mosaic).\n"
                             "  --json        one JSON array on stdout\n"
-                            "  --crs EPSG:N  the metric CRS for geographic files (default: UTM of the centre)\n");
+                            "  --crs EPSG:N  the metric CRS for geographic files (default: UTM of the centre)\n"
+                            "  --verify      terrain pyramids (.hzp): check every tile's checksum\n");
             return 0;
         }
         if (!strcmp(argv[i], "--json"))
             json = true;
+        else if (!strcmp(argv[i], "--verify"))
+            verify = true;
         else if (!strcmp(argv[i], "--crs")) {
             if (i + 1 >= argc) {
                 fprintf(stderr, "horizon info: option --crs needs a value\n");
@@ -162,6 +165,16 @@ int cmd_info(int argc, char **argv)
         }
         if (argv[i][0] == '-' && argv[i][1])
             continue;
+        const size_t len = strlen(argv[i]);
+        if (len > 4 && !strcmp(argv[i] + len - 4, ".hzp")) {
+            if (json && !first)
+                printf(",");
+            fflush(stdout);
+            if (pyramid_info(argv[i], verify, json))
+                rc = 1;
+            first = false;
+            continue;
+        }
         if (info_one(argv[i], crs, json, first))
             rc = 1;
         else

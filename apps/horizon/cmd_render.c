@@ -79,6 +79,8 @@ static int write_obj(const char *path, const hz_terrain *t, const hz_index_list 
 
 int cmd_render(int argc, char **argv)
 {
+    if (cli_wants_stream(argc, argv, 2))
+        return stream_render(argc, argv);
     cli_opts o;
     for (int i = 2; i < argc; i++)
         if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {

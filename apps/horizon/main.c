@@ -12,6 +12,7 @@ static void usage(void)
                     "  bench    fly a camera path headless and measure every frame (--help)\n"
                     "  view     open a window to fly over the terrain, HUD and debug views (--help)\n"
                     "  info     size, CRS, corners, spacing, heights and nodata of DEM files (--help)\n"
+                    "  import   DEM files or a generated terrain to a streamed pyramid (.hzp) (--help)\n"
                     "  tree     grow/import a tree, rank its leaves by VMI, build its crown hull (--help)\n");
 }
 
@@ -29,6 +30,8 @@ int main(int argc, char **argv)
         return cmd_tree(argc, argv);
     if (!strcmp(argv[1], "info"))
         return cmd_info(argc, argv);
+    if (!strcmp(argv[1], "import"))
+        return cmd_import(argc, argv);
     if (!strcmp(argv[1], "view"))
         return cmd_view(argc, argv);
     fprintf(stderr, "horizon: unknown command '%s'\n", argv[1]);

@@ -107,6 +107,33 @@ typedef struct hz_gen_desc {
 hz_result hz_generate(const hz_gen_desc *desc, hz_grid *out, hz_err *err);
 bool hz_gen_kind_parse(const char *s, hz_gen_kind *out);
 
+/* ---- windowed reading (the pyramid import) ---- */
+
+/* A raster read window by window (the pyramid import never holds it whole):
+ * d's inputs (one file, files or folders mosaicked), reprojected on read when
+ * d->metric asks (a warped VRT). Reads give floats, nodata as NaN, band
+ * scale/offset applied. Not thread-safe: one reader at a time. */
+typedef struct hz_io_src hz_io_src;
+hz_result hz_io_src_open(const hz_dem_desc *d, hz_io_src **out, hz_err *err);
+void hz_io_src_close(hz_io_src *s);
+void hz_io_src_size(const hz_io_src *s, uint32_t *w, uint32_t *h);
+const hz_georef *hz_io_src_georef(const hz_io_src *s);
+/* True when the stored samples are 8/16-bit integers with no scaling or
+ * reprojection: quantising them to 16 bits is lossless. */
+bool hz_io_src_is_integer16(const hz_io_src *s);
+/* Smallest and largest height with data (reads the whole raster once). */
+hz_result hz_io_src_range(hz_io_src *s, double *lo, double *hi, hz_err *err);
+hz_result hz_io_src_read(hz_io_src *s, uint32_t x0, uint32_t y0, uint32_t w, uint32_t h, float *out, hz_err *err);
+
+/* A generated terrain read window by window (Perlin only: every sample is a
+ * local function of its position). Heights in [0, amplitude] metres, the
+ * curve applied to the fixed raw range (not the map's own). Thread-safe. */
+typedef struct hz_gen_window hz_gen_window;
+hz_result hz_gen_window_open(const hz_gen_desc *d, hz_gen_window **out, hz_err *err);
+void hz_gen_window_close(hz_gen_window *w);
+float hz_gen_window_amplitude(const hz_gen_window *w);
+void hz_gen_window_read(const hz_gen_window *w, uint32_t x0, uint32_t y0, uint32_t w_, uint32_t h, float *out);
+
 #ifdef __cplusplus
 }
 #endif

@@ -155,6 +155,8 @@ typedef struct hz_patch {
     uint16_t level;    /* quadtree level (0 = root) */
     float dist;        /* eye to the node's box, metres; patches come nearest first (ordered by
                           distance to within 1/32 of a doubling, at most 3 %) */
+    uint32_t layer1;   /* streamed terrains: 1 + the tile slot holding the node; 0 otherwise */
+    uint16_t ox, oz;   /* streamed terrains: the node's corner inside its tile (tile texels) */
 } hz_patch;
 
 typedef struct hz_patch_list {

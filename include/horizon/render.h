@@ -93,6 +93,14 @@ typedef void (*hz_draw_hook_fn)(void *user, const hz_pass_info *pass);
  * hz_scene_params.patches. */
 hz_result hz_renderer_set_cdlod(hz_renderer *r, hz_lod *lod, const uint8_t *valid, hz_err *err);
 
+/* Streamed terrains (horizon/stream.h): a tile cache of `slots` layers of
+ * texels x texels RGBA16UI, filled by hz_renderer_stream_upload with the
+ * texels hz_stream_next_upload hands out; frames then draw the patches of
+ * hz_stream_select (hz_scene_params.patches). Replaces any heightmap's tiles. */
+typedef struct hz_pyr_info hz_pyr_info;
+hz_result hz_renderer_set_stream(hz_renderer *r, const hz_pyr_info *info, uint32_t slots, uint32_t texels, hz_err *err);
+hz_result hz_renderer_stream_upload(hz_renderer *r, uint32_t slot, const uint16_t *texels, hz_err *err);
+
 #define HZ_MAX_HISTORY 8u /* motion blur history slots */
 
 typedef struct hz_scene_params {

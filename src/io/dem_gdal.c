@@ -301,7 +301,7 @@ static bool needs_warp(const hz_dem_desc *d, GDALDatasetH ds, const hz_georef *g
 }
 
 static GDALDatasetH warp(const hz_dem_desc *d, GDALDatasetH src, const hz_georef *g, double *spacing, hz_io_progress *prog,
-                         hz_err *err)
+                         const char *format, hz_err *err)
 {
     char *wkt = NULL;
     if (target_crs(d, g, &wkt, err) != HZ_OK)
@@ -331,7 +331,7 @@ static GDALDatasetH warp(const hz_dem_desc *d, GDALDatasetH src, const hz_georef
     }
     char tr[64];
     snprintf(tr, sizeof tr, "%.17g", s / lu);
-    char *argv[] = {"-of", "MEM", "-t_srs", wkt, "-tr", tr, tr, "-r", "bilinear", "-ot", "Float32",
+    char *argv[] = {"-of", (char *)format, "-t_srs", wkt, "-tr", tr, tr, "-r", "bilinear", "-ot", "Float32",
                     "-dstnodata", "nan", "-wm", "256", NULL};
     GDALWarpAppOptions *o = GDALWarpAppOptionsNew(argv, NULL);
     if (!o) {
@@ -475,7 +475,7 @@ hz_result hz_io_gdal_load(const hz_dem_desc *d, hz_grid *out, hz_dem_info *info,
             r = hz_err_set(err, HZ_ERR_FORMAT, "'%s': cannot read: %s", label, gdal_msg("corrupt or truncated"));
             goto done;
         }
-        warped = warp(d, src, g, &s, &prog, err);
+        warped = warp(d, src, g, &s, &prog, "MEM", err);
         if (!warped) {
             r = err && err->code ? err->code : HZ_ERR_FORMAT;
             goto done;
@@ -508,4 +508,155 @@ done:
     hz_georef_destroy(g);
     list_free(&inputs);
     return r;
+}
+
+/* ---- windowed sources (pyramid import): never the whole raster ---- */
+
+struct hz_io_src {
+    GDALDatasetH src, warped; /* warped: a VRT that reprojects on read */
+    GDALRasterBandH band;
+    hz_georef *g;
+    uint32_t w, h;
+    bool has_nd, nd_nan, has_scale;
+    double nd, scale, off;
+    GDALDataType type;
+    char label[256];
+};
+
+hz_result hz_io_src_open(const hz_dem_desc *d, hz_io_src **out, hz_err *err)
+{
+    gdal_init();
+    *out = NULL;
+    hz_io_src *s = calloc(1, sizeof *s);
+    name_list inputs = {0};
+    if (!s)
+        return hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
+    hz_result r = HZ_OK;
+    CPLPushErrorHandler(CPLQuietErrorHandler);
+    CPLErrorReset();
+    if (d->path_count > 0) {
+        for (uint32_t k = 0; k < d->path_count && r == HZ_OK; k++)
+            r = add_input(&inputs, d->paths[k], err);
+    } else {
+        r = add_input(&inputs, d->path, err);
+    }
+    if (r == HZ_OK) {
+        s->src = open_inputs(&inputs, err);
+        if (!s->src)
+            r = HZ_ERR_FORMAT;
+    }
+    if (r == HZ_OK) {
+        snprintf(s->label, sizeof s->label, "%s", inputs.n == 1 ? inputs.v[0] : "mosaic");
+        s->g = georef_of(s->src);
+        if (GDALGetRasterCount(s->src) < 1)
+            r = hz_err_set(err, HZ_ERR_FORMAT, "'%s' has no raster band", s->label);
+    }
+    if (r == HZ_OK && needs_warp(d, s->src, s->g)) {
+        double sp = 0;
+        hz_io_progress prog = {0};
+        s->warped = warp(d, s->src, s->g, &sp, &prog, "VRT", err);
+        if (!s->warped) {
+            r = err && err->code ? err->code : HZ_ERR_FORMAT;
+        } else {
+            hz_georef_destroy(s->g);
+            s->g = georef_of(s->warped);
+        }
+    }
+    if (r == HZ_OK) {
+        GDALDatasetH ds = s->warped ? s->warped : s->src;
+        s->w = (uint32_t)GDALGetRasterXSize(ds);
+        s->h = (uint32_t)GDALGetRasterYSize(ds);
+        s->band = GDALGetRasterBand(ds, 1);
+        int has_nd = 0, has_scale = 0, has_off = 0;
+        s->nd = GDALGetRasterNoDataValue(s->band, &has_nd);
+        s->has_nd = has_nd != 0;
+        s->nd_nan = has_nd && isnan(s->nd);
+        s->scale = GDALGetRasterScale(s->band, &has_scale);
+        s->off = GDALGetRasterOffset(s->band, &has_off);
+        if (!has_scale || s->scale == 0.0)
+            s->scale = 1.0;
+        if (!has_off)
+            s->off = 0.0;
+        s->has_scale = has_scale || has_off;
+        s->type = GDALGetRasterDataType(GDALGetRasterBand(s->src, 1));
+        if (s->w < 2 || s->h < 2)
+            r = hz_err_set(err, HZ_ERR_VALUE, "'%s' is %ux%u samples; it needs at least 2x2", s->label, s->w, s->h);
+    }
+    CPLPopErrorHandler();
+    list_free(&inputs);
+    if (r != HZ_OK) {
+        hz_io_src_close(s);
+        return r;
+    }
+    *out = s;
+    return HZ_OK;
+}
+
+void hz_io_src_close(hz_io_src *s)
+{
+    if (!s)
+        return;
+    if (s->warped)
+        GDALClose(s->warped);
+    if (s->src)
+        GDALClose(s->src);
+    hz_georef_destroy(s->g);
+    free(s);
+}
+
+void hz_io_src_size(const hz_io_src *s, uint32_t *w, uint32_t *h)
+{
+    *w = s->w;
+    *h = s->h;
+}
+
+const hz_georef *hz_io_src_georef(const hz_io_src *s)
+{
+    return s->g;
+}
+
+bool hz_io_src_is_integer16(const hz_io_src *s)
+{
+    return !s->has_scale && !s->warped && (s->type == GDT_Int16 || s->type == GDT_UInt16 || s->type == GDT_Byte);
+}
+
+hz_result hz_io_src_read(hz_io_src *s, uint32_t x0, uint32_t y0, uint32_t w, uint32_t h, float *out, hz_err *err)
+{
+    if (x0 >= s->w || y0 >= s->h || w > s->w - x0 || h > s->h - y0)
+        return hz_err_set(err, HZ_ERR_VALUE, "'%s': window %u,%u %ux%u outside the %ux%u raster", s->label, x0, y0, w,
+                          h, s->w, s->h);
+    CPLPushErrorHandler(CPLQuietErrorHandler);
+    CPLErr e = GDALRasterIO(s->band, GF_Read, (int)x0, (int)y0, (int)w, (int)h, out, (int)w, (int)h, GDT_Float32, 0, 0);
+    CPLPopErrorHandler();
+    if (e != CE_None)
+        return hz_err_set(err, HZ_ERR_FORMAT, "'%s': cannot read rows %u..%u: %s", s->label, y0, y0 + h - 1,
+                          gdal_msg("corrupt or truncated"));
+    const float ndf = (float)s->nd;
+    for (size_t k = 0; k < (size_t)w * h; k++) {
+        float v = out[k];
+        if (isnan(v) || (s->has_nd && !s->nd_nan && v == ndf))
+            out[k] = NAN;
+        else if (s->has_scale)
+            out[k] = (float)((double)v * s->scale + s->off);
+    }
+    return HZ_OK;
+}
+
+hz_result hz_io_src_range(hz_io_src *s, double *lo, double *hi, hz_err *err)
+{
+    double mm[2] = {0, 0};
+    CPLPushErrorHandler(CPLQuietErrorHandler);
+    CPLErr e = GDALComputeRasterMinMax(s->band, FALSE, mm);
+    CPLPopErrorHandler();
+    if (e != CE_None || !isfinite(mm[0]) || !isfinite(mm[1]))
+        return hz_err_set(err, HZ_ERR_FORMAT, "'%s': cannot compute its height range: %s", s->label,
+                          gdal_msg("no sample with data?"));
+    *lo = mm[0] * s->scale + s->off;
+    *hi = mm[1] * s->scale + s->off;
+    if (*lo > *hi) {
+        double t = *lo;
+        *lo = *hi;
+        *hi = t;
+    }
+    return HZ_OK;
 }

@@ -411,3 +411,104 @@ hz_result hz_generate(const hz_gen_desc *desc, hz_grid *out, hz_err *err)
     finish(out, amp);
     return HZ_OK;
 }
+
+/* ---- windowed Perlin (pyramid import): any window of a map of any size ---- */
+
+struct hz_gen_window {
+    perlin_params pp;
+    float amplitude;
+};
+
+/* The same parameters gen_perlin derives from d (n = the map's side). */
+static void perlin_setup(const hz_gen_desc *d, float persistence, uint32_t n, perlin_params *pp)
+{
+    uint64_t s = d->seed ^ 0x5eed5eed5eed5eedULL;
+    noise_init(&pp->nz, &s);
+    double feature = d->feature_size > 0 ? (double)d->feature_size : (double)(n / 2);
+    if (feature < 2.0)
+        feature = 2.0;
+    int oct = (int)d->octaves;
+    if (oct == 0) {
+        oct = 1;
+        for (double w = feature; w >= 4.0 && oct < MAX_OCTAVES; w *= 0.5)
+            oct++;
+    }
+    pp->octaves = oct;
+    pp->freq0 = 1.0 / feature;
+    pp->persistence = persistence;
+    for (int o = 0; o < MAX_OCTAVES + 4; o++) {
+        pp->offx[o] = 64.0 + (double)(splitmix64(&s) % 1024u) + (double)rnd01(&s);
+        pp->offy[o] = 64.0 + (double)(splitmix64(&s) % 1024u) + (double)rnd01(&s);
+    }
+    pp->warp_freq = 1.5 / feature;
+    pp->warp_amp = 0.12 * feature;
+}
+
+hz_result hz_gen_window_open(const hz_gen_desc *d, hz_gen_window **out, hz_err *err)
+{
+    *out = NULL;
+    if (d->kind != HZ_GEN_PERLIN)
+        return hz_err_set(err, HZ_ERR_UNSUPPORTED,
+                          "generate: only perlin can be generated window by window (diamond-square's every "
+                          "sample depends on the whole coarser map: use --size <= 16385 and a DEM file)");
+    if (!hz_is_pow2_plus1(d->size) || d->size > 1048577u)
+        return hz_err_set(err, HZ_ERR_VALUE, "generate: size %u must be 2^n+1 between 3 and 1048577", d->size);
+    float amp = d->amplitude == 0.0f ? 1800.0f : d->amplitude;
+    float rough = d->roughness == 0.0f ? 0.5f : d->roughness;
+    if (!(amp > 0.0f) || !(amp <= 100000.0f) || !(rough > 0.0f) || !(rough <= 1.0f) || d->octaves > MAX_OCTAVES ||
+        !(d->feature_size >= 0.0f) || d->feature_size > 1e7f)
+        return hz_err_set(err, HZ_ERR_VALUE, "generate: amplitude, roughness, octaves or feature size out of range");
+    hz_gen_window *w = calloc(1, sizeof *w);
+    if (!w)
+        return hz_err_set(err, HZ_ERR_MEMORY, "generate: out of memory");
+    perlin_setup(d, rough, d->size, &w->pp);
+    w->amplitude = amp;
+    *out = w;
+    return HZ_OK;
+}
+
+void hz_gen_window_close(hz_gen_window *w)
+{
+    free(w);
+}
+
+float hz_gen_window_amplitude(const hz_gen_window *w)
+{
+    return w->amplitude;
+}
+
+/* Raw Perlin heights lie in [0, 1.5]; a window cannot see the map's own
+ * range, so the curve of finish() is applied to the fixed range [0.05, 1.05]. */
+#define WIN_LO 0.05f
+#define WIN_HI 1.05f
+
+void hz_gen_window_read(const hz_gen_window *gw, uint32_t x0, uint32_t y0, uint32_t w, uint32_t h, float *out)
+{
+    const perlin_params *pp = &gw->pp;
+    const float inv = 1.0f / (float)WARP_STEP;
+    const float amp = gw->amplitude;
+    for (uint32_t y = 0; y < h; y++) {
+        const uint32_t j = y0 + y, J = j / WARP_STEP;
+        const float v = (float)(j % WARP_STEP) * inv;
+        uint32_t Ic = UINT32_MAX;
+        float a[4] = {0}, b[4] = {0};
+        for (uint32_t x = 0; x < w; x++) {
+            const uint32_t i = x0 + x, I = i / WARP_STEP;
+            if (I != Ic) { /* the warp grid's corners, as gen_perlin samples them */
+                warp_at(pp, (double)(I * WARP_STEP), (double)(J * WARP_STEP), &a[0], &a[1]);
+                warp_at(pp, (double)((I + 1) * WARP_STEP), (double)(J * WARP_STEP), &a[2], &a[3]);
+                warp_at(pp, (double)(I * WARP_STEP), (double)((J + 1) * WARP_STEP), &b[0], &b[1]);
+                warp_at(pp, (double)((I + 1) * WARP_STEP), (double)((J + 1) * WARP_STEP), &b[2], &b[3]);
+                Ic = I;
+            }
+            const float u = (float)(i % WARP_STEP) * inv;
+            float dx0 = a[0] + u * (a[2] - a[0]), dx1 = b[0] + u * (b[2] - b[0]);
+            float dy0 = a[1] + u * (a[3] - a[1]), dy1 = b[1] + u * (b[3] - b[1]);
+            double px = (double)i + (double)(dx0 + v * (dx1 - dx0));
+            double py = (double)j + (double)(dy0 + v * (dy1 - dy0));
+            float t = clamp01((perlin_height(pp, px, py) - WIN_LO) / (WIN_HI - WIN_LO));
+            float hh = amp * (t * (0.3f + 0.7f * t));
+            out[(size_t)y * w + x] = hh > amp ? amp : hh;
+        }
+    }
+}

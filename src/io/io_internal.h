@@ -3,6 +3,7 @@
 #define HZ_IO_INTERNAL_H
 
 #include "horizon/dem.h"
+#include "horizon/georef.h"
 
 /* Largest accepted side of any grid or image, from any header. */
 #define HZ_IO_MAX_SIDE 65537u

@@ -91,7 +91,7 @@ void prog_cache_clear(prog_cache *c);
 /* Uniform location slots per family. */
 enum { TL_SIZE, TL_SPACING, TL_HSCALE, TL_HOFFSET, TL_VIEWPROJ, TL_SUN, TL_HORIZON, TL_EYE, TL_FOG, TL_AMBIENT,
        TL_HRANGE, TL_WIRE, TL_MORPH_SCALE, TL_MORPH_START, TL_NORMAL_TEX, TL_NRM_SCALE, TL_MAP, TL_TILE, TL_TOP,
-       TL_BASE };
+       TL_BASE, TL_STREAM};
 enum { BL_VIEWPROJ, BL_CAM_RIGHT, BL_CAM_UP, BL_PX_PER_M, BL_BLEND, BL_FIRST, BL_FACING };
 enum { WL_RECT, WL_LEVEL, WL_VIEWPROJ, WL_HAS_REFLECTION, WL_VIEWPORT, WL_SIZE, WL_SPACING, WL_HSCALE, WL_HOFFSET,
        WL_DEEP, WL_CLARITY, WL_WAVES, WL_REFLECTIVITY };
@@ -133,6 +133,7 @@ struct hz_renderer {
     /* cdlod patches (terrain_patch.c) */
     GLuint tiles_tex;          /* GL_TEXTURE_2D_ARRAY, RGBA16UI tiles of the height pyramid */
     uint32_t tile_cells, tile_top, tile_layers;
+    bool streamed;             /* the tiles are a streamed pyramid's cache slots */
     bool tile_masked;          /* some samples have no data: the mask variant discards there */
     int32_t tile_base[16];     /* first layer per level */
     GLuint patch_vao, patch_ibo, patch_vbo;

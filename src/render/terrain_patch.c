@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "horizon/lod.h"
+#include "horizon/pyramid.h"
 
 /* Tile texel: h16, morph q, morph target (sum of two h16, 17 bits) low, and
  * its high bit plus a no-data flag. */
@@ -39,6 +40,44 @@ static void tile_fill(hz_lod *lod, const uint16_t *morph, const uint8_t *valid, 
             o[3] = (uint16_t)((t2 >> 16) | (valid && !valid[(size_t)j * n + i] ? 2u : 0u));
         }
     }
+}
+
+/* The static patch: (P+1)^2 vertices, union-jack cells (hz_lod_cell_triangles). */
+static hz_result patch_grid(hz_renderer *r, uint32_t P, hz_err *err)
+{
+    if (r->patch_cells != P) {
+        const uint32_t c1 = P + 1;
+        uint16_t *idx = malloc((size_t)P * P * 6 * sizeof *idx);
+        if (!idx)
+            return hz_err_set(err, HZ_ERR_MEMORY, "renderer: out of memory for the patch indices");
+        uint16_t *o = idx;
+        for (uint32_t w = 0; w < P; w++)
+            for (uint32_t u = 0; u < P; u++) {
+                uint32_t t[6];
+                hz_lod_cell_triangles(((u + w) & 1u) == 0, w * c1 + u, (w + 1) * c1 + u, w * c1 + u + 1,
+                                      (w + 1) * c1 + u + 1, t);
+                for (int k = 0; k < 6; k++)
+                    *o++ = (uint16_t)t[k];
+            }
+        if (!r->patch_vao) {
+            glGenVertexArrays(1, &r->patch_vao);
+            glGenBuffers(1, &r->patch_ibo);
+            glGenBuffers(1, &r->patch_vbo);
+        }
+        glBindVertexArray(r->patch_vao);
+        glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->patch_ibo);
+        glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)((size_t)P * P * 6 * sizeof *idx), idx, GL_STATIC_DRAW);
+        glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
+        glEnableVertexAttribArray(0);
+        glVertexAttribIPointer(0, 4, GL_UNSIGNED_INT, 4 * sizeof(uint32_t), (const void *)0);
+        glVertexAttribDivisor(0, 1);
+        glBindVertexArray(0);
+        glBindBuffer(GL_ARRAY_BUFFER, 0);
+        free(idx);
+        r->patch_cells = P;
+        r->patch_index_count = P * P * 6;
+    }
+    return hz_gl_check(err, "cdlod patch setup");
 }
 
 hz_result hz_renderer_set_cdlod(hz_renderer *r, hz_lod *lod, const uint8_t *valid, hz_err *err)
@@ -116,46 +155,14 @@ hz_result hz_renderer_set_cdlod(hz_renderer *r, hz_lod *lod, const uint8_t *vali
         return res;
     }
     r->tile_cells = T;
+    r->streamed = false;
     r->tile_masked = false;
     for (size_t k = 0; valid && k < (size_t)n * n && !r->tile_masked; k++)
         r->tile_masked = !valid[k];
     r->tile_top = top;
     r->tile_layers = layers;
 
-    /* The static patch: (P+1)^2 vertices, union-jack cells (hz_lod_cell_triangles). */
-    if (r->patch_cells != P) {
-        const uint32_t c1 = P + 1;
-        uint16_t *idx = malloc((size_t)P * P * 6 * sizeof *idx);
-        if (!idx)
-            return hz_err_set(err, HZ_ERR_MEMORY, "renderer: out of memory for the patch indices");
-        uint16_t *o = idx;
-        for (uint32_t w = 0; w < P; w++)
-            for (uint32_t u = 0; u < P; u++) {
-                uint32_t t[6];
-                hz_lod_cell_triangles(((u + w) & 1u) == 0, w * c1 + u, (w + 1) * c1 + u, w * c1 + u + 1,
-                                      (w + 1) * c1 + u + 1, t);
-                for (int k = 0; k < 6; k++)
-                    *o++ = (uint16_t)t[k];
-            }
-        if (!r->patch_vao) {
-            glGenVertexArrays(1, &r->patch_vao);
-            glGenBuffers(1, &r->patch_ibo);
-            glGenBuffers(1, &r->patch_vbo);
-        }
-        glBindVertexArray(r->patch_vao);
-        glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->patch_ibo);
-        glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)((size_t)P * P * 6 * sizeof *idx), idx, GL_STATIC_DRAW);
-        glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
-        glEnableVertexAttribArray(0);
-        glVertexAttribIPointer(0, 4, GL_UNSIGNED_INT, 4 * sizeof(uint32_t), (const void *)0);
-        glVertexAttribDivisor(0, 1);
-        glBindVertexArray(0);
-        glBindBuffer(GL_ARRAY_BUFFER, 0);
-        free(idx);
-        r->patch_cells = P;
-        r->patch_index_count = P * P * 6;
-    }
-    return hz_gl_check(err, "cdlod patch setup");
+    return patch_grid(r, P, err);
 }
 
 hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, hz_err *err)
@@ -171,7 +178,20 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, hz_err
         r->inst_scratch_cap = bytes;
     }
     const uint32_t T = r->tile_cells, top = r->tile_top, n = r->size;
-    for (uint32_t k = 0; k < count; k++) {
+    for (uint32_t k = 0; r->streamed && k < count; k++) {
+        const hz_patch *q = &p[k];
+        if (q->shift > 23 || (q->coarse & ~15u) || q->layer1 == 0 || q->layer1 > r->tile_layers ||
+            (uint64_t)q->ox + r->patch_cells > T || (uint64_t)q->oz + r->patch_cells > T ||
+            ((uint64_t)r->patch_cells << q->shift) + q->x0 > n - 1 || ((uint64_t)r->patch_cells << q->shift) + q->z0 > n - 1)
+            return hz_err_set(err, HZ_ERR_VALUE, "renderer: streamed patch %u (%u, %u, shift %u, slot %u) is invalid",
+                              k, q->x0, q->z0, q->shift, q->layer1);
+        uint32_t *o = r->inst_scratch + 4 * (size_t)k;
+        o[0] = q->x0;
+        o[1] = q->z0;
+        o[2] = (q->layer1 - 1) | ((uint32_t)q->shift << 16);
+        o[3] = q->ox | ((uint32_t)q->oz << 12) | ((uint32_t)q->coarse << 28);
+    }
+    for (uint32_t k = 0; !r->streamed && k < count; k++) {
         const hz_patch *q = &p[k];
         if (q->shift > 15 || (q->coarse & ~15u) || ((r->patch_cells << q->shift) + q->x0 > n - 1) ||
             ((r->patch_cells << q->shift) + q->z0 > n - 1))
@@ -210,6 +230,7 @@ void patch_draw(hz_renderer *r, const GLint *loc)
     glUniform1i(loc[TL_TILE], (GLint)r->tile_cells);
     glUniform1i(loc[TL_TOP], (GLint)r->tile_top);
     glUniform1iv(loc[TL_BASE], 16, r->tile_base);
+    glUniform1i(loc[TL_STREAM], r->streamed ? 1 : 0);
     glBindVertexArray(r->patch_vao);
     glDrawElementsInstanced(GL_TRIANGLES, (GLsizei)r->patch_index_count, GL_UNSIGNED_SHORT, (const void *)0,
                             (GLsizei)r->n_inst);
@@ -223,4 +244,59 @@ void patch_destroy(hz_renderer *r)
     glDeleteBuffers(1, &r->patch_ibo);
     glDeleteBuffers(1, &r->patch_vbo);
     free(r->inst_scratch);
+}
+
+hz_result hz_renderer_set_stream(hz_renderer *r, const hz_pyr_info *info, uint32_t slots, uint32_t texels, hz_err *err)
+{
+    HZ_ASSERT(r && info);
+    hz_result res = fx_check_context(r, err, "hz_renderer_set_stream");
+    if (res != HZ_OK)
+        return res;
+    GLint max_layers = 0, max_size = 0;
+    glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &max_layers);
+    glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
+    if (slots == 0 || slots > (uint32_t)max_layers || texels > (uint32_t)max_size || texels < 3 ||
+        texels - 1 > 4095)
+        return hz_err_set(err, HZ_ERR_UNSUPPORTED,
+                          "renderer: a tile cache of %u layers of %u texels exceeds the GPU "
+                          "(GL_MAX_ARRAY_TEXTURE_LAYERS %d, GL_MAX_TEXTURE_SIZE %d): lower --cache-mb",
+                          slots, texels, max_layers, max_size);
+    hz_gl_drain();
+    if (r->tiles_tex)
+        glDeleteTextures(1, &r->tiles_tex);
+    glGenTextures(1, &r->tiles_tex);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, r->tiles_tex);
+    glTexStorage3D(GL_TEXTURE_2D_ARRAY, 1, GL_RGBA16UI, (GLsizei)texels, (GLsizei)texels, (GLsizei)slots);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, 0);
+    res = hz_gl_check(err, "tile cache allocation (GL_RGBA16UI)");
+    if (res != HZ_OK)
+        return res;
+    r->streamed = true;
+    r->tile_cells = texels - 1;
+    r->tile_layers = slots;
+    r->tile_top = 0;
+    r->tile_masked = info->nodata > 0 || info->data_w < info->size || info->data_h < info->size;
+    r->has_heights = false;
+    r->size = info->size;
+    r->spacing = (float)info->spacing;
+    r->hscale = (float)info->h_scale;
+    r->hoffset = (float)info->h_offset;
+    r->hmin = (float)(info->h_offset + info->h_scale * info->h_min);
+    r->hmax = (float)(info->h_offset + info->h_scale * info->h_max);
+    return patch_grid(r, info->patch_cells, err);
+}
+
+hz_result hz_renderer_stream_upload(hz_renderer *r, uint32_t slot, const uint16_t *texels, hz_err *err)
+{
+    if (!r->streamed || slot >= r->tile_layers)
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: no tile slot %u (hz_renderer_set_stream first)", slot);
+    const GLsizei n = (GLsizei)(r->tile_cells + 1);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, r->tiles_tex);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 2);
+    glTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, (GLint)slot, n, n, 1, GL_RGBA_INTEGER, GL_UNSIGNED_SHORT, texels);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, 0);
+    return hz_gl_check(err, "tile upload");
 }

@@ -65,11 +65,6 @@
 
 #include <float.h>
 
-/* Ranges grow at least this much per level (see the dilation below); morph
- * zones of consecutive levels then do not overlap for morph_start >= 1 / CD_GROW. */
-#ifndef CD_GROW
-#define CD_GROW 1.25f
-#endif
 
 /* ---- precomputation ------------------------------------------------------- */
 
@@ -78,37 +73,9 @@ static inline bool cell_main_diagonal(uint32_t a, uint32_t b)
     return ((a + b) & 1u) == 0;
 }
 
-static inline uint32_t low_bit(uint32_t v)
-{
-    return v ? v & (~v + 1u) : 0x80000000u;
-}
-
-/* The two neighbours a vertex collapses between, at the spacing where it
- * first appears: along x, along z, or on the diagonal (main or anti by the
- * coarser cell's parity, union jack) of the coarser cell it centres. False
- * for a sample on every level's grid (the map's corners). */
 static bool morph_neighbours(const hz_lod *lod, uint32_t i, uint32_t j, uint32_t ni[2], uint32_t nj[2])
 {
-    const uint32_t bi = low_bit(i), bj = low_bit(j), n = lod->size;
-    if (bi == bj) {
-        const uint32_t s = bi;
-        if (i < s || j < s || i + s >= n || j + s >= n)
-            return false;
-        const bool main = cell_main_diagonal((i - s) / (2 * s), (j - s) / (2 * s));
-        ni[0] = i - s, nj[0] = main ? j - s : j + s;
-        ni[1] = i + s, nj[1] = main ? j + s : j - s;
-    } else if (bi < bj) {
-        if (i < bi || i + bi >= n)
-            return false;
-        ni[0] = i - bi, nj[0] = j;
-        ni[1] = i + bi, nj[1] = j;
-    } else {
-        if (j < bj || j + bj >= n)
-            return false;
-        ni[0] = i, nj[0] = j - bj;
-        ni[1] = i, nj[1] = j + bj;
-    }
-    return true;
+    return hz__morph_neighbours(lod->size, i, j, ni, nj);
 }
 
 uint32_t hz_lod_morph_target2(const hz_lod *lod, uint32_t i, uint32_t j)

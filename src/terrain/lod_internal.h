@@ -261,6 +261,17 @@ static inline float frustum_margin(const hz_camera *cam)
            1e-2f;
 }
 
+/* cdlod: error bounds grow at least this much per level (the dilation in
+ * lod_cdlod.c and in the pyramid import); morph zones of consecutive levels
+ * then do not overlap for morph_start >= 1 / CD_GROW. */
+#define CD_GROW 1.25f
+
+/* The two neighbours sample (i, j) of an n x n map collapses between, at the
+ * spacing where it first appears: along x, along z, or on the diagonal
+ * (union jack by the coarser cell's parity) of the coarser cell it centres.
+ * False for a sample on every level's grid (the map's corners). */
+bool hz__morph_neighbours(uint32_t n, uint32_t i, uint32_t j, uint32_t ni[2], uint32_t nj[2]);
+
 /* Mode entry points (lod.c dispatches). */
 hz_result hz__lod_select_quadtree(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, hz_index_list *out,
                                   hz_node_list *leaves, hz_node_list *culled, hz_lod_stats *st);

@@ -87,3 +87,32 @@ void hz_lod_cell_triangles(bool main_diagonal, uint32_t a, uint32_t b, uint32_t 
     }
 }
 
+
+static inline uint32_t low_bit(uint32_t v)
+{
+    return v ? v & (~v + 1u) : 0x80000000u;
+}
+
+bool hz__morph_neighbours(uint32_t n, uint32_t i, uint32_t j, uint32_t ni[2], uint32_t nj[2])
+{
+    const uint32_t bi = low_bit(i), bj = low_bit(j);
+    if (bi == bj) {
+        const uint32_t s = bi;
+        if (i < s || j < s || i + s >= n || j + s >= n)
+            return false;
+        const bool main = (((i - s) / (2 * s) + (j - s) / (2 * s)) & 1u) == 0;
+        ni[0] = i - s, nj[0] = main ? j - s : j + s;
+        ni[1] = i + s, nj[1] = main ? j + s : j - s;
+    } else if (bi < bj) {
+        if (i < bi || i + bi >= n)
+            return false;
+        ni[0] = i - bi, nj[0] = j;
+        ni[1] = i + bi, nj[1] = j;
+    } else {
+        if (j < bj || j + bj >= n)
+            return false;
+        ni[0] = i, nj[0] = j - bj;
+        ni[1] = i, nj[1] = j + bj;
+    }
+    return true;
+}

@@ -1,0 +1,712 @@
+/* horizon import (DEM or Perlin -> .hzp pyramid), and render / bench /
+ * info over a streamed pyramid (--terrain NAME.hzp). */
+#include "cli.h"
+
+#include <getopt.h>
+#include <jansson.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "horizon/path.h"
+#include "horizon/pyramid.h"
+#include "horizon/safety.h"
+#include "horizon/stream.h"
+
+static void progress_line(void *user, const char *what, uint64_t done, uint64_t total)
+{
+    const bool quiet = user && *(const bool *)user;
+    if (quiet || total == 0)
+        return;
+    static int last = -1;
+    const int pct = (int)(100.0 * (double)done / (double)total);
+    if (pct == last && done != total)
+        return;
+    last = done == total ? -1 : pct;
+    if (isatty(2))
+        fprintf(stderr, "\r%s: %3d%% (%llu/%llu)%s", what, pct, (unsigned long long)done, (unsigned long long)total,
+                done == total ? "\n" : "");
+    else if (pct % 10 == 0 || done == total)
+        fprintf(stderr, "%s: %d%% (%llu/%llu)\n", what, pct, (unsigned long long)done, (unsigned long long)total);
+}
+
+static bool num(const char *opt, const char *s, double lo, double hi, double *out)
+{
+    char *end;
+    double v = strtod(s, &end);
+    if (end == s || *end || !(v >= lo && v <= hi)) {
+        fprintf(stderr, "horizon: %s '%s': expected a number in [%g, %g]\n", opt, s, lo, hi);
+        return false;
+    }
+    *out = v;
+    return true;
+}
+
+static void print_json(json_t *o)
+{
+    char *s = json_dumps(o, JSON_COMPACT | JSON_REAL_PRECISION(10));
+    if (s)
+        puts(s);
+    free(s);
+    json_decref(o);
+}
+
+bool cli_wants_stream(int argc, char **argv, int first)
+{
+    for (int i = first; i < argc; i++)
+        if (!strcmp(argv[i], "--terrain") || !strncmp(argv[i], "--terrain=", 10))
+            return true;
+    return false;
+}
+
+/* ---- import ---- */
+
+int cmd_import(int argc, char **argv)
+{
+    static const struct option opts[] = {
+        {"out", required_argument, 0, 'o'},     {"generate", required_argument, 0, 'g'},
+        {"size", required_argument, 0, 's'},    {"seed", required_argument, 0, 'S'},
+        {"amplitude", required_argument, 0, 'a'}, {"spacing", required_argument, 0, 'p'},
+        {"crs", required_argument, 0, 'c'},     {"max-error", required_argument, 0, 'e'},
+        {"tile", required_argument, 0, 't'},    {"threads", required_argument, 0, 'j'},
+        {"json", no_argument, 0, 'J'},          {"quiet", no_argument, 0, 'q'},
+        {"help", no_argument, 0, 'h'},          {0, 0, 0, 0}};
+    hz_pyr_import d = {0};
+    bool json = false, quiet = false;
+    double v;
+    optind = 2;
+    opterr = 1;
+    int ch;
+    while ((ch = getopt_long(argc, argv, "o:h", opts, NULL)) != -1) {
+        switch (ch) {
+        case 'o': d.out = optarg; break;
+        case 'g':
+            if (strcmp(optarg, "perlin")) {
+                fprintf(stderr, "horizon import: --generate %s: only perlin can be generated tile by tile\n", optarg);
+                return 2;
+            }
+            d.generate = true;
+            d.gen.kind = HZ_GEN_PERLIN;
+            break;
+        case 's': if (!num("--size", optarg, 3, 1048577, &v)) return 2; d.gen.size = (uint32_t)v; break;
+        case 'S': if (!num("--seed", optarg, 0, 1e18, &v)) return 2; d.gen.seed = (uint64_t)v; break;
+        case 'a': if (!num("--amplitude", optarg, 0.001, 100000, &v)) return 2; d.gen.amplitude = (float)v; break;
+        case 'p': if (!num("--spacing", optarg, 0.001, 100000, &v)) return 2; d.spacing = v; break;
+        case 'c': d.crs = optarg; break;
+        case 'e': if (!num("--max-error", optarg, 0, 1000, &v)) return 2; d.max_error = v; break;
+        case 't': if (!num("--tile", optarg, 16, 4096, &v)) return 2; d.tile_cells = (uint32_t)v; break;
+        case 'j': if (!num("--threads", optarg, 1, 64, &v)) return 2; d.threads = (uint32_t)v; break;
+        case 'J': json = true; break;
+        case 'q': quiet = true; break;
+        case 'h':
+            fprintf(stderr,
+                    "usage: horizon import IN... --out NAME.hzp [options]\n"
+                    "       horizon import --generate perlin --size N --out NAME.hzp [options]\n"
+                    "Writes a terrain pyramid (docs/pyramid.md) window by window: any GDAL rasters or folders\n"
+                    "(mosaicked, nodata masked, geographic input reprojected to UTM), or a Perlin terrain of\n"
+                    "any size. Then: horizon render|bench --terrain NAME.hzp, horizon info NAME.hzp --verify.\n"
+                    "  --out FILE.hzp          the pyramid (required; never one of the inputs)\n"
+                    "  --generate perlin       a generated terrain instead of inputs; --size 2^n+1 samples,\n"
+                    "                          --seed N, --amplitude M (default 1800)\n"
+                    "  --spacing M             metres per sample (reprojection; generated default 10)\n"
+                    "  --crs EPSG:N            target CRS of geographic input (default the UTM zone)\n"
+                    "  --max-error M           allowed height error in metres (default lossless for 16-bit\n"
+                    "                          integer input, else range / 131070)\n"
+                    "  --tile N                cells per tile side, power of two (default 256)\n"
+                    "  --threads N             default every core\n"
+                    "  --json                  figures as JSON on stdout\n"
+                    "  --quiet                 no progress\n");
+            return 0;
+        default: return 2;
+        }
+    }
+    const char **ins = (const char **)(argv + optind);
+    d.inputs = ins;
+    d.input_count = (uint32_t)(argc - optind);
+    if (!d.out) {
+        fprintf(stderr, "horizon import: --out NAME.hzp is required\n");
+        return 2;
+    }
+    if (d.generate && d.input_count) {
+        fprintf(stderr, "horizon import: give inputs or --generate, not both\n");
+        return 2;
+    }
+    if (d.generate && !d.gen.size) {
+        fprintf(stderr, "horizon import: --generate perlin needs --size (2^n+1)\n");
+        return 2;
+    }
+    for (uint32_t k = 0; k < d.input_count; k++)
+        if (hz_same_file(ins[k], d.out)) {
+            fprintf(stderr, "horizon import: --out '%s' is the input '%s'; refusing to overwrite it\n", d.out, ins[k]);
+            return 2;
+        }
+    d.progress = progress_line;
+    d.progress_user = &quiet;
+    hz_pyr_import_stats st = {0};
+    hz_err err = {0};
+    if (hz_pyramid_import(&d, &st, &err) != HZ_OK) {
+        fprintf(stderr, "horizon import: %s\n", err.msg);
+        return 1;
+    }
+    const double bps = st.samples ? (double)st.bytes / (double)st.samples : 0;
+    if (json) {
+        json_t *o = json_object();
+        json_object_set_new(o, "out", json_string(d.out));
+        json_object_set_new(o, "samples", json_integer((json_int_t)st.samples));
+        json_object_set_new(o, "tiles", json_integer((json_int_t)st.tiles));
+        json_object_set_new(o, "bytes", json_integer((json_int_t)st.bytes));
+        json_object_set_new(o, "bytes_per_sample", json_real(bps));
+        json_object_set_new(o, "max_error_m", json_real(st.max_error));
+        json_object_set_new(o, "ms", json_real(st.ms));
+        json_object_set_new(o, "peak_rss_mb", json_real((double)hz_peak_rss_bytes() / 1048576.0));
+        print_json(o);
+    } else if (!quiet) {
+        printf("%s: %llu samples, %llu tiles, %.1f MB (%.3f bytes/sample), max error %.3g m, %.1f s, peak RSS %.0f MB\n",
+               d.out, (unsigned long long)st.samples, (unsigned long long)st.tiles, (double)st.bytes / 1e6, bps,
+               st.max_error, st.ms / 1000.0, (double)hz_peak_rss_bytes() / 1048576.0);
+    }
+    return 0;
+}
+
+/* ---- info ---- */
+
+int pyramid_info(const char *path, bool verify, bool json)
+{
+    hz_pyramid *p = NULL;
+    hz_err err = {0};
+    if (hz_pyramid_open(path, &p, &err) != HZ_OK) {
+        fprintf(stderr, "horizon info: %s\n", err.msg);
+        return 1;
+    }
+    const hz_pyr_info *in = hz_pyramid_info(p);
+    uint64_t bad = 0;
+    hz_result vr = HZ_OK;
+    if (verify)
+        vr = hz_pyramid_verify(p, &bad, NULL, NULL, &err);
+    hz_georef *g = NULL;
+    double corners[4][2] = {{0}};
+    bool has_geo = false;
+    if (in->wkt && in->wkt[0]) {
+        g = hz_georef_create(in->wkt, in->geotransform, in->data_w, in->data_h, NULL);
+        has_geo = g && hz_georef_corners_lonlat(g, corners, NULL) == HZ_OK;
+    }
+    const double hmin = in->h_offset + in->h_scale * in->h_min, hmax = in->h_offset + in->h_scale * in->h_max;
+    const double nd = (double)in->nodata / ((double)in->data_w * in->data_h);
+    if (json) {
+        json_t *o = json_object();
+        json_object_set_new(o, "file", json_string(path));
+        json_object_set_new(o, "format", json_string("hzp"));
+        json_object_set_new(o, "version", json_integer(in->version));
+        json_object_set_new(o, "width", json_integer(in->data_w));
+        json_object_set_new(o, "height", json_integer(in->data_h));
+        json_object_set_new(o, "size", json_integer(in->size));
+        json_object_set_new(o, "levels", json_integer(in->levels));
+        json_object_set_new(o, "tiles", json_integer((json_int_t)in->tiles));
+        json_object_set_new(o, "tile_cells", json_integer(in->tile_cells));
+        json_object_set_new(o, "spacing", json_real(in->spacing));
+        json_object_set_new(o, "height_min", json_real(hmin));
+        json_object_set_new(o, "height_max", json_real(hmax));
+        json_object_set_new(o, "height_step", json_real(in->h_scale));
+        json_object_set_new(o, "max_error", json_real(in->max_error));
+        json_object_set_new(o, "nodata", json_integer((json_int_t)in->nodata));
+        json_object_set_new(o, "nodata_fraction", json_real(nd));
+        json_object_set_new(o, "bytes", json_integer((json_int_t)in->file_bytes));
+        json_object_set_new(o, "bytes_per_sample",
+                            json_real((double)in->file_bytes / ((double)in->data_w * in->data_h)));
+        json_object_set_new(o, "crs", g ? json_string(hz_georef_label(g)) : json_null());
+        if (has_geo) {
+            json_t *c = json_array();
+            for (int k = 0; k < 4; k++)
+                json_array_append_new(c, json_pack("[f,f]", corners[k][0], corners[k][1]));
+            json_object_set_new(o, "corners_lonlat", c);
+        }
+        if (verify) {
+            json_object_set_new(o, "verified", json_boolean(vr == HZ_OK));
+            json_object_set_new(o, "bad_tiles", json_integer((json_int_t)bad));
+        }
+        print_json(o);
+    } else {
+        printf("%s: terrain pyramid v%u, %ux%u samples (square %u), %u levels, %llu tiles of %u cells\n", path,
+               in->version, in->data_w, in->data_h, in->size, in->levels, (unsigned long long)in->tiles,
+               in->tile_cells);
+        printf("  spacing %.4g m, heights %.2f .. %.2f m (step %.4g m, max error %.3g m), nodata %.2f %%\n",
+               in->spacing, hmin, hmax, in->h_scale, in->max_error, 100.0 * nd);
+        printf("  %.1f MB, %.3f bytes per sample\n", (double)in->file_bytes / 1e6,
+               (double)in->file_bytes / ((double)in->data_w * in->data_h));
+        if (g)
+            printf("  CRS %s\n", hz_georef_label(g));
+        if (has_geo)
+            printf("  corners lon/lat: NW %.7f %.7f  NE %.7f %.7f  SW %.7f %.7f  SE %.7f %.7f\n", corners[0][0],
+                   corners[0][1], corners[1][0], corners[1][1], corners[2][0], corners[2][1], corners[3][0],
+                   corners[3][1]);
+        if (verify)
+            printf("  verify: %s (%llu bad tiles)\n", vr == HZ_OK ? "every tile checks" : err.msg,
+                   (unsigned long long)bad);
+    }
+    hz_georef_destroy(g);
+    hz_pyramid_close(p);
+    return verify && vr != HZ_OK ? 1 : 0;
+}
+
+/* ---- streamed render and bench ---- */
+
+typedef struct sopts {
+    const char *terrain, *out, *path, *json_out;
+    double cache_mb, tau;
+    bool have_camera, json, quiet;
+    float camera[5];
+    uint32_t width, height, frames;
+} sopts;
+
+static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
+{
+    static const struct option opts[] = {
+        {"terrain", required_argument, 0, 'T'}, {"cache-mb", required_argument, 0, 'm'},
+        {"out", required_argument, 0, 'o'},     {"camera", required_argument, 0, 'c'},
+        {"pixel-error", required_argument, 0, 'e'}, {"width", required_argument, 0, 'w'},
+        {"height", required_argument, 0, 'H'},  {"path", required_argument, 0, 'p'},
+        {"frames", required_argument, 0, 'f'},  {"json", no_argument, 0, 'J'},
+        {"quiet", no_argument, 0, 'q'},         {"lod", required_argument, 0, 'l'},
+        {0, 0, 0, 0}};
+    *o = (sopts){.cache_mb = 256, .tau = 1.0, .width = 1280, .height = 720, .frames = 120};
+    optind = 2;
+    int ch;
+    double v;
+    while ((ch = getopt_long(argc, argv, "", opts, NULL)) != -1) {
+        switch (ch) {
+        case 'T': o->terrain = optarg; break;
+        case 'm': if (!num("--cache-mb", optarg, 4, 1 << 20, &v)) return 2; o->cache_mb = v; break;
+        case 'o': o->out = optarg; break;
+        case 'e': if (!num("--pixel-error", optarg, 0.05, 100, &v)) return 2; o->tau = v; break;
+        case 'w': if (!num("--width", optarg, 16, 8192, &v)) return 2; o->width = (uint32_t)v; break;
+        case 'H': if (!num("--height", optarg, 16, 8192, &v)) return 2; o->height = (uint32_t)v; break;
+        case 'f': if (!num("--frames", optarg, 1, 100000, &v)) return 2; o->frames = (uint32_t)v; break;
+        case 'p': o->path = optarg; break;
+        case 'J': o->json = true; break;
+        case 'q': o->quiet = true; break;
+        case 'l':
+            if (strcmp(optarg, "cdlod")) {
+                fprintf(stderr, "horizon %s: a streamed --terrain is drawn with --lod cdlod only\n", cmd);
+                return 2;
+            }
+            break;
+        case 'c': {
+            double c[5];
+            char *s = optarg, *end;
+            for (int k = 0; k < 5; k++) {
+                c[k] = strtod(s, &end);
+                if (end == s || !isfinite(c[k]) || fabs(c[k]) > 1e8 || (k < 4 && *end != ',') || (k == 4 && *end)) {
+                    fprintf(stderr, "horizon %s: --camera '%s': expected x,y,z,yaw,pitch\n", cmd, optarg);
+                    return 2;
+                }
+                s = end + 1;
+            }
+            for (int k = 0; k < 5; k++)
+                o->camera[k] = (float)c[k];
+            o->have_camera = true;
+            break;
+        }
+        default:
+            fprintf(stderr, "horizon %s --terrain: options are --terrain --cache-mb --out --camera --pixel-error "
+                            "--width --height --path --frames --json --quiet\n", cmd);
+            return 2;
+        }
+    }
+    if (optind < argc) {
+        fprintf(stderr, "horizon %s: unexpected argument '%s'\n", cmd, argv[optind]);
+        return 2;
+    }
+    if (!o->terrain) {
+        fprintf(stderr, "horizon %s: --terrain NAME.hzp is required\n", cmd);
+        return 2;
+    }
+    return 0;
+}
+
+typedef struct sctx {
+    hz_stream *s;
+    hz_gl *gl;
+    hz_renderer *r;
+    hz_patch_list pl;
+    hz_lod_params lp;
+} sctx;
+
+static void sctx_free(sctx *c)
+{
+    free(c->pl.data);
+    hz_renderer_destroy(c->r);
+    hz_gl_destroy(c->gl);
+    hz_stream_destroy(c->s);
+}
+
+static int sctx_open(sctx *c, const sopts *o, const char *cmd)
+{
+    hz_err err = {0};
+    memset(c, 0, sizeof *c);
+    c->s = hz_stream_create(&(hz_stream_desc){.path = o->terrain, .cache_bytes = (uint64_t)(o->cache_mb * 1048576.0)},
+                            &err);
+    if (!c->s) {
+        fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
+        return 1;
+    }
+    c->gl = hz_gl_create_headless(&err);
+    if (c->gl)
+        c->r = hz_renderer_create(&(hz_renderer_desc){.width = o->width, .height = o->height}, &err);
+    if (!c->r || hz_renderer_set_stream(c->r, hz_stream_info(c->s), hz_stream_slots(c->s), hz_stream_texels(c->s),
+                                        &err) != HZ_OK) {
+        fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
+        sctx_free(c);
+        return 1;
+    }
+    c->lp = (hz_lod_params){.mode = HZ_LOD_CDLOD, .pixel_error = (float)o->tau, .viewport_height = o->height};
+    return 0;
+}
+
+/* Uploads what the loader finished. */
+static int upload_ready(sctx *c, uint32_t *n)
+{
+    uint32_t slot;
+    const uint16_t *tex;
+    hz_err err = {0};
+    *n = 0;
+    while (hz_stream_next_upload(c->s, &slot, &tex)) {
+        if (hz_renderer_stream_upload(c->r, slot, tex, &err) != HZ_OK) {
+            fprintf(stderr, "horizon: %s\n", err.msg);
+            return 1;
+        }
+        hz_stream_uploaded(c->s, slot);
+        (*n)++;
+    }
+    return 0;
+}
+
+static hz_camera default_camera(const hz_pyr_info *in, uint32_t w, uint32_t h)
+{
+    const float ex = (float)((in->data_w - 1) * in->spacing), ez = (float)((in->data_h - 1) * in->spacing);
+    const float hmax = (float)(in->h_offset + in->h_scale * in->h_max);
+    const float hmin = (float)(in->h_offset + in->h_scale * in->h_min);
+    hz_camera c = {.fov_y = 60.0f, .aspect = (float)w / (float)h, .znear = 0.25f};
+    c.pos[0] = 0.5f * ex;
+    c.pos[2] = 0.5f * ez;
+    c.pos[1] = hmax + 0.15f * (hmax - hmin) + 0.01f * fmaxf(ex, ez);
+    c.yaw = 30.0f;
+    c.pitch = -10.0f;
+    c.zfar = 1.5f * fmaxf(ex, ez) + (c.pos[1] - hmin);
+    return c;
+}
+
+int stream_render(int argc, char **argv)
+{
+    sopts o;
+    int rc = parse_stream(argc, argv, &o, "render");
+    if (rc)
+        return rc;
+    const char *out = o.out ? o.out : "render.png";
+    if (hz_same_file(out, o.terrain)) {
+        fprintf(stderr, "horizon render: --out '%s' is the --terrain; refusing to overwrite it\n", out);
+        return 2;
+    }
+    sctx c;
+    if (sctx_open(&c, &o, "render"))
+        return 1;
+    const hz_pyr_info *in = hz_stream_info(c.s);
+    hz_camera cam = default_camera(in, o.width, o.height);
+    if (o.have_camera) {
+        cam.pos[0] = o.camera[0], cam.pos[1] = o.camera[1], cam.pos[2] = o.camera[2];
+        cam.yaw = o.camera[3], cam.pitch = o.camera[4];
+    }
+    /* One image: load until the selection asks for nothing more. */
+    hz_lod_stats st = {0};
+    uint32_t rounds = 0, loads = 0;
+    const double t0 = hz_time_ms();
+    for (; rounds < 400; rounds++) {
+        if (hz_stream_select(c.s, &cam, &c.lp, &c.pl, &st) != HZ_OK) {
+            fprintf(stderr, "horizon render: out of memory in the selection\n");
+            sctx_free(&c);
+            return 1;
+        }
+        hz_stream_wait(c.s);
+        uint32_t n;
+        if (upload_ready(&c, &n)) {
+            sctx_free(&c);
+            return 1;
+        }
+        loads += n;
+        hz_stream_stats ss = hz_stream_take_stats(c.s);
+        if (n == 0 && ss.pending == 0 && ss.requested == 0)
+            break;
+    }
+    const double load_ms = hz_time_ms() - t0;
+    hz_stream_select(c.s, &cam, &c.lp, &c.pl, &st);
+    hz_stream_stats ss = hz_stream_take_stats(c.s);
+    hz_err err = {0};
+    hz_scene_params sp = {.patches = c.pl.data, .patch_count = (uint32_t)c.pl.count,
+                          .morph_scale = st.morph_scale, .morph_start = st.morph_start};
+    hz_draw_stats ds = {0};
+    rc = 1;
+    for (int k = 0; k < 2; k++)
+        if (hz_renderer_draw(c.r, &cam, &sp, NULL, 0, &ds, &err) != HZ_OK)
+            goto done;
+    uint8_t *rgb = malloc((size_t)o.width * o.height * 3);
+    hz_outfile png;
+    if (!rgb || hz_renderer_read_rgb(c.r, rgb, &err) != HZ_OK || hz_outfile_begin(&png, out, &err) != HZ_OK) {
+        free(rgb);
+        goto done;
+    }
+    if (hz_image_write_png(png.tmp, rgb, o.width, o.height, &err) != HZ_OK || hz_outfile_commit(&png, &err) != HZ_OK) {
+        hz_outfile_discard(&png);
+        free(rgb);
+        goto done;
+    }
+    free(rgb);
+    if (hz_stream_warning(c.s))
+        fprintf(stderr, "horizon render: warning: %s\n", hz_stream_warning(c.s));
+    if (c.pl.count == 0)
+        fprintf(stderr, "horizon render: the terrain is not in view: the image shows only sky\n");
+    if (o.json) {
+        json_t *j = json_object();
+        json_object_set_new(j, "terrain", json_string(o.terrain));
+        json_object_set_new(j, "out", json_string(out));
+        json_object_set_new(j, "lod_mode", json_string("cdlod"));
+        json_object_set_new(j, "pixel_error", json_real(o.tau));
+        json_object_set_new(j, "camera", json_pack("[f,f,f,f,f]", (double)cam.pos[0], (double)cam.pos[1],
+                                                   (double)cam.pos[2], (double)cam.yaw, (double)cam.pitch));
+        json_object_set_new(j, "triangles", json_integer(st.triangles));
+        json_object_set_new(j, "nodes_drawn", json_integer((json_int_t)c.pl.count));
+        json_object_set_new(j, "forced", json_integer(st.forced));
+        json_object_set_new(j, "lod_ms", json_real(st.ms));
+        json_object_set_new(j, "draw_ms", json_real(ds.draw_ms));
+        json_object_set_new(j, "tiles_loaded", json_integer(loads));
+        json_object_set_new(j, "tiles_resident", json_integer(ss.resident));
+        json_object_set_new(j, "tiles_failed", json_integer(ss.failed));
+        json_object_set_new(j, "cache_slots", json_integer(hz_stream_slots(c.s)));
+        json_object_set_new(j, "cache_mb", json_real((double)ss.cache_bytes / 1048576.0));
+        json_object_set_new(j, "late_nodes", json_integer(ss.late));
+        json_object_set_new(j, "load_rounds", json_integer(rounds));
+        json_object_set_new(j, "load_ms", json_real(load_ms));
+        json_object_set_new(j, "terrain_in_view", json_boolean(c.pl.count > 0));
+        json_object_set_new(j, "peak_rss_mb", json_real((double)hz_peak_rss_bytes() / 1048576.0));
+        print_json(j);
+    } else if (!o.quiet) {
+        printf("%s: %u triangles in %zu nodes, %u tiles loaded (%u resident, %.0f MB), lod %.2f ms, draw %.1f ms\n",
+               out, st.triangles, c.pl.count, loads, ss.resident, (double)ss.cache_bytes / 1048576.0, st.ms,
+               ds.draw_ms);
+    }
+    rc = 0;
+done:
+    if (rc)
+        fprintf(stderr, "horizon render: %s\n", err.msg);
+    sctx_free(&c);
+    return rc;
+}
+
+/* A coarse level (at most 8 x 8 tiles) read whole, for path planning. */
+typedef struct coarse {
+    float *h;
+    uint32_t n, step; /* samples per side, level-0 samples between them */
+    double spacing;
+} coarse;
+
+static int coarse_load(const sopts *o, coarse *g)
+{
+    hz_pyramid *p;
+    hz_err err = {0};
+    if (hz_pyramid_open(o->terrain, &p, &err) != HZ_OK) {
+        fprintf(stderr, "horizon bench: %s\n", err.msg);
+        return 1;
+    }
+    const hz_pyr_info *in = hz_pyramid_info(p);
+    uint32_t l = 0;
+    while (l + 1 < in->levels && hz_pyr_level_tiles(in, l) > 8)
+        l++;
+    const uint32_t m = hz_pyr_level_tiles(in, l), c = hz_pyr_level_cells(in, l);
+    g->n = m * c + 1;
+    g->step = 1u << l;
+    g->spacing = in->spacing;
+    g->h = malloc((size_t)g->n * g->n * sizeof *g->h);
+    int rc = g->h ? 0 : 1;
+    for (uint32_t tz = 0; !rc && tz < m; tz++)
+        for (uint32_t tx = 0; !rc && tx < m; tx++) {
+            hz_pyr_tile t;
+            if (hz_pyramid_read_tile(p, l, tx, tz, &t, &err) != HZ_OK) {
+                fprintf(stderr, "horizon bench: %s\n", err.msg);
+                rc = 1;
+                break;
+            }
+            for (uint32_t b = 0; b <= c; b++)
+                for (uint32_t a = 0; a <= c; a++)
+                    g->h[(size_t)(tz * c + b) * g->n + tx * c + a] =
+                        (float)(in->h_offset + in->h_scale * t.h[(size_t)b * (c + 1) + a]);
+            hz_pyr_tile_free(&t);
+        }
+    hz_pyramid_close(p);
+    return rc;
+}
+
+static float coarse_max(const coarse *g, float x, float z, float r)
+{
+    float m = -INFINITY;
+    const double d = g->spacing * g->step;
+    for (int dz = -4; dz <= 4; dz++)
+        for (int dx = -4; dx <= 4; dx++) {
+            double fx = (x + r * (float)dx / 4.0f) / d, fz = (z + r * (float)dz / 4.0f) / d;
+            if (fx < 0 || fz < 0 || fx > g->n - 1 || fz > g->n - 1)
+                continue;
+            m = fmaxf(m, g->h[(size_t)(fz + 0.5) * g->n + (size_t)(fx + 0.5)]);
+        }
+    return m;
+}
+
+static int cmp_d(const void *a, const void *b)
+{
+    const double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static double pct(double *v, size_t n, double q)
+{
+    qsort(v, n, sizeof *v, cmp_d);
+    size_t k = (size_t)(q * (double)(n - 1) + 0.5);
+    return v[k < n ? k : n - 1];
+}
+
+int stream_bench(int argc, char **argv)
+{
+    sopts o;
+    int rc = parse_stream(argc, argv, &o, "bench");
+    if (rc)
+        return rc;
+    hz_path path = {0};
+    hz_err err = {0};
+    coarse g = {0};
+    if (coarse_load(&o, &g)) {
+        free(g.h);
+        return 1;
+    }
+    if (o.path && strcmp(o.path, "flyover")) {
+        if (hz_path_load_csv(o.path, &path, &err) != HZ_OK) {
+            fprintf(stderr, "horizon bench: %s (a streamed --terrain flies flyover or a CSV path)\n", err.msg);
+            free(g.h);
+            return 2;
+        }
+    } else {
+        /* 300 m/s for 60 s across the middle of the data, 60 m above the highest ground near. */
+        hz_pyramid *p;
+        if (hz_pyramid_open(o.terrain, &p, &err) != HZ_OK) {
+            fprintf(stderr, "horizon bench: %s\n", err.msg);
+            free(g.h);
+            return 1;
+        }
+        const hz_pyr_info *in = hz_pyramid_info(p);
+        const float E = (float)((in->data_w < in->data_h ? in->data_w : in->data_h) - 1) * (float)in->spacing;
+        const float cx = 0.5f * (float)(in->data_w - 1) * (float)in->spacing;
+        const float cz = 0.5f * (float)(in->data_h - 1) * (float)in->spacing;
+        hz_pyramid_close(p);
+        const float len = fminf(0.8f * E, 300.0f * 60.0f / sqrtf(2.0f));
+        hz_path_key k[61];
+        for (int n = 0; n < 61; n++) {
+            float u = (float)n / 60.0f, x = cx - 0.5f * len + u * len, z = cz - 0.5f * len + u * len;
+            k[n] = (hz_path_key){u * 60.0f, x, coarse_max(&g, x, z, 0.03f * E) + 60.0f, z, 135.0f, -8.0f};
+        }
+        if (hz_path_from_keys(k, 61, "flyover", &path, &err) != HZ_OK) {
+            fprintf(stderr, "horizon bench: %s\n", err.msg);
+            free(g.h);
+            return 1;
+        }
+    }
+    free(g.h);
+    sctx c;
+    if (sctx_open(&c, &o, "bench")) {
+        hz_path_free(&path);
+        return 1;
+    }
+    const uint32_t F = o.frames;
+    double *frame = calloc(F, sizeof *frame), *lod = calloc(F, sizeof *lod), *tris = calloc(F, sizeof *tris);
+    json_t *frames = json_array();
+    uint64_t late_frames = 0, requested = 0, loaded = 0, evicted = 0;
+    double worst = 0, cache_max = 0;
+    rc = 1;
+    if (!frame || !lod || !tris)
+        goto done;
+    const float dur = hz_path_duration(&path);
+    for (uint32_t f = 0; f < F; f++) {
+        hz_camera cam = default_camera(hz_stream_info(c.s), o.width, o.height);
+        hz_path_sample(&path, F > 1 ? dur * (float)f / (float)(F - 1) : 0.0f, &cam);
+        cam.aspect = (float)o.width / (float)o.height;
+        const double t0 = hz_time_ms();
+        hz_lod_stats st = {0};
+        if (hz_stream_select(c.s, &cam, &c.lp, &c.pl, &st) != HZ_OK)
+            goto done;
+        uint32_t n;
+        if (upload_ready(&c, &n))
+            goto done;
+        hz_scene_params sp = {.patches = c.pl.data, .patch_count = (uint32_t)c.pl.count,
+                              .morph_scale = st.morph_scale, .morph_start = st.morph_start};
+        hz_draw_stats ds = {0};
+        if (hz_renderer_draw(c.r, &cam, &sp, NULL, 0, &ds, &err) != HZ_OK) {
+            fprintf(stderr, "horizon bench: %s\n", err.msg);
+            goto done;
+        }
+        hz_stream_stats ss = hz_stream_take_stats(c.s);
+        frame[f] = hz_time_ms() - t0;
+        lod[f] = st.ms;
+        tris[f] = st.triangles;
+        worst = frame[f] > worst ? frame[f] : worst;
+        late_frames += ss.late > 0;
+        requested += ss.requested, loaded += ss.loaded, evicted += ss.evicted;
+        cache_max = fmax(cache_max, (double)ss.cache_bytes / 1048576.0);
+        json_array_append_new(frames, json_pack("{s:i,s:f,s:f,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:f}", "frame", (int)f,
+                                                "ms", frame[f], "lod_ms", st.ms, "triangles", (int)st.triangles,
+                                                "nodes", (int)c.pl.count, "requested", (int)ss.requested, "loaded",
+                                                (int)ss.loaded, "evicted", (int)ss.evicted, "resident",
+                                                (int)ss.resident, "late_nodes", (int)ss.late, "cache_mb",
+                                                (double)ss.cache_bytes / 1048576.0));
+    }
+    const double med_frame = pct(frame, F, 0.5), p99 = pct(frame, F, 0.99), med_lod = pct(lod, F, 0.5);
+    const double med_tris = pct(tris, F, 0.5);
+    json_t *j = json_object();
+    json_object_set_new(j, "terrain", json_string(o.terrain));
+    json_object_set_new(j, "path", json_string(path.name[0] ? path.name : "flyover"));
+    json_object_set_new(j, "frames", json_integer(F));
+    json_object_set_new(j, "pixel_error", json_real(o.tau));
+    json_object_set_new(j, "cache_mb_limit", json_real(o.cache_mb));
+    json_object_set_new(j, "frame_ms_median", json_real(med_frame));
+    json_object_set_new(j, "frame_ms_p99", json_real(p99));
+    json_object_set_new(j, "frame_ms_worst", json_real(worst));
+    json_object_set_new(j, "lod_ms_median", json_real(med_lod));
+    json_object_set_new(j, "triangles_median", json_real(med_tris));
+    json_object_set_new(j, "tiles_requested", json_integer((json_int_t)requested));
+    json_object_set_new(j, "tiles_loaded", json_integer((json_int_t)loaded));
+    json_object_set_new(j, "tiles_evicted", json_integer((json_int_t)evicted));
+    json_object_set_new(j, "cache_mb_max", json_real(cache_max));
+    json_object_set_new(j, "late_frame_fraction", json_real((double)late_frames / F));
+    json_object_set_new(j, "peak_rss_mb", json_real((double)hz_peak_rss_bytes() / 1048576.0));
+    if (hz_stream_warning(c.s))
+        json_object_set_new(j, "warning", json_string(hz_stream_warning(c.s)));
+    json_object_set_new(j, "per_frame", frames);
+    frames = NULL;
+    if (o.json) {
+        print_json(j);
+    } else {
+        if (!o.quiet)
+            printf("%s: %u frames, median %.1f ms (p99 %.1f, worst %.1f), lod %.2f ms, %.0f triangles, tiles %llu "
+                   "loaded / %llu evicted, cache <= %.0f MB, late frames %.1f %%, peak RSS %.0f MB\n",
+                   o.terrain, F, med_frame, p99, worst, med_lod, med_tris, (unsigned long long)loaded,
+                   (unsigned long long)evicted, cache_max, 100.0 * (double)late_frames / F,
+                   (double)hz_peak_rss_bytes() / 1048576.0);
+        json_decref(j);
+    }
+    if (hz_stream_warning(c.s))
+        fprintf(stderr, "horizon bench: warning: %s\n", hz_stream_warning(c.s));
+    rc = 0;
+done:
+    json_decref(frames);
+    free(frame);
+    free(lod);
+    free(tris);
+    hz_path_free(&path);
+    sctx_free(&c);
+    return rc;
+}

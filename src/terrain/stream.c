@@ -1,0 +1,858 @@
+/* Streaming a pyramid: the tile cache, the loader thread and the cdlod
+ * selection over resident tiles (see horizon/stream.h).
+ *
+ * Nodes are (shift s, ix, iz): P x P cells of level s, drawn from the tile of
+ * level s that holds them. The selection is lod_cdlod.c's (level by level from
+ * the root, splits by distance to the box against the range of the nested
+ * error bound, forced splits keep the quadtree restricted), with one more
+ * rule: a node splits only when the tile holding its children is resident,
+ * and when every forced split that needs is possible too; otherwise it is
+ * drawn as it is and the missing tile is asked for. Flags live in the tile
+ * records (only nodes visited this frame are read, as in lod_node.c).
+ *
+ * Cache: a fixed number of slots (one GPU layer each). A request takes the
+ * least recently used slot not used this frame. The loader thread reads,
+ * checks and decodes a tile and builds its texels; the main thread hands them
+ * to the renderer, then the tile is resident. Requests are re-ranked every
+ * frame (largest range / distance first: the tile that would cut the most
+ * screen error), and tiles are asked for before they are needed (PREFETCH
+ * times the split range) so they usually arrive in time. */
+#include "lod_internal.h"
+
+#include "horizon/stream.h"
+
+#include <pthread.h>
+#include <stdio.h>
+
+#define NEVER 65535u
+#define PREFETCH 1.5f
+#define MAX_INFLIGHT 16u
+
+enum { SLOT_FREE = 0, SLOT_LOADING, SLOT_READY, SLOT_RESIDENT, SLOT_FAILED };
+
+typedef struct slot {
+    uint32_t level, tx, tz;
+    int state;
+    uint64_t used;        /* frame of last use */
+    uint32_t k;           /* nodes per side */
+    uint16_t *nd, *mn, *mx; /* k^2 each */
+    uint8_t *flags;       /* k^2 */
+    uint16_t *texels;     /* while READY */
+    uint16_t *h;          /* (c+1)^2 heights (height queries) */
+    float prio;
+    bool queued;
+} slot;
+
+typedef struct req {
+    uint32_t level, tx, tz;
+    float prio;
+} req;
+
+struct hz_stream {
+    hz_pyramid *pyr;
+    hz_pyr_info info;
+    uint32_t nslots, T;
+    slot *slots;
+    int32_t *hash;        /* open addressing: slot index or -1 */
+    uint32_t hash_cap;
+    uint64_t frame;
+    /* loader */
+    pthread_t th;
+    bool has_thread, quit, sync;
+    pthread_mutex_t lock;
+    pthread_cond_t cv, idle;
+    uint32_t *queue;      /* slot indices to load, best first */
+    uint32_t qn, busy;
+    /* per frame */
+    req *reqs;
+    size_t nreq, req_cap;
+    struct { uint32_t x, z; } *lv[HZ_PYR_MAX_LEVELS];
+    size_t lv_n[HZ_PYR_MAX_LEVELS], lv_cap[HZ_PYR_MAX_LEVELS];
+    hz_patch *tmp;
+    size_t tmp_cap;
+    hz_stream_stats st;
+    char warning[640];
+    uint32_t side[HZ_PYR_MAX_LEVELS]; /* nodes per side per shift */
+};
+
+/* ---- tile keys ---- */
+
+static uint32_t key_hash(uint32_t l, uint32_t tx, uint32_t tz)
+{
+    uint64_t k = ((uint64_t)l << 48) ^ ((uint64_t)tx << 24) ^ tz;
+    k *= 0x9e3779b97f4a7c15ULL;
+    return (uint32_t)(k >> 32);
+}
+
+static int32_t find_slot(const hz_stream *s, uint32_t l, uint32_t tx, uint32_t tz)
+{
+    for (uint32_t h = key_hash(l, tx, tz) & (s->hash_cap - 1);; h = (h + 1) & (s->hash_cap - 1)) {
+        const int32_t v = s->hash[h];
+        if (v == -1)
+            return -1;
+        if (v >= 0) {
+            const slot *q = &s->slots[v];
+            if (q->state != SLOT_FREE && q->level == l && q->tx == tx && q->tz == tz)
+                return v;
+        }
+    }
+}
+
+static void hash_rebuild(hz_stream *s)
+{
+    for (uint32_t h = 0; h < s->hash_cap; h++)
+        s->hash[h] = -1;
+    for (uint32_t k = 0; k < s->nslots; k++) {
+        const slot *q = &s->slots[k];
+        if (q->state == SLOT_FREE)
+            continue;
+        uint32_t h = key_hash(q->level, q->tx, q->tz) & (s->hash_cap - 1);
+        while (s->hash[h] != -1)
+            h = (h + 1) & (s->hash_cap - 1);
+        s->hash[h] = (int32_t)k;
+    }
+}
+
+/* ---- texels ---- */
+
+static inline uint32_t low_bit(uint32_t v)
+{
+    return v ? v & (~v + 1u) : 0x80000000u;
+}
+
+static inline uint32_t log2u(uint32_t v)
+{
+    uint32_t r = 0;
+    while (v >>= 1)
+        r++;
+    return r;
+}
+
+/* The morph range (h16 steps) of level-0 sample (X, Z) from the bounds of the
+ * nodes whose split brings it in, as the import stored them in t->qtab. */
+static uint16_t sample_q(const hz_stream *s, const hz_pyr_tile *t, const uint32_t *qoff, uint32_t X, uint32_t Z)
+{
+    const uint32_t b = low_bit(X | Z);
+    if ((X | Z) == 0)
+        return NEVER;
+    const uint32_t sh = log2u(b) + 1;
+    if (sh >= s->info.levels || sh <= t->level)
+        return NEVER;
+    const uint32_t G = s->info.patch_cells << sh, side = s->side[sh];
+    uint32_t a, e, f, g;
+    hz_pyr_qtab_range(&s->info, t->level, t->tx, t->tz, sh, &a, &e, &f, &g);
+    const uint16_t *tab = t->qtab + qoff[sh];
+    const uint32_t w = e - a + 1;
+    uint32_t cx[2] = {X / G, X / G}, cz[2] = {Z / G, Z / G};
+    if (X % G == 0 && cx[0] > 0)
+        cx[0]--;
+    if (Z % G == 0 && cz[0] > 0)
+        cz[0]--;
+    uint16_t q = NEVER;
+    for (int u = 0; u < 2; u++)
+        for (int v = 0; v < 2; v++) {
+            const uint32_t x = cx[u], z = cz[v];
+            if (x >= side || z >= side || x < a || x > e || z < f || z > g)
+                continue;
+            const uint16_t d = tab[(z - f) * w + (x - a)];
+            q = d < q ? d : q;
+        }
+    return q;
+}
+
+static uint16_t *build_texels(const hz_stream *s, const hz_pyr_tile *t)
+{
+    const uint32_t c = t->cells, n = c + 1, T1 = s->T + 1, N = s->info.size, l = t->level;
+    uint16_t *tex = calloc((size_t)T1 * T1 * 4, sizeof *tex);
+    if (!tex)
+        return NULL;
+    uint32_t qoff[HZ_PYR_MAX_LEVELS] = {0}, acc = 0;
+    for (uint32_t sh = l + 1; sh < s->info.levels; sh++) {
+        uint32_t a, e, f, g;
+        hz_pyr_qtab_range(&s->info, l, t->tx, t->tz, sh, &a, &e, &f, &g);
+        qoff[sh] = acc;
+        acc += (e - a + 1) * (g - f + 1);
+    }
+    for (uint32_t b = 0; b < n; b++)
+        for (uint32_t a = 0; a < n; a++) {
+            const uint32_t X = t->x0 + (a << l), Z = t->z0 + (b << l);
+            const size_t k = (size_t)b * n + a;
+            uint32_t t2 = 2u * t->h[k];
+            uint32_t ni[2], nj[2];
+            if (hz__morph_neighbours(N, X, Z, ni, nj)) {
+                bool inside = true;
+                uint32_t loc[4];
+                for (int q = 0; q < 2 && inside; q++) {
+                    if (ni[q] < t->x0 || nj[q] < t->z0) {
+                        inside = false;
+                        break;
+                    }
+                    loc[2 * q] = (ni[q] - t->x0) >> l;
+                    loc[2 * q + 1] = (nj[q] - t->z0) >> l;
+                    inside = loc[2 * q] <= c && loc[2 * q + 1] <= c;
+                }
+                if (inside) {
+                    t2 = (uint32_t)t->h[(size_t)loc[1] * n + loc[0]] + t->h[(size_t)loc[3] * n + loc[2]];
+                } else if ((a == 0 || a == c) && (b == 0 || b == c)) {
+                    t2 = t->corner_t2[(a ? 1 : 0) + (b ? 2 : 0)];
+                }
+            }
+            uint16_t *o = tex + ((size_t)b * T1 + a) * 4;
+            o[0] = t->h[k];
+            o[1] = sample_q(s, t, qoff, X, Z);
+            o[2] = (uint16_t)(t2 & 0xffffu);
+            o[3] = (uint16_t)((t2 >> 16) | (t->valid && !t->valid[k] ? 2u : 0u));
+        }
+    return tex;
+}
+
+/* ---- loading ---- */
+
+static void slot_clear(slot *q)
+{
+    free(q->nd);
+    free(q->texels);
+    free(q->h);
+    q->nd = q->mn = q->mx = NULL;
+    q->flags = NULL;
+    q->texels = NULL;
+    q->h = NULL;
+}
+
+/* Reads slot k's tile (called without the lock; the slot is LOADING and
+ * owned by the loader until it leaves that state). */
+static void load_one(hz_stream *s, uint32_t k)
+{
+    slot *q = &s->slots[k];
+    hz_pyr_tile t;
+    hz_err e = {0};
+    hz_result r = hz_pyramid_read_tile(s->pyr, q->level, q->tx, q->tz, &t, &e);
+    uint16_t *tex = NULL, *nd = NULL, *h = NULL;
+    if (r == HZ_OK) {
+        tex = build_texels(s, &t);
+        const size_t kk = (size_t)t.nodes * t.nodes;
+        nd = malloc(kk * 3 * sizeof *nd + kk);
+        h = malloc((size_t)(t.cells + 1) * (t.cells + 1) * sizeof *h);
+        if (tex && nd && h) {
+            memcpy(nd, t.node_delta, kk * sizeof *nd);
+            memcpy(nd + kk, t.node_min, kk * sizeof *nd);
+            memcpy(nd + 2 * kk, t.node_max, kk * sizeof *nd);
+            memcpy(h, t.h, (size_t)(t.cells + 1) * (t.cells + 1) * sizeof *h);
+        } else {
+            r = hz_err_set(&e, HZ_ERR_MEMORY, "out of memory loading a tile");
+        }
+        hz_pyr_tile_free(&t);
+    }
+    pthread_mutex_lock(&s->lock);
+    if (r == HZ_OK) {
+        const size_t kk = (size_t)q->k * q->k;
+        q->nd = nd, q->mn = nd + kk, q->mx = nd + 2 * kk, q->flags = (uint8_t *)(nd + 3 * kk);
+        memset(q->flags, 0, kk);
+        q->texels = tex;
+        q->h = h;
+        q->state = SLOT_READY;
+    } else {
+        free(tex);
+        free(nd);
+        free(h);
+        q->state = SLOT_FAILED;
+        if (!s->warning[0])
+            snprintf(s->warning, sizeof s->warning, "%.500s; drawing the coarser level there", e.msg);
+    }
+    pthread_mutex_unlock(&s->lock);
+}
+
+static void *loader(void *arg)
+{
+    hz_stream *s = arg;
+    pthread_mutex_lock(&s->lock);
+    for (;;) {
+        while (!s->quit && s->qn == 0) {
+            pthread_cond_broadcast(&s->idle);
+            pthread_cond_wait(&s->cv, &s->lock);
+        }
+        if (s->quit)
+            break;
+        const uint32_t k = s->queue[0];
+        memmove(s->queue, s->queue + 1, (s->qn - 1) * sizeof *s->queue);
+        s->qn--;
+        s->slots[k].queued = false;
+        s->busy++;
+        pthread_mutex_unlock(&s->lock);
+        load_one(s, k);
+        pthread_mutex_lock(&s->lock);
+        s->busy--;
+    }
+    pthread_mutex_unlock(&s->lock);
+    return NULL;
+}
+
+/* ---- creation ---- */
+
+hz_stream *hz_stream_create(const hz_stream_desc *d, hz_err *err)
+{
+    hz_stream *s = calloc(1, sizeof *s);
+    if (!s) {
+        hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
+        return NULL;
+    }
+    pthread_mutex_init(&s->lock, NULL);
+    pthread_cond_init(&s->cv, NULL);
+    pthread_cond_init(&s->idle, NULL);
+    if (hz_pyramid_open(d->path, &s->pyr, err) != HZ_OK) {
+        hz_stream_destroy(s);
+        return NULL;
+    }
+    s->info = *hz_pyramid_info(s->pyr);
+    s->T = hz_pyr_level_cells(&s->info, 0);
+    const uint64_t tile_bytes = (uint64_t)(s->T + 1) * (s->T + 1) * 8;
+    const uint64_t want = d->cache_bytes ? d->cache_bytes : (256ull << 20);
+    uint64_t n = want / tile_bytes, total = s->info.tiles;
+    const uint64_t minimum = 8ull * s->info.levels;
+    if (n < minimum)
+        n = minimum;
+    if (n > total)
+        n = total;
+    if (n > 65535) /* layer index: 16 bits */
+        n = 65535;
+    s->nslots = (uint32_t)n;
+    s->hash_cap = 1;
+    while (s->hash_cap < 2 * s->nslots + 2)
+        s->hash_cap *= 2;
+    s->slots = calloc(s->nslots, sizeof *s->slots);
+    s->hash = malloc(s->hash_cap * sizeof *s->hash);
+    s->queue = malloc(s->nslots * sizeof *s->queue);
+    if (!s->slots || !s->hash || !s->queue) {
+        hz_err_set(err, HZ_ERR_MEMORY, "out of memory for a %u-tile cache", s->nslots);
+        hz_stream_destroy(s);
+        return NULL;
+    }
+    for (uint32_t l = 0; l < s->info.levels; l++)
+        s->side[l] = (s->info.size - 1) / (s->info.patch_cells << l);
+    hash_rebuild(s);
+    s->sync = d->synchronous;
+    if (!s->sync) {
+        if (pthread_create(&s->th, NULL, loader, s) != 0) {
+            s->sync = true; /* loads on the caller's thread: slower, same result */
+        } else {
+            s->has_thread = true;
+        }
+    }
+    return s;
+}
+
+void hz_stream_destroy(hz_stream *s)
+{
+    if (!s)
+        return;
+    if (s->has_thread) {
+        pthread_mutex_lock(&s->lock);
+        s->quit = true;
+        pthread_cond_broadcast(&s->cv);
+        pthread_mutex_unlock(&s->lock);
+        pthread_join(s->th, NULL);
+    }
+    for (uint32_t k = 0; s->slots && k < s->nslots; k++)
+        slot_clear(&s->slots[k]);
+    free(s->slots);
+    free(s->hash);
+    free(s->queue);
+    free(s->reqs);
+    free(s->tmp);
+    for (uint32_t l = 0; l < HZ_PYR_MAX_LEVELS; l++)
+        free(s->lv[l]);
+    hz_pyramid_close(s->pyr);
+    pthread_mutex_destroy(&s->lock);
+    pthread_cond_destroy(&s->cv);
+    pthread_cond_destroy(&s->idle);
+    free(s);
+}
+
+const hz_pyr_info *hz_stream_info(const hz_stream *s)
+{
+    return &s->info;
+}
+
+uint32_t hz_stream_slots(const hz_stream *s)
+{
+    return s->nslots;
+}
+
+uint32_t hz_stream_texels(const hz_stream *s)
+{
+    return s->T + 1;
+}
+
+/* ---- selection ---- */
+
+typedef struct sel {
+    hz_stream *s;
+    const hz_camera *cam;
+    vec4 planes[6];
+    float margin, lambda, hsw, spacing;
+    bool no_cull;
+    uint32_t cur; /* shift being processed */
+    hz_lod_stats *st;
+} sel;
+
+static inline uint32_t tile_of(const hz_stream *s, uint32_t sh, uint32_t i, uint32_t *loc)
+{
+    const uint32_t k = hz_pyr_level_cells(&s->info, sh) / s->info.patch_cells;
+    *loc = i % k;
+    return i / k;
+}
+
+/* The resident slot of node (sh, ix, iz)'s tile, or NULL. */
+static slot *node_slot(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, size_t *li)
+{
+    uint32_t lx, lz;
+    const uint32_t tx = tile_of(s, sh, ix, &lx), tz = tile_of(s, sh, iz, &lz);
+    const int32_t k = find_slot(s, sh, tx, tz);
+    if (k < 0 || s->slots[k].state != SLOT_RESIDENT)
+        return NULL;
+    slot *q = &s->slots[k];
+    q->used = s->frame;
+    *li = (size_t)lz * q->k + lx;
+    return q;
+}
+
+static void want_tile(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, float prio)
+{
+    uint32_t lx, lz;
+    const uint32_t tx = tile_of(s, sh, ix, &lx), tz = tile_of(s, sh, iz, &lz);
+    const int32_t k = find_slot(s, sh, tx, tz);
+    if (k >= 0) {
+        slot *q = &s->slots[k];
+        q->used = s->frame;
+        if (q->state == SLOT_LOADING && q->prio < prio)
+            q->prio = prio;
+        return;
+    }
+    for (size_t r = 0; r < s->nreq; r++)
+        if (s->reqs[r].level == sh && s->reqs[r].tx == tx && s->reqs[r].tz == tz) {
+            if (s->reqs[r].prio < prio)
+                s->reqs[r].prio = prio;
+            return;
+        }
+    if (list_reserve((void **)&s->reqs, &s->req_cap, s->nreq + 1, sizeof *s->reqs) == HZ_OK)
+        s->reqs[s->nreq++] = (req){sh, tx, tz, prio};
+}
+
+static void node_box(const sel *c, const slot *q, size_t li, uint32_t sh, uint32_t ix, uint32_t iz, vec3 box[2])
+{
+    const float G = (float)(c->s->info.patch_cells << sh) * c->spacing;
+    const hz_pyr_info *in = &c->s->info;
+    box[0][0] = (float)ix * G, box[1][0] = (float)(ix + 1) * G;
+    box[0][2] = (float)iz * G, box[1][2] = (float)(iz + 1) * G;
+    box[0][1] = (float)(in->h_offset + in->h_scale * q->mn[li]);
+    box[1][1] = (float)(in->h_offset + in->h_scale * q->mx[li]);
+}
+
+static hz_result lv_add(hz_stream *s, uint32_t sh, uint32_t x, uint32_t z)
+{
+    if (list_reserve((void **)&s->lv[sh], &s->lv_cap[sh], s->lv_n[sh] + 1, sizeof *s->lv[sh]) != HZ_OK)
+        return HZ_ERR_MEMORY;
+    s->lv[sh][s->lv_n[sh]].x = x;
+    s->lv[sh][s->lv_n[sh]].z = z;
+    s->lv_n[sh]++;
+    return HZ_OK;
+}
+
+/* Same-level neighbour of (sh, ix, iz) across dir (NB_*), as hz__neighbour. */
+static uint8_t neighbour(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, int dir)
+{
+    const uint32_t side = s->side[sh], top = s->info.levels - 1;
+    switch (dir) {
+    case DIR_W: if (ix == 0) return NB_DONTCARE; break;
+    case DIR_E: if (ix + 1 == side) return NB_DONTCARE; break;
+    case DIR_N: if (iz == 0) return NB_DONTCARE; break;
+    default:    if (iz + 1 == side) return NB_DONTCARE; break;
+    }
+    if (sh == top)
+        return NB_DONTCARE;
+    const uint32_t px = ix / 2, pz = iz / 2;
+    bool sibling;
+    uint32_t qx = px, qz = pz;
+    switch (dir) {
+    case DIR_W: sibling = ix & 1; qx = px - 1; break;
+    case DIR_E: sibling = !(ix & 1); qx = px + 1; break;
+    case DIR_N: sibling = iz & 1; qz = pz - 1; break;
+    default:    sibling = !(iz & 1); qz = pz + 1; break;
+    }
+    if (sibling)
+        return NB_EXISTS;
+    size_t pl, ql;
+    slot *ps = node_slot(s, sh + 1, px, pz, &pl);
+    if (!ps || (ps->flags[pl] & (1u << (DC_SHIFT + dir))))
+        return NB_DONTCARE;
+    slot *qs = node_slot(s, sh + 1, qx, qz, &ql);
+    if (!qs)
+        return NB_DONTCARE;
+    const uint8_t qf = qs->flags[ql] & ST_MASK;
+    return qf == ST_SPLIT ? NB_EXISTS : (qf == ST_CULLED ? NB_DONTCARE : NB_ABSENT);
+}
+
+static hz_result classify(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool *culled)
+{
+    size_t li;
+    slot *q = node_slot(c->s, sh, ix, iz, &li);
+    *culled = false;
+    if (!q) /* cannot happen: a node is only pushed when its tile is resident */
+        return HZ_ERR_VALUE;
+    c->st->nodes_visited++;
+    vec3 box[2];
+    node_box(c, q, li, sh, ix, iz, box);
+    if (!c->no_cull && box_outside((const vec3 *)box, (const vec4 *)c->planes, c->margin)) {
+        q->flags[li] = ST_CULLED;
+        c->st->nodes_culled++;
+        *culled = true;
+        return HZ_OK;
+    }
+    q->flags[li] = ST_LEAF;
+    return HZ_OK;
+}
+
+/* Can node (sh, ix, iz), a leaf, split with every forced split it needs? */
+static bool can_split(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, uint32_t depth)
+{
+    if (sh == 0 || depth > HZ_PYR_MAX_LEVELS)
+        return false;
+    size_t li;
+    if (!node_slot(s, sh - 1, 2 * ix, 2 * iz, &li))
+        return false;
+    for (int dir = 0; dir < 4; dir++) {
+        if (neighbour(s, sh, ix, iz, dir) != NB_ABSENT)
+            continue;
+        uint32_t qx = ix / 2, qz = iz / 2;
+        switch (dir) {
+        case DIR_W: qx--; break;
+        case DIR_E: qx++; break;
+        case DIR_N: qz--; break;
+        default: qz++; break;
+        }
+        if (!can_split(s, sh + 1, qx, qz, depth + 1))
+            return false;
+    }
+    return true;
+}
+
+static hz_result split_node(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool forced)
+{
+    hz_stream *s = c->s;
+    uint8_t f = ST_SPLIT;
+    for (int dir = 0; dir < 4; dir++) {
+        const uint8_t nb = neighbour(s, sh, ix, iz, dir);
+        if (nb == NB_ABSENT) {
+            uint32_t qx = ix / 2, qz = iz / 2;
+            switch (dir) {
+            case DIR_W: qx--; break;
+            case DIR_E: qx++; break;
+            case DIR_N: qz--; break;
+            default: qz++; break;
+            }
+            hz_result r = split_node(c, sh + 1, qx, qz, true);
+            if (r != HZ_OK)
+                return r;
+        } else if (nb == NB_DONTCARE) {
+            f |= (uint8_t)(1u << (DC_SHIFT + dir));
+        }
+    }
+    size_t li;
+    slot *q = node_slot(s, sh, ix, iz, &li);
+    if (!q)
+        return HZ_ERR_VALUE;
+    q->flags[li] = f;
+    if (forced)
+        c->st->forced++;
+    for (uint32_t k = 0; k < 4; k++) {
+        const uint32_t cx = 2 * ix + (k & 1), cz = 2 * iz + (k >> 1);
+        if (sh - 1 > c->cur) {
+            bool culled;
+            hz_result r = classify(c, sh - 1, cx, cz, &culled);
+            if (r != HZ_OK)
+                return r;
+        }
+        if (lv_add(s, sh - 1, cx, cz) != HZ_OK)
+            return HZ_ERR_MEMORY;
+    }
+    return HZ_OK;
+}
+
+/* The next requests to load, best first; cancels waiting ones that fell out. */
+static void issue_requests(hz_stream *s)
+{
+    pthread_mutex_lock(&s->lock);
+    /* re-rank what waits: drop waiting loads nobody asked for this frame */
+    uint32_t keep = 0;
+    for (uint32_t k = 0; k < s->qn; k++) {
+        slot *q = &s->slots[s->queue[k]];
+        if (q->used == s->frame) {
+            s->queue[keep++] = s->queue[k];
+        } else {
+            q->queued = false;
+            q->state = SLOT_FREE;
+        }
+    }
+    bool rehash = keep != s->qn;
+    s->qn = keep;
+    /* best first */
+    for (size_t a = 1; a < s->nreq; a++) {
+        req v = s->reqs[a];
+        size_t b = a;
+        while (b > 0 && s->reqs[b - 1].prio < v.prio) {
+            s->reqs[b] = s->reqs[b - 1];
+            b--;
+        }
+        s->reqs[b] = v;
+    }
+    for (size_t r = 0; r < s->nreq && s->qn + s->busy < MAX_INFLIGHT; r++) {
+        /* a free slot, else the least recently used resident one not used this frame */
+        int64_t best = -1;
+        for (uint32_t k = 0; k < s->nslots; k++) {
+            const slot *q = &s->slots[k];
+            if (q->state == SLOT_FREE) {
+                best = k;
+                break;
+            }
+            if (q->state == SLOT_RESIDENT && q->used != s->frame && (best < 0 || q->used < s->slots[best].used))
+                best = k;
+        }
+        if (best < 0)
+            break;
+        slot *q = &s->slots[best];
+        if (q->state == SLOT_RESIDENT)
+            s->st.evicted++;
+        slot_clear(q);
+        *q = (slot){.level = s->reqs[r].level, .tx = s->reqs[r].tx, .tz = s->reqs[r].tz, .state = SLOT_LOADING,
+                    .used = s->frame, .prio = s->reqs[r].prio, .queued = true,
+                    .k = hz_pyr_level_cells(&s->info, s->reqs[r].level) / s->info.patch_cells};
+        s->queue[s->qn++] = (uint32_t)best;
+        s->st.requested++;
+        rehash = true;
+    }
+    if (rehash)
+        hash_rebuild(s);
+    if (s->qn > 0)
+        pthread_cond_signal(&s->cv);
+    pthread_mutex_unlock(&s->lock);
+    if (s->sync) {
+        while (s->qn > 0) {
+            const uint32_t k = s->queue[0];
+            memmove(s->queue, s->queue + 1, (s->qn - 1) * sizeof *s->queue);
+            s->qn--;
+            s->slots[k].queued = false;
+            load_one(s, k);
+        }
+    }
+}
+
+enum { SORT_BUCKETS = 1024 };
+
+static inline uint32_t dist_bucket(float d)
+{
+    union {
+        float f;
+        uint32_t u;
+    } v = {.f = d + 1.0f};
+    const uint32_t k = (v.u >> 18) - (127u << 5);
+    return k < SORT_BUCKETS ? k : SORT_BUCKETS - 1;
+}
+
+static uint32_t patch_triangles(uint32_t P, uint8_t coarse)
+{
+    uint32_t t = 2 * P * P;
+    for (int dir = 0; dir < 4; dir++)
+        if (coarse & (1u << dir))
+            t -= P / 2;
+    return t;
+}
+
+static hz_result emit(sel *c, hz_patch_list *out)
+{
+    hz_stream *s = c->s;
+    const uint32_t P = s->info.patch_cells, top = s->info.levels - 1;
+    out->count = 0;
+    for (uint32_t sh = top + 1; sh-- > 0;) {
+        if (list_reserve((void **)&out->data, &out->cap, out->count + s->lv_n[sh], sizeof *out->data) != HZ_OK)
+            return HZ_ERR_MEMORY;
+        for (size_t k = 0; k < s->lv_n[sh]; k++) {
+            const uint32_t ix = s->lv[sh][k].x, iz = s->lv[sh][k].z;
+            size_t li;
+            slot *q = node_slot(s, sh, ix, iz, &li);
+            if (!q || (q->flags[li] & ST_MASK) != ST_LEAF)
+                continue;
+            uint8_t coarse = 0;
+            for (int dir = 0; dir < 4; dir++)
+                if (neighbour(s, sh, ix, iz, dir) == NB_ABSENT)
+                    coarse |= (uint8_t)(1u << dir);
+            vec3 box[2];
+            node_box(c, q, li, sh, ix, iz, box);
+            const uint32_t lx = ix % q->k, lz = iz % q->k;
+            out->data[out->count++] = (hz_patch){
+                .x0 = (ix * P) << sh, .z0 = (iz * P) << sh, .shift = (uint8_t)sh, .coarse = coarse,
+                .level = (uint16_t)(top - sh), .dist = box_distance((const vec3 *)box, c->cam->pos),
+                .layer1 = (uint32_t)(q - s->slots) + 1, .ox = (uint16_t)(lx * P), .oz = (uint16_t)(lz * P)};
+            c->st->triangles += patch_triangles(P, coarse);
+            c->st->leaves++;
+            if (top - sh > c->st->max_level)
+                c->st->max_level = top - sh;
+        }
+    }
+    const size_t n = out->count;
+    if (n < 2)
+        return HZ_OK;
+    if (list_reserve((void **)&s->tmp, &s->tmp_cap, n, sizeof *s->tmp) != HZ_OK)
+        return HZ_ERR_MEMORY;
+    uint32_t start[SORT_BUCKETS + 1];
+    memset(start, 0, sizeof start);
+    for (size_t k = 0; k < n; k++)
+        start[dist_bucket(out->data[k].dist) + 1]++;
+    for (uint32_t b = 0; b < SORT_BUCKETS; b++)
+        start[b + 1] += start[b];
+    for (size_t k = 0; k < n; k++)
+        s->tmp[start[dist_bucket(out->data[k].dist)]++] = out->data[k];
+    memcpy(out->data, s->tmp, n * sizeof *s->tmp);
+    return HZ_OK;
+}
+
+hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_params *params, hz_patch_list *out,
+                           hz_lod_stats *stats)
+{
+    const double t0 = hz_time_ms();
+    hz_lod_params p = params ? *params : (hz_lod_params){0};
+    hz_lod_stats st = {0};
+    s->frame++;
+    s->nreq = 0;
+    out->count = 0;
+    const hz_pyr_info *in = &s->info;
+    const uint32_t top = in->levels - 1;
+    const float tau = p.pixel_error > 0 ? p.pixel_error : 1.0f;
+    sel c = {.s = s, .cam = cam, .margin = frustum_margin(cam), .lambda = pixel_k(cam, &p) / tau,
+             .hsw = (float)in->h_scale, .spacing = (float)in->spacing, .no_cull = p.no_cull, .st = &st};
+    float a = p.morph_start > 0.0f ? p.morph_start : 1.0f / CD_GROW;
+    a = a < 1.0f / CD_GROW ? 1.0f / CD_GROW : (a > 0.95f ? 0.95f : a);
+    hz_camera_frustum(cam, c.planes);
+    st.morph_scale = c.lambda * c.hsw;
+    st.morph_start = a;
+    for (uint32_t l = 0; l <= top; l++)
+        s->lv_n[l] = 0;
+    hz_result r = HZ_OK;
+    size_t li;
+    if (!node_slot(s, top, 0, 0, &li)) {
+        want_tile(s, top, 0, 0, 1e30f);
+    } else {
+        r = lv_add(s, top, 0, 0);
+        for (uint32_t sh = top + 1; r == HZ_OK && sh-- > 0;) {
+            c.cur = sh;
+            for (size_t k = 0; r == HZ_OK && k < s->lv_n[sh]; k++) {
+                const uint32_t ix = s->lv[sh][k].x, iz = s->lv[sh][k].z;
+                bool culled;
+                r = classify(&c, sh, ix, iz, &culled);
+                if (r != HZ_OK || culled || sh == 0)
+                    continue;
+                slot *q = node_slot(s, sh, ix, iz, &li);
+                vec3 box[2];
+                node_box(&c, q, li, sh, ix, iz, box);
+                const float range = c.lambda * (float)q->nd[li] * c.hsw;
+                const float d2 = box_distance2((const vec3 *)box, cam->pos);
+                if (d2 < PREFETCH * PREFETCH * range * range) {
+                    const float d = sqrtf(d2);
+                    want_tile(s, sh - 1, 2 * ix, 2 * iz, range / (d + 1e-3f));
+                }
+                if (d2 < range * range) {
+                    if (can_split(s, sh, ix, iz, 0))
+                        r = split_node(&c, sh, ix, iz, false);
+                    else
+                        s->st.late++;
+                }
+            }
+        }
+        if (r == HZ_OK)
+            r = emit(&c, out);
+    }
+    issue_requests(s);
+    st.ms = hz_time_ms() - t0;
+    if (stats)
+        *stats = st;
+    return r;
+}
+
+bool hz_stream_next_upload(hz_stream *s, uint32_t *slot_out, const uint16_t **texels)
+{
+    bool got = false;
+    pthread_mutex_lock(&s->lock);
+    for (uint32_t k = 0; k < s->nslots; k++)
+        if (s->slots[k].state == SLOT_READY && s->slots[k].texels) {
+            *slot_out = k;
+            *texels = s->slots[k].texels;
+            got = true;
+            break;
+        }
+    pthread_mutex_unlock(&s->lock);
+    return got;
+}
+
+void hz_stream_uploaded(hz_stream *s, uint32_t k)
+{
+    pthread_mutex_lock(&s->lock);
+    if (k < s->nslots && s->slots[k].state == SLOT_READY) {
+        free(s->slots[k].texels);
+        s->slots[k].texels = NULL;
+        s->slots[k].state = SLOT_RESIDENT;
+        s->st.loaded++;
+    }
+    pthread_mutex_unlock(&s->lock);
+}
+
+void hz_stream_wait(hz_stream *s)
+{
+    if (!s->has_thread)
+        return;
+    pthread_mutex_lock(&s->lock);
+    while (s->qn > 0 || s->busy > 0)
+        pthread_cond_wait(&s->idle, &s->lock);
+    pthread_mutex_unlock(&s->lock);
+}
+
+hz_stream_stats hz_stream_take_stats(hz_stream *s)
+{
+    pthread_mutex_lock(&s->lock);
+    hz_stream_stats st = s->st;
+    st.resident = 0;
+    st.failed = 0;
+    for (uint32_t k = 0; k < s->nslots; k++) {
+        st.resident += s->slots[k].state == SLOT_RESIDENT;
+        st.failed += s->slots[k].state == SLOT_FAILED;
+    }
+    st.pending = s->qn + s->busy;
+    st.cache_bytes = (uint64_t)st.resident * (s->T + 1) * (s->T + 1) * 8;
+    memset(&s->st, 0, sizeof s->st);
+    pthread_mutex_unlock(&s->lock);
+    return st;
+}
+
+const char *hz_stream_warning(hz_stream *s)
+{
+    return s->warning[0] ? s->warning : NULL;
+}
+
+float hz_stream_height_at(hz_stream *s, float x, float z)
+{
+    const hz_pyr_info *in = &s->info;
+    const double fx = x / in->spacing, fz = z / in->spacing;
+    if (!(fx >= 0 && fz >= 0 && fx <= in->size - 1 && fz <= in->size - 1))
+        return NAN;
+    const uint32_t X = (uint32_t)(fx + 0.5), Z = (uint32_t)(fz + 0.5);
+    for (uint32_t l = 0; l < in->levels; l++) {
+        const uint32_t c = hz_pyr_level_cells(in, l), span = c << l;
+        const uint32_t tx = X / span < hz_pyr_level_tiles(in, l) ? X / span : hz_pyr_level_tiles(in, l) - 1;
+        const uint32_t tz = Z / span < hz_pyr_level_tiles(in, l) ? Z / span : hz_pyr_level_tiles(in, l) - 1;
+        const int32_t k = find_slot(s, l, tx, tz);
+        if (k < 0 || s->slots[k].state != SLOT_RESIDENT || !s->slots[k].h)
+            continue;
+        const uint32_t a = ((X - tx * span) + (1u << l) / 2) >> l, b = ((Z - tz * span) + (1u << l) / 2) >> l;
+        const uint32_t aa = a > c ? c : a, bb = b > c ? c : b;
+        return (float)(in->h_offset + in->h_scale * s->slots[k].h[(size_t)bb * (c + 1) + aa]);
+    }
+    return NAN;
+}
