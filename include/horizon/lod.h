@@ -186,6 +186,8 @@ hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_
  * (stitched edges applied, collapsed triangles dropped), appended to out.
  * For tests, mesh dumps and exact metrics; the renderer draws patches. */
 hz_result hz_lod_patches_to_indices(const hz_lod *lod, const hz_patch *p, size_t n, hz_index_list *out);
+/* The same for any n x n map drawn with P x P-cell patches (streamed terrains). */
+hz_result hz_patches_to_indices(uint32_t n, uint32_t P, const hz_patch *patches, size_t count, hz_index_list *out);
 
 /* Per-sample morph errors for cdlod (row-major, size*size values, h16 steps;
  * 65535 = never morphs), built on first use (may take a moment: progress goes

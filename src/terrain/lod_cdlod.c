@@ -503,7 +503,11 @@ hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_
 
 hz_result hz_lod_patches_to_indices(const hz_lod *lod, const hz_patch *patches, size_t count, hz_index_list *out)
 {
-    const uint32_t n = lod->size, P = lod->patch;
+    return hz_patches_to_indices(lod->size, lod->patch, patches, count, out);
+}
+
+hz_result hz_patches_to_indices(uint32_t n, uint32_t P, const hz_patch *patches, size_t count, hz_index_list *out)
+{
     for (size_t k = 0; k < count; k++) {
         const hz_patch *p = &patches[k];
         if (list_reserve((void **)&out->data, &out->cap, out->count + (size_t)6 * P * P, sizeof(uint32_t)))

@@ -155,7 +155,8 @@ static void leaf(build *b, uint32_t tx, uint32_t tz, tile_res *out)
         out->valid = NULL;
     }
     if (b->pass == 1) {
-        /* shift-0 nodes: exact (bound 0), their height range over samples with data */
+        /* shift-0 nodes: exact (bound 0), their height range over every sample
+         * drawn (filled ones too: the box must hold the surface it culls) */
         const uint32_t P = b->info.patch_cells, k = c / P, side = b->side[0];
         for (uint32_t bz = 0; bz < k; bz++)
             for (uint32_t bx = 0; bx < k; bx++) {
@@ -163,8 +164,6 @@ static void leaf(build *b, uint32_t tx, uint32_t tz, tile_res *out)
                 for (uint32_t v = 0; v <= P; v++)
                     for (uint32_t u = 0; u <= P; u++) {
                         const size_t s = (size_t)(bz * P + v) * n + bx * P + u;
-                        if (out->valid && !out->valid[s])
-                            continue;
                         a = out->h[s] < a ? out->h[s] : a;
                         z = out->h[s] > z ? out->h[s] : z;
                     }

@@ -1,0 +1,251 @@
+/* Terrain pyramids: the import is exact for 16-bit input and keeps the
+ * georeference and the nodata mask; corrupt and truncated files are caught;
+ * the streamed selection is crack-free while tiles are missing and under a
+ * tiny cache. No GL (tiles are "uploaded" by acknowledging them). */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <gdal.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "horizon/grid.h"
+#include "horizon/heightmap.h"
+#include <ogr_srs_api.h>
+#include "horizon/pyramid.h"
+#include "horizon/stream.h"
+#include "mesh_check.h"
+
+enum { W = 700, H = 500 };
+static const double GT[6] = {500000.0, 30.0, 0.0, 4100000.0, 0.0, -30.0};
+
+static int16_t value_at(uint32_t i, uint32_t j)
+{
+    if (i >= 300 && i < 340 && j >= 200 && j < 230)
+        return -32768; /* a nodata block */
+    double v = 800.0 + 700.0 * sin(i * 0.013) * cos(j * 0.017) + 300.0 * sin((i + 2 * j) * 0.051) + (double)((i * 7 + j * 13) % 11);
+    return (int16_t)lrint(v);
+}
+
+static char tif[512], hzp[512];
+
+static int setup(void **state)
+{
+    (void)state;
+    GDALAllRegister();
+    snprintf(tif, sizeof tif, "%s/pyr_src.tif", HZ_TEST_TMP);
+    snprintf(hzp, sizeof hzp, "%s/pyr.hzp", HZ_TEST_TMP);
+    GDALDriverH drv = GDALGetDriverByName("GTiff");
+    GDALDatasetH ds = GDALCreate(drv, tif, W, H, 1, GDT_Int16, NULL);
+    if (!ds)
+        return -1;
+    GDALSetGeoTransform(ds, (double *)GT);
+    GDALSetProjection(ds, "EPSG:32633");
+    OGRSpatialReferenceH srs = OSRNewSpatialReference(NULL);
+    OSRImportFromEPSG(srs, 32633);
+    GDALSetSpatialRef(ds, srs);
+    OSRDestroySpatialReference(srs);
+    GDALRasterBandH b = GDALGetRasterBand(ds, 1);
+    GDALSetRasterNoDataValue(b, -32768);
+    int16_t *row = malloc(W * sizeof *row);
+    for (uint32_t j = 0; j < H; j++) {
+        for (uint32_t i = 0; i < W; i++)
+            row[i] = value_at(i, j);
+        if (GDALRasterIO(b, GF_Write, 0, (int)j, W, 1, row, W, 1, GDT_Int16, 0, 0) != CE_None)
+            return -1;
+    }
+    free(row);
+    GDALClose(ds);
+    const char *ins[] = {tif};
+    hz_pyr_import d = {.out = hzp, .inputs = ins, .input_count = 1, .tile_cells = 64};
+    hz_pyr_import_stats st;
+    hz_err err = {0};
+    if (hz_pyramid_import(&d, &st, &err) != HZ_OK) {
+        fprintf(stderr, "import: %s\n", err.msg);
+        return -1;
+    }
+    return 0;
+}
+
+static void test_round_trip_exact(void **state)
+{
+    (void)state;
+    hz_pyramid *p;
+    hz_err err = {0};
+    assert_int_equal(hz_pyramid_open(hzp, &p, &err), HZ_OK);
+    const hz_pyr_info *in = hz_pyramid_info(p);
+    assert_int_equal(in->data_w, W);
+    assert_int_equal(in->data_h, H);
+    assert_int_equal(in->size, 1025);
+    assert_true(in->max_error == 0.0);
+    assert_int_equal(in->nodata, 40 * 30);
+    for (int k = 0; k < 6; k++)
+        assert_true(in->geotransform[k] == GT[k]);
+    assert_non_null(strstr(in->wkt, "32633"));
+    uint64_t checked = 0;
+    for (uint32_t l = 0; l < in->levels; l++) {
+        const uint32_t m = hz_pyr_level_tiles(in, l);
+        for (uint32_t tz = 0; tz < m; tz++)
+            for (uint32_t tx = 0; tx < m; tx++) {
+                hz_pyr_tile t;
+                assert_int_equal(hz_pyramid_read_tile(p, l, tx, tz, &t, &err), HZ_OK);
+                const uint32_t n = t.cells + 1;
+                for (uint32_t b = 0; b < n; b++)
+                    for (uint32_t a = 0; a < n; a++) {
+                        const uint32_t i = t.x0 + (a << l), j = t.z0 + (b << l);
+                        const size_t k = (size_t)b * n + a;
+                        const bool inside = i < W && j < H;
+                        const int16_t v = inside ? value_at(i, j) : -32768;
+                        const bool valid = t.valid ? t.valid[k] : true;
+                        if (v == -32768) {
+                            assert_false(valid); /* nodata and padding never become heights */
+                        } else {
+                            assert_true(valid);
+                            assert_true(in->h_offset + in->h_scale * t.h[k] == (double)v);
+                            checked++;
+                        }
+                    }
+                for (uint32_t q = 0; q < t.nodes * t.nodes; q++)
+                    assert_true(t.node_min[q] <= t.node_max[q]);
+                hz_pyr_tile_free(&t);
+            }
+    }
+    assert_true(checked > (uint64_t)W * H);
+    hz_pyramid_close(p);
+}
+
+static void copy_file(const char *from, const char *to)
+{
+    FILE *a = fopen(from, "rb"), *b = fopen(to, "wb");
+    assert_non_null(a);
+    assert_non_null(b);
+    char buf[65536];
+    size_t n;
+    while ((n = fread(buf, 1, sizeof buf, a)) > 0)
+        assert_int_equal(fwrite(buf, 1, n, b), n);
+    fclose(a);
+    fclose(b);
+}
+
+static void test_corrupt_and_truncated(void **state)
+{
+    (void)state;
+    char bad[600];
+    snprintf(bad, sizeof bad, "%s/pyr_bad.hzp", HZ_TEST_TMP);
+    copy_file(hzp, bad);
+    /* flip one byte of the first tile written (right after the header) */
+    FILE *f = fopen(bad, "r+b");
+    assert_non_null(f);
+    fseek(f, 512 + 40, SEEK_SET);
+    int c = fgetc(f);
+    fseek(f, 512 + 40, SEEK_SET);
+    fputc(c ^ 0x5a, f);
+    fclose(f);
+    hz_pyramid *p;
+    hz_err err = {0};
+    assert_int_equal(hz_pyramid_open(bad, &p, &err), HZ_OK); /* header and index intact */
+    uint64_t nbad = 0;
+    assert_int_not_equal(hz_pyramid_verify(p, &nbad, NULL, NULL, &err), HZ_OK);
+    assert_int_equal(nbad, 1);
+    assert_non_null(strstr(err.msg, "checksum"));
+    hz_pyramid_close(p);
+    /* truncated: refused at open */
+    copy_file(hzp, bad);
+    f = fopen(hzp, "rb");
+    fseek(f, 0, SEEK_END);
+    long size = ftell(f);
+    fclose(f);
+    assert_int_equal(truncate(bad, size - 10), 0);
+    err = (hz_err){0};
+    assert_int_not_equal(hz_pyramid_open(bad, &p, &err), HZ_OK);
+    assert_non_null(strstr(err.msg, "truncated"));
+    unlink(bad);
+}
+
+/* The full-resolution heights, for the mesh checker's positions. */
+static void full_heightmap(hz_heightmap *hm)
+{
+    hz_grid g = {0};
+    hz_err err = {0};
+    assert_int_equal(hz_grid_alloc(&g, 1025, 1025, &err), HZ_OK);
+    for (uint32_t j = 0; j < 1025; j++)
+        for (uint32_t i = 0; i < 1025; i++) {
+            const int16_t v = i < W && j < H ? value_at(i, j) : 0;
+            g.z[j * 1025 + i] = v == -32768 ? 0.0f : (float)v;
+        }
+    assert_int_equal(hz_heightmap_create(hm, &g, HZ_LAYOUT_LINEAR, &err), HZ_OK);
+    hz_grid_free(&g);
+}
+
+static void test_stream_crack_free_while_tiles_missing(void **state)
+{
+    (void)state;
+    hz_err err = {0};
+    /* the smallest cache: 8 tiles per level */
+    hz_stream *s = hz_stream_create(&(hz_stream_desc){.path = hzp, .cache_bytes = 1, .synchronous = true}, &err);
+    assert_non_null(s);
+    const hz_pyr_info *in = hz_stream_info(s);
+    assert_int_equal(hz_stream_slots(s), 8 * in->levels);
+    hz_heightmap hm;
+    full_heightmap(&hm);
+    hz_patch_list pl = {0};
+    hz_index_list il = {0};
+    uint32_t late_frames = 0, evicted = 0, frames_drawn = 0;
+    for (uint32_t f = 0; f < 120; f++) {
+        const float u = (float)f / 119.0f;
+        hz_camera cam = {.pos = {30.0f * (50.0f + 550.0f * u), 2400.0f - 1000.0f * u, 30.0f * (60.0f + 380.0f * u)},
+                         .yaw = 120.0f + 90.0f * u, .pitch = -25.0f, .fov_y = 60.0f, .aspect = 16.0f / 9.0f,
+                         .znear = 1.0f, .zfar = 60000.0f};
+        hz_lod_stats st;
+        assert_int_equal(hz_stream_select(s, &cam, &(hz_lod_params){.mode = HZ_LOD_CDLOD, .pixel_error = 0.5f}, &pl,
+                                          &st),
+                         HZ_OK);
+        /* Late tiles: acknowledge at most two decoded tiles per frame. */
+        uint32_t slot;
+        const uint16_t *tex;
+        for (int k = 0; k < 2 && hz_stream_next_upload(s, &slot, &tex); k++) {
+            /* the texels carry the tile's heights (channel 0) */
+            assert_non_null(tex);
+            hz_stream_uploaded(s, slot);
+        }
+        hz_stream_stats ss = hz_stream_take_stats(s);
+        late_frames += ss.late > 0;
+        evicted += ss.evicted;
+        assert_true(ss.resident <= hz_stream_slots(s));
+        if (pl.count == 0)
+            continue;
+        frames_drawn++;
+        il.count = 0;
+        assert_int_equal(hz_patches_to_indices(in->size, in->patch_cells, pl.data, pl.count, &il), HZ_OK);
+        vec4 planes[6];
+        hz_camera_frustum(&cam, planes);
+        mesh_report r = mesh_check(&hm, 30.0f, 1.0f, il.data, il.count, (const vec4 *)planes, NULL);
+        char label[64];
+        snprintf(label, sizeof label, "streamed frame %u", f);
+        mesh_assert_valid(&r, false, label);
+    }
+    /* the test really saw missing tiles and a full cache */
+    assert_true(late_frames > 0);
+    assert_true(evicted > 0);
+    assert_true(frames_drawn > 100);
+    free(pl.data);
+    free(il.data);
+    hz_heightmap_destroy(&hm);
+    hz_stream_destroy(s);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_round_trip_exact),
+        cmocka_unit_test(test_corrupt_and_truncated),
+        cmocka_unit_test(test_stream_crack_free_while_tiles_missing),
+    };
+    return cmocka_run_group_tests(tests, setup, NULL);
+}
