@@ -119,8 +119,9 @@ void hz_io_src_close(hz_io_src *s);
 void hz_io_src_size(const hz_io_src *s, uint32_t *w, uint32_t *h);
 const hz_georef *hz_io_src_georef(const hz_io_src *s);
 /* True when the stored samples are 8/16-bit integers with no scaling or
- * reprojection: quantising them to 16 bits is lossless. */
-bool hz_io_src_is_integer16(const hz_io_src *s);
+ * reprojection: 16-bit steps of 1 from *offset (the type's lowest value)
+ * hold them exactly. */
+bool hz_io_src_integer16(const hz_io_src *s, double *offset);
 /* Smallest and largest height with data (reads the whole raster once). */
 hz_result hz_io_src_range(hz_io_src *s, double *lo, double *hi, hz_err *err);
 hz_result hz_io_src_read(hz_io_src *s, uint32_t x0, uint32_t y0, uint32_t w, uint32_t h, float *out, hz_err *err);

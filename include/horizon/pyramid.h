@@ -45,11 +45,9 @@ typedef struct hz_pyr_tile {
     uint16_t *h;          /* (c + 1)^2 */
     uint8_t *valid;       /* (c + 1)^2, 1 = data; NULL when every sample has data */
     uint32_t nodes;       /* k = c / P nodes per side at this level */
-    uint16_t *node_delta; /* k^2: nested, dilated error bound of each node (h16 steps) */
+    uint16_t *node_delta; /* (k+2)^2: error bound (h16 steps) of each node of this level and of the
+                             ring of nodes around the tile (row -1 first; 0 off the map) */
     uint16_t *node_min, *node_max; /* k^2: h16 range under each node */
-    uint16_t *qtab;       /* error bounds of the coarser nodes that bring in this tile's samples */
-    uint32_t qtab_count;
-    uint32_t corner_t2[4]; /* morph target (sum of two h16) of the corners NW, NE, SW, SE */
 } hz_pyr_tile;
 
 typedef struct hz_pyramid hz_pyramid;
@@ -84,6 +82,9 @@ typedef struct hz_pyr_import {
     const char *crs;             /* reproject geographic input to this CRS; NULL -> UTM of the centre */
     double spacing;              /* metres per sample after reprojection / of a generated terrain; 0 -> auto (generated: 10) */
     double max_error;            /* metres; 0 -> lossless for 16-bit integer input, else range / 65535 / 2 */
+    const char *tiles;           /* "A-B": write only jobs A..B (0-based, see hz_pyramid_jobs) to
+                                    out.part-A-B; NULL: everything */
+    bool finish;                 /* join the part files of every job into out */
     uint32_t tile_cells;         /* 0 -> 256 */
     uint32_t patch_cells;        /* 0 -> 8 */
     uint32_t threads;            /* 0 -> every core */
@@ -100,6 +101,10 @@ typedef struct hz_pyr_import_stats {
     double max_error;       /* measured quantisation error, metres */
 } hz_pyr_import_stats;
 
+/* Jobs an import of d splits into (independent: each reads its own window
+ * and writes its own tiles); 0 on error. */
+uint32_t hz_pyramid_jobs(const hz_pyr_import *d, hz_err *err);
+
 /* Writes a pyramid, window by window (never the whole raster in memory;
  * about 6 bytes per 64 level-0 samples for the LOD bounds). The output is
  * written to a temporary file and renamed into place. */
@@ -107,12 +112,6 @@ hz_result hz_pyramid_import(const hz_pyr_import *d, hz_pyr_import_stats *stats, 
 
 /* ---- low level (the import and tests): tile layout and the writer ---- */
 
-/* Node range [nx0, nx1] x [nz0, nz1] of shift-s nodes (P 2^s level-0 cells
- * each) whose split brings in samples of tile (level, tx, tz); tile->qtab
- * holds their bounds, shift by shift (s = level + 1 .. levels - 1), row by row. */
-void hz_pyr_qtab_range(const hz_pyr_info *info, uint32_t level, uint32_t tx, uint32_t tz, uint32_t s, uint32_t *nx0,
-                       uint32_t *nx1, uint32_t *nz0, uint32_t *nz1);
-uint32_t hz_pyr_qtab_count(const hz_pyr_info *info, uint32_t level, uint32_t tx, uint32_t tz);
 /* Geometry of a level from the info alone. */
 uint32_t hz_pyr_level_tiles(const hz_pyr_info *info, uint32_t level);
 uint32_t hz_pyr_level_cells(const hz_pyr_info *info, uint32_t level);
@@ -120,6 +119,10 @@ uint32_t hz_pyr_level_cells(const hz_pyr_info *info, uint32_t level);
 /* Compresses a tile (thread-safe); *blob is malloc'ed. */
 hz_result hz_pyr_encode_tile(const hz_pyr_info *info, const hz_pyr_tile *t, int zstd_level, void **blob,
                              size_t *bytes, hz_err *err);
+
+/* Decompresses and decodes one tile's blob (as written by hz_pyr_encode_tile). */
+hz_result hz_pyr_decode_blob(const hz_pyr_info *info, uint32_t level, uint32_t tx, uint32_t tz, const void *blob,
+                             size_t bytes, hz_pyr_tile *t, hz_err *err);
 
 typedef struct hz_pyr_writer hz_pyr_writer;
 /* Starts writing path (through a temporary file in the same folder). */

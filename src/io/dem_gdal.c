@@ -615,8 +615,9 @@ const hz_georef *hz_io_src_georef(const hz_io_src *s)
     return s->g;
 }
 
-bool hz_io_src_is_integer16(const hz_io_src *s)
+bool hz_io_src_integer16(const hz_io_src *s, double *offset)
 {
+    *offset = s->type == GDT_Int16 ? -32768.0 : 0.0;
     return !s->has_scale && !s->warped && (s->type == GDT_Int16 || s->type == GDT_UInt16 || s->type == GDT_Byte);
 }
 

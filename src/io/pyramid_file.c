@@ -44,40 +44,10 @@ uint32_t hz_pyr_level_tiles(const hz_pyr_info *info, uint32_t level)
     return ((info->size - 1) >> level) / hz_pyr_level_cells(info, level);
 }
 
-void hz_pyr_qtab_range(const hz_pyr_info *info, uint32_t level, uint32_t tx, uint32_t tz, uint32_t s, uint32_t *nx0,
-                       uint32_t *nx1, uint32_t *nz0, uint32_t *nz1)
-{
-    const uint64_t c = hz_pyr_level_cells(info, level);
-    const uint64_t G = (uint64_t)info->patch_cells << s, nodes = (uint64_t)(info->size - 1) / G;
-    const uint64_t span = c << level;
-    const uint64_t X0 = tx * span, X1 = X0 + span, Z0 = tz * span, Z1 = Z0 + span;
-    uint64_t a = X0 / G, b = X1 / G, e = Z0 / G, f = Z1 / G;
-    if (X0 % G == 0 && a > 0)
-        a--;
-    if (Z0 % G == 0 && e > 0)
-        e--;
-    if (b >= nodes)
-        b = nodes - 1;
-    if (f >= nodes)
-        f = nodes - 1;
-    *nx0 = (uint32_t)a, *nx1 = (uint32_t)b, *nz0 = (uint32_t)e, *nz1 = (uint32_t)f;
-}
-
-uint32_t hz_pyr_qtab_count(const hz_pyr_info *info, uint32_t level, uint32_t tx, uint32_t tz)
-{
-    uint32_t n = 0;
-    for (uint32_t s = level + 1; s < info->levels; s++) {
-        uint32_t a, b, e, f;
-        hz_pyr_qtab_range(info, level, tx, tz, s, &a, &b, &e, &f);
-        n += (b - a + 1) * (f - e + 1);
-    }
-    return n;
-}
-
-static size_t raw_tile_bytes(const hz_pyr_info *info, uint32_t level, uint32_t qn, bool masked)
+static size_t raw_tile_bytes(const hz_pyr_info *info, uint32_t level, bool masked)
 {
     const size_t c = hz_pyr_level_cells(info, level), n = c + 1, k = c / info->patch_cells;
-    return TILE_HDR + n * n * 2 + (masked ? (n * n + 7) / 8 : 0) + k * k * 6 + (size_t)qn * 2 + 16;
+    return TILE_HDR + n * n * 2 + (masked ? (n * n + 7) / 8 : 0) + (k + 2) * (k + 2) * 2 + k * k * 4;
 }
 
 /* ---- tile codec ---- */
@@ -88,7 +58,7 @@ hz_result hz_pyr_encode_tile(const hz_pyr_info *info, const hz_pyr_tile *t, int 
     *blob = NULL;
     const size_t c = t->cells, n = c + 1, nn = n * n, k = t->nodes;
     const bool masked = t->valid != NULL;
-    const size_t raw = raw_tile_bytes(info, t->level, t->qtab_count, masked);
+    const size_t raw = raw_tile_bytes(info, t->level, masked);
     uint8_t *r = malloc(raw);
     const size_t cap = ZSTD_compressBound(raw);
     void *z = malloc(cap);
@@ -121,21 +91,15 @@ hz_result hz_pyr_encode_tile(const hz_pyr_info *info, const hz_pyr_tile *t, int 
                 p[q >> 3] |= (uint8_t)(1u << (q & 7));
         p += (nn + 7) / 8;
     }
-    for (size_t q = 0; q < k * k; q++)
+    for (size_t q = 0; q < (k + 2) * (k + 2); q++)
         put16(p + 2 * q, t->node_delta[q]);
-    p += 2 * k * k;
+    p += 2 * (k + 2) * (k + 2);
     for (size_t q = 0; q < k * k; q++)
         put16(p + 2 * q, t->node_min[q]);
     p += 2 * k * k;
     for (size_t q = 0; q < k * k; q++)
         put16(p + 2 * q, t->node_max[q]);
     p += 2 * k * k;
-    for (size_t q = 0; q < t->qtab_count; q++)
-        put16(p + 2 * q, t->qtab[q]);
-    p += 2 * (size_t)t->qtab_count;
-    for (int q = 0; q < 4; q++)
-        put32(p + 4 * q, t->corner_t2[q]);
-    p += 16;
     HZ_ASSERT((size_t)(p - r) == raw);
     const size_t zn = ZSTD_compress(z, cap, r, raw, zstd_level > 0 ? zstd_level : 9);
     free(r);
@@ -152,7 +116,7 @@ void hz_pyr_tile_free(hz_pyr_tile *t)
 {
     free(t->h);
     free(t->valid);
-    free(t->node_delta); /* node_min, node_max and qtab live in its block */
+    free(t->node_delta); /* node_min and node_max live in its block */
     memset(t, 0, sizeof *t);
 }
 
@@ -358,33 +322,30 @@ uint32_t hz_pyramid_tile_bytes(const hz_pyramid *p, uint32_t level, uint32_t tx,
     return rec_of(p, level, tx, tz)->bytes;
 }
 
-static hz_result decode(const hz_pyramid *p, uint32_t level, uint32_t tx, uint32_t tz, const uint8_t *r, size_t raw,
-                        hz_pyr_tile *t, hz_err *err)
+static hz_result decode(const hz_pyr_info *in, const char *path, uint32_t level, uint32_t tx, uint32_t tz,
+                        const uint8_t *r, size_t raw, hz_pyr_tile *t, hz_err *err)
 {
-    const hz_pyr_info *in = &p->info;
     const uint32_t c = hz_pyr_level_cells(in, level), n = c + 1, k = c / in->patch_cells;
-    const size_t nn = (size_t)n * n;
-    const uint32_t qn = hz_pyr_qtab_count(in, level, tx, tz);
+    const size_t nn = (size_t)n * n, k2 = (size_t)(k + 2) * (k + 2);
     if (raw < TILE_HDR || get32(r) != TILE_MAGIC || get32(r + 4) != level || get32(r + 8) != tx ||
         get32(r + 12) != tz || get32(r + 16) != c || get32(r + 20) > 1)
-        return hz_err_set(err, HZ_ERR_FORMAT, "'%s': tile %u/%u/%u has a wrong tile header", p->path, level, tx, tz);
+        return hz_err_set(err, HZ_ERR_FORMAT, "'%s': tile %u/%u/%u has a wrong tile header", path, level, tx, tz);
     const bool masked = get32(r + 20) & 1u;
-    if (raw != raw_tile_bytes(in, level, qn, masked))
-        return hz_err_set(err, HZ_ERR_FORMAT, "'%s': tile %u/%u/%u has %zu bytes, expected %zu", p->path, level, tx,
-                          tz, raw, raw_tile_bytes(in, level, qn, masked));
+    if (raw != raw_tile_bytes(in, level, masked))
+        return hz_err_set(err, HZ_ERR_FORMAT, "'%s': tile %u/%u/%u has %zu bytes, expected %zu", path, level, tx,
+                          tz, raw, raw_tile_bytes(in, level, masked));
     memset(t, 0, sizeof *t);
-    t->level = level, t->tx = tx, t->tz = tz, t->cells = c, t->nodes = k, t->qtab_count = qn;
+    t->level = level, t->tx = tx, t->tz = tz, t->cells = c, t->nodes = k;
     t->x0 = (tx * c) << level, t->z0 = (tz * c) << level;
     t->h = malloc(nn * sizeof *t->h);
-    t->node_delta = malloc(((size_t)k * k * 3 + qn + 1) * sizeof(uint16_t));
+    t->node_delta = malloc((k2 + (size_t)k * k * 2) * sizeof(uint16_t));
     t->valid = masked ? malloc(nn) : NULL;
     if (!t->h || !t->node_delta || (masked && !t->valid)) {
         hz_pyr_tile_free(t);
         return hz_err_set(err, HZ_ERR_MEMORY, "out of memory decoding a tile");
     }
-    t->node_min = t->node_delta + (size_t)k * k;
+    t->node_min = t->node_delta + k2;
     t->node_max = t->node_min + (size_t)k * k;
-    t->qtab = NULL;
     const uint8_t *q = r + TILE_HDR;
     for (size_t j = 0; j < n; j++)
         for (size_t i = 0; i < n; i++) {
@@ -400,20 +361,15 @@ static hz_result decode(const hz_pyramid *p, uint32_t level, uint32_t tx, uint32
             t->valid[s] = (q[s >> 3] >> (s & 7)) & 1u;
         q += (nn + 7) / 8;
     }
-    uint16_t *nd = t->node_delta;
-    for (size_t s = 0; s < (size_t)k * k * 3 + qn; s++)
-        nd[s] = get16(q + 2 * s);
-    q += 2 * ((size_t)k * k * 3 + qn);
-    for (int s = 0; s < 4; s++)
-        t->corner_t2[s] = get32(q + 4 * s);
-    /* qtab lives in the same block, after the node arrays; hz_pyr_tile_free
-     * frees node_delta only. */
-    t->qtab = nd + (size_t)k * k * 3;
+    for (size_t s = 0; s < k2 + (size_t)k * k * 2; s++)
+        t->node_delta[s] = get16(q + 2 * s);
     for (size_t s = 0; s < (size_t)k * k; s++)
-        if (t->node_min[s] > t->node_max[s])
-            return hz_pyr_tile_free(t),
-                   hz_err_set(err, HZ_ERR_FORMAT, "'%s': tile %u/%u/%u has a node whose minimum exceeds its maximum",
-                              p->path, level, tx, tz);
+        if (t->node_min[s] > t->node_max[s]) {
+            hz_pyr_tile_free(t);
+            return hz_err_set(err, HZ_ERR_FORMAT,
+                              "'%s': tile %u/%u/%u has a node whose minimum exceeds its maximum", path, level,
+                              tx, tz);
+        }
     return HZ_OK;
 }
 
@@ -443,8 +399,26 @@ hz_result hz_pyramid_read_tile(hz_pyramid *p, uint32_t level, uint32_t tx, uint3
                              tz, ZSTD_isError(got) ? ZSTD_getErrorName(got) : "wrong size");
     }
     if (res == HZ_OK)
-        res = decode(p, level, tx, tz, r, e->raw, t, err);
+        res = decode(&p->info, p->path, level, tx, tz, r, e->raw, t, err);
     free(z);
+    free(r);
+    return res;
+}
+
+hz_result hz_pyr_decode_blob(const hz_pyr_info *info, uint32_t level, uint32_t tx, uint32_t tz, const void *blob,
+                             size_t bytes, hz_pyr_tile *t, hz_err *err)
+{
+    memset(t, 0, sizeof *t);
+    unsigned long long raw = ZSTD_getFrameContentSize(blob, bytes);
+    if (raw == ZSTD_CONTENTSIZE_ERROR || raw == ZSTD_CONTENTSIZE_UNKNOWN || raw > (64u << 20))
+        return hz_err_set(err, HZ_ERR_FORMAT, "tile %u/%u/%u is not a zstd frame", level, tx, tz);
+    uint8_t *r = malloc(raw ? raw : 1);
+    if (!r)
+        return hz_err_set(err, HZ_ERR_MEMORY, "out of memory decoding a tile");
+    const size_t got = ZSTD_decompress(r, raw, blob, bytes);
+    hz_result res = ZSTD_isError(got) || got != raw
+                        ? hz_err_set(err, HZ_ERR_FORMAT, "tile %u/%u/%u does not decompress", level, tx, tz)
+                        : decode(info, "part", level, tx, tz, r, raw, t, err);
     free(r);
     return res;
 }

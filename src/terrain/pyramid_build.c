@@ -1,475 +1,873 @@
 /* The pyramid import: any raster (or a generated terrain) to a .hzp of
- * tiles, window by window, never the whole raster in memory.
+ * tiles, in independent jobs, never the whole raster in memory.
  *
- * Two passes over the source, each a depth-first walk of the tile quadtree
- * that returns every tile's heights to its parent (level l is level l-1
- * subsampled: the same samples the in-memory cdlod draws at that spacing):
- * 1. LOD bounds: per node of every level the nested error bound (as
- *    lod_cdlod.c: the children's bound plus the largest distance of the
- *    vertices the split brings in to the coarser surface) and the height
- *    range; then the bounds are dilated across the whole map (CD_GROW per
- *    level). These arrays hold 6 bytes per P x P level-0 cells.
- * 2. Tiles: heights, no-data mask, their nodes' bounds, the bounds of the
- *    coarser nodes that bring in their samples (the per-sample morph ranges
- *    are derived from those at load), the morph targets of their corners;
- *    compressed and written in a fixed order, so an import is the same file
- *    byte for byte whatever the thread count.
- * Level-0 tiles of one level-1 tile are read and encoded in parallel. */
+ * A job is a square of S = 16 T level-0 cells (the level-J tiles, J =
+ * log2(S / T)). It reads its square plus a halo of one level-J node, computes
+ * the LOD bounds of every node of levels 0..J there, and writes the tiles of
+ * levels 0..J inside its square. Everything a tile holds depends only on the
+ * samples under the tile and the ring of nodes around it (which the halo
+ * covers), so jobs can run anywhere in any order (`--tiles A-B` writes jobs A
+ * to B to a part file). The finish then builds the levels above J from the
+ * level-J tiles of every job (1 / 4^J of the data) and writes the file: job
+ * tiles in job order, then its own; one process or many, the same bytes.
+ *
+ * Bounds per node N of shift s (P x P cells of level s): the nested error
+ * bound of lod_cdlod.c, delta(N) = ceil(max over children c of delta(c) +
+ * the largest distance of the vertices N's split brings in to the midpoint of
+ * their two neighbours), raised to at least CD_GROW times the children's (the
+ * in-memory cdlod also raises it over its neighbours' children; here that
+ * would reach outside the tile's ring), and the height range of its samples.
+ * The per-sample morph ranges and the corner targets are derived from these
+ * when a tile loads (stream.c). */
 #include "lod_internal.h"
 
 #include "horizon/pyramid.h"
 #include "horizon/safety.h"
 
+#include <dirent.h>
+#include <errno.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <unistd.h>
+#include <xxhash.h>
 
-#define NEVER 65535u
+#define JOB_TILES 16u /* a job's side in level-0 tiles */
 
-typedef struct tile_res {
-    uint16_t *h;    /* (c + 1)^2 */
-    uint8_t *valid; /* (c + 1)^2, NULL when every sample has data */
-} tile_res;
+typedef struct narr {   /* node bounds of one shift over a rectangle of nodes */
+    uint32_t x0, z0, w, h; /* first node index, nodes */
+    uint16_t *d, *mn, *mx;
+} narr;
 
 typedef struct build {
     const hz_pyr_import *d;
     hz_pyr_info info;
+    char *wkt;
     hz_io_src *src;
     hz_gen_window *gen;
-    pthread_mutex_t lock; /* the source, errors, figures */
-    uint32_t W, H;        /* data samples */
+    uint32_t W, H;
     double scale, offset;
-    uint16_t fill;        /* h16 of samples without data */
-    uint16_t *nd[HZ_PYR_MAX_LEVELS], *mn[HZ_PYR_MAX_LEVELS], *mx[HZ_PYR_MAX_LEVELS];
-    uint32_t side[HZ_PYR_MAX_LEVELS]; /* nodes per side at each shift */
-    uint16_t *cg;         /* heights at every multiple of c0 (tile corners) */
-    uint32_t cg_side, c0;
-    int pass;
-    hz_pyr_writer *w;
-    uint64_t leaves_done, leaves_total;
-    double max_err;
+    uint16_t fill;
+    uint32_t S, J, jobs_side, threads;
+    /* the finish's level-J grid over the whole map */
+    uint16_t *gj;
+    uint8_t *gjv;
+    uint32_t gj_n;
+    narr nJ;               /* shift-J node bounds over the whole map */
+    /* figures */
     uint64_t nodata;
     uint16_t hmin, hmax;
-    hz_result res;
-    hz_err *err;
-    hz_err first;
-    uint32_t threads;
+    double max_err;
+    hz_pyr_writer *w;
 } build;
 
-static uint16_t quant(const build *b, float v, double *e)
+static uint16_t quant(const build *b, double v, double *e)
 {
     double q = floor((v - b->offset) / b->scale + 0.5);
     q = q < 0 ? 0 : (q > 65535 ? 65535 : q);
-    double back = b->offset + b->scale * q;
-    *e = fabs(back - v);
+    *e = fabs(b->offset + b->scale * q - v);
     return (uint16_t)q;
 }
 
-static void fail(build *b, hz_result r, const hz_err *e)
+static void narr_free(narr *a)
 {
-    pthread_mutex_lock(&b->lock);
-    if (b->res == HZ_OK) {
-        b->res = r;
-        if (e)
-            b->first = *e;
-    }
-    pthread_mutex_unlock(&b->lock);
+    free(a->d);
+    a->d = a->mn = a->mx = NULL;
 }
 
-static void progress(build *b)
+static bool narr_alloc(narr *a, uint32_t x0, uint32_t z0, uint32_t w, uint32_t h)
 {
-    if (b->d->progress)
-        b->d->progress(b->d->progress_user, b->pass == 1 ? "import: bounds" : "import: tiles", b->leaves_done,
-                       b->leaves_total);
+    *a = (narr){.x0 = x0, .z0 = z0, .w = w, .h = h};
+    a->d = malloc((size_t)w * h * 3 * sizeof *a->d + 1);
+    if (!a->d)
+        return false;
+    a->mn = a->d + (size_t)w * h, a->mx = a->mn + (size_t)w * h;
+    return true;
 }
 
-/* ---- level 0: read, quantise, mask ---- */
-
-static void leaf(build *b, uint32_t tx, uint32_t tz, tile_res *out)
+static inline bool narr_has(const narr *a, int64_t x, int64_t z)
 {
-    const uint32_t c = b->c0, n = c + 1, X0 = tx * c, Z0 = tz * c;
-    out->h = malloc((size_t)n * n * sizeof *out->h);
-    out->valid = malloc((size_t)n * n);
-    float *f = malloc((size_t)n * n * sizeof *f);
-    if (!out->h || !out->valid || !f) {
-        free(f);
-        fail(b, HZ_ERR_MEMORY, &(hz_err){.code = HZ_ERR_MEMORY, .msg = "import: out of memory"});
-        return;
-    }
-    for (size_t k = 0; k < (size_t)n * n; k++)
-        f[k] = NAN;
-    const uint32_t rw = X0 < b->W ? (b->W - X0 < n ? b->W - X0 : n) : 0;
-    const uint32_t rh = Z0 < b->H ? (b->H - Z0 < n ? b->H - Z0 : n) : 0;
-    if (rw > 0 && rh > 0) {
-        float *win = malloc((size_t)rw * rh * sizeof *win);
-        if (!win) {
-            free(f);
-            fail(b, HZ_ERR_MEMORY, &(hz_err){.code = HZ_ERR_MEMORY, .msg = "import: out of memory"});
-            return;
-        }
-        if (b->gen) {
-            hz_gen_window_read(b->gen, X0, Z0, rw, rh, win);
-        } else {
-            hz_err e = {0};
-            pthread_mutex_lock(&b->lock);
-            hz_result r = hz_io_src_read(b->src, X0, Z0, rw, rh, win, &e);
-            pthread_mutex_unlock(&b->lock);
-            if (r != HZ_OK) {
-                free(win);
-                free(f);
-                fail(b, r, &e);
-                return;
+    return x >= a->x0 && z >= a->z0 && x < (int64_t)a->x0 + a->w && z < (int64_t)a->z0 + a->h;
+}
+
+static inline size_t narr_at(const narr *a, uint32_t x, uint32_t z)
+{
+    return (size_t)(z - a->z0) * a->w + (x - a->x0);
+}
+
+/* A grid of heights (and validity) at spacing 2^lv over level-0 samples
+ * [ox, ox + (n-1) 2^lv] x [oz, ...]. */
+typedef struct grid16 {
+    const uint16_t *h;
+    const uint8_t *v;
+    uint32_t ox, oz, nx, nz, lv;
+} grid16;
+
+static inline size_t g_at(const grid16 *g, uint32_t X, uint32_t Z)
+{
+    return (size_t)((Z - g->oz) >> g->lv) * g->nx + ((X - g->ox) >> g->lv);
+}
+
+/* Bounds of shift s nodes in a from the shift s-1 bounds in c and the heights
+ * in g (spacing 2^(s-1) or finer, covering a). */
+static void bounds_up(const build *b, const grid16 *g, const narr *c, narr *a, uint32_t s)
+{
+    const uint32_t P = b->info.patch_cells, N = b->info.size, half = 1u << (s - 1), G = P << s;
+    for (uint32_t zi = 0; zi < a->h; zi++)
+        for (uint32_t xi = 0; xi < a->w; xi++) {
+            const uint32_t nx = a->x0 + xi, nz = a->z0 + zi, X0 = nx * G, Z0 = nz * G;
+            float dv = 0.0f;
+            for (uint32_t v = 0; v <= 2 * P; v++)
+                for (uint32_t u = (v & 1) ? 0 : 1; u <= 2 * P; u += (v & 1) ? 1 : 2) {
+                    const uint32_t X = X0 + u * half, Z = Z0 + v * half;
+                    uint32_t ni[2], nj[2];
+                    if (!hz__morph_neighbours(N, X, Z, ni, nj))
+                        continue;
+                    const size_t k = g_at(g, X, Z), ka = g_at(g, ni[0], nj[0]), kb = g_at(g, ni[1], nj[1]);
+                    if (!g->v[k] || !g->v[ka] || !g->v[kb])
+                        continue;
+                    dv = maxf(dv, fabsf((float)g->h[k] - 0.5f * ((float)g->h[ka] + (float)g->h[kb])));
+                }
+            float dc = 0.0f;
+            uint16_t lo = 65535, hi = 0;
+            for (uint32_t q = 0; q < 4; q++) {
+                const size_t ci = narr_at(c, 2 * nx + (q & 1), 2 * nz + (q >> 1));
+                dc = maxf(dc, (float)c->d[ci]);
+                lo = c->mn[ci] < lo ? c->mn[ci] : lo;
+                hi = c->mx[ci] > hi ? c->mx[ci] : hi;
             }
+            float d = fmaxf(ceilf(dc + dv), ceilf(CD_GROW * dc));
+            const size_t k = narr_at(a, nx, nz);
+            a->d[k] = (uint16_t)(d >= 65534.0f ? 65534.0f : d);
+            a->mn[k] = lo, a->mx[k] = hi;
         }
-        for (uint32_t j = 0; j < rh; j++)
-            memcpy(f + (size_t)j * n, win + (size_t)j * rw, rw * sizeof *f);
-        free(win);
-    }
-    double emax = 0;
-    uint64_t voids = 0;
-    uint16_t lo = 65535, hi = 0;
-    bool any_void = false;
-    for (uint32_t j = 0; j < n; j++)
-        for (uint32_t i = 0; i < n; i++) {
-            const size_t k = (size_t)j * n + i;
-            if (isnan(f[k]) || !isfinite(f[k])) {
-                out->h[k] = b->fill;
-                out->valid[k] = 0;
-                any_void = true;
-                /* count each level-0 sample once: skip the shared east/south border */
-                if ((i < c || X0 + i == b->info.size - 1) && (j < c || Z0 + j == b->info.size - 1) &&
-                    X0 + i < b->W && Z0 + j < b->H)
-                    voids++;
-                continue;
-            }
-            double e;
-            out->h[k] = quant(b, f[k], &e);
-            out->valid[k] = 1;
-            emax = e > emax ? e : emax;
-            lo = out->h[k] < lo ? out->h[k] : lo;
-            hi = out->h[k] > hi ? out->h[k] : hi;
-        }
-    free(f);
-    if (!any_void) {
-        free(out->valid);
-        out->valid = NULL;
-    }
-    if (b->pass == 1) {
-        /* shift-0 nodes: exact (bound 0), their height range over every sample
-         * drawn (filled ones too: the box must hold the surface it culls) */
-        const uint32_t P = b->info.patch_cells, k = c / P, side = b->side[0];
-        for (uint32_t bz = 0; bz < k; bz++)
-            for (uint32_t bx = 0; bx < k; bx++) {
-                uint16_t a = 65535, z = 0;
-                for (uint32_t v = 0; v <= P; v++)
-                    for (uint32_t u = 0; u <= P; u++) {
-                        const size_t s = (size_t)(bz * P + v) * n + bx * P + u;
-                        a = out->h[s] < a ? out->h[s] : a;
-                        z = out->h[s] > z ? out->h[s] : z;
-                    }
-                if (a > z)
-                    a = z = b->fill;
-                const size_t q = (size_t)(tz * k + bz) * side + tx * k + bx;
-                b->nd[0][q] = 0, b->mn[0][q] = a, b->mx[0][q] = z;
-            }
-        /* tile corners for the morph targets of every level's corners */
-        for (uint32_t v = 0; v < 2; v++)
-            for (uint32_t u = 0; u < 2; u++)
-                b->cg[(size_t)(tz + v) * b->cg_side + tx + u] = out->h[(size_t)(v * c) * n + u * c];
-        pthread_mutex_lock(&b->lock);
-        b->max_err = emax > b->max_err ? emax : b->max_err;
-        b->nodata += voids;
-        if (lo <= hi) {
-            b->hmin = lo < b->hmin ? lo : b->hmin;
-            b->hmax = hi > b->hmax ? hi : b->hmax;
-        }
-        pthread_mutex_unlock(&b->lock);
-    }
 }
 
-/* ---- pass 2: a tile's record ---- */
-
-static uint16_t nd_at(const build *b, uint32_t s, uint32_t x, uint32_t z)
+/* Bounds of shift 0 nodes (exact: 0) over grid g (level 0). */
+static void bounds_leaf(const build *b, const grid16 *g, narr *a)
 {
-    return b->nd[s][(size_t)z * b->side[s] + x];
-}
-
-static uint32_t cg_h(const build *b, uint32_t X, uint32_t Z)
-{
-    return b->cg[(size_t)(Z / b->c0) * b->cg_side + X / b->c0];
-}
-
-static hz_result encode(build *b, uint32_t l, uint32_t tx, uint32_t tz, const tile_res *r, void **blob, size_t *bytes,
-                        hz_err *err)
-{
-    const hz_pyr_info *in = &b->info;
-    const uint32_t c = hz_pyr_level_cells(in, l), k = c / in->patch_cells, N = in->size;
-    hz_pyr_tile t = {.level = l, .tx = tx, .tz = tz, .cells = c, .x0 = (tx * c) << l, .z0 = (tz * c) << l,
-                     .h = r->h, .valid = r->valid, .nodes = k};
-    t.qtab_count = hz_pyr_qtab_count(in, l, tx, tz);
-    uint16_t *buf = malloc(((size_t)k * k * 3 + t.qtab_count + 1) * sizeof *buf);
-    if (!buf)
-        return hz_err_set(err, HZ_ERR_MEMORY, "import: out of memory");
-    t.node_delta = buf, t.node_min = buf + (size_t)k * k, t.node_max = buf + 2 * (size_t)k * k;
-    t.qtab = buf + 3 * (size_t)k * k;
-    for (uint32_t bz = 0; bz < k; bz++)
-        for (uint32_t bx = 0; bx < k; bx++) {
-            const size_t q = (size_t)(tz * k + bz) * b->side[l] + tx * k + bx;
-            t.node_delta[bz * k + bx] = b->nd[l][q];
-            t.node_min[bz * k + bx] = b->mn[l][q];
-            t.node_max[bz * k + bx] = b->mx[l][q];
+    const uint32_t P = b->info.patch_cells;
+    for (uint32_t zi = 0; zi < a->h; zi++)
+        for (uint32_t xi = 0; xi < a->w; xi++) {
+            const uint32_t X0 = (a->x0 + xi) * P, Z0 = (a->z0 + zi) * P;
+            uint16_t lo = 65535, hi = 0;
+            for (uint32_t v = 0; v <= P; v++)
+                for (uint32_t u = 0; u <= P; u++) {
+                    const uint16_t h = g->h[g_at(g, X0 + u, Z0 + v)];
+                    lo = h < lo ? h : lo;
+                    hi = h > hi ? h : hi;
+                }
+            const size_t k = narr_at(a, a->x0 + xi, a->z0 + zi);
+            a->d[k] = 0, a->mn[k] = lo, a->mx[k] = hi;
         }
-    uint16_t *qt = t.qtab;
-    for (uint32_t s = l + 1; s < in->levels; s++) {
-        uint32_t a, e, f, g;
-        hz_pyr_qtab_range(in, l, tx, tz, s, &a, &e, &f, &g);
-        for (uint32_t z = f; z <= g; z++)
-            for (uint32_t x = a; x <= e; x++)
-                *qt++ = nd_at(b, s, x, z);
-    }
-    for (int q = 0; q < 4; q++) {
-        const uint32_t X = t.x0 + ((q & 1) ? c << l : 0), Z = t.z0 + ((q & 2) ? c << l : 0);
-        uint32_t ni[2], nj[2];
-        t.corner_t2[q] = hz__morph_neighbours(N, X, Z, ni, nj) ? cg_h(b, ni[0], nj[0]) + cg_h(b, ni[1], nj[1])
-                                                               : 2u * cg_h(b, X, Z);
-    }
-    hz_result res = hz_pyr_encode_tile(in, &t, b->d->zstd_level, blob, bytes, err);
-    free(buf);
-    return res;
 }
 
-/* ---- the walk ---- */
+/* ---- tiles ---- */
 
-typedef struct leaf_job {
-    build *b;
-    uint32_t tx, tz;
-    tile_res r;
+typedef struct tile_task {
+    uint32_t level, tx, tz;
     void *blob;
     size_t bytes;
-} leaf_job;
+    hz_result res;
+    hz_err err;
+} tile_task;
 
-static void *leaf_run(void *arg)
+typedef struct tile_ctx {
+    const build *b;
+    const grid16 *g;       /* heights at level <= the tiles' */
+    const narr *nodes;     /* per shift; nodes[s] covers the tiles and their ring */
+    tile_task *tasks;
+    size_t count;
+    size_t next;
+    pthread_mutex_t lock;
+} tile_ctx;
+
+static void encode_one(const tile_ctx *c, tile_task *t)
 {
-    leaf_job *j = arg;
-    leaf(j->b, j->tx, j->tz, &j->r);
-    if (j->b->pass == 2 && j->r.h && j->b->res == HZ_OK) {
-        hz_err e = {0};
-        hz_result r = encode(j->b, 0, j->tx, j->tz, &j->r, &j->blob, &j->bytes, &e);
-        if (r != HZ_OK)
-            fail(j->b, r, &e);
-    }
-    return NULL;
-}
-
-static void res_free(tile_res *r)
-{
-    free(r->h);
-    free(r->valid);
-    r->h = NULL;
-    r->valid = NULL;
-}
-
-static void put(build *b, uint32_t l, uint32_t tx, uint32_t tz, const void *blob, size_t bytes)
-{
-    if (b->res != HZ_OK)
-        return;
-    hz_err e = {0};
-    hz_result r = hz_pyr_writer_put(b->w, l, tx, tz, blob, bytes, &e);
-    if (r != HZ_OK)
-        fail(b, r, &e);
-}
-
-static void walk(build *b, uint32_t l, uint32_t tx, uint32_t tz, tile_res *out);
-
-/* The children of tile (l, tx, tz) (level l - 1), assembled into a window of
- * 2c + 1 samples per side at level l - 1. */
-static bool children(build *b, uint32_t l, uint32_t tx, uint32_t tz, uint16_t *win, uint8_t *wvalid, bool *masked)
-{
+    const build *b = c->b;
     const hz_pyr_info *in = &b->info;
-    const uint32_t c = hz_pyr_level_cells(in, l), cc = hz_pyr_level_cells(in, l - 1), cs = 2 * c / cc;
-    const uint32_t wn = 2 * c + 1, n = cc + 1;
-    *masked = false;
-    leaf_job jobs[4] = {0};
-    for (uint32_t q = 0; q < cs * cs; q++)
-        jobs[q] = (leaf_job){.b = b, .tx = tx * cs + q % cs, .tz = tz * cs + q / cs};
-    if (l == 1) {
-        pthread_t th[4];
-        bool started[4] = {0};
-        const uint32_t nt = b->threads < cs * cs ? b->threads : cs * cs;
-        for (uint32_t q = 0; q < cs * cs; q += nt) {
-            for (uint32_t t = 1; t < nt && q + t < cs * cs; t++)
-                started[q + t] = pthread_create(&th[q + t], NULL, leaf_run, &jobs[q + t]) == 0;
-            leaf_run(&jobs[q]);
-            for (uint32_t t = 1; t < nt && q + t < cs * cs; t++) {
-                if (started[q + t])
-                    pthread_join(th[q + t], NULL);
-                else
-                    leaf_run(&jobs[q + t]);
-            }
-        }
-        for (uint32_t q = 0; q < cs * cs; q++) {
-            if (b->pass == 2 && jobs[q].blob)
-                put(b, 0, jobs[q].tx, jobs[q].tz, jobs[q].blob, jobs[q].bytes);
-            free(jobs[q].blob);
-        }
-        pthread_mutex_lock(&b->lock);
-        b->leaves_done += cs * cs;
-        pthread_mutex_unlock(&b->lock);
-        progress(b);
-    } else {
-        for (uint32_t q = 0; q < cs * cs && b->res == HZ_OK; q++)
-            walk(b, l - 1, jobs[q].tx, jobs[q].tz, &jobs[q].r);
-    }
-    bool ok = b->res == HZ_OK;
-    for (uint32_t q = 0; q < cs * cs; q++) {
-        if (ok && jobs[q].r.h) {
-            const uint32_t ox = (q % cs) * cc, oz = (q / cs) * cc;
-            for (uint32_t j = 0; j < n; j++)
-                for (uint32_t i = 0; i < n; i++) {
-                    const size_t d = (size_t)(oz + j) * wn + ox + i, s = (size_t)j * n + i;
-                    win[d] = jobs[q].r.h[s];
-                    wvalid[d] = jobs[q].r.valid ? jobs[q].r.valid[s] : 1;
-                    *masked |= !wvalid[d];
-                }
-        } else {
-            ok = false;
-        }
-        res_free(&jobs[q].r);
-    }
-    return ok;
-}
-
-static void walk(build *b, uint32_t l, uint32_t tx, uint32_t tz, tile_res *out)
-{
-    memset(out, 0, sizeof *out);
-    const hz_pyr_info *in = &b->info;
-    if (l == 0) { /* only when the whole map is one level-0 tile */
-        leaf_job j = {.b = b, .tx = tx, .tz = tz};
-        leaf_run(&j);
-        if (b->pass == 2 && j.blob)
-            put(b, 0, tx, tz, j.blob, j.bytes);
-        free(j.blob);
-        *out = j.r;
-        b->leaves_done++;
-        progress(b);
+    const uint32_t l = t->level, cc = hz_pyr_level_cells(in, l), n = cc + 1, k = cc / in->patch_cells;
+    const uint32_t X0 = (t->tx * cc) << l, Z0 = (t->tz * cc) << l;
+    uint16_t *h = malloc((size_t)n * n * sizeof *h);
+    uint8_t *v = malloc((size_t)n * n);
+    uint16_t *nd = malloc(((size_t)(k + 2) * (k + 2) + 2 * (size_t)k * k) * sizeof *nd);
+    if (!h || !v || !nd) {
+        free(h);
+        free(v);
+        free(nd);
+        t->res = hz_err_set(&t->err, HZ_ERR_MEMORY, "import: out of memory");
         return;
     }
-    const uint32_t c = hz_pyr_level_cells(in, l), wn = 2 * c + 1, n = c + 1, P = in->patch_cells, k = c / P;
-    const uint32_t N = in->size, half = 1u << (l - 1);
-    uint16_t *win = malloc((size_t)wn * wn * sizeof *win);
-    uint8_t *wv = malloc((size_t)wn * wn);
     bool masked = false;
-    if (!win || !wv || !children(b, l, tx, tz, win, wv, &masked)) {
-        free(win);
-        free(wv);
-        if (b->res == HZ_OK)
-            fail(b, HZ_ERR_MEMORY, &(hz_err){.code = HZ_ERR_MEMORY, .msg = "import: out of memory"});
-        return;
-    }
-    const uint32_t OX = (tx * c) << l, OZ = (tz * c) << l;
-    if (b->pass == 1) {
-        /* The nested bound of each shift-l node: its children's plus the
-         * largest distance of the vertices its split brings in (odd at
-         * level l - 1) to the midpoint of their two neighbours. */
-        for (uint32_t bz = 0; bz < k; bz++)
-            for (uint32_t bx = 0; bx < k; bx++) {
-                float dv = 0.0f;
-                for (uint32_t v = 0; v <= 2 * P; v++) {
-                    const uint32_t wz = bz * 2 * P + v;
-                    for (uint32_t u = (v & 1) ? 0 : 1; u <= 2 * P; u += (v & 1) ? 1 : 2) {
-                        const uint32_t wx = bx * 2 * P + u;
-                        const uint32_t X = OX + wx * half, Z = OZ + wz * half;
-                        uint32_t ni[2], nj[2];
-                        if (!hz__morph_neighbours(N, X, Z, ni, nj))
-                            continue;
-                        const size_t s = (size_t)wz * wn + wx;
-                        const size_t a = (size_t)((nj[0] - OZ) / half) * wn + (ni[0] - OX) / half;
-                        const size_t e = (size_t)((nj[1] - OZ) / half) * wn + (ni[1] - OX) / half;
-                        if (!wv[s] || !wv[a] || !wv[e])
-                            continue;
-                        const float t = 0.5f * ((float)win[a] + (float)win[e]);
-                        dv = maxf(dv, fabsf((float)win[s] - t));
-                    }
-                }
-                const uint32_t cx = (tx * k + bx) * 2, cz = (tz * k + bz) * 2;
-                float dc = 0.0f;
-                uint16_t lo = 65535, hi = 0;
-                for (uint32_t q = 0; q < 4; q++) {
-                    const size_t ci = (size_t)(cz + q / 2) * b->side[l - 1] + cx + q % 2;
-                    dc = maxf(dc, (float)b->nd[l - 1][ci]);
-                    lo = b->mn[l - 1][ci] < lo ? b->mn[l - 1][ci] : lo;
-                    hi = b->mx[l - 1][ci] > hi ? b->mx[l - 1][ci] : hi;
-                }
-                const size_t q = (size_t)(tz * k + bz) * b->side[l] + tx * k + bx;
-                const float d = ceilf(dc + dv);
-                b->nd[l][q] = (uint16_t)(d >= 65534.0f ? 65534.0f : d);
-                b->mn[l][q] = lo, b->mx[l][q] = hi;
-            }
-    }
-    out->h = malloc((size_t)n * n * sizeof *out->h);
-    out->valid = masked ? malloc((size_t)n * n) : NULL;
-    if (!out->h || (masked && !out->valid)) {
-        free(win);
-        free(wv);
-        res_free(out);
-        fail(b, HZ_ERR_MEMORY, &(hz_err){.code = HZ_ERR_MEMORY, .msg = "import: out of memory"});
-        return;
-    }
-    bool any = false;
-    for (uint32_t j = 0; j < n; j++)
-        for (uint32_t i = 0; i < n; i++) {
-            const size_t s = (size_t)(2 * j) * wn + 2 * i;
-            out->h[(size_t)j * n + i] = win[s];
-            if (out->valid) {
-                out->valid[(size_t)j * n + i] = wv[s];
-                any |= !wv[s];
+    for (uint32_t bz = 0; bz < n; bz++)
+        for (uint32_t a = 0; a < n; a++) {
+            const size_t s = g_at(c->g, X0 + (a << l), Z0 + (bz << l));
+            h[(size_t)bz * n + a] = c->g->h[s];
+            v[(size_t)bz * n + a] = c->g->v[s];
+            masked |= !c->g->v[s];
+        }
+    const narr *na = &c->nodes[l];
+    const int64_t kx0 = (int64_t)t->tx * k, kz0 = (int64_t)t->tz * k;
+    uint16_t *mn = nd + (size_t)(k + 2) * (k + 2), *mx = mn + (size_t)k * k;
+    for (uint32_t bz = 0; bz < k + 2; bz++)
+        for (uint32_t bx = 0; bx < k + 2; bx++) {
+            const int64_t x = kx0 + bx - 1, z = kz0 + bz - 1;
+            const bool has = narr_has(na, x, z);
+            nd[(size_t)bz * (k + 2) + bx] = has ? na->d[narr_at(na, (uint32_t)x, (uint32_t)z)] : 0;
+            if (bx >= 1 && bz >= 1 && bx <= k && bz <= k) {
+                mn[(size_t)(bz - 1) * k + bx - 1] = has ? na->mn[narr_at(na, (uint32_t)x, (uint32_t)z)] : 0;
+                mx[(size_t)(bz - 1) * k + bx - 1] = has ? na->mx[narr_at(na, (uint32_t)x, (uint32_t)z)] : 0;
             }
         }
-    if (out->valid && !any) {
-        free(out->valid);
-        out->valid = NULL;
-    }
-    free(win);
-    free(wv);
-    if (b->pass == 2 && b->res == HZ_OK) {
-        void *blob = NULL;
-        size_t bytes = 0;
-        hz_err e = {0};
-        hz_result r = encode(b, l, tx, tz, out, &blob, &bytes, &e);
-        if (r != HZ_OK)
-            fail(b, r, &e);
-        else
-            put(b, l, tx, tz, blob, bytes);
-        free(blob);
+    hz_pyr_tile tile = {.level = l, .tx = t->tx, .tz = t->tz, .cells = cc, .x0 = X0, .z0 = Z0, .h = h,
+                        .valid = masked ? v : NULL, .nodes = k, .node_delta = nd, .node_min = mn, .node_max = mx};
+    t->res = hz_pyr_encode_tile(in, &tile, b->d->zstd_level, &t->blob, &t->bytes, &t->err);
+    free(h);
+    free(v);
+    free(nd);
+}
+
+static void *encode_worker(void *arg)
+{
+    tile_ctx *c = arg;
+    for (;;) {
+        pthread_mutex_lock(&c->lock);
+        const size_t k = c->next++;
+        pthread_mutex_unlock(&c->lock);
+        if (k >= c->count)
+            return NULL;
+        encode_one(c, &c->tasks[k]);
     }
 }
 
-/* Every node's bound at least CD_GROW times that of each node one level
- * finer that touches it (lod_cdlod.c explains why). */
-static void dilate(build *b)
+/* Encodes the tasks on every thread; results in task order. */
+static hz_result encode_all(tile_ctx *c, hz_err *err)
 {
-    for (uint32_t s = 1; s < b->info.levels; s++) {
-        const uint32_t m = b->side[s], cm = b->side[s - 1];
-        for (uint32_t zi = 0; zi < m; zi++)
-            for (uint32_t xi = 0; xi < m; xi++) {
-                float d = b->nd[s][(size_t)zi * m + xi];
-                const int64_t c0x = (int64_t)xi * 2 - 1, c0z = (int64_t)zi * 2 - 1;
-                for (int64_t cz = c0z; cz <= c0z + 3; cz++)
-                    for (int64_t cx = c0x; cx <= c0x + 3; cx++) {
-                        if (cx < 0 || cz < 0 || cx >= (int64_t)cm || cz >= (int64_t)cm)
-                            continue;
-                        d = maxf(d, CD_GROW * (float)b->nd[s - 1][(size_t)cz * cm + (size_t)cx]);
-                    }
-                d = ceilf(d);
-                b->nd[s][(size_t)zi * m + xi] = (uint16_t)(d >= 65534.0f ? 65534.0f : d);
-            }
+    pthread_mutex_init(&c->lock, NULL);
+    c->next = 0;
+    pthread_t th[16];
+    uint32_t started = 0;
+    for (uint32_t t = 1; t < c->b->threads && t < 16; t++)
+        if (pthread_create(&th[started], NULL, encode_worker, c) == 0)
+            started++;
+    encode_worker(c);
+    for (uint32_t t = 0; t < started; t++)
+        pthread_join(th[t], NULL);
+    pthread_mutex_destroy(&c->lock);
+    for (size_t k = 0; k < c->count; k++)
+        if (c->tasks[k].res != HZ_OK) {
+            if (err)
+                *err = c->tasks[k].err;
+            return c->tasks[k].res;
+        }
+    return HZ_OK;
+}
+
+/* ---- a job ---- */
+
+typedef struct job_out {
+    tile_task *tasks;      /* in write order */
+    size_t count;
+    /* level-J data of the job's square, for the finish */
+    uint16_t *hJ;
+    uint8_t *vJ;
+    narr nJ;
+    uint64_t nodata;
+    uint16_t hmin, hmax;
+    double max_err;
+} job_out;
+
+static void job_out_free(job_out *o)
+{
+    for (size_t k = 0; k < o->count; k++)
+        free(o->tasks[k].blob);
+    free(o->tasks);
+    free(o->hJ);
+    free(o->vJ);
+    narr_free(&o->nJ);
+    memset(o, 0, sizeof *o);
+}
+
+typedef struct gen_rows {
+    const build *b;
+    uint32_t x0, z0, w, h;
+    float *out;
+    uint32_t next;
+    pthread_mutex_t lock;
+} gen_rows;
+
+static void *gen_worker(void *arg)
+{
+    gen_rows *g = arg;
+    for (;;) {
+        pthread_mutex_lock(&g->lock);
+        const uint32_t j = g->next;
+        g->next += 16;
+        pthread_mutex_unlock(&g->lock);
+        if (j >= g->h)
+            return NULL;
+        const uint32_t n = g->h - j < 16 ? g->h - j : 16;
+        hz_gen_window_read(g->b->gen, g->x0, g->z0 + j, g->w, n, g->out + (size_t)j * g->w);
     }
 }
+
+/* Level-0 samples [x0, x0 + w) x [z0, z0 + h) of the map, quantised; outside
+ * the data and nodata are invalid (height: fill). */
+static hz_result read_rect(build *b, uint32_t x0, uint32_t z0, uint32_t w, uint32_t h, uint16_t *q, uint8_t *v,
+                           double *max_err, hz_err *err)
+{
+    *max_err = 0;
+    const uint32_t rw = x0 < b->W ? (b->W - x0 < w ? b->W - x0 : w) : 0;
+    const uint32_t rh = z0 < b->H ? (b->H - z0 < h ? b->H - z0 : h) : 0;
+    float *f = rw && rh ? malloc((size_t)rw * rh * sizeof *f) : NULL;
+    if (rw && rh && !f)
+        return hz_err_set(err, HZ_ERR_MEMORY, "import: out of memory for a %ux%u window", rw, rh);
+    if (rw && rh) {
+        if (b->gen) {
+            gen_rows g = {.b = b, .x0 = x0, .z0 = z0, .w = rw, .h = rh, .out = f};
+            pthread_mutex_init(&g.lock, NULL);
+            pthread_t th[16];
+            uint32_t started = 0;
+            for (uint32_t t = 1; t < b->threads && t < 16; t++)
+                if (pthread_create(&th[started], NULL, gen_worker, &g) == 0)
+                    started++;
+            gen_worker(&g);
+            for (uint32_t t = 0; t < started; t++)
+                pthread_join(th[t], NULL);
+            pthread_mutex_destroy(&g.lock);
+        } else {
+            hz_result r = hz_io_src_read(b->src, x0, z0, rw, rh, f, err);
+            if (r != HZ_OK) {
+                free(f);
+                return r;
+            }
+        }
+    }
+    for (uint32_t j = 0; j < h; j++)
+        for (uint32_t i = 0; i < w; i++) {
+            const size_t k = (size_t)j * w + i;
+            const float x = i < rw && j < rh ? f[(size_t)j * rw + i] : NAN;
+            if (!isfinite(x)) {
+                q[k] = b->fill;
+                v[k] = 0;
+            } else {
+                double e;
+                q[k] = quant(b, x, &e);
+                v[k] = 1;
+                *max_err = e > *max_err ? e : *max_err;
+            }
+        }
+    free(f);
+    return HZ_OK;
+}
+
+static hz_result run_job(build *b, uint32_t job, job_out *o, hz_err *err)
+{
+    memset(o, 0, sizeof *o);
+    const hz_pyr_info *in = &b->info;
+    const uint32_t N = in->size, P = in->patch_cells, S = b->S, J = b->J;
+    const uint32_t jx = job % b->jobs_side, jz = job / b->jobs_side;
+    const uint32_t halo = P << J;
+    const uint32_t X0 = jx * S, Z0 = jz * S;
+    const uint32_t RX0 = X0 >= halo ? X0 - halo : 0, RZ0 = Z0 >= halo ? Z0 - halo : 0;
+    const uint32_t RX1 = X0 + S + halo <= N - 1 ? X0 + S + halo : N - 1;
+    const uint32_t RZ1 = Z0 + S + halo <= N - 1 ? Z0 + S + halo : N - 1;
+    const uint32_t RW = RX1 - RX0 + 1, RH = RZ1 - RZ0 + 1;
+    uint16_t *q = malloc((size_t)RW * RH * sizeof *q);
+    uint8_t *v = malloc((size_t)RW * RH);
+    narr nodes[HZ_PYR_MAX_LEVELS] = {0};
+    hz_result r = HZ_OK;
+    if (!q || !v) {
+        r = hz_err_set(err, HZ_ERR_MEMORY, "import: out of memory for a %ux%u job window", RW, RH);
+        goto done;
+    }
+    r = read_rect(b, RX0, RZ0, RW, RH, q, v, &o->max_err, err);
+    if (r != HZ_OK)
+        goto done;
+    /* figures over the job's own square (each sample once) */
+    o->hmin = 65535, o->hmax = 0;
+    for (uint32_t Z = Z0; Z <= Z0 + S; Z++) {
+        if (Z == Z0 + S && Z != N - 1)
+            break;
+        for (uint32_t X = X0; X <= X0 + S; X++) {
+            if (X == X0 + S && X != N - 1)
+                break;
+            const size_t k = (size_t)(Z - RZ0) * RW + (X - RX0);
+            if (!v[k]) {
+                o->nodata += X < b->W && Z < b->H;
+                continue;
+            }
+            o->hmin = q[k] < o->hmin ? q[k] : o->hmin;
+            o->hmax = q[k] > o->hmax ? q[k] : o->hmax;
+        }
+    }
+    grid16 g0 = {.h = q, .v = v, .ox = RX0, .oz = RZ0, .nx = RW, .nz = RH, .lv = 0};
+    for (uint32_t s = 0; s <= J; s++) {
+        const uint32_t G = P << s;
+        if (!narr_alloc(&nodes[s], RX0 / G, RZ0 / G, (RW - 1) / G, (RH - 1) / G)) {
+            r = hz_err_set(err, HZ_ERR_MEMORY, "import: out of memory");
+            goto done;
+        }
+        if (s == 0)
+            bounds_leaf(b, &g0, &nodes[0]);
+        else
+            bounds_up(b, &g0, &nodes[s - 1], &nodes[s], s);
+    }
+    /* the tiles of levels 0..J inside the square */
+    size_t count = 0;
+    for (uint32_t l = 0; l <= J; l++)
+        count += (size_t)1 << (2 * (J - l));
+    o->tasks = calloc(count, sizeof *o->tasks);
+    if (!o->tasks) {
+        r = hz_err_set(err, HZ_ERR_MEMORY, "import: out of memory");
+        goto done;
+    }
+    for (uint32_t l = 0; l <= J; l++) {
+        const uint32_t per = 1u << (J - l);
+        for (uint32_t tz = 0; tz < per; tz++)
+            for (uint32_t tx = 0; tx < per; tx++)
+                o->tasks[o->count++] = (tile_task){.level = l, .tx = jx * per + tx, .tz = jz * per + tz};
+    }
+    tile_ctx tc = {.b = b, .g = &g0, .nodes = nodes, .tasks = o->tasks, .count = o->count};
+    r = encode_all(&tc, err);
+    if (r != HZ_OK)
+        goto done;
+    /* level-J data of the square for the finish */
+    const uint32_t nJ = (S >> J) + 1;
+    o->hJ = malloc((size_t)nJ * nJ * sizeof *o->hJ);
+    o->vJ = malloc((size_t)nJ * nJ);
+    const uint32_t kJ = S / (P << J);
+    if (!o->hJ || !o->vJ || !narr_alloc(&o->nJ, X0 / (P << J), Z0 / (P << J), kJ, kJ)) {
+        r = hz_err_set(err, HZ_ERR_MEMORY, "import: out of memory");
+        goto done;
+    }
+    for (uint32_t bz = 0; bz < nJ; bz++)
+        for (uint32_t a = 0; a < nJ; a++) {
+            const size_t s = g_at(&g0, X0 + (a << J), Z0 + (bz << J));
+            o->hJ[(size_t)bz * nJ + a] = q[s];
+            o->vJ[(size_t)bz * nJ + a] = v[s];
+        }
+    for (uint32_t zi = 0; zi < kJ; zi++)
+        for (uint32_t xi = 0; xi < kJ; xi++) {
+            const size_t src = narr_at(&nodes[J], o->nJ.x0 + xi, o->nJ.z0 + zi), dst = (size_t)zi * kJ + xi;
+            o->nJ.d[dst] = nodes[J].d[src], o->nJ.mn[dst] = nodes[J].mn[src], o->nJ.mx[dst] = nodes[J].mx[src];
+        }
+done:
+    for (uint32_t s = 0; s <= J; s++)
+        narr_free(&nodes[s]);
+    free(q);
+    free(v);
+    if (r != HZ_OK)
+        job_out_free(o);
+    return r;
+}
+
+/* Copies a job's level-J data into the finish's whole-map grid. */
+static void gather(build *b, const job_out *o, uint32_t job)
+{
+    const uint32_t jx = job % b->jobs_side, jz = job / b->jobs_side, P = b->info.patch_cells;
+    const uint32_t nJ = (b->S >> b->J) + 1, kJ = b->S / (P << b->J);
+    for (uint32_t bz = 0; bz < nJ; bz++)
+        for (uint32_t a = 0; a < nJ; a++) {
+            const size_t dst = (size_t)(jz * (nJ - 1) + bz) * b->gj_n + jx * (nJ - 1) + a;
+            b->gj[dst] = o->hJ[(size_t)bz * nJ + a];
+            b->gjv[dst] = o->vJ[(size_t)bz * nJ + a];
+        }
+    for (uint32_t zi = 0; zi < kJ; zi++)
+        for (uint32_t xi = 0; xi < kJ; xi++) {
+            const size_t dst = narr_at(&b->nJ, jx * kJ + xi, jz * kJ + zi), src = (size_t)zi * kJ + xi;
+            b->nJ.d[dst] = o->nJ.d[src], b->nJ.mn[dst] = o->nJ.mn[src], b->nJ.mx[dst] = o->nJ.mx[src];
+        }
+    b->nodata += o->nodata;
+    if (o->hmin <= o->hmax) {
+        b->hmin = o->hmin < b->hmin ? o->hmin : b->hmin;
+        b->hmax = o->hmax > b->hmax ? o->hmax : b->hmax;
+    }
+    b->max_err = o->max_err > b->max_err ? o->max_err : b->max_err;
+}
+
+/* The levels above J from the gathered grid; tiles go to the writer. */
+static hz_result finish_levels(build *b, hz_err *err)
+{
+    const hz_pyr_info *in = &b->info;
+    const uint32_t P = in->patch_cells, N = in->size, top = in->levels - 1;
+    narr nodes[HZ_PYR_MAX_LEVELS] = {0};
+    nodes[b->J] = b->nJ;
+    grid16 g = {.h = b->gj, .v = b->gjv, .ox = 0, .oz = 0, .nx = b->gj_n, .nz = b->gj_n, .lv = b->J};
+    hz_result r = HZ_OK;
+    for (uint32_t s = b->J + 1; s <= top && r == HZ_OK; s++) {
+        const uint32_t side = (N - 1) / (P << s);
+        if (!narr_alloc(&nodes[s], 0, 0, side, side))
+            r = hz_err_set(err, HZ_ERR_MEMORY, "import: out of memory");
+        else
+            bounds_up(b, &g, &nodes[s - 1], &nodes[s], s);
+    }
+    size_t count = 0;
+    for (uint32_t l = b->J + 1; l <= top; l++)
+        count += (size_t)hz_pyr_level_tiles(in, l) * hz_pyr_level_tiles(in, l);
+    tile_task *tasks = r == HZ_OK ? calloc(count + 1, sizeof *tasks) : NULL;
+    if (r == HZ_OK && !tasks)
+        r = hz_err_set(err, HZ_ERR_MEMORY, "import: out of memory");
+    size_t n = 0;
+    for (uint32_t l = b->J + 1; r == HZ_OK && l <= top; l++) {
+        const uint32_t m = hz_pyr_level_tiles(in, l);
+        for (uint32_t tz = 0; tz < m; tz++)
+            for (uint32_t tx = 0; tx < m; tx++)
+                tasks[n++] = (tile_task){.level = l, .tx = tx, .tz = tz};
+    }
+    if (r == HZ_OK) {
+        tile_ctx tc = {.b = b, .g = &g, .nodes = nodes, .tasks = tasks, .count = n};
+        r = encode_all(&tc, err);
+    }
+    for (size_t k = 0; r == HZ_OK && k < n; k++)
+        r = hz_pyr_writer_put(b->w, tasks[k].level, tasks[k].tx, tasks[k].tz, tasks[k].blob, tasks[k].bytes, err);
+    for (size_t k = 0; tasks && k < n; k++)
+        free(tasks[k].blob);
+    free(tasks);
+    for (uint32_t s = b->J + 1; s <= top; s++)
+        narr_free(&nodes[s]);
+    return r;
+}
+
+/* ---- part files (--tiles / --finish) ---- */
+
+enum { PART_HDR = 128 };
+static const char PART_MAGIC[8] = {'H', 'Z', 'P', 'A', 'R', 'T', '0', '1'};
+
+static void w32(uint8_t *p, uint32_t v) { for (int k = 0; k < 4; k++) p[k] = (uint8_t)(v >> (8 * k)); }
+static void w64(uint8_t *p, uint64_t v) { for (int k = 0; k < 8; k++) p[k] = (uint8_t)(v >> (8 * k)); }
+static uint32_t r32(const uint8_t *p) { uint32_t v = 0; for (int k = 3; k >= 0; k--) v = (v << 8) | p[k]; return v; }
+static uint64_t r64(const uint8_t *p) { uint64_t v = 0; for (int k = 7; k >= 0; k--) v = (v << 8) | p[k]; return v; }
+
+/* What must agree between the jobs and the finish. */
+static uint64_t setup_hash(const build *b)
+{
+    const hz_pyr_info *in = &b->info;
+    uint8_t buf[128] = {0};
+    w32(buf, in->size), w32(buf + 4, in->data_w), w32(buf + 8, in->data_h), w32(buf + 12, in->tile_cells);
+    w32(buf + 16, in->patch_cells);
+    memcpy(buf + 24, &in->spacing, 8), memcpy(buf + 32, &b->scale, 8), memcpy(buf + 40, &b->offset, 8);
+    memcpy(buf + 48, in->geotransform, 48);
+    return XXH64(buf, sizeof buf, XXH64(b->wkt ? b->wkt : "", b->wkt ? strlen(b->wkt) : 0, 0));
+}
+
+static void part_name(char *out, size_t cap, const char *base, uint32_t a, uint32_t z)
+{
+    snprintf(out, cap, "%s.part-%06u-%06u", base, a, z);
+}
+
+static hz_result write_part(build *b, uint32_t a, uint32_t z, hz_err *err)
+{
+    char name[4200];
+    part_name(name, sizeof name, b->d->out, a, z);
+    hz_outfile of;
+    FILE *f = hz_outfile_open(&of, name, err);
+    if (!f)
+        return HZ_ERR_IO;
+    uint8_t h[PART_HDR] = {0};
+    if (fwrite(h, 1, PART_HDR, f) != PART_HDR) {
+        fclose(f);
+        hz_outfile_discard(&of);
+        return hz_err_set(err, HZ_ERR_IO, "cannot write '%s'", name);
+    }
+    uint64_t nodata = 0, tiles = 0;
+    uint16_t hmin = 65535, hmax = 0;
+    double max_err = 0;
+    hz_result r = HZ_OK;
+    for (uint32_t job = a; job <= z && r == HZ_OK; job++) {
+        job_out o;
+        r = run_job(b, job, &o, err);
+        if (r != HZ_OK)
+            break;
+        for (size_t k = 0; k < o.count && r == HZ_OK; k++) {
+            uint8_t rec[16];
+            w32(rec, o.tasks[k].level), w32(rec + 4, o.tasks[k].tx), w32(rec + 8, o.tasks[k].tz);
+            w32(rec + 12, (uint32_t)o.tasks[k].bytes);
+            if (fwrite(rec, 1, 16, f) != 16 || fwrite(o.tasks[k].blob, 1, o.tasks[k].bytes, f) != o.tasks[k].bytes)
+                r = hz_err_set(err, HZ_ERR_IO, "cannot write '%s'", name);
+            tiles++;
+        }
+        nodata += o.nodata;
+        if (o.hmin <= o.hmax) {
+            hmin = o.hmin < hmin ? o.hmin : hmin;
+            hmax = o.hmax > hmax ? o.hmax : hmax;
+        }
+        max_err = o.max_err > max_err ? o.max_err : max_err;
+        job_out_free(&o);
+        if (b->d->progress)
+            b->d->progress(b->d->progress_user, "import: jobs", job - a + 1, z - a + 1);
+    }
+    if (r == HZ_OK) {
+        memcpy(h, PART_MAGIC, 8);
+        w32(h + 8, a), w32(h + 12, z), w64(h + 16, setup_hash(b)), w64(h + 24, tiles), w64(h + 32, nodata);
+        h[40] = (uint8_t)hmin, h[41] = (uint8_t)(hmin >> 8), h[42] = (uint8_t)hmax, h[43] = (uint8_t)(hmax >> 8);
+        memcpy(h + 48, &max_err, 8);
+        w64(h + PART_HDR - 8, XXH64(h, PART_HDR - 8, 0));
+        if (fseek(f, 0, SEEK_SET) != 0 || fwrite(h, 1, PART_HDR, f) != PART_HDR)
+            r = hz_err_set(err, HZ_ERR_IO, "cannot write '%s'", name);
+    }
+    if (r != HZ_OK) {
+        fclose(f);
+        hz_outfile_discard(&of);
+        return r;
+    }
+    return hz_outfile_close(&of, f, err);
+}
+
+typedef struct part {
+    char *path;
+    uint32_t a, z;
+} part;
+
+static int cmp_part(const void *x, const void *y)
+{
+    const part *p = x, *q = y;
+    return (p->a > q->a) - (p->a < q->a);
+}
+
+/* Reads every part of out (in job order) into the writer and the gathered grid. */
+static hz_result read_parts(build *b, uint32_t jobs, hz_err *err)
+{
+    const char *out = b->d->out;
+    const char *slash = strrchr(out, '/');
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%.*s", slash ? (int)(slash - out) : 1, slash ? out : ".");
+    const char *base = slash ? slash + 1 : out;
+    DIR *dp = opendir(dir);
+    if (!dp)
+        return hz_err_set(err, HZ_ERR_IO, "--finish: cannot list '%s': %s", dir, strerror(errno));
+    part *parts = NULL;
+    size_t np = 0, cap = 0;
+    hz_result r = HZ_OK;
+    struct dirent *e;
+    const size_t bl = strlen(base);
+    while ((e = readdir(dp))) {
+        unsigned a, z;
+        char tail;
+        if (strncmp(e->d_name, base, bl) || sscanf(e->d_name + bl, ".part-%6u-%6u%c", &a, &z, &tail) != 2)
+            continue;
+        if (np == cap) {
+            cap = cap ? 2 * cap : 16;
+            part *np2 = realloc(parts, cap * sizeof *parts);
+            if (!np2) {
+                r = hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
+                break;
+            }
+            parts = np2;
+        }
+        char full[8400];
+        snprintf(full, sizeof full, "%s/%s", dir, e->d_name);
+        parts[np].path = strdup(full);
+        parts[np].a = a, parts[np].z = z;
+        np++;
+    }
+    closedir(dp);
+    if (r == HZ_OK)
+        qsort(parts, np, sizeof *parts, cmp_part);
+    uint32_t expect = 0;
+    for (size_t k = 0; r == HZ_OK && k < np; k++) {
+        if (parts[k].a != expect || parts[k].z < parts[k].a || parts[k].z >= jobs)
+            r = hz_err_set(err, HZ_ERR_VALUE,
+                           "--finish: the parts of '%s' do not cover jobs 0..%u once (at job %u: %s)", out,
+                           jobs - 1, expect, parts[k].path);
+        else
+            expect = parts[k].z + 1;
+    }
+    if (r == HZ_OK && expect != jobs)
+        r = hz_err_set(err, HZ_ERR_VALUE, "--finish: jobs %u..%u of '%s' are missing (run --tiles %u-%u)", expect,
+                       jobs - 1, out, expect, jobs - 1);
+    const uint64_t want = setup_hash(b);
+    uint8_t *blob = NULL;
+    size_t blob_cap = 0;
+    const uint32_t kJ = b->S / (b->info.patch_cells << b->J);
+    for (size_t k = 0; r == HZ_OK && k < np; k++) {
+        FILE *f = fopen(parts[k].path, "rb");
+        uint8_t h[PART_HDR];
+        if (!f || fread(h, 1, PART_HDR, f) != PART_HDR || memcmp(h, PART_MAGIC, 8) ||
+            r64(h + PART_HDR - 8) != XXH64(h, PART_HDR - 8, 0)) {
+            r = hz_err_set(err, HZ_ERR_FORMAT, "--finish: '%s' is not a complete part file", parts[k].path);
+        } else if (r64(h + 16) != want) {
+            r = hz_err_set(err, HZ_ERR_VALUE, "--finish: '%s' was made from other inputs or settings", parts[k].path);
+        } else {
+            const uint64_t tiles = r64(h + 24);
+            b->nodata += r64(h + 32);
+            const uint16_t hmin = (uint16_t)(h[40] | h[41] << 8), hmax = (uint16_t)(h[42] | h[43] << 8);
+            if (hmin <= hmax) {
+                b->hmin = hmin < b->hmin ? hmin : b->hmin;
+                b->hmax = hmax > b->hmax ? hmax : b->hmax;
+            }
+            double me;
+            memcpy(&me, h + 48, 8);
+            b->max_err = me > b->max_err ? me : b->max_err;
+            for (uint64_t t = 0; r == HZ_OK && t < tiles; t++) {
+                uint8_t rec[16];
+                if (fread(rec, 1, 16, f) != 16) {
+                    r = hz_err_set(err, HZ_ERR_FORMAT, "--finish: '%s' is truncated", parts[k].path);
+                    break;
+                }
+                const uint32_t l = r32(rec), tx = r32(rec + 4), tz = r32(rec + 8), n = r32(rec + 12);
+                if (n == 0 || n > (64u << 20) || l > b->J) {
+                    r = hz_err_set(err, HZ_ERR_FORMAT, "--finish: '%s' has a bad tile record", parts[k].path);
+                    break;
+                }
+                if (n > blob_cap) {
+                    uint8_t *nb = realloc(blob, n);
+                    if (!nb) {
+                        r = hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
+                        break;
+                    }
+                    blob = nb, blob_cap = n;
+                }
+                if (fread(blob, 1, n, f) != n) {
+                    r = hz_err_set(err, HZ_ERR_FORMAT, "--finish: '%s' is truncated", parts[k].path);
+                    break;
+                }
+                r = hz_pyr_writer_put(b->w, l, tx, tz, blob, n, err);
+                if (r == HZ_OK && l == b->J) {
+                    /* its level-J data for the levels above */
+                    hz_pyr_tile t;
+                    r = hz_pyr_decode_blob(&b->info, l, tx, tz, blob, n, &t, err);
+                    if (r == HZ_OK) {
+                        const uint32_t c = t.cells, nn = c + 1;
+                        for (uint32_t bz = 0; bz < nn; bz++)
+                            for (uint32_t a = 0; a < nn; a++) {
+                                const size_t dst = (size_t)(tz * c + bz) * b->gj_n + tx * c + a;
+                                b->gj[dst] = t.h[(size_t)bz * nn + a];
+                                b->gjv[dst] = t.valid ? t.valid[(size_t)bz * nn + a] : 1;
+                            }
+                        for (uint32_t zi = 0; zi < kJ; zi++)
+                            for (uint32_t xi = 0; xi < kJ; xi++) {
+                                const size_t dst = narr_at(&b->nJ, tx * kJ + xi, tz * kJ + zi);
+                                b->nJ.d[dst] = t.node_delta[(size_t)(zi + 1) * (kJ + 2) + xi + 1];
+                                b->nJ.mn[dst] = t.node_min[(size_t)zi * kJ + xi];
+                                b->nJ.mx[dst] = t.node_max[(size_t)zi * kJ + xi];
+                            }
+                        hz_pyr_tile_free(&t);
+                    }
+                }
+            }
+        }
+        if (f)
+            fclose(f);
+    }
+    free(blob);
+    if (r == HZ_OK)
+        for (size_t k = 0; k < np; k++)
+            unlink(parts[k].path);
+    for (size_t k = 0; k < np; k++)
+        free(parts[k].path);
+    free(parts);
+    return r;
+}
+
+/* ---- the import ---- */
 
 static uint32_t cpu_count(void)
 {
     long n = sysconf(_SC_NPROCESSORS_ONLN);
-    return n < 1 ? 1 : (n > 4 ? 4 : (uint32_t)n);
+    return n < 1 ? 1 : (n > 16 ? 16 : (uint32_t)n);
+}
+
+/* Opens the source and fixes the geometry and the quantisation. */
+static hz_result setup(build *b, const hz_pyr_import *d, hz_err *err)
+{
+    hz_pyr_info *in = &b->info;
+    const uint32_t T = d->tile_cells ? d->tile_cells : 256, P = d->patch_cells ? d->patch_cells : 8;
+    if (T < 16 || T > 4096 || (T & (T - 1)) || P < 2 || P > 64 || (P & (P - 1)) || P > T)
+        return hz_err_set(err, HZ_ERR_VALUE,
+                          "import: --tile %u must be a power of two in 16..4096 (patch cells %u: a power of two in "
+                          "2..min(64, tile))", T, P);
+    if (!(d->max_error >= 0.0 && d->max_error <= 1000.0))
+        return hz_err_set(err, HZ_ERR_VALUE, "import: --max-error %g must be in [0, 1000] metres", d->max_error);
+    double lo = 0, hi = 0, sx = 0, sy = 0;
+    bool integer = false;
+    double int_offset = 0;
+    hz_result r;
+    if (d->generate) {
+        r = hz_gen_window_open(&d->gen, &b->gen, err);
+        if (r != HZ_OK)
+            return r;
+        b->W = b->H = d->gen.size;
+        lo = 0, hi = hz_gen_window_amplitude(b->gen);
+        sx = sy = d->spacing > 0 ? d->spacing : 10.0;
+    } else {
+        if (d->input_count == 0)
+            return hz_err_set(err, HZ_ERR_VALUE, "import: no input (give rasters, folders or --generate perlin)");
+        hz_dem_desc dd = {.paths = d->inputs, .path_count = d->input_count, .metric = true, .crs = d->crs,
+                          .spacing = d->spacing};
+        r = hz_io_src_open(&dd, &b->src, err);
+        if (r != HZ_OK)
+            return r;
+        hz_io_src_size(b->src, &b->W, &b->H);
+        const hz_georef *g = hz_io_src_georef(b->src);
+        if (g) {
+            hz_georef_spacing(g, &sx, &sy);
+            hz_georef_geotransform(g, in->geotransform);
+            const char *w = hz_georef_wkt(g);
+            b->wkt = w ? strdup(w) : NULL;
+        } else {
+            sx = sy = d->spacing > 0 ? d->spacing : 1.0;
+        }
+        integer = hz_io_src_integer16(b->src, &int_offset);
+        if (!integer || d->max_error > 0) {
+            r = hz_io_src_range(b->src, &lo, &hi, err);
+            if (r != HZ_OK)
+                return r;
+        }
+    }
+    if (b->W > 1048577u || b->H > 1048577u)
+        return hz_err_set(err, HZ_ERR_VALUE, "import: %ux%u samples; sides up to 1048577", b->W, b->H);
+    if (integer && d->max_error == 0.0) {
+        /* exact: one step per unit, the type's whole range */
+        b->scale = 1.0;
+        b->offset = int_offset;
+    } else {
+        const double range = hi > lo ? hi - lo : 1.0;
+        b->scale = range / 65535.0;
+        if (d->max_error > 0 && 2.0 * d->max_error > b->scale)
+            b->scale = 2.0 * d->max_error;
+        b->offset = lo;
+    }
+    double e;
+    b->fill = quant(b, b->offset <= 0.0 && b->offset + 65535.0 * b->scale >= 0.0 ? 0.0 : b->offset, &e);
+    uint32_t side = b->W > b->H ? b->W : b->H, N = P + 1;
+    while (N < side)
+        N = 2 * (N - 1) + 1;
+    while (N - 1 < T && N - 1 < P * 2) /* at least two levels */
+        N = 2 * (N - 1) + 1;
+    in->version = HZ_PYR_VERSION;
+    in->size = N;
+    in->data_w = b->W, in->data_h = b->H;
+    in->tile_cells = T, in->patch_cells = P;
+    uint32_t L = 0;
+    while (((uint64_t)P << L) < N - 1)
+        L++;
+    in->levels = L + 1;
+    if (in->levels > HZ_PYR_MAX_LEVELS)
+        return hz_err_set(err, HZ_ERR_VALUE, "import: %u levels exceed %u", in->levels, HZ_PYR_MAX_LEVELS);
+    in->spacing = sx < sy ? sx : sy;
+    in->h_scale = b->scale, in->h_offset = b->offset;
+    in->wkt = b->wkt ? b->wkt : "";
+    /* jobs */
+    const uint32_t c0 = hz_pyr_level_cells(in, 0);
+    b->S = (N - 1) < JOB_TILES * c0 ? N - 1 : JOB_TILES * c0;
+    b->J = 0;
+    while ((c0 << b->J) < b->S)
+        b->J++;
+    b->jobs_side = (N - 1) / b->S;
+    b->threads = d->threads ? d->threads : cpu_count();
+    return HZ_OK;
+}
+
+uint32_t hz_pyramid_jobs(const hz_pyr_import *d, hz_err *err)
+{
+    build b = {0};
+    uint32_t n = 0;
+    if (setup(&b, d, err) == HZ_OK)
+        n = b.jobs_side * b.jobs_side;
+    hz_io_src_close(b.src);
+    hz_gen_window_close(b.gen);
+    free(b.wkt);
+    return n;
 }
 
 hz_result hz_pyramid_import(const hz_pyr_import *d, hz_pyr_import_stats *stats, hz_err *err)
@@ -477,174 +875,89 @@ hz_result hz_pyramid_import(const hz_pyr_import *d, hz_pyr_import_stats *stats, 
     HZ_ASSERT(d && d->out);
     const double t0 = hz_time_ms();
     build b = {.d = d, .hmin = 65535, .hmax = 0};
-    pthread_mutex_init(&b.lock, NULL);
-    hz_result r = HZ_OK;
+    hz_result r = setup(&b, d, err);
     hz_pyr_info *in = &b.info;
-    char *wkt_copy = NULL;
-    const uint32_t T = d->tile_cells ? d->tile_cells : 256, P = d->patch_cells ? d->patch_cells : 8;
-    if (T < 16 || T > 4096 || (T & (T - 1)) || P < 2 || P > 64 || (P & (P - 1)) || P > T) {
-        r = hz_err_set(err, HZ_ERR_VALUE, "import: --tile %u must be a power of two in 16..4096 and the patch "
-                                          "cells %u a power of two in 2..min(64, tile)", T, P);
+    const uint32_t jobs = b.jobs_side * b.jobs_side;
+    uint32_t ja = 0, jz = jobs ? jobs - 1 : 0;
+    if (r == HZ_OK && d->tiles) {
+        unsigned a, z;
+        char tail;
+        if (d->finish)
+            r = hz_err_set(err, HZ_ERR_VALUE, "import: --tiles and --finish are separate steps");
+        else if (sscanf(d->tiles, "%u-%u%c", &a, &z, &tail) != 2 || a > z || z >= jobs)
+            r = hz_err_set(err, HZ_ERR_VALUE, "import: --tiles '%s': expected A-B with 0 <= A <= B <= %u (%u jobs)",
+                           d->tiles, jobs - 1, jobs);
+        else
+            ja = a, jz = z;
+    }
+    if (r == HZ_OK && d->tiles) {
+        r = write_part(&b, ja, jz, err);
         goto done;
     }
-    if (!(d->max_error >= 0.0 && d->max_error <= 1000.0)) {
-        r = hz_err_set(err, HZ_ERR_VALUE, "import: --max-error %g must be in [0, 1000] metres", d->max_error);
-        goto done;
+    /* the whole pyramid, or the finish of the parts */
+    const uint64_t gj_n = ((uint64_t)(in->size - 1) >> b.J) + 1;
+    const uint32_t sideJ = r == HZ_OK ? (in->size - 1) / (in->patch_cells << b.J) : 0;
+    const uint64_t need = gj_n * gj_n * 3 + (uint64_t)sideJ * sideJ * 6 * 2;
+    if (r == HZ_OK && need > hz_mem_budget_default())
+        r = hz_err_set(err, HZ_ERR_MEMORY, "import: the finish of a %ux%u map needs %.0f MB, more than the memory "
+                                           "budget", in->size, in->size, (double)need / 1e6);
+    if (r == HZ_OK) {
+        b.gj_n = (uint32_t)gj_n;
+        b.gj = malloc(gj_n * gj_n * sizeof *b.gj);
+        b.gjv = malloc(gj_n * gj_n);
+        if (!b.gj || !b.gjv || !narr_alloc(&b.nJ, 0, 0, sideJ, sideJ))
+            r = hz_err_set(err, HZ_ERR_MEMORY, "import: out of memory");
     }
-    /* the source */
-    double lo = 0, hi = 0, sx = 0, sy = 0;
-    bool integer = false;
-    if (d->generate) {
-        r = hz_gen_window_open(&d->gen, &b.gen, err);
-        if (r != HZ_OK)
-            goto done;
-        b.W = b.H = d->gen.size;
-        lo = 0, hi = hz_gen_window_amplitude(b.gen);
-        sx = sy = d->spacing > 0 ? d->spacing : 10.0;
+    if (r == HZ_OK)
+        r = hz_pyr_writer_open(d->out, in, &b.w, err);
+    if (r == HZ_OK && d->finish) {
+        r = read_parts(&b, jobs, err);
     } else {
-        if (d->input_count == 0) {
-            r = hz_err_set(err, HZ_ERR_VALUE, "import: no input (give rasters, folders or --generate perlin)");
-            goto done;
+        for (uint32_t job = 0; r == HZ_OK && job < jobs; job++) {
+            job_out o;
+            r = run_job(&b, job, &o, err);
+            for (size_t k = 0; r == HZ_OK && k < o.count; k++)
+                r = hz_pyr_writer_put(b.w, o.tasks[k].level, o.tasks[k].tx, o.tasks[k].tz, o.tasks[k].blob,
+                                      o.tasks[k].bytes, err);
+            if (r == HZ_OK)
+                gather(&b, &o, job);
+            job_out_free(&o);
+            if (r == HZ_OK && d->progress)
+                d->progress(d->progress_user, "import", job + 1, jobs);
         }
-        hz_dem_desc dd = {.paths = d->inputs, .path_count = d->input_count, .metric = true, .crs = d->crs,
-                          .spacing = d->spacing};
-        r = hz_io_src_open(&dd, &b.src, err);
-        if (r != HZ_OK)
-            goto done;
-        hz_io_src_size(b.src, &b.W, &b.H);
-        const hz_georef *g = hz_io_src_georef(b.src);
-        if (g) {
-            hz_georef_spacing(g, &sx, &sy);
-            hz_georef_geotransform(g, in->geotransform);
-            const char *w = hz_georef_wkt(g);
-            wkt_copy = w ? strdup(w) : NULL;
-        } else {
-            sx = sy = d->spacing > 0 ? d->spacing : 1.0;
-        }
-        integer = hz_io_src_is_integer16(b.src);
-        r = hz_io_src_range(b.src, &lo, &hi, err);
-        if (r != HZ_OK)
-            goto done;
     }
-    if (b.W > 1048577u || b.H > 1048577u) {
-        r = hz_err_set(err, HZ_ERR_VALUE, "import: %ux%u samples; sides up to 1048577", b.W, b.H);
-        goto done;
-    }
-    /* quantisation: whole metres of 16-bit integers stay exact */
-    if (integer && d->max_error == 0.0 && hi - lo <= 65535.0) {
-        b.scale = 1.0;
-        b.offset = floor(lo);
-    } else {
-        const double range = hi > lo ? hi - lo : 1.0;
-        b.scale = range / 65535.0;
-        if (d->max_error > 0 && 2.0 * d->max_error > b.scale)
-            b.scale = 2.0 * d->max_error;
-        b.offset = lo;
-    }
-    {
-        double e;
-        b.fill = quant(&b, (float)(lo > 0 ? lo : (hi < 0 ? hi : 0.0)), &e); /* sea level when in range */
-    }
-    /* geometry */
-    uint32_t side = b.W > b.H ? b.W : b.H, N = P + 1;
-    while (N < side)
-        N = 2 * (N - 1) + 1;
-    in->version = HZ_PYR_VERSION;
-    in->size = N;
-    in->data_w = b.W, in->data_h = b.H;
-    in->tile_cells = T, in->patch_cells = P;
-    uint32_t L = 0;
-    while (((uint64_t)P << L) < N - 1)
-        L++;
-    in->levels = L + 1;
-    if (in->levels > HZ_PYR_MAX_LEVELS) {
-        r = hz_err_set(err, HZ_ERR_VALUE, "import: %u levels exceed %u", in->levels, HZ_PYR_MAX_LEVELS);
-        goto done;
-    }
-    in->spacing = sx < sy ? sx : sy;
-    in->h_scale = b.scale, in->h_offset = b.offset;
-    in->wkt = wkt_copy ? wkt_copy : "";
-    b.c0 = hz_pyr_level_cells(in, 0);
-    b.cg_side = (N - 1) / b.c0 + 1;
-    uint64_t node_bytes = 0;
-    for (uint32_t s = 0; s < in->levels; s++) {
-        b.side[s] = (N - 1) / (P << s);
-        node_bytes += (uint64_t)b.side[s] * b.side[s] * 6;
-    }
-    const uint64_t budget = hz_mem_budget_default();
-    if (node_bytes + (uint64_t)b.cg_side * b.cg_side * 2 > budget) {
-        r = hz_err_set(err, HZ_ERR_MEMORY, "import: the LOD bounds of a %ux%u map take %.0f MB, more than the memory "
-                                           "budget (%.0f MB)", N, N, (double)node_bytes / 1e6, (double)budget / 1e6);
-        goto done;
-    }
-    for (uint32_t s = 0; s < in->levels; s++) {
-        const size_t m = (size_t)b.side[s] * b.side[s];
-        b.nd[s] = malloc(m * 3 * sizeof(uint16_t));
-        if (!b.nd[s]) {
-            r = hz_err_set(err, HZ_ERR_MEMORY, "import: out of memory for the LOD bounds");
-            goto done;
-        }
-        b.mn[s] = b.nd[s] + m, b.mx[s] = b.nd[s] + 2 * m;
-    }
-    b.cg = calloc((size_t)b.cg_side * b.cg_side, sizeof *b.cg);
-    if (!b.cg) {
-        r = hz_err_set(err, HZ_ERR_MEMORY, "import: out of memory");
-        goto done;
-    }
-    b.threads = d->threads ? d->threads : cpu_count();
-    const uint64_t m0 = hz_pyr_level_tiles(in, 0);
-    b.leaves_total = m0 * m0;
-    const uint32_t top = in->levels - 1;
-    for (b.pass = 1; b.pass <= 2 && r == HZ_OK; b.pass++) {
-        if (b.pass == 2) {
-            dilate(&b);
+    if (r == HZ_OK)
+        r = finish_levels(&b, err);
+    if (b.w) {
+        if (r == HZ_OK) {
             in->h_min = b.hmin <= b.hmax ? b.hmin : 0;
             in->h_max = b.hmin <= b.hmax ? b.hmax : 0;
             in->max_error = b.max_err;
             in->nodata = b.nodata;
-            r = hz_pyr_writer_open(d->out, in, &b.w, err);
-            if (r != HZ_OK)
-                break;
-        }
-        b.leaves_done = 0;
-        tile_res root;
-        walk(&b, top, 0, 0, &root);
-        res_free(&root);
-        if (b.res != HZ_OK) {
-            r = b.res;
-            if (err)
-                *err = b.first;
-        }
-    }
-    if (b.w) {
-        if (r == HZ_OK) {
             r = hz_pyr_writer_finish(b.w, in, err);
         } else {
             hz_pyr_writer_abort(b.w);
         }
         b.w = NULL;
     }
+done:
     if (r == HZ_OK && stats) {
-        *stats = (hz_pyr_import_stats){.samples = (uint64_t)N * N, .max_error = b.max_err};
+        *stats = (hz_pyr_import_stats){.samples = (uint64_t)in->size * in->size, .max_error = b.max_err};
         hz_pyramid *p = NULL;
         hz_err e2 = {0};
-        if (hz_pyramid_open(d->out, &p, &e2) == HZ_OK) {
+        if (!d->tiles && hz_pyramid_open(d->out, &p, &e2) == HZ_OK) {
             stats->tiles = hz_pyramid_info(p)->tiles;
             stats->bytes = hz_pyramid_info(p)->file_bytes;
             hz_pyramid_close(p);
         }
     }
-done:
     if (stats)
         stats->ms = hz_time_ms() - t0;
-    for (uint32_t s = 0; s < HZ_PYR_MAX_LEVELS; s++)
-        free(b.nd[s]);
-    free(b.cg);
-    free(wkt_copy);
-    if (b.src)
-        hz_io_src_close(b.src);
-    if (b.gen)
-        hz_gen_window_close(b.gen);
-    pthread_mutex_destroy(&b.lock);
+    free(b.gj);
+    free(b.gjv);
+    narr_free(&b.nJ);
+    free(b.wkt);
+    hz_io_src_close(b.src);
+    hz_gen_window_close(b.gen);
     return r;
 }

@@ -35,7 +35,10 @@ typedef struct slot {
     int state;
     uint64_t used;        /* frame of last use */
     uint32_t k;           /* nodes per side */
-    uint16_t *nd, *mn, *mx; /* k^2 each */
+    uint16_t *nd;         /* (k+2)^2: bounds of its nodes and of the ring around it */
+    uint16_t *mn, *mx;    /* k^2 each */
+    int32_t anc[HZ_PYR_MAX_LEVELS]; /* slots of its ancestors by level (-1: none) */
+    uint32_t children;    /* slots of its child tiles in use (it is not evicted while > 0) */
     uint8_t *flags;       /* k^2 */
     uint16_t *texels;     /* while READY */
     uint16_t *h;          /* (c+1)^2 heights (height queries) */
@@ -128,51 +131,59 @@ static inline uint32_t log2u(uint32_t v)
     return r;
 }
 
-/* The morph range (h16 steps) of level-0 sample (X, Z) from the bounds of the
- * nodes whose split brings it in, as the import stored them in t->qtab. */
-static uint16_t sample_q(const hz_stream *s, const hz_pyr_tile *t, const uint32_t *qoff, uint32_t X, uint32_t Z)
+/* The morph range (h16 steps) of level-0 sample (X, Z): the smallest bound of
+ * the one or two nodes whose split brings it in, from the ancestor tile of
+ * that level (its nodes and their ring). */
+static uint16_t sample_q(const hz_stream *s, const slot *q, uint32_t X, uint32_t Z)
 {
-    const uint32_t b = low_bit(X | Z);
     if ((X | Z) == 0)
         return NEVER;
-    const uint32_t sh = log2u(b) + 1;
-    if (sh >= s->info.levels || sh <= t->level)
+    const uint32_t sh = log2u(low_bit(X | Z)) + 1, top = s->info.levels - 1;
+    if (sh > top || sh <= q->level || q->anc[sh] < 0)
         return NEVER;
-    const uint32_t G = s->info.patch_cells << sh, side = s->side[sh];
-    uint32_t a, e, f, g;
-    hz_pyr_qtab_range(&s->info, t->level, t->tx, t->tz, sh, &a, &e, &f, &g);
-    const uint16_t *tab = t->qtab + qoff[sh];
-    const uint32_t w = e - a + 1;
+    const slot *A = &s->slots[q->anc[sh]];
+    const uint32_t G = s->info.patch_cells << sh, side = s->side[sh], kA = A->k;
+    const int64_t ox = (int64_t)A->tx * kA, oz = (int64_t)A->tz * kA;
     uint32_t cx[2] = {X / G, X / G}, cz[2] = {Z / G, Z / G};
     if (X % G == 0 && cx[0] > 0)
         cx[0]--;
     if (Z % G == 0 && cz[0] > 0)
         cz[0]--;
-    uint16_t q = NEVER;
+    uint16_t r = NEVER;
     for (int u = 0; u < 2; u++)
         for (int v = 0; v < 2; v++) {
-            const uint32_t x = cx[u], z = cz[v];
-            if (x >= side || z >= side || x < a || x > e || z < f || z > g)
+            if (cx[u] >= side || cz[v] >= side)
                 continue;
-            const uint16_t d = tab[(z - f) * w + (x - a)];
-            q = d < q ? d : q;
+            const int64_t lx = (int64_t)cx[u] - ox, lz = (int64_t)cz[v] - oz;
+            if (lx < -1 || lz < -1 || lx > kA || lz > kA)
+                continue;
+            const uint16_t d = A->nd[(size_t)(lz + 1) * (kA + 2) + (size_t)(lx + 1)];
+            r = d < r ? d : r;
         }
-    return q;
+    return r;
 }
 
-static uint16_t *build_texels(const hz_stream *s, const hz_pyr_tile *t)
+/* Height (h16) of level-0 sample (X, Z) from slot q's tile, if it holds it. */
+static bool slot_h(const hz_stream *s, const slot *q, uint32_t X, uint32_t Z, uint32_t *h)
+{
+    const uint32_t l = q->level, c = hz_pyr_level_cells(&s->info, l);
+    const uint32_t x0 = (q->tx * c) << l, z0 = (q->tz * c) << l;
+    if (X < x0 || Z < z0 || ((X - x0) & ((1u << l) - 1)) || ((Z - z0) & ((1u << l) - 1)))
+        return false;
+    const uint32_t a = (X - x0) >> l, b = (Z - z0) >> l;
+    if (a > c || b > c)
+        return false;
+    *h = q->h[(size_t)b * (c + 1) + a];
+    return true;
+}
+
+static uint16_t *build_texels(const hz_stream *s, const slot *q, const hz_pyr_tile *t)
 {
     const uint32_t c = t->cells, n = c + 1, T1 = s->T + 1, N = s->info.size, l = t->level;
+    const uint32_t top = s->info.levels - 1;
     uint16_t *tex = calloc((size_t)T1 * T1 * 4, sizeof *tex);
     if (!tex)
         return NULL;
-    uint32_t qoff[HZ_PYR_MAX_LEVELS] = {0}, acc = 0;
-    for (uint32_t sh = l + 1; sh < s->info.levels; sh++) {
-        uint32_t a, e, f, g;
-        hz_pyr_qtab_range(&s->info, l, t->tx, t->tz, sh, &a, &e, &f, &g);
-        qoff[sh] = acc;
-        acc += (e - a + 1) * (g - f + 1);
-    }
     for (uint32_t b = 0; b < n; b++)
         for (uint32_t a = 0; a < n; a++) {
             const uint32_t X = t->x0 + (a << l), Z = t->z0 + (b << l);
@@ -180,26 +191,30 @@ static uint16_t *build_texels(const hz_stream *s, const hz_pyr_tile *t)
             uint32_t t2 = 2u * t->h[k];
             uint32_t ni[2], nj[2];
             if (hz__morph_neighbours(N, X, Z, ni, nj)) {
+                uint32_t la[2], lb[2];
                 bool inside = true;
-                uint32_t loc[4];
-                for (int q = 0; q < 2 && inside; q++) {
-                    if (ni[q] < t->x0 || nj[q] < t->z0) {
-                        inside = false;
-                        break;
-                    }
-                    loc[2 * q] = (ni[q] - t->x0) >> l;
-                    loc[2 * q + 1] = (nj[q] - t->z0) >> l;
-                    inside = loc[2 * q] <= c && loc[2 * q + 1] <= c;
+                for (int e = 0; e < 2 && inside; e++) {
+                    inside = ni[e] >= t->x0 && nj[e] >= t->z0 && ((ni[e] - t->x0) >> l) <= c &&
+                             ((nj[e] - t->z0) >> l) <= c;
+                    if (inside)
+                        la[e] = (ni[e] - t->x0) >> l, lb[e] = (nj[e] - t->z0) >> l;
                 }
                 if (inside) {
-                    t2 = (uint32_t)t->h[(size_t)loc[1] * n + loc[0]] + t->h[(size_t)loc[3] * n + loc[2]];
-                } else if ((a == 0 || a == c) && (b == 0 || b == c)) {
-                    t2 = t->corner_t2[(a ? 1 : 0) + (b ? 2 : 0)];
+                    t2 = (uint32_t)t->h[(size_t)lb[0] * n + la[0]] + t->h[(size_t)lb[1] * n + la[1]];
+                } else {
+                    /* a tile corner: its neighbours are on the grid of the
+                     * level of its lowest bit, where an ancestor holds them */
+                    uint32_t L = log2u(low_bit(X | Z));
+                    L = L > top ? top : L;
+                    uint32_t h0, h1;
+                    if (L > l && q->anc[L] >= 0 && slot_h(s, &s->slots[q->anc[L]], ni[0], nj[0], &h0) &&
+                        slot_h(s, &s->slots[q->anc[L]], ni[1], nj[1], &h1))
+                        t2 = h0 + h1;
                 }
             }
             uint16_t *o = tex + ((size_t)b * T1 + a) * 4;
             o[0] = t->h[k];
-            o[1] = sample_q(s, t, qoff, X, Z);
+            o[1] = sample_q(s, q, X, Z);
             o[2] = (uint16_t)(t2 & 0xffffu);
             o[3] = (uint16_t)((t2 >> 16) | (t->valid && !t->valid[k] ? 2u : 0u));
         }
@@ -229,14 +244,12 @@ static void load_one(hz_stream *s, uint32_t k)
     hz_result r = hz_pyramid_read_tile(s->pyr, q->level, q->tx, q->tz, &t, &e);
     uint16_t *tex = NULL, *nd = NULL, *h = NULL;
     if (r == HZ_OK) {
-        tex = build_texels(s, &t);
-        const size_t kk = (size_t)t.nodes * t.nodes;
-        nd = malloc(kk * 3 * sizeof *nd + kk);
+        tex = build_texels(s, q, &t);
+        const size_t kk = (size_t)t.nodes * t.nodes, k2 = (size_t)(t.nodes + 2) * (t.nodes + 2);
+        nd = malloc((k2 + 2 * kk) * sizeof *nd + kk);
         h = malloc((size_t)(t.cells + 1) * (t.cells + 1) * sizeof *h);
         if (tex && nd && h) {
-            memcpy(nd, t.node_delta, kk * sizeof *nd);
-            memcpy(nd + kk, t.node_min, kk * sizeof *nd);
-            memcpy(nd + 2 * kk, t.node_max, kk * sizeof *nd);
+            memcpy(nd, t.node_delta, (k2 + 2 * kk) * sizeof *nd);
             memcpy(h, t.h, (size_t)(t.cells + 1) * (t.cells + 1) * sizeof *h);
         } else {
             r = hz_err_set(&e, HZ_ERR_MEMORY, "out of memory loading a tile");
@@ -245,8 +258,8 @@ static void load_one(hz_stream *s, uint32_t k)
     }
     pthread_mutex_lock(&s->lock);
     if (r == HZ_OK) {
-        const size_t kk = (size_t)q->k * q->k;
-        q->nd = nd, q->mn = nd + kk, q->mx = nd + 2 * kk, q->flags = (uint8_t *)(nd + 3 * kk);
+        const size_t kk = (size_t)q->k * q->k, k2 = (size_t)(q->k + 2) * (q->k + 2);
+        q->nd = nd, q->mn = nd + k2, q->mx = nd + k2 + kk, q->flags = (uint8_t *)(nd + k2 + 2 * kk);
         memset(q->flags, 0, kk);
         q->texels = tex;
         q->h = h;
@@ -578,6 +591,17 @@ static hz_result split_node(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool 
     return HZ_OK;
 }
 
+static void release(hz_stream *s, slot *q)
+{
+    if (q->level + 1 < s->info.levels && q->anc[q->level + 1] >= 0) {
+        slot *p = &s->slots[q->anc[q->level + 1]];
+        if (p->children > 0)
+            p->children--;
+    }
+    slot_clear(q);
+    q->state = SLOT_FREE;
+}
+
 /* The next requests to load, best first; cancels waiting ones that fell out. */
 static void issue_requests(hz_stream *s)
 {
@@ -590,7 +614,7 @@ static void issue_requests(hz_stream *s)
             s->queue[keep++] = s->queue[k];
         } else {
             q->queued = false;
-            q->state = SLOT_FREE;
+            release(s, q);
         }
     }
     bool rehash = keep != s->qn;
@@ -605,8 +629,19 @@ static void issue_requests(hz_stream *s)
         }
         s->reqs[b] = v;
     }
+    const uint32_t top = s->info.levels - 1;
     for (size_t r = 0; r < s->nreq && s->qn + s->busy < MAX_INFLIGHT; r++) {
-        /* a free slot, else the least recently used resident one not used this frame */
+        const req *rq = &s->reqs[r];
+        /* its parent must be resident: the loader derives the morph data
+         * from the ancestors, which stay while a child is in use */
+        int32_t parent = -1;
+        if (rq->level < top) {
+            parent = find_slot(s, rq->level + 1, rq->tx / 2, rq->tz / 2);
+            if (parent < 0 || s->slots[parent].state != SLOT_RESIDENT)
+                continue;
+        }
+        /* a free slot, else the least recently used resident (or failed)
+         * one, not used this frame, with no child in use */
         int64_t best = -1;
         for (uint32_t k = 0; k < s->nslots; k++) {
             const slot *q = &s->slots[k];
@@ -614,7 +649,8 @@ static void issue_requests(hz_stream *s)
                 best = k;
                 break;
             }
-            if (q->state == SLOT_RESIDENT && q->used != s->frame && (best < 0 || q->used < s->slots[best].used))
+            if ((q->state == SLOT_RESIDENT || q->state == SLOT_FAILED) && q->used != s->frame && q->children == 0 &&
+                (int64_t)k != parent && (best < 0 || q->used < s->slots[best].used))
                 best = k;
         }
         if (best < 0)
@@ -622,10 +658,18 @@ static void issue_requests(hz_stream *s)
         slot *q = &s->slots[best];
         if (q->state == SLOT_RESIDENT)
             s->st.evicted++;
-        slot_clear(q);
-        *q = (slot){.level = s->reqs[r].level, .tx = s->reqs[r].tx, .tz = s->reqs[r].tz, .state = SLOT_LOADING,
-                    .used = s->frame, .prio = s->reqs[r].prio, .queued = true,
-                    .k = hz_pyr_level_cells(&s->info, s->reqs[r].level) / s->info.patch_cells};
+        if (q->state != SLOT_FREE)
+            release(s, q);
+        *q = (slot){.level = rq->level, .tx = rq->tx, .tz = rq->tz, .state = SLOT_LOADING, .used = s->frame,
+                    .prio = rq->prio, .queued = true, .k = hz_pyr_level_cells(&s->info, rq->level) / s->info.patch_cells};
+        for (uint32_t L = 0; L < HZ_PYR_MAX_LEVELS; L++)
+            q->anc[L] = -1;
+        if (parent >= 0) {
+            slot *p = &s->slots[parent];
+            memcpy(q->anc, p->anc, sizeof q->anc);
+            q->anc[rq->level + 1] = parent;
+            p->children++;
+        }
         s->queue[s->qn++] = (uint32_t)best;
         s->st.requested++;
         rehash = true;
@@ -753,7 +797,8 @@ hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_para
                 slot *q = node_slot(s, sh, ix, iz, &li);
                 vec3 box[2];
                 node_box(&c, q, li, sh, ix, iz, box);
-                const float range = c.lambda * (float)q->nd[li] * c.hsw;
+                const float range =
+                    c.lambda * (float)q->nd[(li / q->k + 1) * (q->k + 2) + li % q->k + 1] * c.hsw;
                 const float d2 = box_distance2((const vec3 *)box, cam->pos);
                 if (d2 < PREFETCH * PREFETCH * range * range) {
                     const float d = sqrtf(d2);
