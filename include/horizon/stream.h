@@ -53,6 +53,8 @@ hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_para
  * tile is used from the next selection on. False when none waits. */
 bool hz_stream_next_upload(hz_stream *s, uint32_t *slot, const uint16_t **texels);
 void hz_stream_uploaded(hz_stream *s, uint32_t slot);
+/* The tile a slot holds (level, column, row). */
+void hz_stream_tile_key(const hz_stream *s, uint32_t slot, uint32_t *level, uint32_t *tx, uint32_t *tz);
 
 /* Blocks until no request is waiting or loading (single images, tests). */
 void hz_stream_wait(hz_stream *s);

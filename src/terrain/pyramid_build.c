@@ -665,9 +665,12 @@ static hz_result read_parts(build *b, uint32_t jobs, hz_err *err)
         qsort(parts, np, sizeof *parts, cmp_part);
     uint32_t expect = 0;
     for (size_t k = 0; r == HZ_OK && k < np; k++) {
-        if (parts[k].a != expect || parts[k].z < parts[k].a || parts[k].z >= jobs)
+        if (parts[k].a > expect && parts[k].z < jobs)
+            r = hz_err_set(err, HZ_ERR_VALUE, "--finish: jobs %u..%u of '%s' are missing (run --tiles %u-%u)",
+                           expect, parts[k].a - 1, out, expect, parts[k].a - 1);
+        else if (parts[k].a != expect || parts[k].z < parts[k].a || parts[k].z >= jobs)
             r = hz_err_set(err, HZ_ERR_VALUE,
-                           "--finish: the parts of '%s' do not cover jobs 0..%u once (at job %u: %s)", out,
+                           "--finish: the parts of '%s' overlap or exceed jobs 0..%u (at job %u: %s)", out,
                            jobs - 1, expect, parts[k].path);
         else
             expect = parts[k].z + 1;
@@ -724,24 +727,24 @@ static hz_result read_parts(build *b, uint32_t jobs, hz_err *err)
                 r = hz_pyr_writer_put(b->w, l, tx, tz, blob, n, err);
                 if (r == HZ_OK && l == b->J) {
                     /* its level-J data for the levels above */
-                    hz_pyr_tile t;
-                    r = hz_pyr_decode_blob(&b->info, l, tx, tz, blob, n, &t, err);
+                    hz_pyr_tile pt;
+                    r = hz_pyr_decode_blob(&b->info, l, tx, tz, blob, n, &pt, err);
                     if (r == HZ_OK) {
-                        const uint32_t c = t.cells, nn = c + 1;
+                        const uint32_t c = pt.cells, nn = c + 1;
                         for (uint32_t bz = 0; bz < nn; bz++)
                             for (uint32_t a = 0; a < nn; a++) {
                                 const size_t dst = (size_t)(tz * c + bz) * b->gj_n + tx * c + a;
-                                b->gj[dst] = t.h[(size_t)bz * nn + a];
-                                b->gjv[dst] = t.valid ? t.valid[(size_t)bz * nn + a] : 1;
+                                b->gj[dst] = pt.h[(size_t)bz * nn + a];
+                                b->gjv[dst] = pt.valid ? pt.valid[(size_t)bz * nn + a] : 1;
                             }
                         for (uint32_t zi = 0; zi < kJ; zi++)
                             for (uint32_t xi = 0; xi < kJ; xi++) {
                                 const size_t dst = narr_at(&b->nJ, tx * kJ + xi, tz * kJ + zi);
-                                b->nJ.d[dst] = t.node_delta[(size_t)(zi + 1) * (kJ + 2) + xi + 1];
-                                b->nJ.mn[dst] = t.node_min[(size_t)zi * kJ + xi];
-                                b->nJ.mx[dst] = t.node_max[(size_t)zi * kJ + xi];
+                                b->nJ.d[dst] = pt.node_delta[(size_t)(zi + 1) * (kJ + 2) + xi + 1];
+                                b->nJ.mn[dst] = pt.node_min[(size_t)zi * kJ + xi];
+                                b->nJ.mx[dst] = pt.node_max[(size_t)zi * kJ + xi];
                             }
-                        hz_pyr_tile_free(&t);
+                        hz_pyr_tile_free(&pt);
                     }
                 }
             }

@@ -849,6 +849,14 @@ void hz_stream_uploaded(hz_stream *s, uint32_t k)
     pthread_mutex_unlock(&s->lock);
 }
 
+void hz_stream_tile_key(const hz_stream *s, uint32_t k, uint32_t *level, uint32_t *tx, uint32_t *tz)
+{
+    const slot *q = &s->slots[k < s->nslots ? k : 0];
+    *level = q->level;
+    *tx = q->tx;
+    *tz = q->tz;
+}
+
 void hz_stream_wait(hz_stream *s)
 {
     if (!s->has_thread)

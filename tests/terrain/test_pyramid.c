@@ -240,12 +240,131 @@ static void test_stream_crack_free_while_tiles_missing(void **state)
     hz_stream_destroy(s);
 }
 
+static bool same_bytes(const char *a, const char *b)
+{
+    FILE *f = fopen(a, "rb"), *g = fopen(b, "rb");
+    bool same = f && g;
+    while (same) {
+        int x = fgetc(f), y = fgetc(g);
+        same = x == y;
+        if (x == EOF || y == EOF)
+            break;
+    }
+    if (f)
+        fclose(f);
+    if (g)
+        fclose(g);
+    return same;
+}
+
+/* Jobs run apart (--tiles) and joined (--finish) give the one-run file. */
+static void test_jobs_byte_identical(void **state)
+{
+    (void)state;
+    char one[600], many[600];
+    snprintf(one, sizeof one, "%s/pyr_one.hzp", HZ_TEST_TMP);
+    snprintf(many, sizeof many, "%s/pyr_many.hzp", HZ_TEST_TMP);
+    const char *ins[] = {tif};
+    hz_err err = {0};
+    hz_pyr_import d = {.out = one, .inputs = ins, .input_count = 1, .tile_cells = 16, .threads = 2};
+    assert_int_equal(hz_pyramid_jobs(&d, &err), 16);
+    assert_int_equal(hz_pyramid_import(&d, NULL, &err), HZ_OK);
+    d.out = many;
+    d.threads = 1;
+    /* out of order, uneven ranges */
+    const char *ranges[] = {"6-15", "0-0", "1-5"};
+    for (int k = 0; k < 3; k++) {
+        d.tiles = ranges[k];
+        assert_int_equal(hz_pyramid_import(&d, NULL, &err), HZ_OK);
+    }
+    d.tiles = NULL;
+    /* a missing part is named */
+    char part[700];
+    snprintf(part, sizeof part, "%s.part-000001-000005", many);
+    char hold[760];
+    snprintf(hold, sizeof hold, "%s.held", part);
+    assert_int_equal(rename(part, hold), 0);
+    d.finish = true;
+    assert_int_not_equal(hz_pyramid_import(&d, NULL, &err), HZ_OK);
+    assert_non_null(strstr(err.msg, "missing"));
+    assert_int_equal(rename(hold, part), 0);
+    assert_int_equal(hz_pyramid_import(&d, NULL, &err), HZ_OK);
+    assert_true(same_bytes(one, many));
+    assert_int_not_equal(access(part, F_OK), 0); /* the parts are gone */
+    hz_pyramid *p;
+    assert_int_equal(hz_pyramid_open(many, &p, &err), HZ_OK);
+    uint64_t bad = 9;
+    assert_int_equal(hz_pyramid_verify(p, &bad, NULL, NULL, &err), HZ_OK);
+    assert_int_equal(bad, 0);
+    hz_pyramid_close(p);
+    unlink(one);
+    unlink(many);
+}
+
+/* The morph data of a sample is the same in every tile that holds it (else
+ * a morphing vertex would open a crack between two patches). */
+static void test_texels_agree_across_tiles(void **state)
+{
+    (void)state;
+    hz_err err = {0};
+    hz_stream *s = hz_stream_create(&(hz_stream_desc){.path = hzp, .cache_bytes = 1ull << 30, .synchronous = true},
+                                    &err);
+    assert_non_null(s);
+    const hz_pyr_info *in = hz_stream_info(s);
+    const uint32_t N = in->size;
+    uint32_t *seen = calloc((size_t)N * N, sizeof *seen); /* q | t2 << 16 packed as q + 1 */
+    uint32_t *seen_t2 = calloc((size_t)N * N, sizeof *seen_t2);
+    hz_patch_list pl = {0};
+    uint64_t compared = 0, tiles = 0;
+    for (uint32_t f = 0; f < 40; f++) {
+        const float u = (float)f / 39.0f;
+        hz_camera cam = {.pos = {30.0f * (20.0f + 600.0f * u), 300.0f, 30.0f * (20.0f + 450.0f * u)},
+                         .yaw = 135.0f, .pitch = -20.0f, .fov_y = 60.0f, .aspect = 16.0f / 9.0f, .znear = 1.0f,
+                         .zfar = 60000.0f};
+        hz_stream_select(s, &cam, &(hz_lod_params){.mode = HZ_LOD_CDLOD, .pixel_error = 0.25f}, &pl, NULL);
+        uint32_t slot;
+        const uint16_t *tex;
+        while (hz_stream_next_upload(s, &slot, &tex)) {
+            /* which tile: find it among the patches is not possible before use;
+             * the texels carry the heights, so match samples by the info */
+            tiles++;
+            uint32_t l, tx, tz;
+            hz_stream_tile_key(s, slot, &l, &tx, &tz);
+            const uint32_t c = hz_pyr_level_cells(in, l), T1 = hz_stream_texels(s);
+            for (uint32_t b = 0; b <= c; b++)
+                for (uint32_t a = 0; a <= c; a++) {
+                    const uint32_t X = ((tx * c) << l) + (a << l), Z = ((tz * c) << l) + (b << l);
+                    const uint16_t *o = tex + ((size_t)b * T1 + a) * 4;
+                    const size_t k = (size_t)Z * N + X;
+                    const uint32_t t2 = o[2] | ((uint32_t)(o[3] & 1u) << 16);
+                    if (seen[k]) {
+                        assert_int_equal(seen[k], (uint32_t)o[1] + 1u);
+                        assert_int_equal(seen_t2[k], t2);
+                        compared++;
+                    } else {
+                        seen[k] = (uint32_t)o[1] + 1u;
+                        seen_t2[k] = t2;
+                    }
+                }
+            hz_stream_uploaded(s, slot);
+        }
+    }
+    assert_true(tiles > 20);
+    assert_true(compared > 10000);
+    free(seen);
+    free(seen_t2);
+    free(pl.data);
+    hz_stream_destroy(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_round_trip_exact),
         cmocka_unit_test(test_corrupt_and_truncated),
         cmocka_unit_test(test_stream_crack_free_while_tiles_missing),
+        cmocka_unit_test(test_jobs_byte_identical),
+        cmocka_unit_test(test_texels_agree_across_tiles),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }
