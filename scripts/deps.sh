@@ -11,6 +11,7 @@ PKGS=(
   libpng-dev zlib1g-dev
   libzstd-dev libxxhash-dev  # terrain pyramids: tile compression and checksums
   libjansson-dev       # JSON written by the commands
+  parallel             # make test: pyramid import jobs run side by side
   libgdal-dev          # DEM reading (GeoTIFF, SRTM, ENVI, ASCII grid, VRT), mosaics, reprojection (PROJ)
   libcmocka-dev        # unit tests
   python3              # CLI tests check JSON output

@@ -72,9 +72,11 @@ int cmd_import(int argc, char **argv)
         {"crs", required_argument, 0, 'c'},     {"max-error", required_argument, 0, 'e'},
         {"tile", required_argument, 0, 't'},    {"threads", required_argument, 0, 'j'},
         {"json", no_argument, 0, 'J'},          {"quiet", no_argument, 0, 'q'},
-        {"help", no_argument, 0, 'h'},          {0, 0, 0, 0}};
+        {"tiles", required_argument, 0, 'T'},   {"finish", no_argument, 0, 'F'},
+        {"jobs", no_argument, 0, 'N'},          {"help", no_argument, 0, 'h'},
+        {0, 0, 0, 0}};
     hz_pyr_import d = {0};
-    bool json = false, quiet = false;
+    bool json = false, quiet = false, jobs = false;
     double v;
     optind = 2;
     opterr = 1;
@@ -100,6 +102,9 @@ int cmd_import(int argc, char **argv)
         case 'j': if (!num("--threads", optarg, 1, 64, &v)) return 2; d.threads = (uint32_t)v; break;
         case 'J': json = true; break;
         case 'q': quiet = true; break;
+        case 'T': d.tiles = optarg; break;
+        case 'F': d.finish = true; break;
+        case 'N': jobs = true; break;
         case 'h':
             fprintf(stderr,
                     "usage: horizon import IN... --out NAME.hzp [options]\n"
@@ -116,6 +121,11 @@ int cmd_import(int argc, char **argv)
                     "                          integer input, else range / 131070)\n"
                     "  --tile N                cells per tile side, power of two (default 256)\n"
                     "  --threads N             default every core\n"
+                    "  --jobs                  print how many independent jobs the import splits into\n"
+                    "  --tiles A-B             run jobs A..B only (0-based), writing NAME.hzp.part-A-B; run\n"
+                    "                          the ranges anywhere (GNU parallel, Slurm, Kubernetes), then\n"
+                    "  --finish                join every part into NAME.hzp (same inputs and options):\n"
+                    "                          the same bytes as a single run\n"
                     "  --json                  figures as JSON on stdout\n"
                     "  --quiet                 no progress\n");
             return 0;
@@ -146,11 +156,25 @@ int cmd_import(int argc, char **argv)
     d.progress_user = &quiet;
     hz_pyr_import_stats st = {0};
     hz_err err = {0};
+    if (jobs) {
+        const uint32_t n = hz_pyramid_jobs(&d, &err);
+        if (!n) {
+            fprintf(stderr, "horizon import: %s\n", err.msg);
+            return 1;
+        }
+        printf("%u\n", n);
+        return 0;
+    }
     if (hz_pyramid_import(&d, &st, &err) != HZ_OK) {
         fprintf(stderr, "horizon import: %s\n", err.msg);
         return 1;
     }
     const double bps = st.samples ? (double)st.bytes / (double)st.samples : 0;
+    if (d.tiles) {
+        if (!quiet)
+            printf("%s: jobs %s written as a part (%.1f s); join with --finish\n", d.out, d.tiles, st.ms / 1000.0);
+        return 0;
+    }
     if (json) {
         json_t *o = json_object();
         json_object_set_new(o, "out", json_string(d.out));
@@ -216,12 +240,11 @@ int pyramid_info(const char *path, bool verify, bool json)
         json_object_set_new(o, "bytes_per_sample",
                             json_real((double)in->file_bytes / ((double)in->data_w * in->data_h)));
         json_object_set_new(o, "crs", g ? json_string(hz_georef_label(g)) : json_null());
-        if (has_geo) {
-            json_t *c = json_array();
-            for (int k = 0; k < 4; k++)
-                json_array_append_new(c, json_pack("[f,f]", corners[k][0], corners[k][1]));
-            json_object_set_new(o, "corners_lonlat", c);
-        }
+        if (has_geo) /* as horizon info prints DEMs */
+            json_object_set_new(o, "corners_lonlat",
+                                json_pack("{s:[f,f],s:[f,f],s:[f,f],s:[f,f]}", "nw", corners[0][0], corners[0][1], "ne",
+                                          corners[1][0], corners[1][1], "se", corners[2][0], corners[2][1], "sw",
+                                          corners[3][0], corners[3][1]));
         if (verify) {
             json_object_set_new(o, "verified", json_boolean(vr == HZ_OK));
             json_object_set_new(o, "bad_tiles", json_integer((json_int_t)bad));
@@ -238,7 +261,7 @@ int pyramid_info(const char *path, bool verify, bool json)
         if (g)
             printf("  CRS %s\n", hz_georef_label(g));
         if (has_geo)
-            printf("  corners lon/lat: NW %.7f %.7f  NE %.7f %.7f  SW %.7f %.7f  SE %.7f %.7f\n", corners[0][0],
+            printf("  corners lon/lat: NW %.7f %.7f  NE %.7f %.7f  SE %.7f %.7f  SW %.7f %.7f\n", corners[0][0],
                    corners[0][1], corners[1][0], corners[1][1], corners[2][0], corners[2][1], corners[3][0],
                    corners[3][1]);
         if (verify)
@@ -416,6 +439,10 @@ int stream_render(int argc, char **argv)
     if (o.have_camera) {
         cam.pos[0] = o.camera[0], cam.pos[1] = o.camera[1], cam.pos[2] = o.camera[2];
         cam.yaw = o.camera[3], cam.pitch = o.camera[4];
+        /* the far plane follows the camera's height */
+        const float hmin = (float)(in->h_offset + in->h_scale * in->h_min);
+        const float ext = (float)((in->data_w > in->data_h ? in->data_w : in->data_h) * in->spacing);
+        cam.zfar = 1.5f * ext + fmaxf(0.0f, cam.pos[1] - hmin);
     }
     /* One image: load until the selection asks for nothing more. */
     hz_lod_stats st = {0};
@@ -637,10 +664,11 @@ int stream_bench(int argc, char **argv)
         cam.aspect = (float)o.width / (float)o.height;
         const double t0 = hz_time_ms();
         hz_lod_stats st = {0};
-        if (hz_stream_select(c.s, &cam, &c.lp, &c.pl, &st) != HZ_OK)
-            goto done;
+        /* what arrived since the last frame first, then the selection over it */
         uint32_t n;
         if (upload_ready(&c, &n))
+            goto done;
+        if (hz_stream_select(c.s, &cam, &c.lp, &c.pl, &st) != HZ_OK)
             goto done;
         hz_scene_params sp = {.patches = c.pl.data, .patch_count = (uint32_t)c.pl.count,
                               .morph_scale = st.morph_scale, .morph_start = st.morph_start};

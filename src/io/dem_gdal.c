@@ -526,6 +526,10 @@ struct hz_io_src {
 hz_result hz_io_src_open(const hz_dem_desc *d, hz_io_src **out, hz_err *err)
 {
     gdal_init();
+    /* Windows are read once each: GDAL's block cache need not grow to its
+     * default (5 % of RAM) and would only raise the import's footprint. */
+    if (GDALGetCacheMax64() > ((GIntBig)128 << 20))
+        GDALSetCacheMax64((GIntBig)128 << 20);
     *out = NULL;
     hz_io_src *s = calloc(1, sizeof *s);
     name_list inputs = {0};

@@ -64,6 +64,7 @@ struct hz_stream {
     bool has_thread, quit, sync;
     pthread_mutex_t lock;
     pthread_cond_t cv, idle;
+    uint32_t warm;        /* slots loaded at creation */
     uint32_t *queue;      /* slot indices to load, best first */
     uint32_t qn, busy;
     /* per frame */
@@ -343,6 +344,34 @@ hz_stream *hz_stream_create(const hz_stream_desc *d, hz_err *err)
     for (uint32_t l = 0; l < s->info.levels; l++)
         s->side[l] = (s->info.size - 1) / (s->info.patch_cells << l);
     hash_rebuild(s);
+    /* Warm start: the coarsest levels (at most 4 tiles each) load now, so the
+     * first frame already has the whole terrain, coarse. */
+    for (uint32_t l = s->info.levels; l-- > 0;) {
+        const uint32_t m = hz_pyr_level_tiles(&s->info, l);
+        if (m > 2)
+            break;
+        for (uint32_t tz = 0; tz < m; tz++)
+            for (uint32_t tx = 0; tx < m; tx++) {
+                const uint32_t k = s->warm++;
+                if (k >= s->nslots)
+                    break;
+                slot *q = &s->slots[k];
+                *q = (slot){.level = l, .tx = tx, .tz = tz, .state = SLOT_LOADING,
+                            .k = hz_pyr_level_cells(&s->info, l) / s->info.patch_cells};
+                for (uint32_t L = 0; L < HZ_PYR_MAX_LEVELS; L++)
+                    q->anc[L] = -1;
+                if (l + 1 < s->info.levels) {
+                    const int32_t p = find_slot(s, l + 1, tx / 2, tz / 2);
+                    if (p >= 0) {
+                        memcpy(q->anc, s->slots[p].anc, sizeof q->anc);
+                        q->anc[l + 1] = p;
+                        s->slots[p].children++;
+                    }
+                }
+                hash_rebuild(s);
+                load_one(s, k);
+            }
+    }
     s->sync = d->synchronous;
     if (!s->sync) {
         if (pthread_create(&s->th, NULL, loader, s) != 0) {

@@ -1,0 +1,86 @@
+#!/usr/bin/env bash
+# Terrain pyramids as a user runs them: import (one run and GNU parallel jobs,
+# byte-identical), info --verify, render and bench streaming with a tiny
+# cache, a corrupt tile drawn coarser with a warning, bad input refused.
+set -u
+HZ="$1"; DATA="$2"; TMP="$3"
+mkdir -p "$TMP"; rm -f "$TMP"/*.hzp "$TMP"/*.hzp.part-*
+fails=0; passes=0
+ok()   { passes=$((passes+1)); echo "ok   $*"; }
+bad()  { fails=$((fails+1)); echo "FAIL $*"; }
+expect_fail() {
+  local what="$1" re="$2"; shift 2
+  local out rc
+  out=$("$@" 2>&1 >/dev/null); rc=$?
+  if [ $rc -ne 0 ] && [ $rc -lt 128 ] && echo "$out" | grep -Eqi -- "$re"; then ok "$what (exit $rc)"
+  else bad "$what: exit $rc, stderr: $out"; fi
+}
+json() { python3 -c "import json,sys; d=json.load(open('$1')); print($2)"; }
+
+# A generated terrain, tile by tile.
+P="$TMP/gen.hzp"
+if $HZ import --generate perlin --size 1025 --seed 7 --out "$P" --quiet --json > "$TMP/gen.json"; then
+  ok "import --generate"
+else bad "import --generate"; fi
+[ "$(json "$TMP/gen.json" "d['samples']")" = 1050625 ] && ok "1025^2 samples" || bad "samples"
+
+# SRTM mosaic with ocean gaps: one run, and 4 GNU parallel jobs + --finish.
+S="$DATA/srtm_sierra_coast"
+if [ -d "$S" ]; then
+  $HZ import "$S" --out "$TMP/sierra.hzp" --quiet --json > "$TMP/sierra.json" && ok "import sierra" || bad "import sierra"
+  jobs=$($HZ import "$S" --out "$TMP/sierra2.hzp" --jobs)
+  [ "$jobs" -ge 4 ] && ok "sierra splits into $jobs jobs" || bad "jobs: $jobs"
+  q=$((jobs / 4))
+  ranges="0-$((q-1)) $q-$((2*q-1)) $((2*q))-$((3*q-1)) $((3*q))-$((jobs-1))"
+  if parallel -j 2 "$HZ" import "$S" --out "$TMP/sierra2.hzp" --quiet --tiles {} ::: $ranges &&
+     $HZ import "$S" --out "$TMP/sierra2.hzp" --finish --quiet; then ok "parallel jobs + finish"
+  else bad "parallel jobs"; fi
+  cmp -s "$TMP/sierra.hzp" "$TMP/sierra2.hzp" && ok "parallel import byte-identical" || bad "parallel import differs"
+  ls "$TMP"/sierra2.hzp.part-* >/dev/null 2>&1 && bad "parts left behind" || ok "parts removed"
+  $HZ info "$TMP/sierra.hzp" --verify --json > "$TMP/sinfo.json" && ok "info --verify" || bad "info --verify"
+  json "$TMP/sinfo.json" "d[0]['crs']" | grep -q "32610" && ok "CRS UTM 10N" || bad "CRS"
+  nd=$(json "$TMP/sinfo.json" "d[0]['nodata_fraction']")
+  python3 -c "import sys; sys.exit(0 if 0.05 < $nd < 0.5 else 1)" && ok "ocean gaps are nodata ($nd)" || bad "nodata $nd"
+  python3 -c "
+import json; d=json.load(open('$TMP/sinfo.json'))[0]; c=d['corners_lonlat']
+assert -125.3 < c['nw'][0] < -124.9 and 39.9 < c['nw'][1] < 40.2, c
+assert -118.1 < c['se'][0] < -117.5 and 35.8 < c['se'][1] < 36.1, c" && ok "corner lon/lat" || bad "corners"
+  $HZ render --terrain "$TMP/sierra.hzp" --out "$TMP/sierra.png" --camera 540000,4200,400000,60,-6 \
+     --width 320 --height 180 --json > "$TMP/srender.json" && ok "render --terrain sierra" || bad "render sierra"
+  [ "$(json "$TMP/srender.json" "d['terrain_in_view']")" = True ] && ok "sierra in view" || bad "sierra not in view"
+fi
+
+# Streaming under a tiny cache: the flight completes with evictions and no hole.
+$HZ bench --terrain "$P" --cache-mb 4 --frames 40 --width 320 --height 180 --json > "$TMP/bench.json" \
+  && ok "bench --terrain, 4 MB cache" || bad "bench --terrain"
+python3 - "$TMP/bench.json" <<'PY' && ok "bench figures per frame" || bad "bench figures"
+import json, sys
+d = json.load(open(sys.argv[1]))
+f = d["per_frame"]
+assert len(f) == 40 and all(x["triangles"] > 0 for x in f), "a frame without terrain"
+assert d["tiles_loaded"] > 0 and "late_frame_fraction" in d and d["frame_ms_worst"] >= d["frame_ms_median"]
+assert max(x["resident"] for x in f) <= 8 * 8, "more tiles than the cache holds"
+PY
+
+# A flipped byte in a tile: detected, reported, drawn coarser; info --verify fails.
+C="$TMP/corrupt.hzp"; cp "$P" "$C"
+printf '\x5a' | dd of="$C" bs=1 seek=700 conv=notrunc 2>/dev/null
+out=$($HZ info "$C" --verify 2>&1); rc=$?
+[ $rc -ne 0 ] && echo "$out" | grep -qi checksum && ok "verify finds the flipped byte" || bad "verify: $rc $out"
+out=$($HZ render --terrain "$C" --out "$TMP/corrupt.png" --width 320 --height 180 --camera 100,2500,100,135,-30 2>&1); rc=$?
+[ $rc -eq 0 ] && [ -s "$TMP/corrupt.png" ] && ok "corrupt tile still renders (coarser)" || bad "corrupt render: $rc $out"
+# Truncated: refused at open.
+T="$TMP/trunc.hzp"; head -c 100000 "$P" > "$T"
+expect_fail "truncated pyramid" "truncated|size"          $HZ render --terrain "$T" --out "$TMP/t.png"
+expect_fail "not a pyramid"     "not a valid|signature"   $HZ render --terrain "$TMP/gen.json" --out "$TMP/t.png"
+expect_fail "missing pyramid"   "cannot open"             $HZ render --terrain "$TMP/none.hzp" --out "$TMP/t.png"
+expect_fail "out onto terrain"  "overwrite"               $HZ render --terrain "$P" --out "$P"
+expect_fail "import onto input" "overwrite"               $HZ import "$P" --out "$P"
+expect_fail "bad --tiles"       "expected A-B"            $HZ import --generate perlin --size 1025 --out "$TMP/x.hzp" --tiles 5-2
+expect_fail "finish without parts" "missing"              $HZ import --generate perlin --size 4097 --out "$TMP/y.hzp" --finish
+expect_fail "diamond windowed"  "only perlin"             $HZ import --generate diamond --size 1025 --out "$TMP/z.hzp"
+expect_fail "no inputs"         "no input|required"       $HZ import --out "$TMP/z.hzp"
+cmp -s "$P" "$TMP/gen.hzp" && ok "input untouched" || bad "input changed"
+
+echo "$passes passed, $fails failed"
+[ $fails -eq 0 ]
