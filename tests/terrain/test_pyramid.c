@@ -240,6 +240,58 @@ static void test_stream_crack_free_while_tiles_missing(void **state)
     hz_stream_destroy(s);
 }
 
+/* Float input with --max-error stays within it, sample for sample. */
+static void test_lossy_within_max_error(void **state)
+{
+    (void)state;
+    char ftif[600], fhzp[600];
+    snprintf(ftif, sizeof ftif, "%s/pyr_float.tif", HZ_TEST_TMP);
+    snprintf(fhzp, sizeof fhzp, "%s/pyr_float.hzp", HZ_TEST_TMP);
+    enum { FW = 300, FH = 211 };
+    GDALDatasetH ds = GDALCreate(GDALGetDriverByName("GTiff"), ftif, FW, FH, 1, GDT_Float32, NULL);
+    assert_non_null(ds);
+    GDALSetGeoTransform(ds, (double *)GT);
+    float *z = malloc((size_t)FW * FH * sizeof *z);
+    for (uint32_t j = 0; j < FH; j++)
+        for (uint32_t i = 0; i < FW; i++)
+            z[j * FW + i] = (float)(1234.567 + 2100.0 * sin(i * 0.021) * sin(j * 0.033) + 0.37 * (double)((i * 31 + j * 17) % 29));
+    assert_int_equal(GDALRasterIO(GDALGetRasterBand(ds, 1), GF_Write, 0, 0, FW, FH, z, FW, FH, GDT_Float32, 0, 0), CE_None);
+    GDALClose(ds);
+    const char *ins[] = {ftif};
+    hz_err err = {0};
+    const double me = 0.5;
+    hz_pyr_import d = {.out = fhzp, .inputs = ins, .input_count = 1, .tile_cells = 64, .max_error = me};
+    hz_pyr_import_stats st;
+    assert_int_equal(hz_pyramid_import(&d, &st, &err), HZ_OK);
+    assert_true(st.max_error <= me);
+    hz_pyramid *p;
+    assert_int_equal(hz_pyramid_open(fhzp, &p, &err), HZ_OK);
+    const hz_pyr_info *in = hz_pyramid_info(p);
+    double worst = 0;
+    for (uint32_t tz = 0; tz < hz_pyr_level_tiles(in, 0); tz++)
+        for (uint32_t tx = 0; tx < hz_pyr_level_tiles(in, 0); tx++) {
+            hz_pyr_tile t;
+            assert_int_equal(hz_pyramid_read_tile(p, 0, tx, tz, &t, &err), HZ_OK);
+            for (uint32_t b = 0; b <= t.cells; b++)
+                for (uint32_t a = 0; a <= t.cells; a++) {
+                    const uint32_t i = t.x0 + a, j = t.z0 + b;
+                    if (i >= FW || j >= FH)
+                        continue;
+                    const double got = in->h_offset + in->h_scale * t.h[(size_t)b * (t.cells + 1) + a];
+                    const double e = fabs(got - (double)z[j * FW + i]);
+                    worst = e > worst ? e : worst;
+                }
+            hz_pyr_tile_free(&t);
+        }
+    assert_true(worst <= me + 1e-6);
+    assert_true(worst > 0.1); /* really lossy: the step is 2 x max error */
+    assert_true(fabs(in->max_error - worst) < 1e-3);
+    hz_pyramid_close(p);
+    free(z);
+    unlink(ftif);
+    unlink(fhzp);
+}
+
 static bool same_bytes(const char *a, const char *b)
 {
     FILE *f = fopen(a, "rb"), *g = fopen(b, "rb");
@@ -364,6 +416,7 @@ int main(void)
         cmocka_unit_test(test_corrupt_and_truncated),
         cmocka_unit_test(test_stream_crack_free_while_tiles_missing),
         cmocka_unit_test(test_jobs_byte_identical),
+        cmocka_unit_test(test_lossy_within_max_error),
         cmocka_unit_test(test_texels_agree_across_tiles),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
