@@ -73,6 +73,7 @@ int cmd_import(int argc, char **argv)
         {"tile", required_argument, 0, 't'},    {"threads", required_argument, 0, 'j'},
         {"json", no_argument, 0, 'J'},          {"quiet", no_argument, 0, 'q'},
         {"tiles", required_argument, 0, 'T'},   {"finish", no_argument, 0, 'F'},
+        {"zscale", required_argument, 0, 'z'},
         {"jobs", no_argument, 0, 'N'},          {"help", no_argument, 0, 'h'},
         {0, 0, 0, 0}};
     hz_pyr_import d = {0};
@@ -103,6 +104,7 @@ int cmd_import(int argc, char **argv)
         case 'J': json = true; break;
         case 'q': quiet = true; break;
         case 'T': d.tiles = optarg; break;
+        case 'z': if (!num("--zscale", optarg, 1e-6, 1000, &v)) return 2; d.zscale = v; break;
         case 'F': d.finish = true; break;
         case 'N': jobs = true; break;
         case 'h':
@@ -117,6 +119,7 @@ int cmd_import(int argc, char **argv)
                     "                          --seed N, --amplitude M (default 1800)\n"
                     "  --spacing M             metres per sample (reprojection; generated default 10)\n"
                     "  --crs EPSG:N            target CRS of geographic input (default the UTM zone)\n"
+                    "  --zscale F              metres per source unit (0.3048 for feet; default 1)\n"
                     "  --max-error M           allowed height error in metres (default lossless for 16-bit\n"
                     "                          integer input, else range / 131070)\n"
                     "  --tile N                cells per tile side, power of two (default 256)\n"
@@ -619,7 +622,8 @@ int stream_bench(int argc, char **argv)
             return 2;
         }
     } else {
-        /* 300 m/s for 60 s across the middle of the data, 60 m above the highest ground near. */
+        /* As the in-memory flyover: 300 m/s for 60 s across the middle of
+         * the data, max(60 m, 5 % of the relief) above the highest ground near. */
         hz_pyramid *p;
         if (hz_pyramid_open(o.terrain, &p, &err) != HZ_OK) {
             fprintf(stderr, "horizon bench: %s\n", err.msg);
@@ -630,12 +634,14 @@ int stream_bench(int argc, char **argv)
         const float E = (float)((in->data_w < in->data_h ? in->data_w : in->data_h) - 1) * (float)in->spacing;
         const float cx = 0.5f * (float)(in->data_w - 1) * (float)in->spacing;
         const float cz = 0.5f * (float)(in->data_h - 1) * (float)in->spacing;
+        const float relief = (float)(in->h_scale * (in->h_max - in->h_min));
+        const float clearance = fmaxf(60.0f, 0.05f * relief);
         hz_pyramid_close(p);
         const float len = fminf(0.8f * E, 300.0f * 60.0f / sqrtf(2.0f));
         hz_path_key k[61];
         for (int n = 0; n < 61; n++) {
             float u = (float)n / 60.0f, x = cx - 0.5f * len + u * len, z = cz - 0.5f * len + u * len;
-            k[n] = (hz_path_key){u * 60.0f, x, coarse_max(&g, x, z, 0.03f * E) + 60.0f, z, 135.0f, -8.0f};
+            k[n] = (hz_path_key){u * 60.0f, x, coarse_max(&g, x, z, 0.03f * E) + clearance, z, 135.0f, -8.0f};
         }
         if (hz_path_from_keys(k, 61, "flyover", &path, &err) != HZ_OK) {
             fprintf(stderr, "horizon bench: %s\n", err.msg);

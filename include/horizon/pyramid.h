@@ -81,6 +81,7 @@ typedef struct hz_pyr_import {
     hz_gen_desc gen;
     const char *crs;             /* reproject geographic input to this CRS; NULL -> UTM of the centre */
     double spacing;              /* metres per sample after reprojection / of a generated terrain; 0 -> auto (generated: 10) */
+    double zscale;               /* metres per source unit (e.g. 0.3048 for feet); 0 -> 1 */
     double max_error;            /* metres; 0 -> lossless for 16-bit integer input, else range / 65535 / 2 */
     const char *tiles;           /* "A-B": write only jobs A..B (0-based, see hz_pyramid_jobs) to
                                     out.part-A-B; NULL: everything */

@@ -46,6 +46,7 @@ typedef struct build {
     hz_gen_window *gen;
     uint32_t W, H;
     double scale, offset;
+    double zscale;        /* source units to metres */
     uint16_t fill;
     uint32_t S, J, jobs_side, threads;
     /* the finish's level-J grid over the whole map */
@@ -340,6 +341,9 @@ static hz_result read_rect(build *b, uint32_t x0, uint32_t z0, uint32_t w, uint3
                 free(f);
                 return r;
             }
+            if (b->zscale != 1.0)
+                for (size_t k = 0; k < (size_t)rw * rh; k++)
+                    f[k] = (float)((double)f[k] * b->zscale);
         }
     }
     for (uint32_t j = 0; j < h; j++)
@@ -546,6 +550,7 @@ static uint64_t setup_hash(const build *b)
     w32(buf, in->size), w32(buf + 4, in->data_w), w32(buf + 8, in->data_h), w32(buf + 12, in->tile_cells);
     w32(buf + 16, in->patch_cells);
     memcpy(buf + 24, &in->spacing, 8), memcpy(buf + 32, &b->scale, 8), memcpy(buf + 40, &b->offset, 8);
+    memcpy(buf + 100, &b->zscale, 8);
     memcpy(buf + 48, in->geotransform, 48);
     return XXH64(buf, sizeof buf, XXH64(b->wkt ? b->wkt : "", b->wkt ? strlen(b->wkt) : 0, 0));
 }
@@ -781,6 +786,9 @@ static hz_result setup(build *b, const hz_pyr_import *d, hz_err *err)
                           "2..min(64, tile))", T, P);
     if (!(d->max_error >= 0.0 && d->max_error <= 1000.0))
         return hz_err_set(err, HZ_ERR_VALUE, "import: --max-error %g must be in [0, 1000] metres", d->max_error);
+    if (!(d->zscale >= 0.0 && d->zscale <= 1000.0))
+        return hz_err_set(err, HZ_ERR_VALUE, "import: --zscale %g must be in (0, 1000]", d->zscale);
+    b->zscale = d->zscale > 0 ? d->zscale : 1.0;
     double lo = 0, hi = 0, sx = 0, sy = 0;
     bool integer = false;
     double int_offset = 0;
@@ -815,14 +823,15 @@ static hz_result setup(build *b, const hz_pyr_import *d, hz_err *err)
             r = hz_io_src_range(b->src, &lo, &hi, err);
             if (r != HZ_OK)
                 return r;
+            lo *= b->zscale, hi *= b->zscale;
         }
     }
     if (b->W > 1048577u || b->H > 1048577u)
         return hz_err_set(err, HZ_ERR_VALUE, "import: %ux%u samples; sides up to 1048577", b->W, b->H);
     if (integer && d->max_error == 0.0) {
-        /* exact: one step per unit, the type's whole range */
-        b->scale = 1.0;
-        b->offset = int_offset;
+        /* exact: one step per source unit, the type's whole range */
+        b->scale = b->zscale;
+        b->offset = int_offset * b->zscale;
     } else {
         const double range = hi > lo ? hi - lo : 1.0;
         b->scale = range / 65535.0;

@@ -77,6 +77,8 @@ struct hz_stream {
     hz_stream_stats st;
     char warning[640];
     uint32_t side[HZ_PYR_MAX_LEVELS]; /* nodes per side per shift */
+    uint32_t node_k[HZ_PYR_MAX_LEVELS]; /* nodes per tile side per level */
+    slot *memo[HZ_PYR_MAX_LEVELS];      /* last slot found per level (node_slot) */
 };
 
 /* ---- tile keys ---- */
@@ -104,6 +106,7 @@ static int32_t find_slot(const hz_stream *s, uint32_t l, uint32_t tx, uint32_t t
 
 static void hash_rebuild(hz_stream *s)
 {
+    memset(s->memo, 0, sizeof s->memo);
     for (uint32_t h = 0; h < s->hash_cap; h++)
         s->hash[h] = -1;
     for (uint32_t k = 0; k < s->nslots; k++) {
@@ -341,8 +344,10 @@ hz_stream *hz_stream_create(const hz_stream_desc *d, hz_err *err)
         hz_stream_destroy(s);
         return NULL;
     }
-    for (uint32_t l = 0; l < s->info.levels; l++)
+    for (uint32_t l = 0; l < s->info.levels; l++) {
         s->side[l] = (s->info.size - 1) / (s->info.patch_cells << l);
+        s->node_k[l] = hz_pyr_level_cells(&s->info, l) / s->info.patch_cells;
+    }
     hash_rebuild(s);
     /* Warm start: the coarsest levels (at most 4 tiles each) load now, so the
      * first frame already has the whole terrain, coarse. */
@@ -444,17 +449,22 @@ static inline uint32_t tile_of(const hz_stream *s, uint32_t sh, uint32_t i, uint
     return i / k;
 }
 
-/* The resident slot of node (sh, ix, iz)'s tile, or NULL. */
+/* The resident slot of node (sh, ix, iz)'s tile, or NULL. Consecutive
+ * lookups mostly hit the same tile: the last slot per level is tried first. */
 static slot *node_slot(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, size_t *li)
 {
-    uint32_t lx, lz;
-    const uint32_t tx = tile_of(s, sh, ix, &lx), tz = tile_of(s, sh, iz, &lz);
-    const int32_t k = find_slot(s, sh, tx, tz);
-    if (k < 0 || s->slots[k].state != SLOT_RESIDENT)
-        return NULL;
-    slot *q = &s->slots[k];
-    q->used = s->frame;
-    *li = (size_t)lz * q->k + lx;
+    const uint32_t k = s->node_k[sh];
+    const uint32_t tx = ix / k, tz = iz / k;
+    slot *q = s->memo[sh];
+    if (!q || q->tx != tx || q->tz != tz || q->level != sh || q->state != SLOT_RESIDENT) {
+        const int32_t f = find_slot(s, sh, tx, tz);
+        if (f < 0 || s->slots[f].state != SLOT_RESIDENT)
+            return NULL;
+        q = &s->slots[f];
+        s->memo[sh] = q;
+        q->used = s->frame;
+    }
+    *li = (size_t)(iz - tz * k) * k + (ix - tx * k);
     return q;
 }
 
@@ -796,6 +806,7 @@ hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_para
     hz_lod_stats st = {0};
     s->frame++;
     s->nreq = 0;
+    memset(s->memo, 0, sizeof s->memo);
     out->count = 0;
     const hz_pyr_info *in = &s->info;
     const uint32_t top = in->levels - 1;
