@@ -114,4 +114,11 @@ echo "== forest ($fr frames)" >&2
 "$HZ" bench --quiet --generate perlin --size 4097 --seed 1 --forest 1660 --frames "$fr" --json "$OUT/forest.json" >/dev/null
 
 python3 bench/summary.py "$OUT" > "$OUT/summary.md"
+# Terrain pyramids: import and streaming figures (PYRAMID=0 skips them, BIG=1 adds 65537^2).
+if [ "${PYRAMID:-1}" = 1 ]; then
+  bash bench/pyramid.sh "$HZ" "$DATA" "$PT" >/dev/null
+  cat "$OUT/pyramid.md" >> "$OUT/summary.md"
+fi
+# Every DEM in the data folder through --dem: what is shown of it.
+python3 bench/dems.py "$HZ" "$DATA" "$OUT/dems" >> "$OUT/summary.md"
 cat "$OUT/summary.md"

@@ -28,7 +28,9 @@ static hz_result check_side(const hz_terrain_desc *d, uint32_t side, const char 
     if (d->max_samples && n > d->max_samples)
         return hz_err_set(err, HZ_ERR_UNSUPPORTED,
                           "%s: a %ux%u heightmap has %llu samples, more than this GPU takes "
-                          "(GL_MAX_TEXTURE_BUFFER_SIZE = %llu texels); use a smaller --size, or --fit crop for a DEM",
+                          "(GL_MAX_TEXTURE_BUFFER_SIZE = %llu texels) in memory: import it as a pyramid and stream it "
+                          "(horizon import DEM... --out NAME.hzp, then --terrain NAME.hzp), or use a coarser "
+                          "--spacing or a smaller --size",
                           what, side, side, (unsigned long long)n, (unsigned long long)d->max_samples);
     return HZ_OK;
 }
