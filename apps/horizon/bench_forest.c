@@ -189,7 +189,7 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
     if (pr != HZ_OK)
         goto done;
     hz_camera cam = cli_camera(o, t);
-    if (!o->far)
+    if (o->far <= 0.0f)
         cam.zfar = 6000.0f;
     cam.znear = 0.3f;
     hz_forest_params with = o->forest, without = o->forest, full = o->forest;

@@ -22,6 +22,7 @@ static void usage(void)
             "  --species NAME          grow oak, maple, birch or conifer (default oak)\n"
             "  --seed S                growth seed (default 1)\n"
             "  --leaves N              target leaf count (default: the species', 50 000..100 000)\n"
+            "  --max-memory SIZE       refuse an import needing more (default half the RAM)\n"
             "  --import FILE           OBJ/glTF/... through assimp; leaves are meshes named\n"
             "                          leaf/leaves/foliage/needle (mesh, node or material name)\n"
             "  --leaf-match TEXT       other name part that marks leaf meshes\n"
@@ -132,7 +133,7 @@ int cmd_tree(int argc, char **argv)
         static const char *const valued[] = {"--species", "--seed", "--leaves", "--import", "--leaf-match", "--up",
                                              "--scale", "--node-leaves", "--in", "--out", "--preview", "--views",
                                              "--rank-res", "--layers", "--hull-grid", "--hull-triangles", "--rate",
-                                             "--size", "--pr-views", "--pr-res"};
+                                             "--size", "--pr-views", "--pr-res", "--max-memory"};
         bool is_known = flag;
         for (size_t k = 0; k < sizeof valued / sizeof valued[0] && !is_known; k++)
             is_known = !strcmp(a, valued[k]);
@@ -171,6 +172,10 @@ int cmd_tree(int argc, char **argv)
                 if (!cli_parse_u32(v, 1, 2000000, &gd.leaves))
                     return bad(a, v, "a count in [1, 2000000]");
             } else if (!strcmp(a, "--import")) id.path = v;
+            else if (!strcmp(a, "--max-memory")) {
+                if (!hz_size_parse(v, (uint64_t)1 << 20, (uint64_t)1 << 50, &id.max_memory))
+                    return bad(a, v, "a size such as 512M or 8G");
+            }
             else if (!strcmp(a, "--leaf-match")) id.leaf_match = v;
             else if (!strcmp(a, "--up")) {
                 if (strcmp(v, "y") && strcmp(v, "z"))

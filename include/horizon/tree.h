@@ -138,6 +138,9 @@ typedef struct hz_tree_import_desc {
     char up;                 /* 'y' or 'z'; 0 -> the axis of the largest extent */
     float scale;             /* 0 -> 1 (file units are metres) */
     uint32_t node_leaves;    /* max leaves per leaf node; 0 -> 48 */
+    uint64_t max_memory;     /* bytes the import may take (checked on the file size before
+                                assimp reads it, and on the meshes before copying them);
+                                0 -> hz_mem_budget_default() */
 } hz_tree_import_desc;
 
 /* Imports a tree: leaf meshes are split into connected pieces, each refit as

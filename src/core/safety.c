@@ -144,6 +144,21 @@ hz_result hz_outfile_begin(hz_outfile *of, const char *path, hz_err *err)
     snprintf(of->path, sizeof of->path, "%s", path);
     struct stat st;
     mode_t mode = 0;
+    /* A symbolic link to a file: the file it points to is the output (the
+     * link stays a link), written next to it and renamed onto it. */
+    struct stat lst;
+    if (lstat(path, &lst) == 0 && S_ISLNK(lst.st_mode) && stat(path, &st) == 0 && S_ISREG(st.st_mode)) {
+        char *real = realpath(path, NULL);
+        if (!real)
+            return hz_err_set(err, HZ_ERR_IO, "cannot write '%s': cannot resolve the link: %s", path, strerror(errno));
+        if (strlen(real) >= sizeof of->path - 32) {
+            free(real);
+            return hz_err_set(err, HZ_ERR_VALUE, "output file name too long: '%.64s...'", path);
+        }
+        snprintf(of->path, sizeof of->path, "%s", real);
+        free(real);
+        path = of->path;
+    }
     if (stat(path, &st) == 0) {
         if (S_ISDIR(st.st_mode))
             return hz_err_set(err, HZ_ERR_IO, "cannot write '%s': it is a directory", path);

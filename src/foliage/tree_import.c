@@ -7,13 +7,17 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <ctype.h>
+#include <errno.h>
 #include <float.h>
+#include <string.h>
+#include <sys/stat.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "foliage_internal.h"
+#include "horizon/safety.h"
 
 typedef struct tri_soup {
     float *pos;          /* welded positions */
@@ -329,11 +333,26 @@ hz_tree *hz_tree_import(const hz_tree_import_desc *desc, hz_err *err)
                    (double)d.scale, d.up ? d.up : '?');
         return NULL;
     }
+    /* Budget: assimp holds the whole scene, text formats expand ~20x. */
+    struct stat fst;
+    if (stat(d.path, &fst) != 0) {
+        hz_err_set(err, HZ_ERR_IO, "import: cannot open '%s': %s", d.path, strerror(errno));
+        return NULL;
+    }
+    if (hz_mem_check((uint64_t)fst.st_size * 20u, d.max_memory, "import (assimp scene)", err) != HZ_OK)
+        return NULL;
     const struct aiScene *sc = aiImportFile(d.path, aiProcess_Triangulate | aiProcess_SortByPType);
     if (!sc || !sc->mRootNode) {
         hz_err_set(err, HZ_ERR_FORMAT, "import: cannot read '%s': %s", d.path, aiGetErrorString());
         if (sc)
             aiReleaseImport(sc);
+        return NULL;
+    }
+    uint64_t mesh_bytes = 0;
+    for (unsigned k = 0; k < sc->mNumMeshes; k++)
+        mesh_bytes += (uint64_t)sc->mMeshes[k]->mNumVertices * 48u + (uint64_t)sc->mMeshes[k]->mNumFaces * 64u;
+    if (hz_mem_check(mesh_bytes, d.max_memory, "import (meshes)", err) != HZ_OK) {
+        aiReleaseImport(sc);
         return NULL;
     }
     import_ctx ic = {.sc = sc, .match = d.leaf_match ? one : default_match, .nmatch = d.leaf_match ? 1 : 4};

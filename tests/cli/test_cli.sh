@@ -359,6 +359,7 @@ expect_fail "tree truncated file"   "truncated|corrupt"       $T --in "$TMP/trun
 python3 -c "
 import sys; d=bytearray(open(sys.argv[1],'rb').read()); d[200]^=0xff; open(sys.argv[2],'wb').write(d)" "$TMP/b.hzt" "$TMP/flip.hzt"
 expect_fail "tree flipped byte"     "corrupt|CRC"             $T --in "$TMP/flip.hzt"
+expect_fail "assimp import over the budget" "memory budget" $T --import "$DATA/trees/white_birch.obj" --max-memory 1M --out "$TMP/budget.hzt"
 $T --import "$DATA/trees/white_birch.obj" --no-rank --json --out "$TMP/obj.hzt" > "$TMP/obj.json" 2>&1 &&
   python3 -c "import json,sys; j=json.load(open(sys.argv[1])); assert j['leaves']==1295 and j['hull_triangles']>0" "$TMP/obj.json" &&
   ok "tree --import OBJ (1295 leaves)" || bad "tree --import: $(cat "$TMP/obj.json")"

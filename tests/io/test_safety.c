@@ -276,6 +276,21 @@ static void test_outfile(void **state)
     assert_non_null(strstr(err.msg, "directory"));
     assert_int_equal(hz_outfile_begin(&of, "/nonexistent_dir_hz/x.png", &err), HZ_ERR_IO);
     assert_non_null(strstr(err.msg, "/nonexistent_dir_hz/x.png"));
+    /* A symbolic link: written through to its file, the link stays a link. */
+    char link_path[1100];
+    snprintf(link_path, sizeof link_path, "%s", fx_tmp("out_link.txt"));
+    unlink(link_path);
+    assert_int_equal(symlink(path, link_path), 0);
+    f = hz_outfile_open(&of, link_path, &err);
+    assert_non_null(f);
+    fputs("through", f);
+    assert_int_equal(hz_outfile_close(&of, f, &err), HZ_OK);
+    assert_int_equal(lstat(link_path, &st), 0);
+    assert_true(S_ISLNK(st.st_mode));
+    s = read_text(path);
+    assert_string_equal(s, "through");
+    free(s);
+    unlink(link_path);
 }
 
 int main(void)

@@ -130,7 +130,7 @@ static void test_overlay_text(void **state)
         for (int x = 0; x < 320; x++) {
             const uint8_t *p = rgb + 3 * (y * 320 + x);
             if (p[0] > 240 && p[1] > 240 && p[2] > 240) {
-                assert_true(y >= 10 && y < 10 + th && x >= 10 && x < 10 + tw);
+                assert_true((float)y >= 10.0f && (float)y < 10.0f + th && (float)x >= 10.0f && (float)x < 10.0f + tw);
                 text_px++;
             }
             /* Red at half alpha over dark blue. */
