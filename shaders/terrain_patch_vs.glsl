@@ -85,7 +85,8 @@ float stream_h(int i, int j, ivec2 org, int shift, int layer, float fallback, ou
 {
     uvec4 t;
     ok = 0.0;
-    if (i < 0 || j < 0 || i > u_map - 1 || j > u_map - 1 || !tile_texel(i, j, org, shift, layer, t))
+    // u_map 0: a repeating terrain, no edge
+    if ((u_map > 0 && (i < 0 || j < 0 || i > u_map - 1 || j > u_map - 1)) || !tile_texel(i, j, org, shift, layer, t))
         return fallback;
     ok = 1.0;
     return u_hoffset + u_hscale * float(t.r);

@@ -73,7 +73,7 @@ int cmd_import(int argc, char **argv)
         {"tile", required_argument, 0, 't'},    {"threads", required_argument, 0, 'j'},
         {"json", no_argument, 0, 'J'},          {"quiet", no_argument, 0, 'q'},
         {"tiles", required_argument, 0, 'T'},   {"finish", no_argument, 0, 'F'},
-        {"zscale", required_argument, 0, 'z'},
+        {"zscale", required_argument, 0, 'z'},  {"wrap", no_argument, 0, 'W'},
         {"jobs", no_argument, 0, 'N'},          {"help", no_argument, 0, 'h'},
         {0, 0, 0, 0}};
     hz_pyr_import d = {0};
@@ -104,6 +104,7 @@ int cmd_import(int argc, char **argv)
         case 'J': json = true; break;
         case 'q': quiet = true; break;
         case 'T': d.tiles = optarg; break;
+        case 'W': d.wrap = true; break;
         case 'z': if (!num("--zscale", optarg, 1e-6, 1000, &v)) return 2; d.zscale = v; break;
         case 'F': d.finish = true; break;
         case 'N': jobs = true; break;
@@ -119,6 +120,9 @@ int cmd_import(int argc, char **argv)
                     "                          --seed N, --amplitude M (default 1800)\n"
                     "  --spacing M             metres per sample (reprojection; generated default 10)\n"
                     "  --crs EPSG:N            target CRS of geographic input (default the UTM zone)\n"
+                    "  --wrap                  a terrain that repeats in x and z (endless flight): Perlin is\n"
+                    "                          made periodic; a DEM must be square 2^n+1 (its last row and\n"
+                    "                          column become its first)\n"
                     "  --zscale F              metres per source unit (0.3048 for feet; default 1)\n"
                     "  --max-error M           allowed height error in metres (default lossless for 16-bit\n"
                     "                          integer input, else range / 131070)\n"
@@ -447,6 +451,7 @@ int stream_render(int argc, char **argv)
         const float ext = (float)((in->data_w > in->data_h ? in->data_w : in->data_h) * in->spacing);
         cam.zfar = 1.5f * ext + fmaxf(0.0f, cam.pos[1] - hmin);
     }
+    hz_stream_wrap_camera(c.s, &cam);
     /* One image: load until the selection asks for nothing more. */
     hz_lod_stats st = {0};
     uint32_t rounds = 0, loads = 0;
@@ -575,13 +580,15 @@ static int coarse_load(const sopts *o, coarse *g)
     return rc;
 }
 
-static float coarse_max(const coarse *g, float x, float z, float r)
+static float coarse_max(const coarse *g, float x, float z, float r, bool wrap)
 {
     float m = -INFINITY;
-    const double d = g->spacing * g->step;
+    const double d = g->spacing * g->step, per = (double)(g->n - 1);
     for (int dz = -4; dz <= 4; dz++)
         for (int dx = -4; dx <= 4; dx++) {
             double fx = (x + r * (float)dx / 4.0f) / d, fz = (z + r * (float)dz / 4.0f) / d;
+            if (wrap)
+                fx -= floor(fx / per) * per, fz -= floor(fz / per) * per;
             if (fx < 0 || fz < 0 || fx > g->n - 1 || fz > g->n - 1)
                 continue;
             m = fmaxf(m, g->h[(size_t)(fz + 0.5) * g->n + (size_t)(fx + 0.5)]);
@@ -636,12 +643,19 @@ int stream_bench(int argc, char **argv)
         const float cz = 0.5f * (float)(in->data_h - 1) * (float)in->spacing;
         const float relief = (float)(in->h_scale * (in->h_max - in->h_min));
         const float clearance = fmaxf(60.0f, 0.05f * relief);
+        const bool wrap = in->wrap;
         hz_pyramid_close(p);
         const float len = fminf(0.8f * E, 300.0f * 60.0f / sqrtf(2.0f));
         hz_path_key k[61];
         for (int n = 0; n < 61; n++) {
             float u = (float)n / 60.0f, x = cx - 0.5f * len + u * len, z = cz - 0.5f * len + u * len;
-            k[n] = (hz_path_key){u * 60.0f, x, coarse_max(&g, x, z, 0.03f * E) + clearance, z, 135.0f, -8.0f};
+            float yaw = 135.0f;
+            if (wrap) { /* a repeating terrain: straight east across two and a half periods */
+                x = (0.1f + 2.5f * u) * E;
+                z = 0.37f * E;
+                yaw = 90.0f;
+            }
+            k[n] = (hz_path_key){u * 60.0f, x, coarse_max(&g, x, z, 0.03f * E, wrap) + clearance, z, yaw, -8.0f};
         }
         if (hz_path_from_keys(k, 61, "flyover", &path, &err) != HZ_OK) {
             fprintf(stderr, "horizon bench: %s\n", err.msg);
@@ -668,6 +682,7 @@ int stream_bench(int argc, char **argv)
         hz_camera cam = default_camera(hz_stream_info(c.s), o.width, o.height);
         hz_path_sample(&path, F > 1 ? dur * (float)f / (float)(F - 1) : 0.0f, &cam);
         cam.aspect = (float)o.width / (float)o.height;
+        hz_stream_wrap_camera(c.s, &cam); /* re-centred: precision never degrades */
         const double t0 = hz_time_ms();
         hz_lod_stats st = {0};
         /* what arrived since the last frame first, then the selection over it */

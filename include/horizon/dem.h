@@ -100,6 +100,8 @@ typedef struct hz_gen_desc {
     float feature_size; /* perlin: wavelength of the lowest octave in samples; 0 -> size/2 */
     hz_progress_fn progress; /* optional */
     void *progress_user;
+    bool periodic;      /* windowed Perlin (pyramid import --wrap): the terrain repeats with a
+                           period of size - 1 samples in x and z, seamlessly */
 } hz_gen_desc;
 
 /* Generates a terrain into out (allocated; free with hz_grid_free), values in

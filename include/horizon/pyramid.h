@@ -28,6 +28,7 @@ typedef struct hz_pyr_info {
     double spacing;       /* metres between level-0 samples (x and z) */
     double h_scale, h_offset; /* metres = h_offset + h_scale * h16 */
     uint16_t h_min, h_max;    /* over samples with data */
+    bool wrap;            /* the terrain repeats in x and z with a period of size - 1 samples */
     double max_error;     /* largest |quantised - source| in metres measured at import (0: lossless) */
     uint64_t tiles;       /* tiles in all levels */
     uint64_t nodata;      /* level-0 samples without data inside data_w x data_h */
@@ -86,6 +87,9 @@ typedef struct hz_pyr_import {
     const char *tiles;           /* "A-B": write only jobs A..B (0-based, see hz_pyramid_jobs) to
                                     out.part-A-B; NULL: everything */
     bool finish;                 /* join the part files of every job into out */
+    bool wrap;                   /* a repeating terrain: generated Perlin is made periodic; a DEM
+                                    must be square, 2^k+1, and its last row and column become its
+                                    first (the seam joins) */
     uint32_t tile_cells;         /* 0 -> 256 */
     uint32_t patch_cells;        /* 0 -> 8 */
     uint32_t threads;            /* 0 -> every core */

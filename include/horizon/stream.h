@@ -60,6 +60,11 @@ void hz_stream_tile_key(const hz_stream *s, uint32_t slot, uint32_t *level, uint
 void hz_stream_wait(hz_stream *s);
 /* Figures since the last call (per frame); resident/pending/cache are current. */
 hz_stream_stats hz_stream_take_stats(hz_stream *s);
+/* A repeating terrain (hz_pyr_info.wrap): moves the camera by whole periods
+ * into the map's first period (coordinates stay small however far it flies).
+ * Call it on the camera before selecting and drawing. Nothing otherwise. */
+void hz_stream_wrap_camera(const hz_stream *s, hz_camera *cam);
+
 /* The first read error seen (a corrupt tile), or NULL. */
 const char *hz_stream_warning(hz_stream *s);
 

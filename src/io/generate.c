@@ -75,14 +75,16 @@ static inline float fade(float t)
 
 /* Gradient noise at (x, y) >= 0, roughly in [-1, 1]; *dx, *dy receive its
  * derivatives in lattice units. */
-static inline float noise_d(const noise2 *n, double x, double y, float *dx, float *dy)
+static inline float noise_dm(const noise2 *n, int mask, double x, double y, float *dx, float *dy)
 {
     int xi = (int)x, yi = (int)y;
     float fx = (float)(x - (double)xi), fy = (float)(y - (double)yi);
-    int X = xi & (PERM_N - 1), Y = yi & (PERM_N - 1);
+    /* mask + 1: the lattice period (PERM_N, or a power of two dividing it
+     * for a terrain that repeats) */
+    int X = xi & mask, Y = yi & mask, X1 = (xi + 1) & mask, Y1 = (yi + 1) & mask;
     const uint16_t *p = n->perm;
-    int a = p[X] + Y, b = p[X + 1] + Y;
-    int h00 = p[a] & 7, h01 = p[a + 1] & 7, h10 = p[b] & 7, h11 = p[b + 1] & 7;
+    int a = p[X], b = p[X1];
+    int h00 = p[a + Y] & 7, h01 = p[a + Y1] & 7, h10 = p[b + Y] & 7, h11 = p[b + Y1] & 7;
     float n00 = GX[h00] * fx + GY[h00] * fy;
     float n10 = GX[h10] * (fx - 1.0f) + GY[h10] * fy;
     float n01 = GX[h01] * fx + GY[h01] * (fy - 1.0f);
@@ -97,6 +99,11 @@ static inline float noise_d(const noise2 *n, double x, double y, float *dx, floa
     *dx = 1.41421356f * (gx0 + v * (gx1 - gx0));
     *dy = 1.41421356f * (gy0 + v * (gy1 - gy0) + dv * (nx1 - nx0));
     return 1.41421356f * (nx0 + v * (nx1 - nx0));
+}
+
+static inline float noise_d(const noise2 *n, double x, double y, float *dx, float *dy)
+{
+    return noise_dm(n, PERM_N - 1, x, y, dx, dy);
 }
 
 static inline float noise(const noise2 *n, double x, double y)
@@ -125,6 +132,7 @@ typedef struct perlin_params {
     float persistence;
     double offx[MAX_OCTAVES + 4], offy[MAX_OCTAVES + 4]; /* per-octave lattice offsets */
     double warp_freq, warp_amp;   /* warp noise frequency, displacement in samples */
+    int mask[MAX_OCTAVES + 4];    /* lattice period - 1 per octave (warp octaves at MAX_OCTAVES..) */
 } perlin_params;
 
 /* Look of the terrain (tuned by eye on hillshades against real DEMs):
@@ -145,10 +153,11 @@ static void warp_at(const perlin_params *pp, double x, double y, float *dx, floa
     const noise2 *nz = &pp->nz;
     double wf = pp->warp_freq;
     int W = MAX_OCTAVES;
-    float wx = noise(nz, x * wf + pp->offx[W], y * wf + pp->offy[W]) +
-               0.5f * noise(nz, x * 2 * wf + pp->offx[W + 1], y * 2 * wf + pp->offy[W + 1]);
-    float wy = noise(nz, x * wf + pp->offx[W + 2], y * wf + pp->offy[W + 2]) +
-               0.5f * noise(nz, x * 2 * wf + pp->offx[W + 3], y * 2 * wf + pp->offy[W + 3]);
+    float d0, d1;
+    float wx = noise_dm(nz, pp->mask[W], x * wf + pp->offx[W], y * wf + pp->offy[W], &d0, &d1) +
+               0.5f * noise_dm(nz, pp->mask[W + 1], x * 2 * wf + pp->offx[W + 1], y * 2 * wf + pp->offy[W + 1], &d0, &d1);
+    float wy = noise_dm(nz, pp->mask[W], x * wf + pp->offx[W + 2], y * wf + pp->offy[W + 2], &d0, &d1) +
+               0.5f * noise_dm(nz, pp->mask[W + 1], x * 2 * wf + pp->offx[W + 3], y * 2 * wf + pp->offy[W + 3], &d0, &d1);
     *dx = (float)pp->warp_amp * wx;
     *dy = (float)pp->warp_amp * wy;
 }
@@ -162,7 +171,7 @@ static float perlin_height(const perlin_params *pp, double x, double y)
     double f = pp->freq0;
     for (int o = 0; o < pp->octaves; o++) {
         float dx, dy;
-        float n = noise_d(nz, x * f + pp->offx[o], y * f + pp->offy[o], &dx, &dy);
+        float n = noise_dm(nz, pp->mask[o], x * f + pp->offx[o], y * f + pp->offy[o], &dx, &dy);
         if (o < 2)
             base += amp * n;
         /* Slope-damped fBm: detail fades where the coarser octaves are steep,
@@ -278,6 +287,8 @@ static hz_result gen_perlin(const hz_gen_desc *d, float persistence, hz_grid *g,
     }
     pp->warp_freq = 1.5 / feature;
     pp->warp_amp = 0.12 * feature;
+    for (int o = 0; o < MAX_OCTAVES + 4; o++)
+        pp->mask[o] = PERM_N - 1;
     for (uint32_t J = 0; J < cw; J++)
         for (uint32_t I = 0; I < cw; I++) {
             float *w = warp + ((size_t)J * cw + I) * 2;
@@ -442,6 +453,22 @@ static void perlin_setup(const hz_gen_desc *d, float persistence, uint32_t n, pe
     }
     pp->warp_freq = 1.5 / feature;
     pp->warp_amp = 0.12 * feature;
+    for (int o = 0; o < MAX_OCTAVES + 4; o++)
+        pp->mask[o] = PERM_N - 1;
+    if (d->periodic) {
+        /* Every octave a whole number of lattice cells across the map
+         * (n - 1 samples), and the lattice wrapped at that count: the
+         * terrain repeats seamlessly. The warp's frequency is rounded to
+         * a power of two cells across. */
+        const double cells0 = (double)(n - 1) / feature;
+        pp->warp_freq = 2.0 / feature;
+        for (int o = 0; o < MAX_OCTAVES + 4; o++) {
+            const double c = o < MAX_OCTAVES ? cells0 * (double)(1u << (o < 30 ? o : 30))
+                                             : 2.0 * cells0 * (double)(((o - MAX_OCTAVES) & 1) ? 2 : 1);
+            const double m = c < (double)PERM_N ? c : (double)PERM_N;
+            pp->mask[o] = (int)m - 1;
+        }
+    }
 }
 
 hz_result hz_gen_window_open(const hz_gen_desc *d, hz_gen_window **out, hz_err *err)
@@ -458,6 +485,14 @@ hz_result hz_gen_window_open(const hz_gen_desc *d, hz_gen_window **out, hz_err *
     if (!(amp > 0.0f) || !(amp <= 100000.0f) || !(rough > 0.0f) || !(rough <= 1.0f) || d->octaves > MAX_OCTAVES ||
         !(d->feature_size >= 0.0f) || d->feature_size > 1e7f)
         return hz_err_set(err, HZ_ERR_VALUE, "generate: amplitude, roughness, octaves or feature size out of range");
+    if (d->periodic) {
+        const double feature = d->feature_size > 0 ? (double)d->feature_size : (double)(d->size / 2);
+        const double cells = (double)(d->size - 1) / feature;
+        if (cells != floor(cells) || ((uint64_t)cells & ((uint64_t)cells - 1)))
+            return hz_err_set(err, HZ_ERR_VALUE,
+                              "generate: a repeating terrain needs a feature size of (size - 1) / 2^k samples "
+                              "(%g does not divide %u)", feature, d->size - 1);
+    }
     hz_gen_window *w = calloc(1, sizeof *w);
     if (!w)
         return hz_err_set(err, HZ_ERR_MEMORY, "generate: out of memory");

@@ -206,6 +206,12 @@ hz_result hz_pyramid_open(const char *path, hz_pyramid **out, hz_err *err)
     in->tile_cells = get32(h + 28), in->patch_cells = get32(h + 32), in->levels = get32(h + 36);
     in->spacing = getd(h + 40), in->h_scale = getd(h + 48), in->h_offset = getd(h + 56);
     in->h_min = get16(h + 64), in->h_max = get16(h + 66);
+    const uint32_t flags = get32(h + 68);
+    in->wrap = flags & 1u;
+    if (flags & ~1u) {
+        r = bad_file(err, path, "unknown header flags (a newer horizon wrote it?)");
+        goto fail;
+    }
     in->max_error = getd(h + 72);
     in->tiles = get64(h + 80), in->nodata = get64(h + 88);
     for (int k = 0; k < 6; k++)
@@ -554,6 +560,7 @@ hz_result hz_pyr_writer_finish(hz_pyr_writer *w, const hz_pyr_info *info, hz_err
     put32(h + 28, info->tile_cells), put32(h + 32, info->patch_cells), put32(h + 36, info->levels);
     putd(h + 40, info->spacing), putd(h + 48, info->h_scale), putd(h + 56, info->h_offset);
     put16(h + 64, info->h_min), put16(h + 66, info->h_max);
+    put32(h + 68, info->wrap ? 1u : 0u);
     putd(h + 72, info->max_error);
     put64(h + 80, tiles), put64(h + 88, info->nodata);
     for (int k = 0; k < 6; k++)

@@ -134,6 +134,7 @@ struct hz_renderer {
     GLuint tiles_tex;          /* GL_TEXTURE_2D_ARRAY, RGBA16UI tiles of the height pyramid */
     uint32_t tile_cells, tile_top, tile_layers;
     bool streamed;             /* the tiles are a streamed pyramid's cache slots */
+    bool wrap;                 /* ... of a repeating terrain: patches may lie a period off the map */
     bool tile_masked;          /* some samples have no data: the mask variant discards there */
     int32_t tile_base[16];     /* first layer per level */
     GLuint patch_vao, patch_ibo, patch_vbo;

@@ -180,9 +180,14 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, hz_err
     const uint32_t T = r->tile_cells, top = r->tile_top, n = r->size;
     for (uint32_t k = 0; r->streamed && k < count; k++) {
         const hz_patch *q = &p[k];
+        /* a repeating terrain's patches may be one period off the map */
+        const int64_t lo = r->wrap ? -(int64_t)(n - 1) : 0, hi = r->wrap ? 2 * (int64_t)(n - 1) : (int64_t)(n - 1);
+        const int64_t x0 = r->wrap ? (int64_t)(int32_t)q->x0 : (int64_t)q->x0;
+        const int64_t z0 = r->wrap ? (int64_t)(int32_t)q->z0 : (int64_t)q->z0;
+        const int64_t span = (int64_t)r->patch_cells << (q->shift > 23 ? 23 : q->shift);
         if (q->shift > 23 || (q->coarse & ~15u) || q->layer1 == 0 || q->layer1 > r->tile_layers ||
-            (uint64_t)q->ox + r->patch_cells > T || (uint64_t)q->oz + r->patch_cells > T ||
-            ((uint64_t)r->patch_cells << q->shift) + q->x0 > n - 1 || ((uint64_t)r->patch_cells << q->shift) + q->z0 > n - 1)
+            (uint64_t)q->ox + r->patch_cells > T || (uint64_t)q->oz + r->patch_cells > T || x0 < lo || z0 < lo ||
+            x0 + span > hi || z0 + span > hi)
             return hz_err_set(err, HZ_ERR_VALUE, "renderer: streamed patch %u (%u, %u, shift %u, slot %u) is invalid",
                               k, q->x0, q->z0, q->shift, q->layer1);
         uint32_t *o = r->inst_scratch + 4 * (size_t)k;
@@ -226,7 +231,7 @@ void patch_draw(hz_renderer *r, const GLint *loc)
     glActiveTexture(GL_TEXTURE0 + FX_UNIT_TILES);
     glBindTexture(GL_TEXTURE_2D_ARRAY, r->tiles_tex);
     glUniform1i(loc[TL_SIZE], (GLint)r->patch_cells);
-    glUniform1i(loc[TL_MAP], (GLint)r->size);
+    glUniform1i(loc[TL_MAP], r->streamed && r->wrap ? 0 : (GLint)r->size);
     glUniform1i(loc[TL_TILE], (GLint)r->tile_cells);
     glUniform1i(loc[TL_TOP], (GLint)r->tile_top);
     glUniform1iv(loc[TL_BASE], 16, r->tile_base);
@@ -274,6 +279,7 @@ hz_result hz_renderer_set_stream(hz_renderer *r, const hz_pyr_info *info, uint32
     if (res != HZ_OK)
         return res;
     r->streamed = true;
+    r->wrap = info->wrap;
     r->tile_cells = texels - 1;
     r->tile_layers = slots;
     r->tile_top = 0;

@@ -49,6 +49,8 @@ typedef struct build {
     double zscale;        /* source units to metres */
     uint16_t fill;
     uint32_t S, J, jobs_side, threads;
+    bool wrap;             /* the terrain repeats: jobs work in coordinates shifted by ext = N - 1 */
+    uint32_t ext, n_ext;   /* that shift (0 without wrap); the bound for hz__morph_neighbours */
     /* the finish's level-J grid over the whole map */
     uint16_t *gj;
     uint8_t *gjv;
@@ -112,7 +114,7 @@ static inline size_t g_at(const grid16 *g, uint32_t X, uint32_t Z)
  * in g (spacing 2^(s-1) or finer, covering a). */
 static void bounds_up(const build *b, const grid16 *g, const narr *c, narr *a, uint32_t s)
 {
-    const uint32_t P = b->info.patch_cells, N = b->info.size, half = 1u << (s - 1), G = P << s;
+    const uint32_t P = b->info.patch_cells, N = b->n_ext, half = 1u << (s - 1), G = P << s;
     for (uint32_t zi = 0; zi < a->h; zi++)
         for (uint32_t xi = 0; xi < a->w; xi++) {
             const uint32_t nx = a->x0 + xi, nz = a->z0 + zi, X0 = nx * G, Z0 = nz * G;
@@ -176,6 +178,7 @@ typedef struct tile_ctx {
     const build *b;
     const grid16 *g;       /* heights at level <= the tiles' */
     const narr *nodes;     /* per shift; nodes[s] covers the tiles and their ring */
+    bool shifted;          /* g and nodes are in the jobs' shifted coordinates */
     tile_task *tasks;
     size_t count;
     size_t next;
@@ -188,6 +191,9 @@ static void encode_one(const tile_ctx *c, tile_task *t)
     const hz_pyr_info *in = &b->info;
     const uint32_t l = t->level, cc = hz_pyr_level_cells(in, l), n = cc + 1, k = cc / in->patch_cells;
     const uint32_t X0 = (t->tx * cc) << l, Z0 = (t->tz * cc) << l;
+    const uint32_t gs = c->shifted ? b->ext : 0;                       /* samples: plain -> grid */
+    const int64_t ns = c->shifted ? (int64_t)(b->ext / (in->patch_cells << l)) : 0; /* nodes */
+    const int64_t side = (int64_t)((in->size - 1) / (in->patch_cells << l));
     uint16_t *h = malloc((size_t)n * n * sizeof *h);
     uint8_t *v = malloc((size_t)n * n);
     uint16_t *nd = malloc(((size_t)(k + 2) * (k + 2) + 2 * (size_t)k * k) * sizeof *nd);
@@ -201,7 +207,7 @@ static void encode_one(const tile_ctx *c, tile_task *t)
     bool masked = false;
     for (uint32_t bz = 0; bz < n; bz++)
         for (uint32_t a = 0; a < n; a++) {
-            const size_t s = g_at(c->g, X0 + (a << l), Z0 + (bz << l));
+            const size_t s = g_at(c->g, X0 + gs + (a << l), Z0 + gs + (bz << l));
             h[(size_t)bz * n + a] = c->g->h[s];
             v[(size_t)bz * n + a] = c->g->v[s];
             masked |= !c->g->v[s];
@@ -211,7 +217,11 @@ static void encode_one(const tile_ctx *c, tile_task *t)
     uint16_t *mn = nd + (size_t)(k + 2) * (k + 2), *mx = mn + (size_t)k * k;
     for (uint32_t bz = 0; bz < k + 2; bz++)
         for (uint32_t bx = 0; bx < k + 2; bx++) {
-            const int64_t x = kx0 + bx - 1, z = kz0 + bz - 1;
+            int64_t x = kx0 + bx - 1 + ns, z = kz0 + bz - 1 + ns;
+            if (b->wrap && !narr_has(na, x, z)) { /* the ring across the seam */
+                x = ((kx0 + bx - 1 + side) % side) + ns;
+                z = ((kz0 + bz - 1 + side) % side) + ns;
+            }
             const bool has = narr_has(na, x, z);
             nd[(size_t)bz * (k + 2) + bx] = has ? na->d[narr_at(na, (uint32_t)x, (uint32_t)z)] : 0;
             if (bx >= 1 && bz >= 1 && bx <= k && bz <= k) {
@@ -311,55 +321,118 @@ static void *gen_worker(void *arg)
     }
 }
 
-/* Level-0 samples [x0, x0 + w) x [z0, z0 + h) of the map, quantised; outside
- * the data and nodata are invalid (height: fill). */
+/* Reads the source block [x0, x0 + w) x [z0, z0 + h) (plain, inside the
+ * data) into f (row stride fw). */
+static hz_result read_block(build *b, uint32_t x0, uint32_t z0, uint32_t w, uint32_t h, float *f, size_t fw,
+                            hz_err *err)
+{
+    float *t = malloc((size_t)w * h * sizeof *t);
+    if (!t)
+        return hz_err_set(err, HZ_ERR_MEMORY, "import: out of memory for a %ux%u window", w, h);
+    if (b->gen) {
+        gen_rows g = {.b = b, .x0 = x0, .z0 = z0, .w = w, .h = h, .out = t};
+        pthread_mutex_init(&g.lock, NULL);
+        pthread_t th[16];
+        uint32_t started = 0;
+        for (uint32_t k = 1; k < b->threads && k < 16; k++)
+            if (pthread_create(&th[started], NULL, gen_worker, &g) == 0)
+                started++;
+        gen_worker(&g);
+        for (uint32_t k = 0; k < started; k++)
+            pthread_join(th[k], NULL);
+        pthread_mutex_destroy(&g.lock);
+    } else {
+        hz_result r = hz_io_src_read(b->src, x0, z0, w, h, t, err);
+        if (r != HZ_OK) {
+            free(t);
+            return r;
+        }
+        if (b->zscale != 1.0)
+            for (size_t k = 0; k < (size_t)w * h; k++)
+                t[k] = (float)((double)t[k] * b->zscale);
+    }
+    for (uint32_t j = 0; j < h; j++)
+        memcpy(f + (size_t)j * fw, t + (size_t)j * w, w * sizeof *f);
+    free(t);
+    return HZ_OK;
+}
+
+/* Runs of consecutive source samples along one axis of a block starting at
+ * a0 (shifted coordinates when wrapping): plain start, length, block offset. */
+typedef struct run1 {
+    uint32_t src, len, dst;
+} run1;
+
+static uint32_t runs_of(const build *b, uint32_t a0, uint32_t n, uint32_t data, run1 *out)
+{
+    uint32_t count = 0;
+    for (uint32_t k = 0; k < n;) {
+        int64_t p = (int64_t)a0 + k - b->ext;
+        if (b->wrap) {
+            const int64_t per = b->info.size - 1;
+            p = ((p % per) + per) % per;
+        }
+        if (p < 0 || p >= data) { /* off the data: no run */
+            k++;
+            continue;
+        }
+        uint32_t len = 1;
+        while (k + len < n && (uint64_t)p + len < data) {
+            int64_t q = (int64_t)a0 + k + len - b->ext;
+            if (b->wrap) {
+                const int64_t per = b->info.size - 1;
+                q = ((q % per) + per) % per;
+            }
+            if (q != p + len)
+                break;
+            len++;
+        }
+        out[count++] = (run1){(uint32_t)p, len, k};
+        k += len;
+    }
+    return count;
+}
+
+/* Samples [x0, x0 + w) x [z0, z0 + h) of the map (shifted by ext when the
+ * terrain wraps: the source is read modulo its period, so the last row and
+ * column repeat the first), quantised; outside the data and nodata are
+ * invalid (height: fill). */
 static hz_result read_rect(build *b, uint32_t x0, uint32_t z0, uint32_t w, uint32_t h, uint16_t *q, uint8_t *v,
                            double *max_err, hz_err *err)
 {
     *max_err = 0;
-    const uint32_t rw = x0 < b->W ? (b->W - x0 < w ? b->W - x0 : w) : 0;
-    const uint32_t rh = z0 < b->H ? (b->H - z0 < h ? b->H - z0 : h) : 0;
-    float *f = rw && rh ? malloc((size_t)rw * rh * sizeof *f) : NULL;
-    if (rw && rh && !f)
-        return hz_err_set(err, HZ_ERR_MEMORY, "import: out of memory for a %ux%u window", rw, rh);
-    if (rw && rh) {
-        if (b->gen) {
-            gen_rows g = {.b = b, .x0 = x0, .z0 = z0, .w = rw, .h = rh, .out = f};
-            pthread_mutex_init(&g.lock, NULL);
-            pthread_t th[16];
-            uint32_t started = 0;
-            for (uint32_t t = 1; t < b->threads && t < 16; t++)
-                if (pthread_create(&th[started], NULL, gen_worker, &g) == 0)
-                    started++;
-            gen_worker(&g);
-            for (uint32_t t = 0; t < started; t++)
-                pthread_join(th[t], NULL);
-            pthread_mutex_destroy(&g.lock);
+    float *f = malloc((size_t)w * h * sizeof *f);
+    run1 *rx = malloc(((size_t)w + 1) * sizeof *rx), *rz = malloc(((size_t)h + 1) * sizeof *rz);
+    if (!f || !rx || !rz) {
+        free(f), free(rx), free(rz);
+        return hz_err_set(err, HZ_ERR_MEMORY, "import: out of memory for a %ux%u window", w, h);
+    }
+    for (size_t k = 0; k < (size_t)w * h; k++)
+        f[k] = NAN;
+    const uint32_t nx = runs_of(b, x0, w, b->W, rx), nz = runs_of(b, z0, h, b->H, rz);
+    hz_result r = HZ_OK;
+    for (uint32_t j = 0; j < nz && r == HZ_OK; j++)
+        for (uint32_t i = 0; i < nx && r == HZ_OK; i++)
+            r = read_block(b, rx[i].src, rz[j].src, rx[i].len, rz[j].len, f + (size_t)rz[j].dst * w + rx[i].dst, w,
+                           err);
+    free(rx);
+    free(rz);
+    if (r != HZ_OK) {
+        free(f);
+        return r;
+    }
+    for (size_t k = 0; k < (size_t)w * h; k++) {
+        const float x = f[k];
+        if (!isfinite(x)) {
+            q[k] = b->fill;
+            v[k] = 0;
         } else {
-            hz_result r = hz_io_src_read(b->src, x0, z0, rw, rh, f, err);
-            if (r != HZ_OK) {
-                free(f);
-                return r;
-            }
-            if (b->zscale != 1.0)
-                for (size_t k = 0; k < (size_t)rw * rh; k++)
-                    f[k] = (float)((double)f[k] * b->zscale);
+            double e;
+            q[k] = quant(b, x, &e);
+            v[k] = 1;
+            *max_err = e > *max_err ? e : *max_err;
         }
     }
-    for (uint32_t j = 0; j < h; j++)
-        for (uint32_t i = 0; i < w; i++) {
-            const size_t k = (size_t)j * w + i;
-            const float x = i < rw && j < rh ? f[(size_t)j * rw + i] : NAN;
-            if (!isfinite(x)) {
-                q[k] = b->fill;
-                v[k] = 0;
-            } else {
-                double e;
-                q[k] = quant(b, x, &e);
-                v[k] = 1;
-                *max_err = e > *max_err ? e : *max_err;
-            }
-        }
     free(f);
     return HZ_OK;
 }
@@ -372,9 +445,12 @@ static hz_result run_job(build *b, uint32_t job, job_out *o, hz_err *err)
     const uint32_t jx = job % b->jobs_side, jz = job / b->jobs_side;
     const uint32_t halo = P << J;
     const uint32_t X0 = jx * S, Z0 = jz * S;
-    const uint32_t RX0 = X0 >= halo ? X0 - halo : 0, RZ0 = Z0 >= halo ? Z0 - halo : 0;
-    const uint32_t RX1 = X0 + S + halo <= N - 1 ? X0 + S + halo : N - 1;
-    const uint32_t RZ1 = Z0 + S + halo <= N - 1 ? Z0 + S + halo : N - 1;
+    /* shifted by ext when wrapping: the halo then reads across the seam */
+    const uint32_t E = b->ext, XE = X0 + E, ZE = Z0 + E;
+    const uint32_t RX0 = b->wrap ? XE - halo : (X0 >= halo ? X0 - halo : 0);
+    const uint32_t RZ0 = b->wrap ? ZE - halo : (Z0 >= halo ? Z0 - halo : 0);
+    const uint32_t RX1 = b->wrap ? XE + S + halo : (X0 + S + halo <= N - 1 ? X0 + S + halo : N - 1);
+    const uint32_t RZ1 = b->wrap ? ZE + S + halo : (Z0 + S + halo <= N - 1 ? Z0 + S + halo : N - 1);
     const uint32_t RW = RX1 - RX0 + 1, RH = RZ1 - RZ0 + 1;
     uint16_t *q = malloc((size_t)RW * RH * sizeof *q);
     uint8_t *v = malloc((size_t)RW * RH);
@@ -395,7 +471,7 @@ static hz_result run_job(build *b, uint32_t job, job_out *o, hz_err *err)
         for (uint32_t X = X0; X <= X0 + S; X++) {
             if (X == X0 + S && X != N - 1)
                 break;
-            const size_t k = (size_t)(Z - RZ0) * RW + (X - RX0);
+            const size_t k = (size_t)(Z + E - RZ0) * RW + (X + E - RX0);
             if (!v[k]) {
                 o->nodata += X < b->W && Z < b->H;
                 continue;
@@ -431,7 +507,7 @@ static hz_result run_job(build *b, uint32_t job, job_out *o, hz_err *err)
             for (uint32_t tx = 0; tx < per; tx++)
                 o->tasks[o->count++] = (tile_task){.level = l, .tx = jx * per + tx, .tz = jz * per + tz};
     }
-    tile_ctx tc = {.b = b, .g = &g0, .nodes = nodes, .tasks = o->tasks, .count = o->count};
+    tile_ctx tc = {.b = b, .g = &g0, .nodes = nodes, .tasks = o->tasks, .count = o->count, .shifted = true};
     r = encode_all(&tc, err);
     if (r != HZ_OK)
         goto done;
@@ -446,13 +522,14 @@ static hz_result run_job(build *b, uint32_t job, job_out *o, hz_err *err)
     }
     for (uint32_t bz = 0; bz < nJ; bz++)
         for (uint32_t a = 0; a < nJ; a++) {
-            const size_t s = g_at(&g0, X0 + (a << J), Z0 + (bz << J));
+            const size_t s = g_at(&g0, XE + (a << J), ZE + (bz << J));
             o->hJ[(size_t)bz * nJ + a] = q[s];
             o->vJ[(size_t)bz * nJ + a] = v[s];
         }
     for (uint32_t zi = 0; zi < kJ; zi++)
         for (uint32_t xi = 0; xi < kJ; xi++) {
-            const size_t src = narr_at(&nodes[J], o->nJ.x0 + xi, o->nJ.z0 + zi), dst = (size_t)zi * kJ + xi;
+            const uint32_t sJ = E / (P << J);
+            const size_t src = narr_at(&nodes[J], o->nJ.x0 + sJ + xi, o->nJ.z0 + sJ + zi), dst = (size_t)zi * kJ + xi;
             o->nJ.d[dst] = nodes[J].d[src], o->nJ.mn[dst] = nodes[J].mn[src], o->nJ.mx[dst] = nodes[J].mx[src];
         }
 done:
@@ -551,6 +628,7 @@ static uint64_t setup_hash(const build *b)
     w32(buf + 16, in->patch_cells);
     memcpy(buf + 24, &in->spacing, 8), memcpy(buf + 32, &b->scale, 8), memcpy(buf + 40, &b->offset, 8);
     memcpy(buf + 100, &b->zscale, 8);
+    buf[108] = b->wrap;
     memcpy(buf + 48, in->geotransform, 48);
     return XXH64(buf, sizeof buf, XXH64(b->wkt ? b->wkt : "", b->wkt ? strlen(b->wkt) : 0, 0));
 }
@@ -794,7 +872,9 @@ static hz_result setup(build *b, const hz_pyr_import *d, hz_err *err)
     double int_offset = 0;
     hz_result r;
     if (d->generate) {
-        r = hz_gen_window_open(&d->gen, &b->gen, err);
+        hz_gen_desc gd = d->gen;
+        gd.periodic = d->wrap;
+        r = hz_gen_window_open(&gd, &b->gen, err);
         if (r != HZ_OK)
             return r;
         b->W = b->H = d->gen.size;
@@ -856,6 +936,14 @@ static hz_result setup(build *b, const hz_pyr_import *d, hz_err *err)
     in->levels = L + 1;
     if (in->levels > HZ_PYR_MAX_LEVELS)
         return hz_err_set(err, HZ_ERR_VALUE, "import: %u levels exceed %u", in->levels, HZ_PYR_MAX_LEVELS);
+    if (d->wrap && (b->W != N || b->H != N))
+        return hz_err_set(err, HZ_ERR_VALUE,
+                          "import --wrap: the terrain must be square with 2^k+1 samples per side (this one is "
+                          "%ux%u); its last row and column are taken as its first", b->W, b->H);
+    b->wrap = d->wrap;
+    in->wrap = d->wrap;
+    b->ext = d->wrap ? N - 1 : 0;
+    b->n_ext = d->wrap ? 3 * (N - 1) + 1 : N;
     in->spacing = sx < sy ? sx : sy;
     in->h_scale = b->scale, in->h_offset = b->offset;
     in->wkt = b->wkt ? b->wkt : "";

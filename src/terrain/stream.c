@@ -140,25 +140,28 @@ static inline uint32_t log2u(uint32_t v)
  * that level (its nodes and their ring). */
 static uint16_t sample_q(const hz_stream *s, const slot *q, uint32_t X, uint32_t Z)
 {
-    if ((X | Z) == 0)
+    const uint32_t ext = s->info.wrap ? s->info.size - 1 : 0; /* see build_texels */
+    if (((X + ext) | (Z + ext)) == 0)
         return NEVER;
-    const uint32_t sh = log2u(low_bit(X | Z)) + 1, top = s->info.levels - 1;
+    const uint32_t sh = log2u(low_bit((X + ext) | (Z + ext))) + 1, top = s->info.levels - 1;
     if (sh > top || sh <= q->level || q->anc[sh] < 0)
         return NEVER;
     const slot *A = &s->slots[q->anc[sh]];
     const uint32_t G = s->info.patch_cells << sh, side = s->side[sh], kA = A->k;
     const int64_t ox = (int64_t)A->tx * kA, oz = (int64_t)A->tz * kA;
-    uint32_t cx[2] = {X / G, X / G}, cz[2] = {Z / G, Z / G};
-    if (X % G == 0 && cx[0] > 0)
+    /* on a repeating terrain the nodes across the seam are the ancestor's ring */
+    const bool wrap = s->info.wrap;
+    int64_t cx[2] = {X / G, X / G}, cz[2] = {Z / G, Z / G};
+    if (X % G == 0)
         cx[0]--;
-    if (Z % G == 0 && cz[0] > 0)
+    if (Z % G == 0)
         cz[0]--;
     uint16_t r = NEVER;
     for (int u = 0; u < 2; u++)
         for (int v = 0; v < 2; v++) {
-            if (cx[u] >= side || cz[v] >= side)
+            if (!wrap && (cx[u] < 0 || cz[v] < 0 || cx[u] >= side || cz[v] >= side))
                 continue;
-            const int64_t lx = (int64_t)cx[u] - ox, lz = (int64_t)cz[v] - oz;
+            const int64_t lx = cx[u] - ox, lz = cz[v] - oz;
             if (lx < -1 || lz < -1 || lx > kA || lz > kA)
                 continue;
             const uint16_t d = A->nd[(size_t)(lz + 1) * (kA + 2) + (size_t)(lx + 1)];
@@ -168,8 +171,14 @@ static uint16_t sample_q(const hz_stream *s, const slot *q, uint32_t X, uint32_t
 }
 
 /* Height (h16) of level-0 sample (X, Z) from slot q's tile, if it holds it. */
-static bool slot_h(const hz_stream *s, const slot *q, uint32_t X, uint32_t Z, uint32_t *h)
+static bool slot_h(const hz_stream *s, const slot *q, int64_t Xs, int64_t Zs, uint32_t *h)
 {
+    const int64_t per = (int64_t)s->info.size - 1;
+    if (s->info.wrap)
+        Xs = ((Xs % per) + per) % per, Zs = ((Zs % per) + per) % per;
+    if (Xs < 0 || Zs < 0 || Xs > per || Zs > per)
+        return false;
+    const uint32_t X = (uint32_t)Xs, Z = (uint32_t)Zs;
     const uint32_t l = q->level, c = hz_pyr_level_cells(&s->info, l);
     const uint32_t x0 = (q->tx * c) << l, z0 = (q->tz * c) << l;
     if (X < x0 || Z < z0 || ((X - x0) & ((1u << l) - 1)) || ((Z - z0) & ((1u << l) - 1)))
@@ -183,7 +192,11 @@ static bool slot_h(const hz_stream *s, const slot *q, uint32_t X, uint32_t Z, ui
 
 static uint16_t *build_texels(const hz_stream *s, const slot *q, const hz_pyr_tile *t)
 {
-    const uint32_t c = t->cells, n = c + 1, T1 = s->T + 1, N = s->info.size, l = t->level;
+    /* A repeating terrain works in coordinates shifted by one period, so
+     * that the samples on both sides of the seam are neighbours (the import
+     * does the same). */
+    const uint32_t ext = s->info.wrap ? s->info.size - 1 : 0;
+    const uint32_t c = t->cells, n = c + 1, T1 = s->T + 1, N = s->info.wrap ? 3 * ext + 1 : s->info.size, l = t->level;
     const uint32_t top = s->info.levels - 1;
     uint16_t *tex = calloc((size_t)T1 * T1 * 4, sizeof *tex);
     if (!tex)
@@ -194,25 +207,28 @@ static uint16_t *build_texels(const hz_stream *s, const slot *q, const hz_pyr_ti
             const size_t k = (size_t)b * n + a;
             uint32_t t2 = 2u * t->h[k];
             uint32_t ni[2], nj[2];
-            if (hz__morph_neighbours(N, X, Z, ni, nj)) {
+            if (hz__morph_neighbours(N, X + ext, Z + ext, ni, nj)) {
                 uint32_t la[2], lb[2];
                 bool inside = true;
+                int64_t pi[2], pj[2]; /* the neighbours, unshifted */
+                for (int e = 0; e < 2; e++)
+                    pi[e] = (int64_t)ni[e] - ext, pj[e] = (int64_t)nj[e] - ext;
                 for (int e = 0; e < 2 && inside; e++) {
-                    inside = ni[e] >= t->x0 && nj[e] >= t->z0 && ((ni[e] - t->x0) >> l) <= c &&
-                             ((nj[e] - t->z0) >> l) <= c;
+                    inside = pi[e] >= t->x0 && pj[e] >= t->z0 && ((pi[e] - t->x0) >> l) <= c &&
+                             ((pj[e] - t->z0) >> l) <= c;
                     if (inside)
-                        la[e] = (ni[e] - t->x0) >> l, lb[e] = (nj[e] - t->z0) >> l;
+                        la[e] = (uint32_t)((pi[e] - t->x0) >> l), lb[e] = (uint32_t)((pj[e] - t->z0) >> l);
                 }
                 if (inside) {
                     t2 = (uint32_t)t->h[(size_t)lb[0] * n + la[0]] + t->h[(size_t)lb[1] * n + la[1]];
                 } else {
                     /* a tile corner: its neighbours are on the grid of the
                      * level of its lowest bit, where an ancestor holds them */
-                    uint32_t L = log2u(low_bit(X | Z));
+                    uint32_t L = log2u(low_bit((X + ext) | (Z + ext)));
                     L = L > top ? top : L;
                     uint32_t h0, h1;
-                    if (L > l && q->anc[L] >= 0 && slot_h(s, &s->slots[q->anc[L]], ni[0], nj[0], &h0) &&
-                        slot_h(s, &s->slots[q->anc[L]], ni[1], nj[1], &h1))
+                    if (L > l && q->anc[L] >= 0 && slot_h(s, &s->slots[q->anc[L]], pi[0], pj[0], &h0) &&
+                        slot_h(s, &s->slots[q->anc[L]], pi[1], pj[1], &h1))
                         t2 = h0 + h1;
                 }
             }
@@ -490,7 +506,10 @@ static void want_tile(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, float
         s->reqs[s->nreq++] = (req){sh, tx, tz, prio};
 }
 
-static void node_box(const sel *c, const slot *q, size_t li, uint32_t sh, uint32_t ix, uint32_t iz, vec3 box[2])
+/* The node's box; on a repeating terrain, its copy nearest the eye (the
+ * shift in periods goes to img, when given). */
+static void node_box_img(const sel *c, const slot *q, size_t li, uint32_t sh, uint32_t ix, uint32_t iz, vec3 box[2],
+                         int img[2])
 {
     const float G = (float)(c->s->info.patch_cells << sh) * c->spacing;
     const hz_pyr_info *in = &c->s->info;
@@ -498,6 +517,32 @@ static void node_box(const sel *c, const slot *q, size_t li, uint32_t sh, uint32
     box[0][2] = (float)iz * G, box[1][2] = (float)(iz + 1) * G;
     box[0][1] = (float)(in->h_offset + in->h_scale * q->mn[li]);
     box[1][1] = (float)(in->h_offset + in->h_scale * q->mx[li]);
+    int w[2] = {0, 0};
+    if (in->wrap) {
+        const float E = (float)(in->size - 1) * c->spacing;
+        for (int a = 0; a < 2; a++) {
+            const int k = a ? 2 : 0;
+            const float e = c->cam->pos[k];
+            float best = INFINITY;
+            for (int t = -1; t <= 1; t++) {
+                const float lo = box[0][k] + (float)t * E, hi = box[1][k] + (float)t * E;
+                const float d = e < lo ? lo - e : (e > hi ? e - hi : 0.0f);
+                if (d < best) {
+                    best = d;
+                    w[a] = t;
+                }
+            }
+            box[0][k] += (float)w[a] * E;
+            box[1][k] += (float)w[a] * E;
+        }
+    }
+    if (img)
+        img[0] = w[0], img[1] = w[1];
+}
+
+static void node_box(const sel *c, const slot *q, size_t li, uint32_t sh, uint32_t ix, uint32_t iz, vec3 box[2])
+{
+    node_box_img(c, q, li, sh, ix, iz, box, NULL);
 }
 
 static hz_result lv_add(hz_stream *s, uint32_t sh, uint32_t x, uint32_t z)
@@ -514,14 +559,16 @@ static hz_result lv_add(hz_stream *s, uint32_t sh, uint32_t x, uint32_t z)
 static uint8_t neighbour(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, int dir)
 {
     const uint32_t side = s->side[sh], top = s->info.levels - 1;
-    switch (dir) {
-    case DIR_W: if (ix == 0) return NB_DONTCARE; break;
-    case DIR_E: if (ix + 1 == side) return NB_DONTCARE; break;
-    case DIR_N: if (iz == 0) return NB_DONTCARE; break;
-    default:    if (iz + 1 == side) return NB_DONTCARE; break;
+    if (sh == top) /* the root: the map's edge, or, repeating, its own copy (always split) */
+        return s->info.wrap ? NB_EXISTS : NB_DONTCARE;
+    if (!s->info.wrap) {
+        switch (dir) {
+        case DIR_W: if (ix == 0) return NB_DONTCARE; break;
+        case DIR_E: if (ix + 1 == side) return NB_DONTCARE; break;
+        case DIR_N: if (iz == 0) return NB_DONTCARE; break;
+        default:    if (iz + 1 == side) return NB_DONTCARE; break;
+        }
     }
-    if (sh == top)
-        return NB_DONTCARE;
     const uint32_t px = ix / 2, pz = iz / 2;
     bool sibling;
     uint32_t qx = px, qz = pz;
@@ -533,6 +580,8 @@ static uint8_t neighbour(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, in
     }
     if (sibling)
         return NB_EXISTS;
+    const uint32_t pside = s->side[sh + 1]; /* across the seam of a repeating terrain */
+    qx = (qx + pside) % pside, qz = (qz + pside) % pside;
     size_t pl, ql;
     slot *ps = node_slot(s, sh + 1, px, pz, &pl);
     if (!ps || (ps->flags[pl] & (1u << (DC_SHIFT + dir))))
@@ -554,7 +603,10 @@ static hz_result classify(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool *c
     c->st->nodes_visited++;
     vec3 box[2];
     node_box(c, q, li, sh, ix, iz, box);
-    if (!c->no_cull && box_outside((const vec3 *)box, (const vec4 *)c->planes, c->margin)) {
+    /* On a repeating terrain a node of half a period or more has no one
+     * copy nearest the eye: it is never culled, and always split. */
+    const bool whole = c->s->info.wrap && sh + 1 >= c->s->info.levels - 1;
+    if (!c->no_cull && !whole && box_outside((const vec3 *)box, (const vec4 *)c->planes, c->margin)) {
         q->flags[li] = ST_CULLED;
         c->st->nodes_culled++;
         *culled = true;
@@ -576,11 +628,12 @@ static bool can_split(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, uint3
         if (neighbour(s, sh, ix, iz, dir) != NB_ABSENT)
             continue;
         uint32_t qx = ix / 2, qz = iz / 2;
+        const uint32_t pside = s->side[sh + 1];
         switch (dir) {
-        case DIR_W: qx--; break;
-        case DIR_E: qx++; break;
-        case DIR_N: qz--; break;
-        default: qz++; break;
+        case DIR_W: qx = (qx + pside - 1) % pside; break;
+        case DIR_E: qx = (qx + 1) % pside; break;
+        case DIR_N: qz = (qz + pside - 1) % pside; break;
+        default: qz = (qz + 1) % pside; break;
         }
         if (!can_split(s, sh + 1, qx, qz, depth + 1))
             return false;
@@ -596,11 +649,12 @@ static hz_result split_node(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool 
         const uint8_t nb = neighbour(s, sh, ix, iz, dir);
         if (nb == NB_ABSENT) {
             uint32_t qx = ix / 2, qz = iz / 2;
+            const uint32_t pside = s->side[sh + 1];
             switch (dir) {
-            case DIR_W: qx--; break;
-            case DIR_E: qx++; break;
-            case DIR_N: qz--; break;
-            default: qz++; break;
+            case DIR_W: qx = (qx + pside - 1) % pside; break;
+            case DIR_E: qx = (qx + 1) % pside; break;
+            case DIR_N: qz = (qz + pside - 1) % pside; break;
+            default: qz = (qz + 1) % pside; break;
             }
             hz_result r = split_node(c, sh + 1, qx, qz, true);
             if (r != HZ_OK)
@@ -769,10 +823,13 @@ static hz_result emit(sel *c, hz_patch_list *out)
                 if (neighbour(s, sh, ix, iz, dir) == NB_ABSENT)
                     coarse |= (uint8_t)(1u << dir);
             vec3 box[2];
-            node_box(c, q, li, sh, ix, iz, box);
+            int img[2];
+            node_box_img(c, q, li, sh, ix, iz, box, img);
             const uint32_t lx = ix % q->k, lz = iz % q->k;
+            const int64_t per = (int64_t)s->info.size - 1;
             out->data[out->count++] = (hz_patch){
-                .x0 = (ix * P) << sh, .z0 = (iz * P) << sh, .shift = (uint8_t)sh, .coarse = coarse,
+                .x0 = (uint32_t)(int32_t)(((int64_t)ix * P << sh) + img[0] * per),
+                .z0 = (uint32_t)(int32_t)(((int64_t)iz * P << sh) + img[1] * per), .shift = (uint8_t)sh, .coarse = coarse,
                 .level = (uint16_t)(top - sh), .dist = box_distance((const vec3 *)box, c->cam->pos),
                 .layer1 = (uint32_t)(q - s->slots) + 1, .ox = (uint16_t)(lx * P), .oz = (uint16_t)(lz * P)};
             c->st->triangles += patch_triangles(P, coarse);
@@ -844,7 +901,8 @@ hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_para
                     const float d = sqrtf(d2);
                     want_tile(s, sh - 1, 2 * ix, 2 * iz, range / (d + 1e-3f));
                 }
-                if (d2 < range * range) {
+                const bool whole = in->wrap && sh + 1 >= top;
+                if (d2 < range * range || whole) {
                     if (can_split(s, sh, ix, iz, 0))
                         r = split_node(&c, sh, ix, iz, false);
                     else
@@ -924,6 +982,15 @@ hz_stream_stats hz_stream_take_stats(hz_stream *s)
     return st;
 }
 
+void hz_stream_wrap_camera(const hz_stream *s, hz_camera *cam)
+{
+    if (!s->info.wrap)
+        return;
+    const double E = (double)(s->info.size - 1) * s->info.spacing;
+    for (int k = 0; k <= 2; k += 2)
+        cam->pos[k] = (float)((double)cam->pos[k] - floor((double)cam->pos[k] / E) * E);
+}
+
 const char *hz_stream_warning(hz_stream *s)
 {
     return s->warning[0] ? s->warning : NULL;
@@ -932,7 +999,11 @@ const char *hz_stream_warning(hz_stream *s)
 float hz_stream_height_at(hz_stream *s, float x, float z)
 {
     const hz_pyr_info *in = &s->info;
-    const double fx = x / in->spacing, fz = z / in->spacing;
+    double fx = x / in->spacing, fz = z / in->spacing;
+    if (in->wrap) {
+        const double per = (double)(in->size - 1);
+        fx -= floor(fx / per) * per, fz -= floor(fz / per) * per;
+    }
     if (!(fx >= 0 && fz >= 0 && fx <= in->size - 1 && fz <= in->size - 1))
         return NAN;
     const uint32_t X = (uint32_t)(fx + 0.5), Z = (uint32_t)(fz + 0.5);

@@ -409,6 +409,260 @@ static void test_texels_agree_across_tiles(void **state)
     hz_stream_destroy(s);
 }
 
+/* ---- --wrap ---- */
+
+typedef struct vkey {
+    int64_t x, z;
+} vkey;
+
+static uint64_t vhash(int64_t x, int64_t z)
+{
+    return ((uint64_t)x * 0x9e3779b97f4a7c15ULL) ^ ((uint64_t)z * 0xc2b2ae3d27d4eb4fULL);
+}
+
+typedef struct vset {
+    vkey *k;
+    uint8_t *used;
+    size_t cap;
+} vset;
+
+static void vset_add(vset *v, int64_t x, int64_t z)
+{
+    for (size_t h = vhash(x, z) & (v->cap - 1);; h = (h + 1) & (v->cap - 1)) {
+        if (!v->used[h]) {
+            v->used[h] = 1, v->k[h] = (vkey){x, z};
+            return;
+        }
+        if (v->k[h].x == x && v->k[h].z == z)
+            return;
+    }
+}
+
+static bool vset_has(const vset *v, int64_t x, int64_t z)
+{
+    for (size_t h = vhash(x, z) & (v->cap - 1);; h = (h + 1) & (v->cap - 1)) {
+        if (!v->used[h])
+            return false;
+        if (v->k[h].x == x && v->k[h].z == z)
+            return true;
+    }
+}
+
+typedef struct ekey {
+    int64_t a[2], b[2];
+    uint32_t n;
+} ekey;
+
+/* Triangles of the patches in sample coordinates (images included), as the
+ * vertex shader places them (stitched edges). */
+static size_t patch_tris(const hz_patch *p, size_t count, uint32_t P, int64_t (**out)[2])
+{
+    int64_t(*t)[2] = malloc(count * P * P * 6 * sizeof *t);
+    size_t n = 0;
+    for (size_t k = 0; k < count; k++) {
+        const int64_t x0 = (int32_t)p[k].x0, z0 = (int32_t)p[k].z0, st = (int64_t)1 << p[k].shift;
+        for (uint32_t w = 0; w < P; w++)
+            for (uint32_t u = 0; u < P; u++) {
+                int64_t vx[4], vz[4];
+                const uint32_t cu[4] = {u, u, u + 1, u + 1}, cw[4] = {w, w + 1, w, w + 1};
+                for (int c = 0; c < 4; c++) {
+                    uint32_t uu = cu[c], ww = cw[c];
+                    if ((uu & 1) && ((ww == 0 && (p[k].coarse & 4)) || (ww == P && (p[k].coarse & 8))))
+                        uu--;
+                    if ((ww & 1) && ((uu == 0 && (p[k].coarse & 1)) || (uu == P && (p[k].coarse & 2))))
+                        ww--;
+                    vx[c] = x0 + uu * st, vz[c] = z0 + ww * st;
+                }
+                uint32_t tri[6];
+                hz_lod_cell_triangles(((u + w) & 1u) == 0, 0, 1, 2, 3, tri);
+                for (int q = 0; q < 6; q += 3) {
+                    const uint32_t a = tri[q], b = tri[q + 1], c = tri[q + 2];
+                    if ((vx[a] == vx[b] && vz[a] == vz[b]) || (vx[b] == vx[c] && vz[b] == vz[c]) ||
+                        (vx[a] == vx[c] && vz[a] == vz[c]))
+                        continue;
+                    t[n][0] = vx[a], t[n][1] = vz[a], t[n + 1][0] = vx[b], t[n + 1][1] = vz[b];
+                    t[n + 2][0] = vx[c], t[n + 2][1] = vz[c];
+                    n += 3;
+                }
+            }
+    }
+    *out = t;
+    return n;
+}
+
+static int cmp_edge(const void *x, const void *y)
+{
+    const ekey *a = x, *b = y;
+    for (int k = 0; k < 2; k++) {
+        if (a->a[k] != b->a[k])
+            return a->a[k] < b->a[k] ? -1 : 1;
+    }
+    for (int k = 0; k < 2; k++)
+        if (a->b[k] != b->b[k])
+            return a->b[k] < b->b[k] ? -1 : 1;
+    return 0;
+}
+
+/* A repeating terrain: the seam's samples are equal, its slope like any
+ * other, and the streamed mesh across it has no T-junction, no overlap and
+ * no hole near the eye; the same sample has the same morph data on both
+ * sides of the seam. */
+static void test_wrap_seamless(void **state)
+{
+    (void)state;
+    char whzp[600];
+    snprintf(whzp, sizeof whzp, "%s/pyr_wrap.hzp", HZ_TEST_TMP);
+    hz_err err = {0};
+    hz_pyr_import d = {.out = whzp, .generate = true, .gen = {.kind = HZ_GEN_PERLIN, .size = 1025, .seed = 11},
+                       .tile_cells = 64, .wrap = true};
+    assert_int_equal(hz_pyramid_import(&d, NULL, &err), HZ_OK);
+    /* a DEM that is not square 2^k+1 is refused */
+    const char *ins[] = {tif};
+    hz_pyr_import bad = {.out = whzp, .inputs = ins, .input_count = 1, .wrap = true};
+    assert_int_not_equal(hz_pyramid_import(&bad, NULL, &err), HZ_OK);
+    assert_non_null(strstr(err.msg, "square"));
+    /* heights across the seam */
+    hz_pyramid *p;
+    assert_int_equal(hz_pyramid_open(whzp, &p, &err), HZ_OK);
+    const hz_pyr_info *in = hz_pyramid_info(p);
+    assert_true(in->wrap);
+    const uint32_t N = in->size, m = hz_pyr_level_tiles(in, 0), c = hz_pyr_level_cells(in, 0);
+    uint16_t *hh = malloc((size_t)N * N * sizeof *hh);
+    for (uint32_t tz = 0; tz < m; tz++)
+        for (uint32_t tx = 0; tx < m; tx++) {
+            hz_pyr_tile t;
+            assert_int_equal(hz_pyramid_read_tile(p, 0, tx, tz, &t, &err), HZ_OK);
+            for (uint32_t b = 0; b <= c; b++)
+                for (uint32_t a = 0; a <= c; a++)
+                    hh[(size_t)(t.z0 + b) * N + t.x0 + a] = t.h[(size_t)b * (c + 1) + a];
+            hz_pyr_tile_free(&t);
+        }
+    hz_pyramid_close(p);
+    int max_in = 0, max_seam = 0;
+    for (uint32_t j = 0; j < N; j++) {
+        assert_int_equal(hh[(size_t)j * N + N - 1], hh[(size_t)j * N]); /* x seam: the same samples */
+        assert_int_equal(hh[(size_t)(N - 1) * N + j], hh[j]);           /* z seam */
+        for (uint32_t i = 0; i + 2 < N; i++) {
+            const int dd = abs((int)hh[(size_t)j * N + i + 1] - (int)hh[(size_t)j * N + i]);
+            max_in = dd > max_in ? dd : max_in;
+        }
+        const int ds = abs((int)hh[(size_t)j * N + N - 1] - (int)hh[(size_t)j * N + N - 2]);
+        max_seam = ds > max_seam ? ds : max_seam;
+    }
+    assert_true(max_seam <= max_in); /* continuous: no step at the seam */
+    free(hh);
+
+    hz_stream *s = hz_stream_create(&(hz_stream_desc){.path = whzp, .cache_bytes = 1ull << 30, .synchronous = true},
+                                    &err);
+    assert_non_null(s);
+    const int64_t per = N - 1;
+    uint32_t *seen = calloc((size_t)per * per, sizeof *seen), *seen2 = calloc((size_t)per * per, sizeof *seen2);
+    hz_patch_list pl = {0};
+    const float cams[][4] = {{5, 9000, 600, 270}, {10230, 8000, 300, 45}, {5120, 20, 1200, 0}, {3, 10237, 400, 225}};
+    uint64_t compared = 0;
+    for (int cc = 0; cc < 4; cc++) {
+        hz_camera cam = {.pos = {cams[cc][0], cams[cc][2], cams[cc][1]}, .yaw = cams[cc][3], .pitch = -20.0f,
+                         .fov_y = 60.0f, .aspect = 16.0f / 9.0f, .znear = 1.0f, .zfar = 60000.0f};
+        hz_stream_wrap_camera(s, &cam);
+        for (int f = 0; f < 30; f++) {
+            hz_lod_stats st;
+            assert_int_equal(hz_stream_select(s, &cam, &(hz_lod_params){.mode = HZ_LOD_CDLOD, .pixel_error = 0.5f,
+                                                                       .no_cull = true},
+                                              &pl, &st),
+                             HZ_OK);
+            uint32_t slot;
+            const uint16_t *tex;
+            bool any = false;
+            while (hz_stream_next_upload(s, &slot, &tex)) {
+                uint32_t l, tx, tz;
+                hz_stream_tile_key(s, slot, &l, &tx, &tz);
+                const uint32_t tc = hz_pyr_level_cells(in, l), T1 = hz_stream_texels(s);
+                for (uint32_t b = 0; b <= tc; b++)
+                    for (uint32_t a = 0; a <= tc; a++) {
+                        const int64_t X = (((int64_t)tx * tc) << l) + (a << l), Z = (((int64_t)tz * tc) << l) + (b << l);
+                        const size_t k = (size_t)(Z % per) * per + (size_t)(X % per);
+                        const uint16_t *o = tex + ((size_t)b * T1 + a) * 4;
+                        const uint32_t t2 = o[2] | ((uint32_t)(o[3] & 1u) << 16);
+                        if (seen[k]) {
+                            assert_int_equal(seen[k], (uint32_t)o[1] + 1u);
+                            assert_int_equal(seen2[k], t2);
+                            compared++;
+                        } else {
+                            seen[k] = (uint32_t)o[1] + 1u, seen2[k] = t2;
+                        }
+                    }
+                hz_stream_uploaded(s, slot);
+                any = true;
+            }
+            if (!any)
+                break;
+        }
+        /* the mesh around the eye, across the seam */
+        int64_t(*tri)[2];
+        const size_t nv = patch_tris(pl.data, pl.count, in->patch_cells, &tri);
+        assert_true(nv > 300);
+        vset vs = {.cap = 1};
+        while (vs.cap < 4 * nv)
+            vs.cap *= 2;
+        vs.k = malloc(vs.cap * sizeof *vs.k);
+        vs.used = calloc(vs.cap, 1);
+        ekey *e = malloc(nv * sizeof *e);
+        for (size_t k = 0; k < nv; k++) {
+            vset_add(&vs, tri[k][0], tri[k][1]);
+            const size_t a = k, b = (k % 3 == 2) ? k - 2 : k + 1;
+            const bool lt = tri[a][0] < tri[b][0] || (tri[a][0] == tri[b][0] && tri[a][1] < tri[b][1]);
+            const size_t lo = lt ? a : b, hi = lt ? b : a;
+            e[k] = (ekey){{tri[lo][0], tri[lo][1]}, {tri[hi][0], tri[hi][1]}, 1};
+        }
+        qsort(e, nv, sizeof *e, cmp_edge);
+        const double ex = cam.pos[0] / 10.0, ez = cam.pos[2] / 10.0;
+        size_t tj = 0, over2 = 0, holes = 0;
+        for (size_t k = 0; k < nv;) {
+            size_t r = 1;
+            while (k + r < nv && !cmp_edge(&e[k], &e[k + r]))
+                r++;
+            if (r > 2)
+                over2++;
+            if (r == 1) {
+                /* a drawn vertex strictly inside an edge used once: a T-junction */
+                const int64_t dx = e[k].b[0] - e[k].a[0], dz = e[k].b[1] - e[k].a[1];
+                const int64_t g = llabs(dx) > llabs(dz) ? llabs(dx) : llabs(dz);
+                for (int64_t q = 1; q < g; q++)
+                    if ((dx * q) % g == 0 && (dz * q) % g == 0 &&
+                        vset_has(&vs, e[k].a[0] + dx * q / g, e[k].a[1] + dz * q / g)) {
+                        if (tj < 5 && getenv("HZ_TEST_VERBOSE"))
+                            fprintf(stderr, "T-junction on edge (%lld,%lld)-(%lld,%lld), eye (%.0f,%.0f)\n",
+                                    (long long)e[k].a[0], (long long)e[k].a[1], (long long)e[k].b[0],
+                                    (long long)e[k].b[1], ex, ez);
+                        tj++;
+                        break;
+                    }
+                /* an open edge near the eye: a hole */
+                const double mx = 0.5 * (double)(e[k].a[0] + e[k].b[0]), mz = 0.5 * (double)(e[k].a[1] + e[k].b[1]);
+                if (fabs(mx - ex) < (double)per / 4.0 && fabs(mz - ez) < (double)per / 4.0)
+                    holes++;
+            }
+            k += r;
+        }
+        if (tj || over2 || holes)
+            fprintf(stderr, "wrap camera %d: %zu T-junctions, %zu edges over two, %zu holes near the eye\n", cc, tj,
+                    over2, holes);
+        assert_int_equal(tj, 0);
+        assert_int_equal(over2, 0);
+        assert_int_equal(holes, 0);
+        free(tri);
+        free(e);
+        free(vs.k);
+        free(vs.used);
+    }
+    assert_true(compared > 1000);
+    free(seen);
+    free(seen2);
+    free(pl.data);
+    hz_stream_destroy(s);
+    unlink(whzp);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -418,6 +672,7 @@ int main(void)
         cmocka_unit_test(test_jobs_byte_identical),
         cmocka_unit_test(test_lossy_within_max_error),
         cmocka_unit_test(test_texels_agree_across_tiles),
+        cmocka_unit_test(test_wrap_seamless),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }
