@@ -62,6 +62,17 @@ assert d["tiles_loaded"] > 0 and "late_frame_fraction" in d and d["frame_ms_wors
 assert max(x["resident"] for x in f) <= 8 * 8, "more tiles than the cache holds"
 PY
 
+# --wrap: an endless map, flown east across two and a half periods.
+W="$TMP/wrap.hzp"
+$HZ import --generate perlin --size 1025 --seed 3 --wrap --out "$W" --quiet && ok "import --wrap" || bad "import --wrap"
+$HZ info "$W" --json | python3 -c "import json,sys; assert json.load(sys.stdin)[0]['size'] == 1025" || bad "wrap info"
+$HZ bench --terrain "$W" --frames 40 --width 320 --height 180 --json > "$TMP/wrap.json" && python3 - "$TMP/wrap.json" <<'PY' && ok "endless flight east, terrain in every frame" || bad "wrap flight"
+import json, sys
+d = json.load(open(sys.argv[1]))
+assert all(f["triangles"] > 0 for f in d["per_frame"])
+PY
+expect_fail "wrap needs a square 2^n+1 DEM" "square" $HZ import "$DATA/N46E008.tif" --wrap --out "$TMP/w2.hzp"
+
 # A flipped byte in a tile: detected, reported, drawn coarser; info --verify fails.
 C="$TMP/corrupt.hzp"; cp "$P" "$C"
 printf '\x5a' | dd of="$C" bs=1 seek=700 conv=notrunc 2>/dev/null
