@@ -76,20 +76,16 @@ bool tile_texel(int i, int j, ivec2 org, int shift, int layer, out uvec4 t)
     ivec2 l = (ivec2(i, j) - org) >> shift;
     bool ok = all(greaterThanEqual(l, ivec2(0))) && all(lessThanEqual(l, ivec2(u_tile))) &&
               ((ivec2(i, j) - org) & ((1 << shift) - 1)) == ivec2(0);
-    t = ok ? texelFetch(u_tiles, ivec3(l, layer), 0) : uvec4(0u);
+    t = ok ? texelFetch(u_tiles, ivec3(l + 1, layer), 0) : uvec4(0u); // streamed tiles: a one-texel apron
     return ok;
 }
 
-// Height of sample (i, j) if the patch's tile holds it; ok says so.
-float stream_h(int i, int j, ivec2 org, int shift, int layer, float fallback, out float ok)
+// Height of sample (i, j) next to the patch's tile: the tile or its apron
+// (one sample around it), which both tiles of an edge share.
+float stream_h(int i, int j, ivec2 org, int shift, int layer)
 {
-    uvec4 t;
-    ok = 0.0;
-    // u_map 0: a repeating terrain, no edge
-    if ((u_map > 0 && (i < 0 || j < 0 || i > u_map - 1 || j > u_map - 1)) || !tile_texel(i, j, org, shift, layer, t))
-        return fallback;
-    ok = 1.0;
-    return u_hoffset + u_hscale * float(t.r);
+    ivec2 l = (ivec2(i, j) - org) >> shift;
+    return u_hoffset + u_hscale * float(texelFetch(u_tiles, ivec3(l + 1, layer), 0).r);
 }
 
 void main()
@@ -107,7 +103,7 @@ void main()
     int shift = int(a_patch.z >> 16);
     int layer = int(a_patch.z & 0xffffu);
     int ox = int(meta & 0xfffu), oz = int((meta >> 12) & 0xfffu), ts = int((meta >> 24) & 15u);
-    uvec4 t = texelFetch(u_tiles, ivec3(ox + (u << ts), oz + (w << ts), layer), 0);
+    uvec4 t = texelFetch(u_tiles, ivec3(ox + (u << ts) + u_stream, oz + (w << ts) + u_stream, layer), 0);
     int i = int(a_patch.x) + (u << shift), j = int(a_patch.y) + (w << shift);
     float h = u_hoffset + u_hscale * float(t.r);
     vec3 p = vec3(float(i) * u_spacing, h, float(j) * u_spacing);
@@ -147,13 +143,10 @@ void main()
     if (u_stream != 0) {
         // No full-resolution normal map: the normal of the heights at this level.
         int st = 1 << shift;
-        float ow, oe, on, os;
-        float hw = stream_h(i - st, j, org, shift, layer, h, ow), he = stream_h(i + st, j, org, shift, layer, h, oe);
-        float hn = stream_h(i, j - st, org, shift, layer, h, on), hs = stream_h(i, j + st, org, shift, layer, h, os);
-        // one-sided at the tile's (or map's) edge
-        float dx = max(ow + oe, 1.0), dz = max(on + os, 1.0);
-        v_normal = normalize(vec3(-(he - hw) / (dx * float(st) * u_spacing), 1.0,
-                                  -(hs - hn) / (dz * float(st) * u_spacing)));
+        float hw = stream_h(i - st, j, org, shift, layer), he = stream_h(i + st, j, org, shift, layer);
+        float hn = stream_h(i, j - st, org, shift, layer), hs = stream_h(i, j + st, org, shift, layer);
+        v_normal = normalize(vec3(-(he - hw) / (2.0 * float(st) * u_spacing), 1.0,
+                                  -(hs - hn) / (2.0 * float(st) * u_spacing)));
     } else {
         v_normal = vec3(0.0, 1.0, 0.0); // the fragment shader takes normals from the normal map
     }

@@ -44,6 +44,9 @@ typedef struct hz_pyr_tile {
     uint32_t cells;       /* c: (c + 1)^2 samples */
     uint32_t x0, z0;      /* level-0 sample of its north-west corner */
     uint16_t *h;          /* (c + 1)^2 */
+    uint16_t *apron;      /* 4c + 8: the ring of samples just outside the tile (for normals): row -1
+                             (x = -1 .. c + 1), then x = -1 and x = c + 1 of rows 0 .. c, then row
+                             c + 1; off the map, extrapolated from the edge */
     uint8_t *valid;       /* (c + 1)^2, 1 = data; NULL when every sample has data */
     uint32_t nodes;       /* k = c / P nodes per side at this level */
     uint16_t *node_delta; /* (k+2)^2: error bound (h16 steps) of each node of this level and of the

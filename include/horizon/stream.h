@@ -38,9 +38,10 @@ typedef struct hz_stream_stats {
 hz_stream *hz_stream_create(const hz_stream_desc *desc, hz_err *err);
 void hz_stream_destroy(hz_stream *s);
 const hz_pyr_info *hz_stream_info(const hz_stream *s);
-/* GPU layers the renderer must hold: one per cache slot, each (T+1)^2 RGBA16UI. */
+/* GPU layers the renderer must hold: one per cache slot, each (T+3)^2 RGBA16UI:
+ * sample (a, b) of a tile at texel (a + 1, b + 1), a one-sample apron around it. */
 uint32_t hz_stream_slots(const hz_stream *s);
-uint32_t hz_stream_texels(const hz_stream *s); /* T + 1 */
+uint32_t hz_stream_texels(const hz_stream *s); /* T + 3 */
 
 /* Selects the patches for cam over the resident tiles (nearest first; each
  * patch's layer1 - 1 is its tile's slot) and asks for the tiles it lacks. */
@@ -48,7 +49,7 @@ hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_para
                            hz_lod_stats *stats);
 
 /* Hands out a decoded tile waiting for upload: its slot and its texels
- * ((T+1)^2 x 4 uint16: h16, morph range, morph target low 16 bits, target
+ * ((T+3)^2 x 4 uint16, see hz_stream_texels: h16, morph range, morph target low 16 bits, target
  * bit 16 | no-data << 1). Call hz_stream_uploaded after uploading it; the
  * tile is used from the next selection on. False when none waits. */
 bool hz_stream_next_upload(hz_stream *s, uint32_t *slot, const uint16_t **texels);

@@ -47,7 +47,8 @@ uint32_t hz_pyr_level_tiles(const hz_pyr_info *info, uint32_t level)
 static size_t raw_tile_bytes(const hz_pyr_info *info, uint32_t level, bool masked)
 {
     const size_t c = hz_pyr_level_cells(info, level), n = c + 1, k = c / info->patch_cells;
-    return TILE_HDR + n * n * 2 + (masked ? (n * n + 7) / 8 : 0) + (k + 2) * (k + 2) * 2 + k * k * 4;
+    return TILE_HDR + n * n * 2 + (4 * c + 8) * 2 + (masked ? (n * n + 7) / 8 : 0) + (k + 2) * (k + 2) * 2 +
+           k * k * 4;
 }
 
 /* ---- tile codec ---- */
@@ -84,6 +85,9 @@ hz_result hz_pyr_encode_tile(const hz_pyr_info *info, const hz_pyr_tile *t, int 
             p[nn + j * n + i] = (uint8_t)(d >> 8);
         }
     p += 2 * nn;
+    for (size_t q = 0; q < 4 * c + 8; q++)
+        put16(p + 2 * q, t->apron[q]);
+    p += 2 * (4 * c + 8);
     if (masked) {
         memset(p, 0, (nn + 7) / 8);
         for (size_t q = 0; q < nn; q++)
@@ -114,7 +118,7 @@ hz_result hz_pyr_encode_tile(const hz_pyr_info *info, const hz_pyr_tile *t, int 
 
 void hz_pyr_tile_free(hz_pyr_tile *t)
 {
-    free(t->h);
+    free(t->h); /* the apron lives in its block */
     free(t->valid);
     free(t->node_delta); /* node_min and node_max live in its block */
     memset(t, 0, sizeof *t);
@@ -343,7 +347,7 @@ static hz_result decode(const hz_pyr_info *in, const char *path, uint32_t level,
     memset(t, 0, sizeof *t);
     t->level = level, t->tx = tx, t->tz = tz, t->cells = c, t->nodes = k;
     t->x0 = (tx * c) << level, t->z0 = (tz * c) << level;
-    t->h = malloc(nn * sizeof *t->h);
+    t->h = malloc((nn + 4 * (size_t)c + 8) * sizeof *t->h); /* the apron follows the heights */
     t->node_delta = malloc((k2 + (size_t)k * k * 2) * sizeof(uint16_t));
     t->valid = masked ? malloc(nn) : NULL;
     if (!t->h || !t->node_delta || (masked && !t->valid)) {
@@ -362,6 +366,10 @@ static hz_result decode(const hz_pyr_info *in, const char *path, uint32_t level,
             h[0] = (uint16_t)(pred + d);
         }
     q += 2 * nn;
+    t->apron = t->h + nn;
+    for (size_t s = 0; s < 4 * (size_t)c + 8; s++)
+        t->apron[s] = get16(q + 2 * s);
+    q += 2 * (4 * (size_t)c + 8);
     if (masked) {
         for (size_t s = 0; s < nn; s++)
             t->valid[s] = (q[s >> 3] >> (s & 7)) & 1u;

@@ -260,8 +260,8 @@ hz_result hz_renderer_set_stream(hz_renderer *r, const hz_pyr_info *info, uint32
     GLint max_layers = 0, max_size = 0;
     glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &max_layers);
     glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
-    if (slots == 0 || slots > (uint32_t)max_layers || texels > (uint32_t)max_size || texels < 3 ||
-        texels - 1 > 4095)
+    if (slots == 0 || slots > (uint32_t)max_layers || texels > (uint32_t)max_size || texels < 5 ||
+        texels - 3 > 4095)
         return hz_err_set(err, HZ_ERR_UNSUPPORTED,
                           "renderer: a tile cache of %u layers of %u texels exceeds the GPU "
                           "(GL_MAX_ARRAY_TEXTURE_LAYERS %d, GL_MAX_TEXTURE_SIZE %d): lower --cache-mb",
@@ -280,7 +280,7 @@ hz_result hz_renderer_set_stream(hz_renderer *r, const hz_pyr_info *info, uint32
         return res;
     r->streamed = true;
     r->wrap = info->wrap;
-    r->tile_cells = texels - 1;
+    r->tile_cells = texels - 3; /* a one-texel apron around each tile */
     r->tile_layers = slots;
     r->tile_top = 0;
     r->tile_masked = info->nodata > 0 || info->data_w < info->size || info->data_h < info->size;
@@ -298,7 +298,7 @@ hz_result hz_renderer_stream_upload(hz_renderer *r, uint32_t slot, const uint16_
 {
     if (!r->streamed || slot >= r->tile_layers)
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: no tile slot %u (hz_renderer_set_stream first)", slot);
-    const GLsizei n = (GLsizei)(r->tile_cells + 1);
+    const GLsizei n = (GLsizei)(r->tile_cells + 3);
     glBindTexture(GL_TEXTURE_2D_ARRAY, r->tiles_tex);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 2);
     glTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, (GLint)slot, n, n, 1, GL_RGBA_INTEGER, GL_UNSIGNED_SHORT, texels);

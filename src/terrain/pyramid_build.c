@@ -185,6 +185,34 @@ typedef struct tile_ctx {
     pthread_mutex_t lock;
 } tile_ctx;
 
+/* Height of plain sample (X, Z) for a tile's apron: across the seam of a
+ * repeating terrain; off the map, the edge's slope continued (one step of
+ * 2^l); from grid g (plain -> grid coordinates: + gs). */
+static uint16_t apron_h(const build *b, const grid16 *g, uint32_t gs, int64_t X, int64_t Z, uint32_t l)
+{
+    const int64_t per = (int64_t)b->info.size - 1, st = (int64_t)1 << l;
+    if (b->wrap && !(g->ox <= X + gs && X + gs < g->ox + ((int64_t)g->nx - 1) * ((int64_t)1 << g->lv) + 1 &&
+                     g->oz <= Z + gs && Z + gs < g->oz + ((int64_t)g->nz - 1) * ((int64_t)1 << g->lv) + 1))
+        X = ((X % per) + per) % per, Z = ((Z % per) + per) % per;
+    int64_t ex = 0, ez = 0; /* off the map: the edge sample and the one inside it */
+    if (!b->wrap) {
+        if (X < 0)
+            ex = -1, X = 0;
+        else if (X > per)
+            ex = 1, X = per;
+        if (Z < 0)
+            ez = -1, Z = 0;
+        else if (Z > per)
+            ez = 1, Z = per;
+    }
+    const int h0 = g->h[g_at(g, (uint32_t)(X + gs), (uint32_t)(Z + gs))];
+    if (!ex && !ez)
+        return (uint16_t)h0;
+    const int h1 = g->h[g_at(g, (uint32_t)(X - ex * st + gs), (uint32_t)(Z - ez * st + gs))];
+    const int e = 2 * h0 - h1;
+    return (uint16_t)(e < 0 ? 0 : (e > 65535 ? 65535 : e));
+}
+
 static void encode_one(const tile_ctx *c, tile_task *t)
 {
     const build *b = c->b;
@@ -194,7 +222,7 @@ static void encode_one(const tile_ctx *c, tile_task *t)
     const uint32_t gs = c->shifted ? b->ext : 0;                       /* samples: plain -> grid */
     const int64_t ns = c->shifted ? (int64_t)(b->ext / (in->patch_cells << l)) : 0; /* nodes */
     const int64_t side = (int64_t)((in->size - 1) / (in->patch_cells << l));
-    uint16_t *h = malloc((size_t)n * n * sizeof *h);
+    uint16_t *h = malloc(((size_t)n * n + 4 * (size_t)cc + 8) * sizeof *h);
     uint8_t *v = malloc((size_t)n * n);
     uint16_t *nd = malloc(((size_t)(k + 2) * (k + 2) + 2 * (size_t)k * k) * sizeof *nd);
     if (!h || !v || !nd) {
@@ -211,6 +239,16 @@ static void encode_one(const tile_ctx *c, tile_task *t)
             h[(size_t)bz * n + a] = c->g->h[s];
             v[(size_t)bz * n + a] = c->g->v[s];
             masked |= !c->g->v[s];
+        }
+    /* the apron: the samples around the tile, from the grid (the jobs' halo
+     * or the whole map), across the seam when repeating, extrapolated off the map */
+    uint16_t *ap = h + (size_t)n * n;
+    size_t na_ = 0;
+    for (int64_t bz = -1; bz <= (int64_t)cc + 1; bz++)
+        for (int64_t a = -1; a <= (int64_t)cc + 1; a++) {
+            if (bz >= 0 && bz <= (int64_t)cc && a >= 0 && a <= (int64_t)cc)
+                continue;
+            ap[na_++] = apron_h(b, c->g, gs, (int64_t)X0 + (a << l), (int64_t)Z0 + (bz << l), l);
         }
     const narr *na = &c->nodes[l];
     const int64_t kx0 = (int64_t)t->tx * k, kz0 = (int64_t)t->tz * k;
@@ -229,7 +267,7 @@ static void encode_one(const tile_ctx *c, tile_task *t)
                 mx[(size_t)(bz - 1) * k + bx - 1] = has ? na->mx[narr_at(na, (uint32_t)x, (uint32_t)z)] : 0;
             }
         }
-    hz_pyr_tile tile = {.level = l, .tx = t->tx, .tz = t->tz, .cells = cc, .x0 = X0, .z0 = Z0, .h = h,
+    hz_pyr_tile tile = {.level = l, .tx = t->tx, .tz = t->tz, .cells = cc, .x0 = X0, .z0 = Z0, .h = h, .apron = ap,
                         .valid = masked ? v : NULL, .nodes = k, .node_delta = nd, .node_min = mn, .node_max = mx};
     t->res = hz_pyr_encode_tile(in, &tile, b->d->zstd_level, &t->blob, &t->bytes, &t->err);
     free(h);

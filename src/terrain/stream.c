@@ -196,7 +196,8 @@ static uint16_t *build_texels(const hz_stream *s, const slot *q, const hz_pyr_ti
      * that the samples on both sides of the seam are neighbours (the import
      * does the same). */
     const uint32_t ext = s->info.wrap ? s->info.size - 1 : 0;
-    const uint32_t c = t->cells, n = c + 1, T1 = s->T + 1, N = s->info.wrap ? 3 * ext + 1 : s->info.size, l = t->level;
+    /* texels: (T + 3)^2, sample (a, b) at (a + 1, b + 1); the border holds the apron */
+    const uint32_t c = t->cells, n = c + 1, T1 = s->T + 3, N = s->info.wrap ? 3 * ext + 1 : s->info.size, l = t->level;
     const uint32_t top = s->info.levels - 1;
     uint16_t *tex = calloc((size_t)T1 * T1 * 4, sizeof *tex);
     if (!tex)
@@ -232,11 +233,18 @@ static uint16_t *build_texels(const hz_stream *s, const slot *q, const hz_pyr_ti
                         t2 = h0 + h1;
                 }
             }
-            uint16_t *o = tex + ((size_t)b * T1 + a) * 4;
+            uint16_t *o = tex + ((size_t)(b + 1) * T1 + a + 1) * 4;
             o[0] = t->h[k];
             o[1] = sample_q(s, q, X, Z);
             o[2] = (uint16_t)(t2 & 0xffffu);
             o[3] = (uint16_t)((t2 >> 16) | (t->valid && !t->valid[k] ? 2u : 0u));
+        }
+    size_t na = 0; /* the apron: heights only (normals read them, nothing is drawn there) */
+    for (uint32_t b = 0; b < n + 2; b++)
+        for (uint32_t a = 0; a < n + 2; a++) {
+            if (b >= 1 && b <= n && a >= 1 && a <= n)
+                continue;
+            tex[((size_t)b * T1 + a) * 4] = t->apron[na++];
         }
     return tex;
 }
@@ -338,7 +346,7 @@ hz_stream *hz_stream_create(const hz_stream_desc *d, hz_err *err)
     }
     s->info = *hz_pyramid_info(s->pyr);
     s->T = hz_pyr_level_cells(&s->info, 0);
-    const uint64_t tile_bytes = (uint64_t)(s->T + 1) * (s->T + 1) * 8;
+    const uint64_t tile_bytes = (uint64_t)(s->T + 3) * (s->T + 3) * 8;
     const uint64_t want = d->cache_bytes ? d->cache_bytes : (256ull << 20);
     uint64_t n = want / tile_bytes, total = s->info.tiles;
     const uint64_t minimum = 8ull * s->info.levels;
@@ -443,7 +451,7 @@ uint32_t hz_stream_slots(const hz_stream *s)
 
 uint32_t hz_stream_texels(const hz_stream *s)
 {
-    return s->T + 1;
+    return s->T + 3;
 }
 
 /* ---- selection ---- */
@@ -976,7 +984,7 @@ hz_stream_stats hz_stream_take_stats(hz_stream *s)
         st.failed += s->slots[k].state == SLOT_FAILED;
     }
     st.pending = s->qn + s->busy;
-    st.cache_bytes = (uint64_t)st.resident * (s->T + 1) * (s->T + 1) * 8;
+    st.cache_bytes = (uint64_t)st.resident * (s->T + 3) * (s->T + 3) * 8;
     memset(&s->st, 0, sizeof s->st);
     pthread_mutex_unlock(&s->lock);
     return st;

@@ -111,6 +111,19 @@ static void test_round_trip_exact(void **state)
                             checked++;
                         }
                     }
+                /* the apron: the samples around the tile (shared by both tiles of an edge) */
+                size_t na = 0;
+                for (int64_t bz = -1; bz <= (int64_t)t.cells + 1; bz++)
+                    for (int64_t a = -1; a <= (int64_t)t.cells + 1; a++) {
+                        if (bz >= 0 && bz <= (int64_t)t.cells && a >= 0 && a <= (int64_t)t.cells)
+                            continue;
+                        const int64_t i = (int64_t)t.x0 + (a << l), j = (int64_t)t.z0 + (bz << l);
+                        const uint16_t ah = t.apron[na++];
+                        if (i < 0 || j < 0 || i >= W || j >= H || value_at((uint32_t)i, (uint32_t)j) == -32768)
+                            continue;
+                        assert_true(in->h_offset + in->h_scale * ah == (double)value_at((uint32_t)i, (uint32_t)j));
+                        checked++;
+                    }
                 for (uint32_t q = 0; q < t.nodes * t.nodes; q++)
                     assert_true(t.node_min[q] <= t.node_max[q]);
                 hz_pyr_tile_free(&t);
@@ -386,7 +399,7 @@ static void test_texels_agree_across_tiles(void **state)
             for (uint32_t b = 0; b <= c; b++)
                 for (uint32_t a = 0; a <= c; a++) {
                     const uint32_t X = ((tx * c) << l) + (a << l), Z = ((tz * c) << l) + (b << l);
-                    const uint16_t *o = tex + ((size_t)b * T1 + a) * 4;
+                    const uint16_t *o = tex + ((size_t)(b + 1) * T1 + a + 1) * 4; /* the apron around */
                     const size_t k = (size_t)Z * N + X;
                     const uint32_t t2 = o[2] | ((uint32_t)(o[3] & 1u) << 16);
                     if (seen[k]) {
@@ -581,7 +594,7 @@ static void test_wrap_seamless(void **state)
                     for (uint32_t a = 0; a <= tc; a++) {
                         const int64_t X = (((int64_t)tx * tc) << l) + (a << l), Z = (((int64_t)tz * tc) << l) + (b << l);
                         const size_t k = (size_t)(Z % per) * per + (size_t)(X % per);
-                        const uint16_t *o = tex + ((size_t)b * T1 + a) * 4;
+                        const uint16_t *o = tex + ((size_t)(b + 1) * T1 + a + 1) * 4; /* the apron around */
                         const uint32_t t2 = o[2] | ((uint32_t)(o[3] & 1u) << 16);
                         if (seen[k]) {
                             assert_int_equal(seen[k], (uint32_t)o[1] + 1u);
