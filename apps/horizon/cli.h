@@ -153,6 +153,9 @@ void cli_lod_scene(const cli_lod_frame *f, hz_scene_params *sp, const uint32_t *
 /* The frame's triangles as indices in f->il (cdlod: expands the patches). */
 hz_result cli_lod_indices(hz_terrain *t, cli_lod_frame *f);
 void cli_lod_frame_free(cli_lod_frame *f);
+/* The pixel error bound p selects with: p->pixel_error, or 1 for cdlod and
+ * roam when it is 0 (their default); 0 for the quadtree modes on C and C2. */
+float cli_pixel_error(const hz_lod_params *p);
 /* The camera: --camera or the terrain's default, with --fov/--far applied. */
 hz_camera cli_camera(const cli_opts *o, const hz_terrain *t);
 

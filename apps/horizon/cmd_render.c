@@ -104,6 +104,11 @@ int cmd_render(int argc, char **argv)
     const cli_file outs[] = {{out, "--out", CLI_FILE}, {o.dump_mesh, "--dump-mesh", CLI_FILE}};
     if ((rc = cli_check_outputs("render", outs, 2, ins, nin)))
         return rc;
+    if ((o.lod.c > 0 || o.lod.c2 > 0 || o.lod.criterion) && !o.quiet &&
+        (o.lod.mode == HZ_LOD_CDLOD || o.lod.mode == HZ_LOD_ROAM))
+        fprintf(stderr, "horizon render: note: --lod-c, --lod-c2 and --criterion apply to the quadtree modes; "
+                        "%s takes --pixel-error (add --lod quadtree for C and C2)\n",
+                hz_lod_mode_name(o.lod.mode));
     hz_terrain *t = cli_load_terrain(&o);
     if (!t)
         return 1;
@@ -218,7 +223,8 @@ int cmd_render(int argc, char **argv)
                "\"effects\":\"%s\",\"fx_setup_ms\":%.1f,\"lightmap_ms\":%.1f,\"trees\":%zu,\"billboards\":%u,"
                "\"particles\":%u,\"reflections\":%u,\"sun_visible\":%.4f,\"water_level\":%s",
                t->source, t->hm.size, (double)t->spacing, (double)t->zscale, hz_layout_name(t->hm.layout),
-               hz_lod_mode_name(o.lod.mode), (double)o.lod.pixel_error,
+               hz_lod_mode_name(o.lod.mode),
+               (double)cli_pixel_error(&o.lod),
                (double)(o.lod.c > 0 ? o.lod.c : 25), (double)(o.lod.c2 > 0 ? o.lod.c2 : 2.5f),
                o.lod.criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped", st.forced, st.merged, lod_first,
                (double)cam.pos[0],

@@ -958,7 +958,7 @@ static void print_json(view *v)
            "\"sun\":[%.2f,%.2f],\"weather\":\"%s\",\"billboards\":%u,\"particles\":%u,\"reflections\":%u}\n",
            v->t->source, v->t->hm.size, v->frame, v->width, v->height, total > 0 ? 1000.0 * (double)v->frame_times_n / total : 0.0,
            med, p95, v->st.triangles, v->st.nodes_visited, v->st.nodes_culled, v->st.ms, v->ds.draw_ms,
-           hz_lod_mode_name(v->lod.mode), (double)v->lod.pixel_error,
+           hz_lod_mode_name(v->lod.mode), (double)cli_pixel_error(&v->lod),
            (double)(v->lod.c > 0 ? v->lod.c : 25.0f), (double)(v->lod.c2 > 0 ? v->lod.c2 : 2.5f),
            hz_flycam_mode_name(&v->fc), (double)c->pos[0], (double)c->pos[1], (double)c->pos[2], (double)c->yaw,
            (double)c->pitch, (double)hz_flycam_ground(&v->fc), (double)v->fc.speed, (double)v->fc.eye_height,

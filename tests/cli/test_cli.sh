@@ -167,8 +167,8 @@ cmp -s "$TMP/a.png" "$TMP/b.png" && ok "repeatable render" || bad "same seed gav
 cmp -s "$TMP/a.png" "$TMP/c.png" && bad "different seeds gave the same image" || ok "seed changes terrain"
 
 # More C*C2 -> more triangles.
-t1=$($R --generate diamond --size 1025 --lod-c 25 --lod-c2 2.5 --json --out "$TMP/d.png" | python3 -c "import json,sys;print(json.load(sys.stdin)['triangles'])")
-t2=$($R --generate diamond --size 1025 --lod-c 50 --lod-c2 5 --json --out "$TMP/d.png" | python3 -c "import json,sys;print(json.load(sys.stdin)['triangles'])")
+t1=$($R --generate diamond --size 1025 --lod quadtree --lod-c 25 --lod-c2 2.5 --json --out "$TMP/d.png" | python3 -c "import json,sys;print(json.load(sys.stdin)['triangles'])")
+t2=$($R --generate diamond --size 1025 --lod quadtree --lod-c 50 --lod-c2 5 --json --out "$TMP/d.png" | python3 -c "import json,sys;print(json.load(sys.stdin)['triangles'])")
 [ -n "$t1" ] && [ -n "$t2" ] && [ "$t2" -gt "$t1" ] && ok "C*C2 raises triangles ($t1 -> $t2)" || bad "triangles $t1 -> $t2"
 
 # A real DEM that is not 2^n+1: fitted with a note, rendered.

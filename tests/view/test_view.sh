@@ -62,6 +62,7 @@ EOF
 if run flight_gen "${GEN[@]}" --frames 60 --script "$TMP/flight.txt" --screenshot "$TMP/flight_gen.png"; then
   judge "generated flight: 60 frames, 1280x720" "$OUT" 'j["frames"]==60 and j["width"]==1280 and j["height"]==720 and j["screenshots"]==1'
   judge "generated flight: terrain drawn" "$OUT" 'j["triangles"]>1000 and j["fps_mean"]>0'
+  judge "view: the default LOD is cdlod at 1 px" "$OUT" 'j["lod_mode"]=="cdlod" and j["pixel_error"]==1'
   judge "generated flight: the camera moved and turned" "$OUT" \
     'abs(j["camera"][0]-5120)+abs(j["camera"][2]-5120)>100 and abs(j["camera"][3]-30)>20'
   s=$(shot "$TMP/flight_gen.png")
