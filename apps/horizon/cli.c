@@ -72,6 +72,9 @@ void cli_usage_terrain(void)
             "  --spacing M             metres between samples (default: the DEM's georeference, else from\n"
             "                          the name, SRTM 90/30, generated 10); georeferenced DEMs are resampled\n"
             "  --zscale Z              height multiplier (default 1)\n"
+            "  --height-range MIN,MAX  normalised DEM: the sample type's range (0..65535 for 16-bit)\n"
+            "                          becomes MIN..MAX metres\n"
+            "  --height-offset M       metres added to every height (default 0)\n"
             "  --max-memory SIZE       refuse terrains needing more (e.g. 8G; default half the RAM)\n"
             "LOD:\n"
             "  --lod MODE              cdlod (default, 1 px), quadtree, remedy, bidirectional or roam\n"
@@ -230,6 +233,19 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             NEEDV();
             if (!cli_parse_float(v, 0.0001, 10000, &o->terrain.zscale))
                 return bad(cmd, a, v, "a number in [0.0001, 10000]");
+        } else if (!strcmp(a, "--height-range")) {
+            NEEDV();
+            char buf[128], *it[2];
+            if (snprintf(buf, sizeof buf, "%s", v) >= (int)sizeof buf)
+                return bad(cmd, a, v, "a shorter value");
+            if (cli_split(buf, it, 2) != 2 || !cli_parse_float(it[0], -1e5, 1e5, &o->terrain.height_min) ||
+                !cli_parse_float(it[1], -1e5, 1e5, &o->terrain.height_max) ||
+                !(o->terrain.height_min < o->terrain.height_max))
+                return bad(cmd, a, v, "MIN,MAX in metres, each in [-1e5, 1e5], MIN below MAX");
+        } else if (!strcmp(a, "--height-offset")) {
+            NEEDV();
+            if (!cli_parse_float(v, -1e5, 1e5, &o->terrain.height_offset))
+                return bad(cmd, a, v, "metres in [-1e5, 1e5]");
         } else if (!strcmp(a, "--lod-c")) {
             NEEDV();
             if (!cli_parse_float(v, 0.01, 100000, &o->lod.c))
