@@ -113,6 +113,9 @@ void cli_usage_terrain(void)
             "  --exposure E --gamma G  output = (colour x E)^(1/G) (default 1, 1)\n"
             "  --bloom S               bloom strength (default 0.35)\n"
             "  --trees N               trees per hectare in forests (default 12; 0 none)\n"
+            "  --climate KIND          ground colours, trees and lakes: auto (default: from a georeferenced\n"
+            "                          DEM's place, else temperate), temperate, arid, steppe, tropical, polar\n"
+            "  --latitude DEG          where a DEM without a georeference lies (snow and tree lines; default 45)\n"
             "  --colormap FILE.png     ground colours from an image over the whole map\n"
             "  --textures DIR          PNGs replacing the procedural textures: grass, rock, snow,\n"
             "                          sand (.png, square, power of two) and conifer, broadleaf,\n"
@@ -485,6 +488,15 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
                 return bad(cmd, a, v, "trees per hectare in [0, 1000]");
             if (o->trees == 0.0f)
                 o->trees = -1.0f;
+        } else if (!strcmp(a, "--climate")) {
+            NEEDV();
+            if (!hz_climate_parse(v, &o->climate))
+                return bad(cmd, a, v, "auto, temperate, arid, steppe, tropical or polar");
+        } else if (!strcmp(a, "--latitude")) {
+            NEEDV();
+            if (!cli_parse_float(v, -90, 90, &o->latitude))
+                return bad(cmd, a, v, "degrees in [-90, 90]");
+            o->have_latitude = true;
         } else if (!strcmp(a, "--colormap")) {
             NEEDV();
             o->colormap = v;

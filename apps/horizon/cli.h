@@ -49,6 +49,10 @@ typedef struct cli_opts {
     float trees;          /* trees per hectare inside forests; 0 default, < 0 none */
     const char *colormap; /* PNG over the whole terrain */
     const char *textures; /* directory of PNGs replacing the procedural detail textures / sprites */
+    /* ground climate (issue 15) */
+    hz_climate_kind climate; /* 0 auto: from the georeference's lon/lat, else temperate */
+    bool have_latitude;
+    float latitude;          /* --latitude: where a DEM without a georeference lies */
 } cli_opts;
 
 /* Effect resources of a terrain for a renderer: light map for the sun,
@@ -68,6 +72,8 @@ typedef struct app_fx {
     size_t trees;
     double setup_ms;      /* everything in app_fx_setup */
     hz_index_list refl;   /* this frame's reflection selection */
+    hz_climate climate;   /* what the ground, trees and water follow */
+    bool climate_known;   /* from the georeference (else a default or --climate/--latitude) */
 } app_fx;
 
 /* Builds and uploads what o's effects need. 0, or 1 after printing the error. */

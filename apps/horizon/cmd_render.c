@@ -236,6 +236,9 @@ int cmd_render(int argc, char **argv)
                (double)hz_peak_rss_bytes() / (1024.0 * 1024.0), out, fxs, afx.setup_ms, afx.lightmap_ms, afx.trees,
                ds.billboards, ds.particles, ds.reflections, (double)ds.sun_visible, water);
         printf(",\"terrain_in_view\":%s", in_view ? "true" : "false");
+        printf(",\"climate\":\"%s\",\"climate_from_place\":%s,\"snow_line\":%.0f,\"tree_line\":%.0f,\"aridity\":%.2f",
+               hz_climate_name(afx.climate.kind), afx.climate_known ? "true" : "false", (double)afx.climate.snow_line,
+               (double)afx.climate.tree_line, (double)afx.climate.aridity);
         printf(",\"triangles_masked\":%zu,\"data_size\":[%u,%u],\"samples_valid\":%llu,\"file_samples\":%llu",
                masked_tris, t->data_w, t->data_h, (unsigned long long)t->valid_count,
                (unsigned long long)t->file_samples);
@@ -272,6 +275,9 @@ int cmd_render(int argc, char **argv)
                hz_gl_describe(gl));
         printf("LOD memory    %.2f bytes/sample (%.1f MB)\n", hz_lod_bytes_per_sample(t->lod),
                (double)hz_lod_memory_bytes(t->lod) / 1048576.0);
+        printf("climate       %s%s: snow above %.0f m, trees below %.0f m, aridity %.2f\n",
+               hz_climate_name(afx.climate.kind), afx.climate_known ? " (from the place)" : " (default)",
+               (double)afx.climate.snow_line, (double)afx.climate.tree_line, (double)afx.climate.aridity);
         printf("effects       %s", fxs);
         if (o.effects)
             printf(" (setup %.0f ms: light map %.0f ms, %zu trees; %u billboards, %u particles drawn%s)",

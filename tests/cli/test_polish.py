@@ -121,5 +121,70 @@ if j:
 else:
     bad("St Helens default render: " + err)
 
+# ---------------------------------------------------------------------------
+# 3. Real places look like themselves: ground colour from absolute altitude,
+#    slope and latitude; no trees or lakes in a desert; no invented sea.
+SAHARA = os.path.join(DATA, "sahara_3as_ft16.png")
+SAHARA_TIF = tmp("sahara_georef.tif")
+# The Sahara tile (feet, 3 arc-seconds, 648^2) placed where it could lie: 25 N, 9 E.
+p = subprocess.run(["gdal_translate", "-q", "-of", "GTiff", "-a_srs", "EPSG:4326", "-a_ullr", "9.0", "25.54", "9.54",
+                    "25.0", "-ot", "Float32", "-scale", "0", "65535", "0", str(65535 * 0.3048), SAHARA, SAHARA_TIF],
+                   capture_output=True)
+check(p.returncode == 0, "gdal_translate georeferences the Sahara tile", p.stderr)
+
+
+def terrain_hue(png):
+    px = [q for q in pngstat.pixels(png, 0.45, 1.0) if not pngstat.is_sky(q)]
+    return pngstat.mean_hue(px) + (len(px),)
+
+
+j, err = render_json(["--dem", SAHARA_TIF, "--out", tmp("sahara.png")])
+if j:
+    hue, green, n = terrain_hue(tmp("sahara.png"))
+    check(n > 1000 and green < 0.02 and (hue < 55 or hue > 330),
+          "the georeferenced Sahara is not green (mean hue %.0f deg, %.1f %% green pixels)" % (hue, 100 * green))
+    check(j["climate"] == "arid" and j["climate_from_place"] and j["aridity"] >= 0.9,
+          "the Sahara's climate comes from its place", j["climate"])
+    check(j["trees"] == 0 and j["billboards"] == 0, "no trees in the desert", (j["trees"], j["billboards"]))
+    check(j["water_level"] is None, "no lakes in the desert", j["water_level"])
+else:
+    bad("Sahara render: " + err)
+# Without a georeference horizon cannot know: temperate by default (green),
+# desert with --climate arid.
+j, err = render_json(["--dem", SAHARA, "--out", tmp("sahara_plain.png")])
+hue, green, n = terrain_hue(tmp("sahara_plain.png")) if j else (0, 0, 0)
+check(j and green > 0.3 and not j["climate_from_place"],
+      "a DEM without a georeference: temperate default (green, %.0f %%)" % (100 * green), err)
+j, err = render_json(["--dem", SAHARA, "--climate", "arid", "--out", tmp("sahara_arid.png")])
+hue, green, n = terrain_hue(tmp("sahara_arid.png")) if j else (0, 1, 0)
+check(j and green < 0.02 and j["trees"] == 0, "--climate arid: the same tile is a desert (hue %.0f)" % hue, err)
+
+# Snow by absolute height and latitude: Mount Washington (1917 m, 44 N) has
+# no permanent snow; the old relative rule capped the top of every map.
+j, err = render_json(["--dem", N44, "--effects", "none", "--out", tmp("n44.png")])
+if j:
+    px = pngstat.pixels(tmp("n44.png"), 0.55, 1.0)
+    white = sum(1 for r, g, b in px if min(r, g, b) > 180) / len(px)
+    check(white < 0.002 and j["snow_line"] > 2500, "no snow on Mount Washington (%.2f %% white)" % (100 * white),
+          j["snow_line"])
+else:
+    bad("N44W072 render: " + err)
+# ... but the Andes at 33 S (Aconcagua, 6961 m) carry snow above ~4800 m.
+j, err = render_json(["--dem", os.path.join(DATA, "S33W071.tif"), "--effects", "none", "--out", tmp("s33.png")])
+if j:
+    px = pngstat.pixels(tmp("s33.png"), 0.4, 1.0)
+    white = sum(1 for r, g, b in px if min(r, g, b) > 180) / len(px)
+    check(white > 0.02 and 4000 < j["snow_line"] < 6000, "snow on the high Andes (%.1f %% white)" % (100 * white),
+          j["snow_line"])
+
+# The automatic water level does not drown land: S46W066's sea is at 0 m.
+S46 = os.path.join(DATA, "S46W066.hgt.gz")
+if os.path.exists(S46):
+    j, err = render_json(["--dem", S46, "--out", tmp("s46.png")])
+    check(j and j["water_level"] is not None and 0 <= j["water_level"] <= 0.5,
+          "S46W066: the sea just above 0 m, not a 1 m sea over the land", j and j["water_level"] or err)
+else:
+    bad("missing " + S46)
+
 print("%d passed, %d failed" % (passes, fails))
 sys.exit(1 if fails else 0)
