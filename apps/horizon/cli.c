@@ -648,10 +648,10 @@ hz_terrain *cli_load_terrain(const cli_opts *o)
     return t;
 }
 
-void cli_print_georef_json(const hz_terrain *t, const hz_camera *cam)
+void cli_georef_json(json_t *obj, const hz_terrain *t, const hz_camera *cam)
 {
     if (!t->georef) {
-        printf(",\"crs\":null");
+        jx_set(obj, "crs", json_null());
         return;
     }
     const hz_georef *g = t->georef;
@@ -660,17 +660,16 @@ void cli_print_georef_json(const hz_terrain *t, const hz_camera *cam)
     bool ok = hz_georef_crs_to_lonlat(g, cx, cy, &lon, &lat, NULL) == HZ_OK;
     double o_lon = 0, o_lat = 0;
     bool ook = hz_georef_local_to_lonlat(g, 0, 0, &o_lon, &o_lat, NULL) == HZ_OK;
-    printf(",\"crs\":\"%s\",\"crs_name\":\"%s\",\"epsg\":%d,\"camera_crs\":[%.3f,%.3f,%.3f]", hz_georef_label(g),
-           hz_georef_name(g), hz_georef_epsg(g), cx, cy, (double)cam->pos[1]);
-    if (ok)
-        printf(",\"camera_lonlat\":[%.8f,%.8f]", lon, lat);
-    else
-        printf(",\"camera_lonlat\":null");
+    jx_set(obj, "crs", jx_str(hz_georef_label(g)));
+    jx_set(obj, "crs_name", jx_str(hz_georef_name(g)));
+    jx_set(obj, "epsg", jx_int(hz_georef_epsg(g)));
+    jx_set(obj, "camera_crs", json_pack("[ooo]", jx_fix(cx, 3), jx_fix(cy, 3), jx_fix(cam->pos[1], 3)));
+    jx_set(obj, "camera_lonlat", ok ? json_pack("[oo]", jx_fix(lon, 8), jx_fix(lat, 8)) : json_null());
     double ox, oy;
     hz_georef_local_to_crs(g, 0, 0, &ox, &oy);
-    printf(",\"origin_crs\":[%.3f,%.3f]", ox, oy);
+    jx_set(obj, "origin_crs", json_pack("[oo]", jx_fix(ox, 3), jx_fix(oy, 3)));
     if (ook)
-        printf(",\"origin_lonlat\":[%.8f,%.8f]", o_lon, o_lat);
+        jx_set(obj, "origin_lonlat", json_pack("[oo]", jx_fix(o_lon, 8), jx_fix(o_lat, 8)));
 }
 
 void cli_print_georef_text(const hz_terrain *t, const hz_camera *cam)

@@ -6,6 +6,7 @@
 #include "horizon/render.h"
 #include "horizon/terrain.h"
 #include "horizon/forest_render.h"
+#include "json_out.h"
 
 #define CLI_MAX_DEMS 4096
 
@@ -134,9 +135,9 @@ hz_result cli_renderer_morph(hz_renderer *r, hz_terrain *t, hz_lod_mode mode, hz
 /* Uploads the heights (and, for cdlod, the morph data) to a renderer. */
 hz_result cli_renderer_setup(hz_renderer *r, hz_terrain *t, const cli_opts *o, hz_err *err);
 /* The terrain's georeference and the camera in its CRS and as lon/lat:
- * JSON members (",\"crs\":..." appended to an open object; "crs": null when the
- * terrain has none) or text lines. */
-void cli_print_georef_json(const hz_terrain *t, const hz_camera *cam);
+ * JSON members set in obj ("crs": null when the terrain has none) or text
+ * lines. */
+void cli_georef_json(json_t *obj, const hz_terrain *t, const hz_camera *cam);
 void cli_print_georef_text(const hz_terrain *t, const hz_camera *cam);
 /* Copies a frame's LOD figures the renderer needs (cdlod morphing) into sp. */
 void cli_scene_lod(hz_scene_params *sp, const hz_lod_stats *st);

@@ -143,6 +143,7 @@ typedef struct view {
     hz_lod_params lod;
     bool morph_uploaded;         /* cdlod morph data is on the GPU */
     bool frozen, wire, fans, boxes, hud, help;
+    bool hud_full;               /* the full HUD (F1 toggles it); else the compact corner */
     hz_index_list il;
     hz_patch_list pl; /* cdlod: the nodes drawn */
     hz_node_list leaves, culled;
@@ -948,26 +949,47 @@ static void print_json(view *v)
     hz_fx_format(v->afx.effects, fxs, sizeof fxs);
     float az, el;
     app_fx_sun_angles(&v->afx, &az, &el);
-    printf("{\"terrain\":\"%s\",\"heightmap_size\":%u,\"frames\":%u,\"width\":%u,\"height\":%u,"
-           "\"fps_mean\":%.2f,\"frame_ms_median\":%.3f,\"frame_ms_p95\":%.3f,\"triangles\":%u,"
-           "\"nodes_visited\":%u,\"nodes_culled\":%u,\"lod_ms\":%.3f,\"draw_ms\":%.3f,\"lod_mode\":\"%s\","
-           "\"pixel_error\":%g,\"lod_c\":%g,\"lod_c2\":%g,"
-           "\"camera_mode\":\"%s\",\"camera\":[%.3f,%.3f,%.3f,%.3f,%.3f],\"ground\":%.3f,\"speed\":%g,"
-           "\"eye_height\":%g,\"wireframe\":%s,\"fans\":%s,\"frozen\":%s,\"boxes\":%s,\"no_cull\":%s,"
-           "\"screenshots\":%u,\"forest_trees\":%u,\"forest_triangles_drawn\":%llu,\"gl\":\"%s\",\"effects\":\"%s\","
-           "\"sun\":[%.2f,%.2f],\"weather\":\"%s\",\"billboards\":%u,\"particles\":%u,\"reflections\":%u}\n",
-           v->t->source, v->t->hm.size, v->frame, v->width, v->height, total > 0 ? 1000.0 * (double)v->frame_times_n / total : 0.0,
-           med, p95, v->st.triangles, v->st.nodes_visited, v->st.nodes_culled, v->st.ms, v->ds.draw_ms,
-           hz_lod_mode_name(v->lod.mode), (double)cli_pixel_error(&v->lod),
-           (double)(v->lod.c > 0 ? v->lod.c : 25.0f), (double)(v->lod.c2 > 0 ? v->lod.c2 : 2.5f),
-           hz_flycam_mode_name(&v->fc), (double)c->pos[0], (double)c->pos[1], (double)c->pos[2], (double)c->yaw,
-           (double)c->pitch, (double)hz_flycam_ground(&v->fc), (double)v->fc.speed, (double)v->fc.eye_height,
-           v->wire ? "true" : "false", v->fans ? "true" : "false", v->frozen ? "true" : "false",
-           v->boxes ? "true" : "false", v->lod.no_cull ? "true" : "false", v->shots,
-           v->cf ? v->cf->frame.trees : 0u, v->cf ? (unsigned long long)v->cf->frame.triangles_drawn : 0ull,
-           hz_window_describe(v->win), fxs, (double)az, (double)el,
-           v->afx.fx.weather == HZ_WEATHER_SNOW ? "snow" : "rain", v->ds.billboards, v->ds.particles,
-           v->ds.reflections);
+    json_t *j = json_object();
+    jx_set(j, "terrain", jx_str(v->t->source));
+    jx_set(j, "heightmap_size", jx_int(v->t->hm.size));
+    jx_set(j, "frames", jx_int(v->frame));
+    jx_set(j, "width", jx_int(v->width));
+    jx_set(j, "height", jx_int(v->height));
+    jx_set(j, "fps_mean", jx_fix(total > 0 ? 1000.0 * (double)v->frame_times_n / total : 0.0, 2));
+    jx_set(j, "frame_ms_median", jx_fix(med, 3));
+    jx_set(j, "frame_ms_p95", jx_fix(p95, 3));
+    jx_set(j, "triangles", jx_int(v->st.triangles));
+    jx_set(j, "nodes_visited", jx_int(v->st.nodes_visited));
+    jx_set(j, "nodes_culled", jx_int(v->st.nodes_culled));
+    jx_set(j, "lod_ms", jx_fix(v->st.ms, 3));
+    jx_set(j, "draw_ms", jx_fix(v->ds.draw_ms, 3));
+    jx_set(j, "lod_mode", jx_str(hz_lod_mode_name(v->lod.mode)));
+    jx_set(j, "pixel_error", jx_num(cli_pixel_error(&v->lod)));
+    jx_set(j, "lod_c", jx_num(v->lod.c > 0 ? v->lod.c : 25.0f));
+    jx_set(j, "lod_c2", jx_num(v->lod.c2 > 0 ? v->lod.c2 : 2.5f));
+    jx_set(j, "camera_mode", jx_str(hz_flycam_mode_name(&v->fc)));
+    jx_set(j, "camera", json_pack("[ooooo]", jx_fix(c->pos[0], 3), jx_fix(c->pos[1], 3), jx_fix(c->pos[2], 3),
+                                  jx_fix(c->yaw, 3), jx_fix(c->pitch, 3)));
+    jx_set(j, "ground", jx_fix(hz_flycam_ground(&v->fc), 3));
+    jx_set(j, "speed", jx_num(v->fc.speed));
+    jx_set(j, "eye_height", jx_num(v->fc.eye_height));
+    jx_set(j, "wireframe", jx_bool(v->wire));
+    jx_set(j, "fans", jx_bool(v->fans));
+    jx_set(j, "frozen", jx_bool(v->frozen));
+    jx_set(j, "boxes", jx_bool(v->boxes));
+    jx_set(j, "no_cull", jx_bool(v->lod.no_cull));
+    jx_set(j, "screenshots", jx_int(v->shots));
+    jx_set(j, "forest_trees", jx_int(v->cf ? v->cf->frame.trees : 0u));
+    jx_set(j, "forest_triangles_drawn", jx_int(v->cf ? (long long)v->cf->frame.triangles_drawn : 0));
+    jx_set(j, "gl", jx_str(hz_window_describe(v->win)));
+    jx_set(j, "effects", jx_str(fxs));
+    jx_set(j, "sun", json_pack("[oo]", jx_fix(az, 2), jx_fix(el, 2)));
+    jx_set(j, "weather", jx_str(v->afx.fx.weather == HZ_WEATHER_SNOW ? "snow" : "rain"));
+    jx_set(j, "billboards", jx_int(v->ds.billboards));
+    jx_set(j, "particles", jx_int(v->ds.particles));
+    jx_set(j, "reflections", jx_int(v->ds.reflections));
+    jx_set(j, "hud", jx_str(v->hud ? (v->hud_full ? "full" : "compact") : "off"));
+    jx_print(j, stdout);
 }
 
 static bool ends_with(const char *s, const char *suf)

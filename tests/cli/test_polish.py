@@ -186,5 +186,96 @@ if os.path.exists(S46):
 else:
     bad("missing " + S46)
 
+# ---------------------------------------------------------------------------
+# 4. JSON written by a JSON library: every command's JSON parses strictly
+#    (no duplicate keys, no NaN), whatever the file names.
+import struct, zlib  # noqa: E402
+
+
+def strict(text):
+    def pairs(p):
+        keys = [k for k, _ in p]
+        dup = sorted(set(k for k in keys if keys.count(k) > 1))
+        if dup:
+            raise ValueError("duplicate keys %s" % dup)
+        return dict(p)
+
+    def no_const(c):
+        raise ValueError("not JSON: " + c)
+    return json.loads(text, object_pairs_hook=pairs, parse_constant=no_const)
+
+
+def png16(path, w, h):
+    def chunk(t, d):
+        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
+    rows = b"".join(b"\0" + b"".join(struct.pack(">H", (3000 + 40 * i + 25 * j + (i * j) % 97) & 0xffff)
+                                     for i in range(w)) for j in range(h))
+    with open(path, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 16, 0, 0, 0, 0)) +
+                chunk(b"IDAT", zlib.compress(rows, 9)) + chunk(b"IEND", b""))
+
+
+# A quote, a backslash, a newline, a control character, accents and a byte
+# that is not UTF-8 (0xff, through surrogateescape).
+HOSTILE = tmp('quote" back\\slash\nnewline \x01 \xe9t\xe9 \udcff.png')
+try:
+    png16(HOSTILE, 65, 65)
+    hostile_ok = True
+except OSError as e:
+    hostile_ok = False
+    bad("cannot create a file with a hostile name: %s" % e)
+
+
+def json_case(what, args, out_file=None, env_cmd=None):
+    cmd = ([] if env_cmd is None else env_cmd) + [HZ] + args
+    p = subprocess.run(cmd, capture_output=True, timeout=600)
+    try:
+        text = open(out_file, encoding="utf-8", errors="strict").read() if out_file and p.returncode == 0 \
+            else p.stdout.decode("utf-8", "strict")
+        if p.returncode != 0:
+            raise ValueError("exit %d: %s" % (p.returncode, p.stderr.decode("utf-8", "replace")[-300:]))
+        j = strict(text)
+        ok("strict JSON: " + what)
+        return j
+    except ValueError as e:
+        bad("strict JSON: %s: %s" % (what, e))
+        return None
+
+
+if hostile_ok:
+    hostile_out = tmp('out "q" \\ \n.png')
+    j = json_case("render with a hostile DEM and output name",
+                  ["render", "--quiet", "--width", "160", "--height", "90", "--dem", HOSTILE, "--spacing", "10",
+                   "--out", hostile_out, "--json"])
+    check(j and j["out"] == hostile_out and j["terrain"] == os.path.basename(HOSTILE).encode(
+        "utf-8", "surrogateescape").decode("utf-8", "replace"),
+        "render JSON: the names come back as they were (bad UTF-8 as U+FFFD)", j and (j["out"], j["terrain"]))
+    json_case("info --json with a hostile name", ["info", "--json", HOSTILE])
+    bj = tmp('bench "b".json')
+    j = json_case("bench --json with a hostile DEM name",
+                  ["bench", "--quiet", "--dem", HOSTILE, "--spacing", "10", "--frames", "2", "--width", "160",
+                   "--height", "90", "--json", bj], out_file=bj)
+    check(j and len(j["per_frame"]) == 2, "bench JSON per_frame rows", j and j.keys())
+    json_case("bench --lod list (compare)",
+              ["bench", "--quiet", "--generate", "perlin", "--size", "257", "--frames", "2", "--width", "160",
+               "--height", "90", "--lod", "quadtree,cdlod", "--reference", "off", "--json", tmp("cmp.json")],
+              out_file=tmp("cmp.json"))
+    json_case("bench --effect-costs",
+              ["bench", "--quiet", "--generate", "perlin", "--size", "257", "--frames", "1", "--width", "160",
+               "--height", "90", "--effect-costs", tmp("costs.json")], out_file=tmp("costs.json"))
+j = json_case("render --forest --json (had nodes_culled twice)",
+              ["render", "--quiet", "--generate", "perlin", "--size", "257", "--width", "160", "--height", "90",
+               "--forest", "10", "--forest-leaves", "2000", "--tree-cache", tmp("trees"), "--out", tmp("f.png"),
+               "--json"])
+check(j and "forest_nodes_culled" in j and "nodes_culled" in j, "render --forest: terrain and forest culled nodes",
+      j and sorted(j.keys()))
+json_case("tree --json", ["tree", "--quiet", "--species", "birch", "--leaves", "1000", "--no-rank", "--no-hull",
+                          "--json"])
+XVFB = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts", "with-xvfb.sh")
+if hostile_ok:
+    json_case("view --json with a hostile DEM name",
+              ["view", "--quiet", "--dem", HOSTILE, "--spacing", "10", "--frames", "2", "--width", "320", "--height",
+               "180", "--json"], env_cmd=["bash", XVFB])
+
 print("%d passed, %d failed" % (passes, fails))
 sys.exit(1 if fails else 0)
