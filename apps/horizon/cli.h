@@ -203,6 +203,17 @@ void cli_tree_progress(void *user, const char *label, uint64_t done, uint64_t to
 bool cli_read_forest_file(const char *file, const hz_terrain *t, uint32_t models, hz_forest_tree **out, uint32_t *n,
                           hz_err *err);
 
+/* The command line read by getopt_long against cmd's options ("render",
+ * "bench", "view", "tree", "info"): --name=value splits, unambiguous
+ * prefixes expand, -h is --help; *out_argv (free() it; its strings are
+ * argv's or static) holds "horizon" cmd then "--name" [value] and the
+ * operands in order. An unknown option (with the nearest name suggested)
+ * or a missing value: message, returns 2. */
+int cli_args_normalize(const char *cmd, int argc, char **argv, int *out_argc, char ***out_argv);
+/* The option of cmd nearest to arg ("--lod-cc" -> "--lod-c"), or NULL when
+ * none is close. Static storage. */
+const char *cli_args_nearest(const char *cmd, const char *arg);
+
 int cmd_render(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
 int cmd_view(int argc, char **argv);

@@ -1021,6 +1021,12 @@ int cmd_bench(int argc, char **argv)
         if (save_dir && (rc = check_frame_outputs(save_dir, ins, nin)))
             return rc;
     }
+    /* --plot needs gnuplot: said before the run, not after it. */
+    if (plot_out && system("command -v gnuplot >/dev/null 2>&1") != 0) {
+        fprintf(stderr, "horizon bench: --plot needs gnuplot, which is not installed (apt-get install gnuplot-nox, "
+                        "or make bench installs it)\n");
+        return 2;
+    }
     if (nmodes == 0)
         modes[nmodes++] = b.o.lod.mode;
     b.quiet = b.o.quiet;

@@ -277,5 +277,42 @@ if hostile_ok:
               ["view", "--quiet", "--dem", HOSTILE, "--spacing", "10", "--frames", "2", "--width", "320", "--height",
                "180", "--json"], env_cmd=["bash", XVFB])
 
+# ---------------------------------------------------------------------------
+# 5. The command line behaves like a Unix tool (getopt_long): --opt=value,
+#    suggestions for typos, --version, per-command --help; bench --plot
+#    checks for gnuplot before the run.
+a, _ = render_json(["--generate", "perlin", "--size", "257", "--camera", "1000,900,1000,45,-20",
+                    "--out", tmp("eq1.png")])
+b, err = render_json(["--generate=perlin", "--size=257", "--camera=1000,900,1000,45,-20", "--out=" + tmp("eq2.png")])
+check(a and b and a["triangles"] == b["triangles"] and a["camera"] == b["camera"] and b["heightmap_size"] == 257,
+      "--opt=value reads like --opt value", err)
+for cmd, typo, want in [("render", "--pixel-eror", "--pixel-error"), ("render", "--lod-cc", "--lod-c"),
+                        ("bench", "--frmes", "--frames"), ("view", "--walk-sped", "--walk-speed"),
+                        ("tree", "--specis", "--species"), ("info", "--jsno", "--json")]:
+    rc, out, err = run([cmd, typo, "1"])
+    check(rc == 2 and "did you mean %s?" % want in err, "%s %s suggests %s" % (cmd, typo, want), err.strip())
+rc, out, err = run(["render", "--frobnicate"])
+check(rc == 2 and "unknown option '--frobnicate'" in err and "did you mean" not in err,
+      "an option far from every name gets no suggestion", err.strip())
+rc, out, err = run(["render", "--json=yes"])
+check(rc == 2 and "takes no value" in err, "a flag given a value is refused", err.strip())
+rc, out, err = run(["render", "--dem"])
+check(rc == 2 and "--dem needs a value" in err, "a missing value is named", err.strip())
+rc, out, err = run(["--version"])
+check(rc == 0 and out.startswith("horizon ") and len(out.split()) == 2, "horizon --version", out)
+rc, out, err = run(["render", "--version"])
+check(rc == 0 and out.startswith("horizon "), "horizon render --version", out)
+for cmd in ["render", "bench", "view", "tree", "info"]:
+    rc, out, err = run([cmd, "--help"])
+    check(rc == 0 and ("usage: horizon " + cmd) in (out + err), "horizon %s --help" % cmd, (rc, err[:80]))
+env = dict(os.environ, PATH="/nonexistent")
+import time  # noqa: E402
+t0 = time.time()
+p = subprocess.run([os.path.abspath(HZ), "bench", "--quiet", "--generate", "perlin", "--size", "257", "--frames",
+                    "200", "--plot", tmp("plot.png")], capture_output=True, timeout=60, env=env)
+err = p.stderr.decode("utf-8", "replace")
+check(p.returncode == 2 and "gnuplot" in err and time.time() - t0 < 5,
+      "bench --plot without gnuplot stops before the run", err.strip())
+
 print("%d passed, %d failed" % (passes, fails))
 sys.exit(1 if fails else 0)
