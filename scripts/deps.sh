@@ -17,6 +17,7 @@ PKGS=(
   libmeshoptimizer-dev # crown hull simplification
   libassimp-dev        # tree import (OBJ, glTF, ...)
   libjansson-dev       # JSON output (escaped, valid whatever the file names)
+  libinih-dev          # horizon view --config files
   clang libclang-rt-14-dev  # make test: the ASan/UBSan build and the libFuzzer targets (build-san/)
 )
 # "bench": also gnuplot for horizon bench --plot

@@ -30,7 +30,7 @@ static const char *const BENCH_VALUE[] = {"effect-costs", "fps", "frames", "full
 static const char *const BENCH_FLAG[] = {"no-full", "no-pr", NULL};
 static const char *const VIEW_VALUE[] = {"config", "dt", "eye-height", "frames", "hud-scale", "mouse-sens", "path",
                                          "screenshot", "script", "shot-dir", "speed", "walk-speed", NULL};
-static const char *const VIEW_FLAG[] = {"boxes", "fans", "free", "no-hud", "no-vsync", "walk", NULL};
+static const char *const VIEW_FLAG[] = {"boxes", "fans", "free", "no-hud", "hud-full", "no-vsync", "walk", NULL};
 static const char *const TREE_VALUE[] = {"hull-grid", "hull-triangles", "import", "in", "layers", "leaf-match",
                                          "leaves", "node-leaves", "out", "pr-res", "pr-views", "preview",
                                          "rank-res", "rate", "scale", "seed", "size", "species", "up", "views",

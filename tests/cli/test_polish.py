@@ -314,5 +314,20 @@ err = p.stderr.decode("utf-8", "replace")
 check(p.returncode == 2 and "gnuplot" in err and time.time() - t0 < 5,
       "bench --plot without gnuplot stops before the run", err.strip())
 
+# Config files are read by libinih; every error names the file and the line.
+for name, text, want in [("nokey.conf", "lod-c = 40\n\nlod-c2 3\n", ":3: expected 'key = value'"),
+                         ("flag.conf", "# a comment\nwireframe = maybe\n", ":2: 'wireframe' takes true or false"),
+                         ("section.conf", "lod-c = 40  # C\n[graphics]\nlod-c2 = 3\n", ":3: sections"),
+                         ("binary.conf", "lod-c = 4\x01\n", ":1: byte 0x01"),
+                         ("nest.conf", "config = other.conf\n", ":1: config files do not nest")]:
+    with open(tmp(name), "w") as f:
+        f.write(text)
+    env = dict(os.environ)
+    env.pop("DISPLAY", None)  # the config is read before any window opens
+    p = subprocess.run([HZ, "view", "--quiet", "--config", tmp(name), "--frames", "1"], capture_output=True,
+                       timeout=60, env=env)
+    err = p.stderr.decode("utf-8", "replace")
+    check(p.returncode == 2 and (tmp(name) + want) in err, "config %s: %s" % (name, want), err.strip())
+
 print("%d passed, %d failed" % (passes, fails))
 sys.exit(1 if fails else 0)
