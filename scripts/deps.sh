@@ -22,6 +22,8 @@ PKGS=(
 )
 # "bench": also gnuplot for horizon bench --plot
 if [ "${1:-}" = bench ]; then PKGS+=(gnuplot-nox); fi
+# "docs": Doxygen for make docs
+if [ "${1:-}" = docs ]; then PKGS+=(doxygen); fi
 missing=()
 for p in "${PKGS[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then

@@ -142,6 +142,7 @@ typedef struct cfg_ctx {
     int rc;           /* 0, 1 out of memory, 2 after a message */
     strlist *out;
     bool skip_source;
+    char last[1024];  /* the line read last (inih stops at the first error: the bad one) */
 } cfg_ctx;
 
 static char *cfg_reader(char *str, int num, void *stream)
@@ -155,6 +156,7 @@ static char *cfg_reader(char *str, int num, void *stream)
         c->rc = 2;
     if (r)
         return NULL;
+    snprintf(c->last, sizeof c->last, "%s", line);
     snprintf(str, (size_t)num, "%s\n", line);
     return str;
 }
@@ -240,8 +242,13 @@ int view_config_read(const char *file, strlist *out, bool skip_source)
     const int r = ini_parse_stream(cfg_reader, &c, cfg_handler, &c);
     int rc = c.rc;
     if (!rc && r > 0) {
-        /* A line inih could not read as 'key = value'. */
-        fprintf(stderr, "horizon view: %s:%d: expected 'key = value'\n", file, r);
+        /* A line inih could not read as 'key = value' (quoted, escaped). */
+        char q[256];
+        if (r == c.lineno)
+            fprintf(stderr, "horizon view: %s:%d: expected 'key = value', got '%s'\n", file, r,
+                    view_printable(trim(c.last), q, sizeof q));
+        else
+            fprintf(stderr, "horizon view: %s:%d: expected 'key = value'\n", file, r);
         rc = 2;
     } else if (!rc && r < 0) {
         rc = 1;
