@@ -21,7 +21,7 @@ SAN_FLAGS ?= -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHZ_SANITIZE=ON -DHZ_FUZZ=ON
 FUZZ_SHORT ?= 20
 FUZZ_SECONDS ?= 600
 
-.PHONY: all deps build san demo test test-san bench fuzz clean
+.PHONY: all deps build san demo test test-san bench fuzz docs install clean
 
 all: build
 
@@ -55,6 +55,18 @@ fuzz: san
 bench: build
 	@bash scripts/deps.sh bench
 	bash bench/standard.sh $(HORIZON) ../shared/data
+
+# The API reference (Doxygen) from the public headers -> build/docs/html/index.html
+docs:
+	@bash scripts/deps.sh docs
+	@mkdir -p build
+	doxygen Doxyfile
+	@echo "API reference: build/docs/html/index.html"
+
+# libhorizon (static + shared), headers, horizon.pc and the CMake package into PREFIX
+PREFIX ?= /usr/local
+install: build
+	cmake --install $(BUILD) --prefix $(PREFIX)
 
 clean:
 	rm -rf $(BUILD) $(SAN_BUILD) out

@@ -26,11 +26,12 @@ lod() { # name, frames, args...
 # The seed's table (SPEC T9): 2049^2 map, view distance 600 samples (6 km at 10 m),
 # C=25/C2=2.5 and C=50/C2=5, with the seed's unclamped criterion and Roettger's clamped one.
 for crit in unclamped clamped; do
-  lod "seed_c25_${crit}" 60 --generate perlin --size 2049 --seed 1 --far 6000 --lod-c 25 --lod-c2 2.5 --criterion $crit --path flyover
-  lod "seed_c50_${crit}" 60 --generate perlin --size 2049 --seed 1 --far 6000 --lod-c 50 --lod-c2 5 --criterion $crit --path flyover
+  lod "seed_c25_${crit}" 60 --generate perlin --size 2049 --seed 1 --far 6000 --lod quadtree --lod-c 25 --lod-c2 2.5 --criterion $crit --path flyover
+  lod "seed_c50_${crit}" 60 --generate perlin --size 2049 --seed 1 --far 6000 --lod quadtree --lod-c 50 --lod-c2 5 --criterion $crit --path flyover
 done
 
-# Scale: the same flight over growing generated maps (reference off: speed and memory).
+# Scale: the same flight over growing generated maps (reference off: speed and memory), with
+# the default LOD (cdlod, 1 px), as are the real DEMs below.
 for s in 1025 2049 4097 8193; do
   lod "scale_$s" 30 --generate perlin --size $s --seed 1 --path flyover --reference off
 done

@@ -19,10 +19,14 @@ PKGS=(
   xvfb                 # horizon view tests run in a virtual X server (scripts/with-xvfb.sh)
   libmeshoptimizer-dev # crown hull simplification
   libassimp-dev        # tree import (OBJ, glTF, ...)
+  libjansson-dev       # JSON output (escaped, valid whatever the file names)
+  libinih-dev          # horizon view --config files
   clang libclang-rt-14-dev  # make test: the ASan/UBSan build and the libFuzzer targets (build-san/)
 )
 # "bench": also gnuplot for horizon bench --plot
 if [ "${1:-}" = bench ]; then PKGS+=(gnuplot-nox); fi
+# "docs": Doxygen for make docs
+if [ "${1:-}" = docs ]; then PKGS+=(doxygen); fi
 missing=()
 for p in "${PKGS[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then

@@ -4,7 +4,7 @@
 # test: ASan and UBSan abort on the first error (-fno-sanitize-recover),
 # LeakSanitizer is on. Suppressed: only leaks entirely inside Mesa/X11
 # (tests/san/lsan.supp, explained there). The two program-level scripts
-# (test_cli, test_view_window, test_harden: minutes of whole-program runs) are left to the
+# (test_cli, test_view_window, test_harden, test_polish: minutes of whole-program runs) are left to the
 # normal build to keep make test short; their parsers are fuzzed instead.
 # usage: scripts/test-san.sh BUILD_DIR [ctest args...]
 set -euo pipefail
@@ -24,4 +24,4 @@ if [ -n "$dri" ] && [ -f "$build/tests/san/libhz_keep_dri.so" ]; then
 fi
 echo "== unit tests under ASan + UBSan ($build)" >&2
 cd "$build"
-ctest --output-on-failure -j"${JOBS:-2}" -E '^(test_cli|test_view_window|test_harden)$' "$@"
+ctest --output-on-failure -j"${JOBS:-2}" -E '^(test_cli|test_view_window|test_harden|test_polish)$' "$@"

@@ -1,5 +1,6 @@
 #version 330 core
-// Terrain shading: colour by relative height and slope, sun Lambert + ambient,
+// Terrain shading: colour by absolute height (the climate's snow and tree
+// lines), aridity and slope, sun Lambert + ambient,
 // exponential fog to the sky's horizon colour. With effects (fx_bits.x):
 // ground detail splatting (R4), the light map with shadows (R5), height fog
 // and the far fade (R6), water-plane clipping for reflections (R9).
@@ -9,6 +10,7 @@ uniform vec3 u_eye;       // world metres
 uniform float u_fog_density; // per metre; 0 disables
 uniform float u_ambient;
 uniform vec2 u_hrange;    // min, max world height of the heightmap
+uniform vec4 u_climate;   // snow line, tree line (world metres: zscale applied), aridity 0..1, zscale
 uniform int u_wire;       // 1: wireframe overlay pass
 uniform sampler2D u_normals; // per-sample normals (x, z), bilinear: full-resolution shading
 uniform int u_normal_tex;    // 1: use u_normals, 0: the interpolated vertex normal
@@ -30,15 +32,42 @@ const vec3 dirt    = vec3(0.45, 0.37, 0.26);
 const vec3 rock    = vec3(0.44, 0.41, 0.38);
 const vec3 snow    = vec3(0.93, 0.94, 0.97);
 const vec3 sand    = vec3(0.62, 0.56, 0.42);
+const vec3 alpine  = vec3(0.46, 0.47, 0.30);  // grass above the tree line
+const vec3 scree   = vec3(0.50, 0.48, 0.45);
+const vec3 steppe  = vec3(0.60, 0.54, 0.36);  // dry grass
+const vec3 desert  = vec3(0.80, 0.64, 0.44);  // sand and gravel plains
+const vec3 redrock = vec3(0.56, 0.42, 0.31);  // desert rock
 
-vec3 ground_color(float t, float slope)
+// Permanent snow (flat enough to hold it) above the climate's snow line.
+float snow_weight(float y, float slope)
 {
-    vec3 grass = mix(lowland, meadow, smoothstep(0.05, 0.55, t));
-    vec3 stone = mix(dirt, rock, smoothstep(0.2, 0.7, t));
+    float zs = u_climate.w;
+    return smoothstep(u_climate.x - 150.0 * zs, u_climate.x + 150.0 * zs, y) * (1.0 - smoothstep(0.18, 0.34, slope));
+}
+
+// Desert sand (not the shore's) by aridity.
+float desert_weight(float slope)
+{
+    return smoothstep(0.6, 0.95, u_climate.z) * (1.0 - smoothstep(0.16, 0.32, slope));
+}
+
+// Colour by absolute height y (world metres) and slope (1 - n.y): lush
+// lowland to meadow up to the tree line, alpine grass to scree above it;
+// dry grass and desert by aridity; rock on steep slopes; snow above the
+// snow line.
+vec3 ground_color(float y, float slope)
+{
+    float zs = u_climate.w, tree = u_climate.y, arid = u_climate.z;
+    float top = tree + 600.0 * zs; // the highest grass
+    vec3 green = mix(lowland, meadow, smoothstep(tree - 1500.0 * zs, tree, y));
+    green = mix(green, alpine, smoothstep(tree - 100.0 * zs, tree + 100.0 * zs, y));
+    green = mix(green, scree, smoothstep(tree + 100.0 * zs, top, y));
+    vec3 dry = mix(steppe, desert, smoothstep(0.75, 1.0, arid));
+    vec3 c = mix(green, dry, smoothstep(0.0, 0.7, arid));
+    vec3 stone = mix(mix(dirt, rock, smoothstep(tree - 1000.0 * zs, top, y)), redrock, smoothstep(0.6, 1.0, arid));
     // slope = 1 - n.y: 0.16 ~ 33 deg, 0.32 ~ 47 deg
-    vec3 c = mix(grass, stone, smoothstep(0.16, 0.32, slope));
-    float snow_amt = smoothstep(0.68, 0.80, t) * (1.0 - smoothstep(0.18, 0.34, slope));
-    return mix(c, snow, snow_amt);
+    c = mix(c, stone, smoothstep(0.16, 0.32, slope));
+    return mix(c, snow, snow_weight(y, slope));
 }
 
 // Splatting: per-type weights from height and slope (the same classes as the
@@ -46,7 +75,7 @@ vec3 ground_color(float t, float slope)
 // rotated scales 4.37 apart, mixed by a slow noise, so no repeat shows; the
 // types blend by weight plus their detail as a height, so they interlock.
 // Three texture fetches in all.
-vec3 splat(vec3 albedo, float t, float slope, float dist)
+vec3 splat(vec3 albedo, float slope, float dist)
 {
     vec2 xz = v_world.xz;
     float s = fx_map.z;
@@ -54,17 +83,18 @@ vec3 splat(vec3 albedo, float t, float slope, float dist)
     float macro = texture(u_detail, xz / (s * 97.3)).r;
     vec4 d = mix(texture(u_detail, r1 * xz / s), texture(u_detail, r2 * xz / (s * 4.37)), 0.35 + 0.3 * macro) * 2.0;
     float w_rock = smoothstep(0.16, 0.32, slope);
-    float w_snow = smoothstep(0.68, 0.80, t) * (1.0 - smoothstep(0.18, 0.34, slope));
+    float w_snow = snow_weight(v_world.y, slope);
     float w_sand = fx_on(FX_WATER) ? 1.0 - smoothstep(fx_map.y + 1.0, fx_map.y + 5.0, v_world.y) : 0.0;
+    float w_desert = desert_weight(slope);
     vec4 w = vec4((1.0 - w_rock) * (1.0 - w_snow), w_rock * (1.0 - w_snow), w_snow, 0.0);
-    w = mix(w, vec4(0.0, 0.0, 0.0, 1.0), w_sand * (1.0 - w_snow));
+    w = mix(w, vec4(0.0, 0.0, 0.0, 1.0), max(w_sand, w_desert) * (1.0 - w_snow));
     vec4 present = step(vec4(0.01), w);
     vec4 b = (w + 0.5 * (d - 1.0)) * present;
     float best = max(max(b.x, b.y), max(b.z, b.w));
     vec4 a = max(b - best + 0.25, 0.0) * present;
     float m = dot(a, d) / max(dot(a, vec4(1.0)), 1e-4);
     // Sand is a colour of its own, the others modulate the class colour.
-    albedo = mix(albedo, sand, w_sand * (1.0 - w_snow));
+    albedo = mix(albedo, sand, w_sand * (1.0 - w_snow) * (1.0 - w_desert));
     // Fade the detail with distance (its mean is 1): no shimmer far away.
     float k = 1.0 - smoothstep(s * 150.0, s * 900.0, dist);
     // A very slow brightness variation breaks uniform far colour.
@@ -89,16 +119,14 @@ void main()
     } else {
         n = normalize(v_normal);
     }
-    float range = max(u_hrange.y - u_hrange.x, 1e-6);
-    float t = clamp((v_world.y - u_hrange.x) / range, 0.0, 1.0);
     float dist = length(v_world - u_eye);
-    vec3 albedo = ground_color(t, 1.0 - n.y);
+    vec3 albedo = ground_color(v_world.y, 1.0 - n.y);
     vec2 uv = v_world.xz / max(fx_map.x, 1e-6);
     if (FX_HAS_COLORMAP)
         albedo = texture(u_colormap, uv).rgb;
     if (FX_ENABLED != 0) {
         if (fx_on(FX_DETAIL))
-            albedo = splat(albedo, t, 1.0 - n.y, dist);
+            albedo = splat(albedo, 1.0 - n.y, dist);
         if (fx_on(FX_BILLBOARDS) && FX_HAS_COVER) {
             // Forest floor and canopy seen from afar: darker, bluer green.
             float cover = texture(u_cover, uv).r;

@@ -133,13 +133,10 @@ static void tree_mask(const uint8_t *img, const uint8_t *bare, size_t npx, uint8
                   24;
 }
 
-static void json_num(FILE *f, const char *key, double v, const char *fmt)
+/* key = v rounded to `digits` decimals (null when not finite). */
+static void json_num(json_t *j, const char *key, double v, int digits)
 {
-    fprintf(f, ",\"%s\":", key);
-    if (isfinite(v))
-        fprintf(f, fmt, v);
-    else
-        fputs("null", f);
+    jx_set(j, key, jx_fix(v, digits));
 }
 
 int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
@@ -357,66 +354,90 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
         FILE *jf = hz_outfile_open(&jof, bo->json_out, &err);
         if (!jf)
             goto done;
-        fprintf(jf,
-                "{\"bench\":\"forest\",\"terrain\":\"%s\",\"size\":%u,\"path\":\"%s\",\"frames\":%u,\"width\":%u,"
-                "\"height\":%u,\"trees\":%u,\"full_frames\":%u,\"near_m\":%g,\"far_m\":%g,\"hull_dist_m\":%g,"
-                "\"impostor_dist_m\":%g,\"prep_s\":%.2f,\"peak_rss_mb\":%.1f",
-                t->source, t->hm.size, path.name, frames, o->width, o->height, hz_forest_tree_count(cf->forest), ncmp,
-                (double)rp.near_m, (double)rp.far_m, (double)lf->hull_band[1], (double)lf->impostor_band[1],
-                cf->prep_ms / 1000.0, (double)hz_peak_rss_bytes() / 1048576.0);
+        json_t *jo = json_object();
+        jx_set(jo, "bench", jx_str("forest"));
+        jx_set(jo, "terrain", jx_str(t->source));
+        jx_set(jo, "size", jx_int(t->hm.size));
+        jx_set(jo, "path", jx_str(path.name));
+        jx_set(jo, "frames", jx_int(frames));
+        jx_set(jo, "width", jx_int(o->width));
+        jx_set(jo, "height", jx_int(o->height));
+        jx_set(jo, "trees", jx_int(hz_forest_tree_count(cf->forest)));
+        jx_set(jo, "full_frames", jx_int(ncmp));
+        jx_set(jo, "near_m", jx_num(rp.near_m));
+        jx_set(jo, "far_m", jx_num(rp.far_m));
+        jx_set(jo, "hull_dist_m", jx_num(lf->hull_band[1]));
+        jx_set(jo, "impostor_dist_m", jx_num(lf->impostor_band[1]));
+        jx_set(jo, "prep_s", jx_fix(cf->prep_ms / 1000.0, 2));
+        jx_set(jo, "peak_rss_mb", jx_fix((double)hz_peak_rss_bytes() / 1048576.0, 1));
         static const char *const sfx[RUNS] = {"", "_no_hysteresis", "_full", "_terrain"};
         for (int run = 0; run < RUNS; run++) {
             char key[96];
             const frow *rr = rows[run];
 #define JK(name) (snprintf(key, sizeof key, "%s%s", name, sfx[run]), key)
-            json_num(jf, JK("frame_ms"), pct(rr, NULL, frames, offsetof(frow, frame_ms), 'd', 0.5), "%.3f");
-            json_num(jf, JK("frame_ms_p95"), pct(rr, NULL, frames, offsetof(frow, frame_ms), 'd', 0.95), "%.3f");
-            json_num(jf, JK("cpu_ms"), pct(rr, NULL, frames, offsetof(frow, cpu_ms), 'd', 0.5), "%.3f");
+            json_num(jo, JK("frame_ms"), pct(rr, NULL, frames, offsetof(frow, frame_ms), 'd', 0.5), 3);
+            json_num(jo, JK("frame_ms_p95"), pct(rr, NULL, frames, offsetof(frow, frame_ms), 'd', 0.95), 3);
+            json_num(jo, JK("cpu_ms"), pct(rr, NULL, frames, offsetof(frow, cpu_ms), 'd', 0.5), 3);
             if (run == RUN_TERRAIN)
                 continue;
-            json_num(jf, JK("forest_draw_ms"), pct(rr, NULL, frames, offsetof(frow, draw_ms), 'd', 0.5), "%.3f");
-            json_num(jf, JK("select_ms"), pct(rr, NULL, frames, offsetof(frow, select_ms), 'd', 0.5), "%.3f");
-            json_num(jf, JK("triangles_drawn"), pct(rr, NULL, frames, offsetof(frow, tri_drawn), 'q', 0.5), "%.0f");
-            json_num(jf, JK("trees_in_frustum"), pct(rr, NULL, frames, offsetof(frow, in_frustum), 'u', 0.5), "%.0f");
-            json_num(jf, JK("trees_leaves"), pct(rr, NULL, frames, offsetof(frow, leaves), 'u', 0.5), "%.0f");
-            json_num(jf, JK("trees_hull"), pct(rr, NULL, frames, offsetof(frow, hulls), 'u', 0.5), "%.0f");
-            json_num(jf, JK("trees_impostor"), pct(rr, NULL, frames, offsetof(frow, impostors), 'u', 0.5), "%.0f");
-            json_num(jf, JK("trees_fading"), pct(rr, NULL, frames, offsetof(frow, fading), 'u', 0.5), "%.0f");
-            json_num(jf, JK("upload_bytes"), pct(rr, NULL, frames, offsetof(frow, upload), 'q', 0.5), "%.0f");
-            json_num(jf, JK("nodes_changed"), pct(rr, NULL, frames, offsetof(frow, changed), 'u', 0.5), "%.0f");
+            json_num(jo, JK("forest_draw_ms"), pct(rr, NULL, frames, offsetof(frow, draw_ms), 'd', 0.5), 3);
+            json_num(jo, JK("select_ms"), pct(rr, NULL, frames, offsetof(frow, select_ms), 'd', 0.5), 3);
+            json_num(jo, JK("triangles_drawn"), pct(rr, NULL, frames, offsetof(frow, tri_drawn), 'q', 0.5), 0);
+            json_num(jo, JK("trees_in_frustum"), pct(rr, NULL, frames, offsetof(frow, in_frustum), 'u', 0.5), 0);
+            json_num(jo, JK("trees_leaves"), pct(rr, NULL, frames, offsetof(frow, leaves), 'u', 0.5), 0);
+            json_num(jo, JK("trees_hull"), pct(rr, NULL, frames, offsetof(frow, hulls), 'u', 0.5), 0);
+            json_num(jo, JK("trees_impostor"), pct(rr, NULL, frames, offsetof(frow, impostors), 'u', 0.5), 0);
+            json_num(jo, JK("trees_fading"), pct(rr, NULL, frames, offsetof(frow, fading), 'u', 0.5), 0);
+            json_num(jo, JK("upload_bytes"), pct(rr, NULL, frames, offsetof(frow, upload), 'q', 0.5), 0);
+            json_num(jo, JK("nodes_changed"), pct(rr, NULL, frames, offsetof(frow, changed), 'u', 0.5), 0);
 #undef JK
         }
-        json_num(jf, "trees_detailed", MEDU(RUN_HYST, leaves), "%.0f");
-        json_num(jf, "nodes_held", MEDU(RUN_HYST, held), "%.0f");
-        json_num(jf, "triangles_full", tri_full, "%.0f");
-        json_num(jf, "drawn_ratio", tri_full > 0 ? tri_drawn / tri_full : NAN, "%.5f");
-        json_num(jf, "frame_ms_simplified_same_frames", at_full_ms, "%.3f");
-        json_num(jf, "speedup", speedup, "%.3f");
-        json_num(jf, "terrain_ratio", MED(RUN_HYST, frame_ms) / terrain_ms, "%.3f");
-        json_num(jf, "psnr_db", psnr_med, "%.2f");
-        json_num(jf, "silhouette_frac", sil_med, "%.5f");
-        json_num(jf, "silhouette_frac_max", sil_max, "%.5f");
-        fputs(",\"species\":[", jf);
+        json_num(jo, "trees_detailed", MEDU(RUN_HYST, leaves), 0);
+        json_num(jo, "nodes_held", MEDU(RUN_HYST, held), 0);
+        json_num(jo, "triangles_full", tri_full, 0);
+        json_num(jo, "drawn_ratio", tri_full > 0 ? tri_drawn / tri_full : NAN, 5);
+        json_num(jo, "frame_ms_simplified_same_frames", at_full_ms, 3);
+        json_num(jo, "speedup", speedup, 3);
+        json_num(jo, "terrain_ratio", MED(RUN_HYST, frame_ms) / terrain_ms, 3);
+        json_num(jo, "psnr_db", psnr_med, 2);
+        json_num(jo, "silhouette_frac", sil_med, 5);
+        json_num(jo, "silhouette_frac_max", sil_max, 5);
+        json_t *spa = json_array();
         for (uint32_t m = 0; m < cf->model_count; m++) {
             const hz_tree *tr = sr[m].t;
-            fprintf(jf,
-                    "%s{\"name\":\"%s\",\"leaves\":%u,\"leaf_nodes\":%u,\"branch_nodes\":%u,\"triangles\":%llu,"
-                    "\"hull_triangles\":%u,\"rank_ms\":%.1f,\"memory_mb\":%.2f",
-                    m ? "," : "", tr->species, tr->leaf_count, tr->node_count, tr->branch_count,
-                    (unsigned long long)hz_tree_triangles(tr), tr->hull.index_count / 3, tr->rank_ms,
-                    (double)hz_tree_memory_bytes(tr) / 1048576.0);
+            json_t *sp = json_object();
+            jx_set(sp, "name", jx_str(tr->species));
+            jx_set(sp, "leaves", jx_int(tr->leaf_count));
+            jx_set(sp, "leaf_nodes", jx_int(tr->node_count));
+            jx_set(sp, "branch_nodes", jx_int(tr->branch_count));
+            jx_set(sp, "triangles", jx_int((long long)hz_tree_triangles(tr)));
+            jx_set(sp, "hull_triangles", jx_int(tr->hull.index_count / 3));
+            jx_set(sp, "rank_ms", jx_fix(tr->rank_ms, 1));
+            jx_set(sp, "memory_mb", jx_fix((double)hz_tree_memory_bytes(tr) / 1048576.0, 2));
             if (!bo->no_pr) {
                 const char *names[4] = {"vmi", "vmi_enlarged", "random", "random_enlarged"};
-                for (int k = 0; k < 4; k++)
-                    fprintf(jf, ",\"%s_precision\":%.4f,\"%s_recall\":%.4f,\"%s_f\":%.4f", names[k],
-                            sr[m].pr[k].precision, names[k], sr[m].pr[k].recall, names[k], sr[m].pr[k].f_measure);
-                fprintf(jf, ",\"pr_views\":%u,\"pr_res\":%u", sr[m].pr[0].views, sr[m].pr[0].res);
+                char key[64];
+                for (int k = 0; k < 4; k++) {
+                    snprintf(key, sizeof key, "%s_precision", names[k]);
+                    jx_set(sp, key, jx_fix(sr[m].pr[k].precision, 4));
+                    snprintf(key, sizeof key, "%s_recall", names[k]);
+                    jx_set(sp, key, jx_fix(sr[m].pr[k].recall, 4));
+                    snprintf(key, sizeof key, "%s_f", names[k]);
+                    jx_set(sp, key, jx_fix(sr[m].pr[k].f_measure, 4));
+                }
+                jx_set(sp, "pr_views", jx_int(sr[m].pr[0].views));
+                jx_set(sp, "pr_res", jx_int(sr[m].pr[0].res));
             }
-            fputc('}', jf);
+            json_array_append_new(spa, sp);
         }
-        fputs("]}\n", jf);
+        jx_set(jo, "species", spa);
+        const bool wrote = jx_print(jo, jf) == 0;
         if (hz_outfile_close(&jof, jf, &err) != HZ_OK)
             goto done;
+        if (!wrote) {
+            hz_err_set(&err, HZ_ERR_IO, "cannot write '%s'", bo->json_out);
+            goto done;
+        }
     }
     rc = 0;
 done:

@@ -72,9 +72,12 @@ void cli_usage_terrain(void)
             "  --spacing M             metres between samples (default: the DEM's georeference, else from\n"
             "                          the name, SRTM 90/30, generated 10); georeferenced DEMs are resampled\n"
             "  --zscale Z              height multiplier (default 1)\n"
+            "  --height-range MIN,MAX  normalised DEM: the sample type's range (0..65535 for 16-bit)\n"
+            "                          becomes MIN..MAX metres\n"
+            "  --height-offset M       metres added to every height (default 0)\n"
             "  --max-memory SIZE       refuse terrains needing more (e.g. 8G; default half the RAM)\n"
             "LOD:\n"
-            "  --lod MODE              quadtree (default), remedy, bidirectional, roam or cdlod\n"
+            "  --lod MODE              cdlod (default, 1 px), quadtree, remedy, bidirectional or roam\n"
             "  --pixel-error TAU       screen-space error bound in pixels (roam and cdlod: default 1;\n"
             "                          quadtree, remedy, bidirectional: replaces C and C2)\n"
             "  --lod-c C --lod-c2 C2   distance and roughness factors (default 25, 2.5)\n"
@@ -110,6 +113,9 @@ void cli_usage_terrain(void)
             "  --exposure E --gamma G  output = (colour x E)^(1/G) (default 1, 1)\n"
             "  --bloom S               bloom strength (default 0.35)\n"
             "  --trees N               trees per hectare in forests (default 12; 0 none)\n"
+            "  --climate KIND          ground colours, trees and lakes: auto (default: from a georeferenced\n"
+            "                          DEM's place, else temperate), temperate, arid, steppe, tropical, polar\n"
+            "  --latitude DEG          where a DEM without a georeference lies (snow and tree lines; default 45)\n"
             "  --colormap FILE.png     ground colours from an image over the whole map\n"
             "  --textures DIR          PNGs replacing the procedural textures: grass, rock, snow,\n"
             "                          sand (.png, square, power of two) and conifer, broadleaf,\n"
@@ -132,6 +138,9 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
     o->forest_seed = 1;
     o->forest = (hz_forest_params){.simplify = true, .hysteresis = true, .enlarge = true, .node_culling = true};
     o->effects = HZ_FX_DEFAULT;
+    /* cdlod at 1 px is the best measured mode on every row of the bench;
+     * the seed's modes stay one --lod away. */
+    o->lod.mode = HZ_LOD_CDLOD;
     for (int i = first; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -227,6 +236,19 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             NEEDV();
             if (!cli_parse_float(v, 0.0001, 10000, &o->terrain.zscale))
                 return bad(cmd, a, v, "a number in [0.0001, 10000]");
+        } else if (!strcmp(a, "--height-range")) {
+            NEEDV();
+            char buf[128], *it[2];
+            if (snprintf(buf, sizeof buf, "%s", v) >= (int)sizeof buf)
+                return bad(cmd, a, v, "a shorter value");
+            if (cli_split(buf, it, 2) != 2 || !cli_parse_float(it[0], -1e5, 1e5, &o->terrain.height_min) ||
+                !cli_parse_float(it[1], -1e5, 1e5, &o->terrain.height_max) ||
+                !(o->terrain.height_min < o->terrain.height_max))
+                return bad(cmd, a, v, "MIN,MAX in metres, each in [-1e5, 1e5], MIN below MAX");
+        } else if (!strcmp(a, "--height-offset")) {
+            NEEDV();
+            if (!cli_parse_float(v, -1e5, 1e5, &o->terrain.height_offset))
+                return bad(cmd, a, v, "metres in [-1e5, 1e5]");
         } else if (!strcmp(a, "--lod-c")) {
             NEEDV();
             if (!cli_parse_float(v, 0.01, 100000, &o->lod.c))
@@ -466,6 +488,15 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
                 return bad(cmd, a, v, "trees per hectare in [0, 1000]");
             if (o->trees == 0.0f)
                 o->trees = -1.0f;
+        } else if (!strcmp(a, "--climate")) {
+            NEEDV();
+            if (!hz_climate_parse(v, &o->climate))
+                return bad(cmd, a, v, "auto, temperate, arid, steppe, tropical or polar");
+        } else if (!strcmp(a, "--latitude")) {
+            NEEDV();
+            if (!cli_parse_float(v, -90, 90, &o->latitude))
+                return bad(cmd, a, v, "degrees in [-90, 90]");
+            o->have_latitude = true;
         } else if (!strcmp(a, "--colormap")) {
             NEEDV();
             o->colormap = v;
@@ -617,10 +648,10 @@ hz_terrain *cli_load_terrain(const cli_opts *o)
     return t;
 }
 
-void cli_print_georef_json(const hz_terrain *t, const hz_camera *cam)
+void cli_georef_json(json_t *obj, const hz_terrain *t, const hz_camera *cam)
 {
     if (!t->georef) {
-        printf(",\"crs\":null");
+        jx_set(obj, "crs", json_null());
         return;
     }
     const hz_georef *g = t->georef;
@@ -629,17 +660,16 @@ void cli_print_georef_json(const hz_terrain *t, const hz_camera *cam)
     bool ok = hz_georef_crs_to_lonlat(g, cx, cy, &lon, &lat, NULL) == HZ_OK;
     double o_lon = 0, o_lat = 0;
     bool ook = hz_georef_local_to_lonlat(g, 0, 0, &o_lon, &o_lat, NULL) == HZ_OK;
-    printf(",\"crs\":\"%s\",\"crs_name\":\"%s\",\"epsg\":%d,\"camera_crs\":[%.3f,%.3f,%.3f]", hz_georef_label(g),
-           hz_georef_name(g), hz_georef_epsg(g), cx, cy, (double)cam->pos[1]);
-    if (ok)
-        printf(",\"camera_lonlat\":[%.8f,%.8f]", lon, lat);
-    else
-        printf(",\"camera_lonlat\":null");
+    jx_set(obj, "crs", jx_str(hz_georef_label(g)));
+    jx_set(obj, "crs_name", jx_str(hz_georef_name(g)));
+    jx_set(obj, "epsg", jx_int(hz_georef_epsg(g)));
+    jx_set(obj, "camera_crs", json_pack("[ooo]", jx_fix(cx, 3), jx_fix(cy, 3), jx_fix(cam->pos[1], 3)));
+    jx_set(obj, "camera_lonlat", ok ? json_pack("[oo]", jx_fix(lon, 8), jx_fix(lat, 8)) : json_null());
     double ox, oy;
     hz_georef_local_to_crs(g, 0, 0, &ox, &oy);
-    printf(",\"origin_crs\":[%.3f,%.3f]", ox, oy);
+    jx_set(obj, "origin_crs", json_pack("[oo]", jx_fix(ox, 3), jx_fix(oy, 3)));
     if (ook)
-        printf(",\"origin_lonlat\":[%.8f,%.8f]", o_lon, o_lat);
+        jx_set(obj, "origin_lonlat", json_pack("[oo]", jx_fix(o_lon, 8), jx_fix(o_lat, 8)));
 }
 
 void cli_print_georef_text(const hz_terrain *t, const hz_camera *cam)
@@ -730,6 +760,13 @@ void cli_scene_lod(hz_scene_params *sp, const hz_lod_stats *st)
 {
     sp->morph_scale = st->morph_scale;
     sp->morph_start = st->morph_start;
+}
+
+float cli_pixel_error(const hz_lod_params *p)
+{
+    if (p->pixel_error > 0 || (p->mode != HZ_LOD_CDLOD && p->mode != HZ_LOD_ROAM))
+        return p->pixel_error;
+    return 1.0f;
 }
 
 hz_camera cli_camera(const cli_opts *o, const hz_terrain *t)

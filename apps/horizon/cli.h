@@ -6,6 +6,7 @@
 #include "horizon/render.h"
 #include "horizon/terrain.h"
 #include "horizon/forest_render.h"
+#include "json_out.h"
 
 #define CLI_MAX_DEMS 4096
 
@@ -49,6 +50,10 @@ typedef struct cli_opts {
     float trees;          /* trees per hectare inside forests; 0 default, < 0 none */
     const char *colormap; /* PNG over the whole terrain */
     const char *textures; /* directory of PNGs replacing the procedural detail textures / sprites */
+    /* ground climate (issue 15) */
+    hz_climate_kind climate; /* 0 auto: from the georeference's lon/lat, else temperate */
+    bool have_latitude;
+    float latitude;          /* --latitude: where a DEM without a georeference lies */
 } cli_opts;
 
 /* Effect resources of a terrain for a renderer: light map for the sun,
@@ -68,6 +73,8 @@ typedef struct app_fx {
     size_t trees;
     double setup_ms;      /* everything in app_fx_setup */
     hz_index_list refl;   /* this frame's reflection selection */
+    hz_climate climate;   /* what the ground, trees and water follow */
+    bool climate_known;   /* from the georeference (else a default or --climate/--latitude) */
 } app_fx;
 
 /* Builds and uploads what o's effects need. 0, or 1 after printing the error. */
@@ -128,9 +135,9 @@ hz_result cli_renderer_morph(hz_renderer *r, hz_terrain *t, hz_lod_mode mode, hz
 /* Uploads the heights (and, for cdlod, the morph data) to a renderer. */
 hz_result cli_renderer_setup(hz_renderer *r, hz_terrain *t, const cli_opts *o, hz_err *err);
 /* The terrain's georeference and the camera in its CRS and as lon/lat:
- * JSON members (",\"crs\":..." appended to an open object; "crs": null when the
- * terrain has none) or text lines. */
-void cli_print_georef_json(const hz_terrain *t, const hz_camera *cam);
+ * JSON members set in obj ("crs": null when the terrain has none) or text
+ * lines. */
+void cli_georef_json(json_t *obj, const hz_terrain *t, const hz_camera *cam);
 void cli_print_georef_text(const hz_terrain *t, const hz_camera *cam);
 /* Copies a frame's LOD figures the renderer needs (cdlod morphing) into sp. */
 void cli_scene_lod(hz_scene_params *sp, const hz_lod_stats *st);
@@ -153,6 +160,9 @@ void cli_lod_scene(const cli_lod_frame *f, hz_scene_params *sp, const uint32_t *
 /* The frame's triangles as indices in f->il (cdlod: expands the patches). */
 hz_result cli_lod_indices(hz_terrain *t, cli_lod_frame *f);
 void cli_lod_frame_free(cli_lod_frame *f);
+/* The pixel error bound p selects with: p->pixel_error, or 1 for cdlod and
+ * roam when it is 0 (their default); 0 for the quadtree modes on C and C2. */
+float cli_pixel_error(const hz_lod_params *p);
 /* The camera: --camera or the terrain's default, with --fov/--far applied. */
 hz_camera cli_camera(const cli_opts *o, const hz_terrain *t);
 
@@ -193,6 +203,17 @@ void cli_tree_progress(void *user, const char *label, uint64_t done, uint64_t to
 bool cli_read_forest_file(const char *file, const hz_terrain *t, uint32_t models, hz_forest_tree **out, uint32_t *n,
                           hz_err *err);
 
+/* The command line read by getopt_long against cmd's options ("render",
+ * "bench", "view", "tree", "info"): --name=value splits, unambiguous
+ * prefixes expand, -h is --help; *out_argv (free() it; its strings are
+ * argv's or static) holds "horizon" cmd then "--name" [value] and the
+ * operands in order. An unknown option (with the nearest name suggested)
+ * or a missing value: message, returns 2. */
+int cli_args_normalize(const char *cmd, int argc, char **argv, int *out_argc, char ***out_argv);
+/* The option of cmd nearest to arg ("--lod-cc" -> "--lod-c"), or NULL when
+ * none is close. Static storage. */
+const char *cli_args_nearest(const char *cmd, const char *arg);
+
 int cmd_render(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
 int cmd_view(int argc, char **argv);
@@ -201,7 +222,8 @@ int cmd_info(int argc, char **argv);
 
  /* streamed pyramids (cmd_stream.c) */
 int cmd_import(int argc, char **argv);
-int pyramid_info(const char *path, bool verify, bool json);
+/* arr: append the pyramid's JSON object to it; NULL: print text */
+int pyramid_info(const char *path, bool verify, json_t *arr);
 int stream_render(int argc, char **argv);
 int stream_bench(int argc, char **argv);
 /* True when argv (from first) holds --terrain: the command streams a pyramid. */

@@ -71,15 +71,6 @@ static double pct(const frame_row *rows, size_t n, size_t off, bool u32, double 
     return r;
 }
 
-/* JSON has no infinity: PSNR of identical images is written as null. */
-static void json_num(FILE *f, double v)
-{
-    if (isfinite(v))
-        fprintf(f, "%.6g", v);
-    else
-        fputs("null", f);
-}
-
 typedef struct morph_user {
     hz_lod *lod;
     const hz_camera *cam;
@@ -229,12 +220,21 @@ static int effect_costs(const cli_opts *o, hz_terrain *t, hz_renderer *ren, app_
                "%-12s %10s %10s\n%-12s %10.2f\n%-12s %10.2f\n", t->source, t->hm.size, t->hm.size, path->name,
                frames, o->width, o->height, gl_desc, "effect", "alone ms", "in all ms", "none (base)", med[0],
                "all", med[1]);
-    if (jf)
-        fprintf(jf, "{\"terrain\":\"%s\",\"size\":%u,\"path\":\"%s\",\"frames\":%u,\"width\":%u,\"height\":%u,"
-                    "\"gl\":\"%s\",\"base_ms\":%.3f,\"all_ms\":%.3f,\"lightmap_size\":%u,\"lightmap_ms_1thread\":%.1f,"
-                    "\"lightmap_ms_2threads\":%.1f,\"trees\":%zu,\"effects\":{",
-                t->source, t->hm.size, path->name, frames, o->width, o->height, gl_desc, med[0], med[1], t->hm.size,
-                lm[0], lm[1], afx->trees);
+    json_t *jroot = json_object(), *jfx = json_object();
+    jx_set(jroot, "terrain", jx_str(t->source));
+    jx_set(jroot, "size", jx_int(t->hm.size));
+    jx_set(jroot, "path", jx_str(path->name));
+    jx_set(jroot, "frames", jx_int(frames));
+    jx_set(jroot, "width", jx_int(o->width));
+    jx_set(jroot, "height", jx_int(o->height));
+    jx_set(jroot, "gl", jx_str(gl_desc));
+    jx_set(jroot, "base_ms", jx_fix(med[0], 3));
+    jx_set(jroot, "all_ms", jx_fix(med[1], 3));
+    jx_set(jroot, "lightmap_size", jx_int(t->hm.size));
+    jx_set(jroot, "lightmap_ms_1thread", jx_fix(lm[0], 1));
+    jx_set(jroot, "lightmap_ms_2threads", jx_fix(lm[1], 1));
+    jx_set(jroot, "trees", jx_int((long long)afx->trees));
+    jx_set(jroot, "effects", jfx);
     for (uint32_t k = 0; k < HZ_FX_COUNT; k++) {
         /* Per frame: alone = t(e) - t(none), in all = t(all) - t(all but e). */
         for (uint32_t f = 0; f < frames; f++)
@@ -245,16 +245,23 @@ static int effect_costs(const cli_opts *o, hz_terrain *t, hz_renderer *ren, app_
         double in_all = median_of(tmp, frames);
         if (!o->quiet || !jf)
             printf("%-12s %10.2f %10.2f\n", hz_fx_name(k), alone, in_all);
-        if (jf)
-            fprintf(jf, "%s\"%s\":{\"alone_ms\":%.3f,\"in_all_ms\":%.3f,\"alone_frame_ms\":%.3f}", k ? "," : "",
-                    hz_fx_name(k), alone, in_all, med[2 + k]);
+        jx_set(jfx, hz_fx_name(k),
+               json_pack("{s:o,s:o,s:o}", "alone_ms", jx_fix(alone, 3), "in_all_ms", jx_fix(in_all, 3),
+                         "alone_frame_ms", jx_fix(med[2 + k], 3)));
     }
     if (!o->quiet || !jf)
         printf("light map %ux%u: %.1f ms (1 thread), %.1f ms (2 threads)\n", t->hm.size, t->hm.size, lm[0], lm[1]);
     if (jf) {
-        fputs("}}\n", jf);
+        const bool wrote = jx_print(jroot, jf) == 0;
+        jroot = NULL;
         if (hz_outfile_close(&jof, jf, &err) != HZ_OK)
             goto out;
+        if (!wrote) {
+            hz_err_set(&err, HZ_ERR_IO, "cannot write '%s'", json_out);
+            goto out;
+        }
+    } else {
+        json_decref(jroot);
     }
     rc = 0;
 out:
@@ -674,78 +681,103 @@ static void print_table(const bench *b, const hz_lod_params *lod, const summary 
            (double)hz_peak_rss_bytes() / 1048576.0);
 }
 
-static void write_json(FILE *jf, const bench *b, const hz_lod_params *lod, const frame_row *rows, const summary *s,
-                       double tuned_for)
+static json_t *bench_json(const bench *b, const hz_lod_params *lod, const frame_row *rows, const summary *s,
+                          double tuned_for)
 {
     const hz_camera cam = cli_camera(&b->o, b->t);
     char fxs[200];
     hz_fx_format(b->o.effects, fxs, sizeof fxs);
-    fprintf(jf, "{\"frames\":%u,\"terrain\":\"%s\",\"size\":%u,\"spacing\":%g,\"lod_mode\":\"%s\",\"pixel_error\":%g,"
-                "\"tuned_for_p99\":%g,\"criterion\":\"%s\",\"lod_c\":%g,\"lod_c2\":%g,\"path\":\"%s\",\"fps\":%g,"
-                "\"width\":%u,\"height\":%u,\"fov\":%g,\"far\":%g,\"reference\":%s,\"effects\":\"%s\","
-                "\"fx_setup_ms\":%.1f,\"lightmap_ms\":%.1f,\"trees\":%zu,",
-            b->frames, b->t->source, b->t->hm.size, (double)b->t->spacing, hz_lod_mode_name(lod->mode),
-            (double)lod->pixel_error, tuned_for, lod->criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped",
-            (double)(lod->c > 0 ? lod->c : 25), (double)(lod->c2 > 0 ? lod->c2 : 2.5f), b->path.name,
-            (double)b->fps, b->o.width, b->o.height, (double)cam.fov_y, (double)cam.zfar,
-            b->reference ? "true" : "false", fxs, b->afx.setup_ms, b->afx.lightmap_ms, b->afx.trees);
+    json_t *j = json_object();
+    jx_set(j, "frames", jx_int(b->frames));
+    jx_set(j, "terrain", jx_str(b->t->source));
+    jx_set(j, "size", jx_int(b->t->hm.size));
+    jx_set(j, "spacing", jx_num(b->t->spacing));
+    jx_set(j, "lod_mode", jx_str(hz_lod_mode_name(lod->mode)));
+    jx_set(j, "pixel_error", jx_num(cli_pixel_error(lod)));
+    jx_set(j, "tuned_for_p99", jx_num(tuned_for));
+    jx_set(j, "criterion", jx_str(lod->criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped"));
+    jx_set(j, "lod_c", jx_num(lod->c > 0 ? lod->c : 25));
+    jx_set(j, "lod_c2", jx_num(lod->c2 > 0 ? lod->c2 : 2.5f));
+    jx_set(j, "path", jx_str(b->path.name));
+    jx_set(j, "fps", jx_num(b->fps));
+    jx_set(j, "width", jx_int(b->o.width));
+    jx_set(j, "height", jx_int(b->o.height));
+    jx_set(j, "fov", jx_num(cam.fov_y));
+    jx_set(j, "far", jx_fix(cam.zfar, 1));
+    jx_set(j, "reference", jx_bool(b->reference));
+    jx_set(j, "effects", jx_str(fxs));
+    jx_set(j, "fx_setup_ms", jx_fix(b->afx.setup_ms, 1));
+    jx_set(j, "lightmap_ms", jx_fix(b->afx.lightmap_ms, 1));
+    jx_set(j, "trees", jx_int((long long)b->afx.trees));
     const size_t ncols = b->reference ? NCOLS : NCOLS_NOREF;
+    char key[64];
     for (size_t c = 0; c < ncols; c++) {
         const char *nm = COLS[c].name;
         if (!strcmp(nm, "silhouette_frac") || !strcmp(nm, "popping")) {
             /* the keys: mean over frames */
-            fprintf(jf, "\"%s\":", nm);
-            json_num(jf, !strcmp(nm, "popping") ? s->mean_pop : s->mean_sil);
-            fprintf(jf, ",\"%s_max\":", nm);
-            json_num(jf, s->v[c][2]);
-            fputc(',', jf);
+            jx_set(j, nm, jx_num(!strcmp(nm, "popping") ? s->mean_pop : s->mean_sil));
+            snprintf(key, sizeof key, "%s_max", nm);
+            jx_set(j, key, jx_num(s->v[c][2]));
             continue;
         }
-        fprintf(jf, "\"%s_median\":", nm);
-        json_num(jf, s->v[c][0]);
-        fprintf(jf, ",\"%s_p95\":", nm);
-        json_num(jf, s->v[c][1]);
-        fprintf(jf, ",\"%s_max\":", nm);
-        json_num(jf, s->v[c][2]);
-        fputc(',', jf);
+        static const char *const sfx[3] = {"median", "p95", "max"};
+        for (int q = 0; q < 3; q++) {
+            snprintf(key, sizeof key, "%s_%s", nm, sfx[q]);
+            jx_set(j, key, jx_num(s->v[c][q]));
+        }
     }
-    if (!b->reference)
-        fputs("\"psnr_db_median\":null,\"silhouette_frac\":null,\"popping\":null,\"pop_px_max_median\":null,", jf);
+    if (!b->reference) {
+        jx_set(j, "psnr_db_median", json_null());
+        jx_set(j, "silhouette_frac", json_null());
+        jx_set(j, "popping", json_null());
+        jx_set(j, "pop_px_max_median", json_null());
+    }
     /* px_error_p99 / px_error_max as top-level keys (p95 over frames of the
      * per-frame p99, and the max over all frames). */
-    fprintf(jf, "\"px_error_p99\":");
-    json_num(jf, s->v[COL_P99][1]);
-    fprintf(jf, ",\"px_error_max\":");
-    json_num(jf, s->v[COL_PXMAX][2]);
-    fprintf(jf, ",\"tuned_for_silhouette\":%g", b->tune_sil);
-    fprintf(jf, ",\"metrics\":%s,\"load_ms\":%.1f,\"setup_ms\":%.1f,\"near\":%g,\"patch_cells\":%u",
-            b->metrics ? "true" : "false", b->load_ms, b->setup_ms, (double)cam.znear,
-            lod->mode == HZ_LOD_CDLOD ? hz_lod_patch_cells(b->t->lod) : 0u);
-    fprintf(jf, ",\"bytes_per_sample\":%.4f,\"peak_rss_mb\":%.1f,\"per_frame\":[", hz_lod_bytes_per_sample(b->t->lod),
-            (double)hz_peak_rss_bytes() / 1048576.0);
+    jx_set(j, "px_error_p99", jx_num(s->v[COL_P99][1]));
+    jx_set(j, "px_error_max", jx_num(s->v[COL_PXMAX][2]));
+    jx_set(j, "tuned_for_silhouette", jx_num(b->tune_sil));
+    jx_set(j, "metrics", jx_bool(b->metrics));
+    jx_set(j, "load_ms", jx_fix(b->load_ms, 1));
+    jx_set(j, "setup_ms", jx_fix(b->setup_ms, 1));
+    jx_set(j, "near", jx_num(cam.znear));
+    jx_set(j, "patch_cells", jx_int(lod->mode == HZ_LOD_CDLOD ? hz_lod_patch_cells(b->t->lod) : 0u));
+    jx_set(j, "bytes_per_sample", jx_fix(hz_lod_bytes_per_sample(b->t->lod), 4));
+    jx_set(j, "peak_rss_mb", jx_fix((double)hz_peak_rss_bytes() / 1048576.0, 1));
+    json_t *pf = json_array();
     for (size_t i = 0; i < b->frames; i++) {
         const frame_row *r = &rows[i];
-        fprintf(jf, "%s{\"t\":%.4f,\"triangles\":%u,\"nodes_visited\":%u,\"nodes_culled\":%u,"
-                    "\"restricted\":%u,\"lod_ms\":%.4f,\"upload_ms\":%.4f,\"draw_ms\":%.3f,\"frame_ms\":%.3f,"
-                    "\"nodes_drawn\":%u,\"upload_kb\":%.3f,\"px_error_p99\":",
-                i ? "," : "", r->t, r->triangles, r->nodes_visited, r->nodes_culled, r->restricted, r->lod_ms,
-                r->upload_ms, r->draw_ms, r->frame_ms, r->nodes_drawn, r->upload_kb);
-        json_num(jf, r->px_p99);
-        fputs(",\"px_error_max\":", jf);
-        json_num(jf, r->px_max);
-        fprintf(jf, ",\"uncovered\":%llu,\"sky_frac\":%.5f", (unsigned long long)r->uncovered, r->sky_frac);
+        json_t *o = json_object();
+        jx_set(o, "t", jx_fix(r->t, 4));
+        jx_set(o, "triangles", jx_int(r->triangles));
+        jx_set(o, "nodes_visited", jx_int(r->nodes_visited));
+        jx_set(o, "nodes_culled", jx_int(r->nodes_culled));
+        jx_set(o, "restricted", jx_int(r->restricted));
+        jx_set(o, "lod_ms", jx_fix(r->lod_ms, 4));
+        jx_set(o, "upload_ms", jx_fix(r->upload_ms, 4));
+        jx_set(o, "draw_ms", jx_fix(r->draw_ms, 3));
+        jx_set(o, "frame_ms", jx_fix(r->frame_ms, 3));
+        jx_set(o, "nodes_drawn", jx_int(r->nodes_drawn));
+        jx_set(o, "upload_kb", jx_fix(r->upload_kb, 3));
+        jx_set(o, "px_error_p99", jx_num(r->px_p99));
+        jx_set(o, "px_error_max", jx_num(r->px_max));
+        jx_set(o, "uncovered", jx_int((long long)r->uncovered));
+        jx_set(o, "sky_frac", jx_fix(r->sky_frac, 5));
         if (b->reference) {
-            fprintf(jf, ",\"ref_triangles\":%u,\"ref_hash\":\"%016llx\",\"psnr_db\":", r->ref_triangles,
-                    (unsigned long long)r->ref_hash);
-            json_num(jf, r->psnr);
-            fprintf(jf, ",\"silhouette_frac\":%.6g,\"popping\":%.6g,\"pop_px_max\":", r->silhouette, r->popping);
-            json_num(jf, r->pop_px_max);
-            fputs(",\"pop_px_mean\":", jf);
-            json_num(jf, r->pop_px_mean);
+            char hash[20];
+            snprintf(hash, sizeof hash, "%016llx", (unsigned long long)r->ref_hash);
+            jx_set(o, "ref_triangles", jx_int(r->ref_triangles));
+            jx_set(o, "ref_hash", jx_str(hash));
+            jx_set(o, "psnr_db", jx_num(r->psnr));
+            jx_set(o, "silhouette_frac", jx_num(r->silhouette));
+            jx_set(o, "popping", jx_num(r->popping));
+            jx_set(o, "pop_px_max", jx_num(r->pop_px_max));
+            jx_set(o, "pop_px_mean", jx_num(r->pop_px_mean));
         }
-        fputc('}', jf);
+        json_array_append_new(pf, o);
     }
-    fputs("]}", jf);
+    jx_set(j, "per_frame", pf);
+    return j;
 }
 
 static hz_result plot(const bench *b, const char *plot_out, const frame_row *rows, hz_err *err)
@@ -991,6 +1023,12 @@ int cmd_bench(int argc, char **argv)
         if (save_dir && (rc = check_frame_outputs(save_dir, ins, nin)))
             return rc;
     }
+    /* --plot needs gnuplot: said before the run, not after it. */
+    if (plot_out && system("command -v gnuplot >/dev/null 2>&1") != 0) {
+        fprintf(stderr, "horizon bench: --plot needs gnuplot, which is not installed (apt-get install gnuplot-nox, "
+                        "or make bench installs it)\n");
+        return 2;
+    }
     if (nmodes == 0)
         modes[nmodes++] = b.o.lod.mode;
     b.quiet = b.o.quiet;
@@ -1035,6 +1073,7 @@ int cmd_bench(int argc, char **argv)
     hz_gl *gl = NULL;
     FILE *jf = NULL;
     hz_outfile jof;
+    json_t *jroot = NULL, *jcmp = NULL, *jone = NULL;
     frame_row *rows = NULL;
     b.npx = (size_t)b.o.width * b.o.height;
     b.cache_ref = reference && nmodes > 1;
@@ -1085,9 +1124,13 @@ int cmd_bench(int argc, char **argv)
         jf = hz_outfile_open(&jof, json_out, &b.err);
         if (!jf)
             goto done;
-        if (nmodes > 1)
-            fputs("{\"compare\":[", jf);
     }
+    if (nmodes > 1) {
+        jroot = json_object();
+        jcmp = json_array();
+    }
+    if (jroot)
+        jx_set(jroot, "compare", json_incref(jcmp));
     for (int m = 0; m < nmodes; m++) {
         hz_lod_params lod = b.o.lod;
         lod.mode = modes[m];
@@ -1103,15 +1146,20 @@ int cmd_bench(int argc, char **argv)
         if (!b.quiet || !json_out)
             print_table(&b, &lod, &s, tune_p99);
         if (jf) {
-            if (m)
-                fputc(',', jf);
-            write_json(jf, &b, &lod, rows, &s, tune_p99);
+            json_t *jm = bench_json(&b, &lod, rows, &s, tune_p99);
+            if (jcmp)
+                json_array_append_new(jcmp, jm);
+            else
+                jone = jm;
         }
         if (plot_out && nmodes == 1 && plot(&b, plot_out, rows, &b.err) != HZ_OK)
             goto done;
     }
     if (jf) {
-        fputs(nmodes > 1 ? "]}\n" : "\n", jf);
+        json_t *jout = jroot ? jroot : jone;
+        jroot = jone = NULL;
+        if (jx_print(jout, jf))
+            hz_err_set(&b.err, HZ_ERR_IO, "cannot write '%s'", json_out);
         hz_result closed = hz_outfile_close(&jof, jf, &b.err);
         jf = NULL;
         if (closed != HZ_OK)
@@ -1121,6 +1169,9 @@ int cmd_bench(int argc, char **argv)
         fprintf(stderr, "horizon bench: --plot charts a single mode; skipped for %d modes\n", nmodes);
     rc = 0;
 done:
+    json_decref(jroot);
+    json_decref(jcmp);
+    json_decref(jone);
     if (rc)
         fprintf(stderr, "horizon bench: %s\n", b.err.msg[0] ? b.err.msg : "failed");
     if (jf) {

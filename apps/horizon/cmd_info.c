@@ -7,22 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-static void json_str(const char *s)
-{
-    putchar('"');
-    for (; *s; s++) {
-        unsigned char c = (unsigned char)*s;
-        if (c == '"' || c == '\\')
-            printf("\\%c", c);
-        else if (c < 0x20)
-            printf("\\u%04x", c);
-        else
-            putchar(c);
-    }
-    putchar('"');
-}
-
-static int info_one(const char *path, const char *crs, bool json, bool first)
+static int info_one(const char *path, const char *crs, json_t *arr)
 {
     hz_grid g = {0};
     hz_dem_info in;
@@ -52,39 +37,50 @@ static int info_one(const char *path, const char *crs, bool json, bool first)
     double msx = 0;
     if (mgeo)
         hz_georef_spacing(mgeo, &msx, NULL);
-    if (json) {
-        printf("%s{\"file\":", first ? "" : ",");
-        json_str(path);
-        printf(",\"driver\":");
-        json_str(in.driver[0] ? in.driver : hz_dem_format_name(in.format));
-        printf(",\"files\":%u,\"width\":%u,\"height\":%u,\"samples\":%llu", in.files, w, h,
-               (unsigned long long)w * h);
+    if (arr) {
+        json_t *j = json_object();
+        jx_set(j, "file", jx_str(path));
+        jx_set(j, "driver", jx_str(in.driver[0] ? in.driver : hz_dem_format_name(in.format)));
+        jx_set(j, "files", jx_int(in.files));
+        jx_set(j, "width", jx_int(w));
+        jx_set(j, "height", jx_int(h));
+        jx_set(j, "samples", jx_int((long long)w * h));
         if (geo) {
-            printf(",\"crs\":");
-            json_str(hz_georef_label(geo));
-            printf(",\"crs_name\":");
-            json_str(hz_georef_name(geo));
-            printf(",\"epsg\":%d,\"geographic\":%s", hz_georef_epsg(geo), hz_georef_is_geographic(geo) ? "true" : "false");
+            jx_set(j, "crs", jx_str(hz_georef_label(geo)));
+            jx_set(j, "crs_name", jx_str(hz_georef_name(geo)));
+            jx_set(j, "epsg", jx_int(hz_georef_epsg(geo)));
+            jx_set(j, "geographic", jx_bool(hz_georef_is_geographic(geo)));
             double gt[6];
             hz_georef_geotransform(geo, gt);
-            printf(",\"geotransform\":[%.17g,%.17g,%.17g,%.17g,%.17g,%.17g]", gt[0], gt[1], gt[2], gt[3], gt[4], gt[5]);
-            if (corners)
-                printf(",\"corners_lonlat\":{\"nw\":[%.9f,%.9f],\"ne\":[%.9f,%.9f],\"se\":[%.9f,%.9f],\"sw\":[%.9f,%.9f]}",
-                       c[0][0], c[0][1], c[1][0], c[1][1], c[2][0], c[2][1], c[3][0], c[3][1]);
-            printf(",\"spacing_m\":[%.4f,%.4f]", sx, sy);
+            json_t *g6 = json_array();
+            for (int k = 0; k < 6; k++)
+                json_array_append_new(g6, jx_dbl(gt[k]));
+            jx_set(j, "geotransform", g6);
+            if (corners) {
+                static const char *const names[4] = {"nw", "ne", "se", "sw"};
+                json_t *cj = json_object();
+                for (int k = 0; k < 4; k++)
+                    jx_set(cj, names[k], json_pack("[oo]", jx_fix(c[k][0], 9), jx_fix(c[k][1], 9)));
+                jx_set(j, "corners_lonlat", cj);
+            }
+            jx_set(j, "spacing_m", json_pack("[oo]", jx_fix(sx, 4), jx_fix(sy, 4)));
         } else {
-            printf(",\"crs\":null,\"spacing_m\":null,\"spacing_hint_m\":%g", (double)in.spacing_hint);
+            jx_set(j, "crs", json_null());
+            jx_set(j, "spacing_m", json_null());
+            jx_set(j, "spacing_hint_m", jx_num(in.spacing_hint));
         }
-        printf(",\"units\":\"%s\",\"height_min\":%.3f,\"height_max\":%.3f,\"nodata\":%llu",
-               in.units == HZ_UNITS_FT ? "ft" : in.units == HZ_UNITS_DM ? "dm" : in.units == HZ_UNITS_RAW ? "raw" : "m",
-               (double)lo, (double)hi, (unsigned long long)nodata);
-        if (metric_ok && mgeo) {
-            printf(",\"terrain\":{\"crs\":");
-            json_str(hz_georef_label(mgeo));
-            printf(",\"width\":%u,\"height\":%u,\"spacing_m\":%.4f,\"reprojected\":%s}", mw, mh, msx,
-                   mi.reprojected ? "true" : "false");
-        }
-        printf("}");
+        jx_set(j, "units", jx_str(in.units == HZ_UNITS_FT    ? "ft"
+                                  : in.units == HZ_UNITS_DM  ? "dm"
+                                  : in.units == HZ_UNITS_RAW ? "raw"
+                                                             : "m"));
+        jx_set(j, "height_min", jx_fix(lo, 3));
+        jx_set(j, "height_max", jx_fix(hi, 3));
+        jx_set(j, "nodata", jx_int((long long)nodata));
+        if (metric_ok && mgeo)
+            jx_set(j, "terrain", json_pack("{s:o,s:I,s:I,s:o,s:b}", "crs", jx_str(hz_georef_label(mgeo)), "width",
+                                           (json_int_t)mw, "height", (json_int_t)mh, "spacing_m", jx_fix(msx, 4),
+                                           "reprojected", (int)mi.reprojected));
+        json_array_append_new(arr, j);
     } else {
         printf("%s\n", path);
         printf("  driver      %s%s\n", in.driver[0] ? in.driver : hz_dem_format_name(in.format),
@@ -155,9 +151,7 @@ int cmd_info(int argc, char **argv)
         return 2;
     }
     int rc = 0;
-    bool first = true;
-    if (json)
-        printf("[");
+    json_t *arr = json ? json_array() : NULL;
     for (int i = 2; i < argc; i++) {
         if (!strcmp(argv[i], "--crs")) {
             i++;
@@ -167,20 +161,14 @@ int cmd_info(int argc, char **argv)
             continue;
         const size_t len = strlen(argv[i]);
         if (len > 4 && !strcmp(argv[i] + len - 4, ".hzp")) {
-            if (json && !first)
-                printf(",");
-            fflush(stdout);
-            if (pyramid_info(argv[i], verify, json))
+            if (pyramid_info(argv[i], verify, arr))
                 rc = 1;
-            first = false;
             continue;
         }
-        if (info_one(argv[i], crs, json, first))
+        if (info_one(argv[i], crs, arr))
             rc = 1;
-        else
-            first = false;
     }
-    if (json)
-        printf("]\n");
+    if (arr && jx_print(arr, stdout))
+        rc = 1;
     return rc;
 }

@@ -106,6 +106,11 @@ int cmd_render(int argc, char **argv)
     const cli_file outs[] = {{out, "--out", CLI_FILE}, {o.dump_mesh, "--dump-mesh", CLI_FILE}};
     if ((rc = cli_check_outputs("render", outs, 2, ins, nin)))
         return rc;
+    if ((o.lod.c > 0 || o.lod.c2 > 0 || o.lod.criterion) && !o.quiet &&
+        (o.lod.mode == HZ_LOD_CDLOD || o.lod.mode == HZ_LOD_ROAM))
+        fprintf(stderr, "horizon render: note: --lod-c, --lod-c2 and --criterion apply to the quadtree modes; "
+                        "%s takes --pixel-error (add --lod quadtree for C and C2)\n",
+                hz_lod_mode_name(o.lod.mode));
     hz_terrain *t = cli_load_terrain(&o);
     if (!t)
         return 1;
@@ -209,44 +214,82 @@ int cmd_render(int argc, char **argv)
     if (afx.water)
         snprintf(water, sizeof water, "%.2f", (double)afx.water_level);
     if (o.json) {
-        printf("{\"terrain\":\"%s\",\"heightmap_size\":%u,\"spacing\":%g,\"zscale\":%g,"
-               "\"layout\":\"%s\",\"lod_mode\":\"%s\",\"pixel_error\":%g,\"lod_c\":%g,\"lod_c2\":%g,"
-               "\"criterion\":\"%s\",\"forced\":%u,\"merged\":%u,\"lod_ms_first\":%.4f,"
-               "\"camera\":[%g,%g,%g,%g,%g],\"fov\":%g,\"far\":%g,\"width\":%u,\"height\":%u,"
-               "\"triangles\":%u,\"vertices\":%zu,\"nodes_visited\":%u,\"nodes_culled\":%u,"
-               "\"leaves\":%u,\"restricted\":%u,\"lod_ms\":%.4f,\"lod_runs\":%u,\"upload_ms\":%.3f,"
-               "\"draw_ms\":%.3f,\"draw_ms_first\":%.3f,\"bytes_per_sample\":%.3f,"
-               "\"lod_bytes\":%zu,\"load_ms\":%.1f,\"prep_ms\":%.1f,\"peak_rss_mb\":%.1f,\"out\":\"%s\","
-               "\"effects\":\"%s\",\"fx_setup_ms\":%.1f,\"lightmap_ms\":%.1f,\"trees\":%zu,\"billboards\":%u,"
-               "\"particles\":%u,\"reflections\":%u,\"sun_visible\":%.4f,\"water_level\":%s",
-               t->source, t->hm.size, (double)t->spacing, (double)t->zscale, hz_layout_name(t->hm.layout),
-               hz_lod_mode_name(o.lod.mode), (double)o.lod.pixel_error,
-               (double)(o.lod.c > 0 ? o.lod.c : 25), (double)(o.lod.c2 > 0 ? o.lod.c2 : 2.5f),
-               o.lod.criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped", st.forced, st.merged, lod_first,
-               (double)cam.pos[0],
-               (double)cam.pos[1], (double)cam.pos[2], (double)cam.yaw, (double)cam.pitch,
-               (double)cam.fov_y, (double)cam.zfar, o.width, o.height, st.triangles,
-               count_vertices(&il, t->hm.size), st.nodes_visited, st.nodes_culled, st.leaves,
-               st.restricted, lod_med, o.repeat, ds.upload_ms, draw_med, draw_first,
-               hz_lod_bytes_per_sample(t->lod), hz_lod_memory_bytes(t->lod), t->load_ms, t->prep_ms,
-               (double)hz_peak_rss_bytes() / (1024.0 * 1024.0), out, fxs, afx.setup_ms, afx.lightmap_ms, afx.trees,
-               ds.billboards, ds.particles, ds.reflections, (double)ds.sun_visible, water);
-        printf(",\"terrain_in_view\":%s", in_view ? "true" : "false");
-        printf(",\"triangles_masked\":%zu,\"data_size\":[%u,%u],\"samples_valid\":%llu,\"file_samples\":%llu",
-               masked_tris, t->data_w, t->data_h, (unsigned long long)t->valid_count,
-               (unsigned long long)t->file_samples);
-        cli_print_georef_json(t, &cam);
+        json_t *j = json_object();
+        jx_set(j, "terrain", jx_str(t->source));
+        jx_set(j, "heightmap_size", jx_int(t->hm.size));
+        jx_set(j, "spacing", jx_num(t->spacing));
+        jx_set(j, "zscale", jx_num(t->zscale));
+        jx_set(j, "layout", jx_str(hz_layout_name(t->hm.layout)));
+        jx_set(j, "lod_mode", jx_str(hz_lod_mode_name(o.lod.mode)));
+        jx_set(j, "pixel_error", jx_num(cli_pixel_error(&o.lod)));
+        jx_set(j, "lod_c", jx_num(o.lod.c > 0 ? o.lod.c : 25));
+        jx_set(j, "lod_c2", jx_num(o.lod.c2 > 0 ? o.lod.c2 : 2.5f));
+        jx_set(j, "criterion", jx_str(o.lod.criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped"));
+        jx_set(j, "forced", jx_int(st.forced));
+        jx_set(j, "merged", jx_int(st.merged));
+        jx_set(j, "lod_ms_first", jx_fix(lod_first, 4));
+        jx_set(j, "camera", json_pack("[ooooo]", jx_fix(cam.pos[0], 3), jx_fix(cam.pos[1], 3), jx_fix(cam.pos[2], 3),
+                                      jx_fix(cam.yaw, 4), jx_fix(cam.pitch, 4)));
+        jx_set(j, "fov", jx_num(cam.fov_y));
+        jx_set(j, "far", jx_fix(cam.zfar, 1));
+        jx_set(j, "width", jx_int(o.width));
+        jx_set(j, "height", jx_int(o.height));
+        jx_set(j, "triangles", jx_int(st.triangles));
+        jx_set(j, "vertices", jx_int((long long)count_vertices(&il, t->hm.size)));
+        jx_set(j, "nodes_visited", jx_int(st.nodes_visited));
+        jx_set(j, "nodes_culled", jx_int(st.nodes_culled));
+        jx_set(j, "leaves", jx_int(st.leaves));
+        jx_set(j, "restricted", jx_int(st.restricted));
+        jx_set(j, "lod_ms", jx_fix(lod_med, 4));
+        jx_set(j, "lod_runs", jx_int(o.repeat));
+        jx_set(j, "upload_ms", jx_fix(ds.upload_ms, 3));
+        jx_set(j, "draw_ms", jx_fix(draw_med, 3));
+        jx_set(j, "draw_ms_first", jx_fix(draw_first, 3));
+        jx_set(j, "bytes_per_sample", jx_fix(hz_lod_bytes_per_sample(t->lod), 3));
+        jx_set(j, "lod_bytes", jx_int((long long)hz_lod_memory_bytes(t->lod)));
+        jx_set(j, "load_ms", jx_fix(t->load_ms, 1));
+        jx_set(j, "prep_ms", jx_fix(t->prep_ms, 1));
+        jx_set(j, "peak_rss_mb", jx_fix((double)hz_peak_rss_bytes() / (1024.0 * 1024.0), 1));
+        jx_set(j, "out", jx_str(out));
+        jx_set(j, "effects", jx_str(fxs));
+        jx_set(j, "fx_setup_ms", jx_fix(afx.setup_ms, 1));
+        jx_set(j, "lightmap_ms", jx_fix(afx.lightmap_ms, 1));
+        jx_set(j, "trees", jx_int((long long)afx.trees));
+        jx_set(j, "billboards", jx_int(ds.billboards));
+        jx_set(j, "particles", jx_int(ds.particles));
+        jx_set(j, "reflections", jx_int(ds.reflections));
+        jx_set(j, "sun_visible", jx_fix(ds.sun_visible, 4));
+        jx_set(j, "water_level", afx.water ? jx_fix(afx.water_level, 2) : json_null());
+        jx_set(j, "terrain_in_view", jx_bool(in_view));
+        jx_set(j, "climate", jx_str(hz_climate_name(afx.climate.kind)));
+        jx_set(j, "climate_from_place", jx_bool(afx.climate_known));
+        jx_set(j, "snow_line", jx_fix(afx.climate.snow_line, 0));
+        jx_set(j, "tree_line", jx_fix(afx.climate.tree_line, 0));
+        jx_set(j, "aridity", jx_fix(afx.climate.aridity, 2));
+        jx_set(j, "triangles_masked", jx_int((long long)masked_tris));
+        jx_set(j, "data_size", json_pack("[II]", (json_int_t)t->data_w, (json_int_t)t->data_h));
+        jx_set(j, "samples_valid", jx_int((long long)t->valid_count));
+        jx_set(j, "file_samples", jx_int((long long)t->file_samples));
+        cli_georef_json(j, t, &cam);
         if (cf) {
             const hz_forest_frame *fr = &cf->frame;
-            printf(",\"forest_trees\":%u,\"trees_in_frustum\":%u,\"trees_detailed\":%u,\"trees_hull\":%u,"
-                   "\"triangles_full\":%llu,\"triangles_drawn\":%llu,\"leaves_drawn\":%llu,\"nodes_culled\":%u,"
-                   "\"forest_draw_ms\":%.3f,\"forest_select_ms\":%.3f,\"forest_prep_ms\":%.1f",
-                   fr->trees, fr->trees_in_frustum, fr->trees_detailed, fr->trees_hull,
-                   (unsigned long long)fr->triangles_full, (unsigned long long)fr->triangles_drawn,
-                   (unsigned long long)fr->leaves_drawn, fr->nodes_culled, cf->hook.draw_ms, fr->select_ms,
-                   cf->prep_ms);
+            jx_set(j, "forest_trees", jx_int(fr->trees));
+            jx_set(j, "trees_in_frustum", jx_int(fr->trees_in_frustum));
+            jx_set(j, "trees_detailed", jx_int(fr->trees_detailed));
+            jx_set(j, "trees_hull", jx_int(fr->trees_hull));
+            jx_set(j, "triangles_full", jx_int((long long)fr->triangles_full));
+            jx_set(j, "triangles_drawn", jx_int((long long)fr->triangles_drawn));
+            jx_set(j, "leaves_drawn", jx_int((long long)fr->leaves_drawn));
+            /* The forest's own culled nodes (the terrain's are nodes_culled). */
+            jx_set(j, "forest_nodes_culled", jx_int(fr->nodes_culled));
+            jx_set(j, "forest_draw_ms", jx_fix(cf->hook.draw_ms, 3));
+            jx_set(j, "forest_select_ms", jx_fix(fr->select_ms, 3));
+            jx_set(j, "forest_prep_ms", jx_fix(cf->prep_ms, 1));
         }
-        printf("}\n");
+        if (jx_print(j, stdout)) {
+            snprintf(err.msg, sizeof err.msg, "cannot write the JSON to stdout");
+            goto done;
+        }
     } else {
         printf("terrain       %s (%ux%u, %.1f m spacing%s%s)\n", t->source, t->hm.size, t->hm.size,
                (double)t->spacing, t->note[0] ? "; " : "", t->note);
@@ -268,6 +311,9 @@ int cmd_render(int argc, char **argv)
                hz_gl_describe(gl));
         printf("LOD memory    %.2f bytes/sample (%.1f MB)\n", hz_lod_bytes_per_sample(t->lod),
                (double)hz_lod_memory_bytes(t->lod) / 1048576.0);
+        printf("climate       %s%s: snow above %.0f m, trees below %.0f m, aridity %.2f\n",
+               hz_climate_name(afx.climate.kind), afx.climate_known ? " (from the place)" : " (default)",
+               (double)afx.climate.snow_line, (double)afx.climate.tree_line, (double)afx.climate.aridity);
         printf("effects       %s", fxs);
         if (o.effects)
             printf(" (setup %.0f ms: light map %.0f ms, %zu trees; %u billboards, %u particles drawn%s)",

@@ -46,11 +46,7 @@ static bool num(const char *opt, const char *s, double lo, double hi, double *ou
 
 static void print_json(json_t *o)
 {
-    char *s = json_dumps(o, JSON_COMPACT | JSON_REAL_PRECISION(10));
-    if (s)
-        puts(s);
-    free(s);
-    json_decref(o);
+    jx_print(o, stdout);
 }
 
 bool cli_wants_stream(int argc, char **argv, int first)
@@ -184,14 +180,14 @@ int cmd_import(int argc, char **argv)
     }
     if (json) {
         json_t *o = json_object();
-        json_object_set_new(o, "out", json_string(d.out));
+        json_object_set_new(o, "out", jx_str(d.out));
         json_object_set_new(o, "samples", json_integer((json_int_t)st.samples));
         json_object_set_new(o, "tiles", json_integer((json_int_t)st.tiles));
         json_object_set_new(o, "bytes", json_integer((json_int_t)st.bytes));
-        json_object_set_new(o, "bytes_per_sample", json_real(bps));
-        json_object_set_new(o, "max_error_m", json_real(st.max_error));
-        json_object_set_new(o, "ms", json_real(st.ms));
-        json_object_set_new(o, "peak_rss_mb", json_real((double)hz_peak_rss_bytes() / 1048576.0));
+        json_object_set_new(o, "bytes_per_sample", jx_dbl(bps));
+        json_object_set_new(o, "max_error_m", jx_dbl(st.max_error));
+        json_object_set_new(o, "ms", jx_dbl(st.ms));
+        json_object_set_new(o, "peak_rss_mb", jx_dbl((double)hz_peak_rss_bytes() / 1048576.0));
         print_json(o);
     } else if (!quiet) {
         printf("%s: %llu samples, %llu tiles, %.1f MB (%.3f bytes/sample), max error %.3g m, %.1f s, peak RSS %.0f MB\n",
@@ -203,8 +199,9 @@ int cmd_import(int argc, char **argv)
 
 /* ---- info ---- */
 
-int pyramid_info(const char *path, bool verify, bool json)
+int pyramid_info(const char *path, bool verify, json_t *arr)
 {
+    const bool json = arr != NULL;
     hz_pyramid *p = NULL;
     hz_err err = {0};
     if (hz_pyramid_open(path, &p, &err) != HZ_OK) {
@@ -227,8 +224,8 @@ int pyramid_info(const char *path, bool verify, bool json)
     const double nd = (double)in->nodata / ((double)in->data_w * in->data_h);
     if (json) {
         json_t *o = json_object();
-        json_object_set_new(o, "file", json_string(path));
-        json_object_set_new(o, "format", json_string("hzp"));
+        json_object_set_new(o, "file", jx_str(path));
+        json_object_set_new(o, "format", jx_str("hzp"));
         json_object_set_new(o, "version", json_integer(in->version));
         json_object_set_new(o, "width", json_integer(in->data_w));
         json_object_set_new(o, "height", json_integer(in->data_h));
@@ -236,17 +233,17 @@ int pyramid_info(const char *path, bool verify, bool json)
         json_object_set_new(o, "levels", json_integer(in->levels));
         json_object_set_new(o, "tiles", json_integer((json_int_t)in->tiles));
         json_object_set_new(o, "tile_cells", json_integer(in->tile_cells));
-        json_object_set_new(o, "spacing", json_real(in->spacing));
-        json_object_set_new(o, "height_min", json_real(hmin));
-        json_object_set_new(o, "height_max", json_real(hmax));
-        json_object_set_new(o, "height_step", json_real(in->h_scale));
-        json_object_set_new(o, "max_error", json_real(in->max_error));
+        json_object_set_new(o, "spacing", jx_dbl(in->spacing));
+        json_object_set_new(o, "height_min", jx_dbl(hmin));
+        json_object_set_new(o, "height_max", jx_dbl(hmax));
+        json_object_set_new(o, "height_step", jx_dbl(in->h_scale));
+        json_object_set_new(o, "max_error", jx_dbl(in->max_error));
         json_object_set_new(o, "nodata", json_integer((json_int_t)in->nodata));
-        json_object_set_new(o, "nodata_fraction", json_real(nd));
+        json_object_set_new(o, "nodata_fraction", jx_dbl(nd));
         json_object_set_new(o, "bytes", json_integer((json_int_t)in->file_bytes));
         json_object_set_new(o, "bytes_per_sample",
-                            json_real((double)in->file_bytes / ((double)in->data_w * in->data_h)));
-        json_object_set_new(o, "crs", g ? json_string(hz_georef_label(g)) : json_null());
+                            jx_dbl((double)in->file_bytes / ((double)in->data_w * in->data_h)));
+        json_object_set_new(o, "crs", g ? jx_str(hz_georef_label(g)) : json_null());
         if (has_geo) /* as horizon info prints DEMs */
             json_object_set_new(o, "corners_lonlat",
                                 json_pack("{s:[f,f],s:[f,f],s:[f,f],s:[f,f]}", "nw", corners[0][0], corners[0][1], "ne",
@@ -256,7 +253,7 @@ int pyramid_info(const char *path, bool verify, bool json)
             json_object_set_new(o, "verified", json_boolean(vr == HZ_OK));
             json_object_set_new(o, "bad_tiles", json_integer((json_int_t)bad));
         }
-        print_json(o);
+        json_array_append_new(arr, o);
     } else {
         printf("%s: terrain pyramid v%u, %ux%u samples (square %u), %u levels, %llu tiles of %u cells\n", path,
                in->version, in->data_w, in->data_h, in->size, in->levels, (unsigned long long)in->tiles,
@@ -502,27 +499,27 @@ int stream_render(int argc, char **argv)
         fprintf(stderr, "horizon render: the terrain is not in view: the image shows only sky\n");
     if (o.json) {
         json_t *j = json_object();
-        json_object_set_new(j, "terrain", json_string(o.terrain));
-        json_object_set_new(j, "out", json_string(out));
-        json_object_set_new(j, "lod_mode", json_string("cdlod"));
-        json_object_set_new(j, "pixel_error", json_real(o.tau));
+        json_object_set_new(j, "terrain", jx_str(o.terrain));
+        json_object_set_new(j, "out", jx_str(out));
+        json_object_set_new(j, "lod_mode", jx_str("cdlod"));
+        json_object_set_new(j, "pixel_error", jx_dbl(o.tau));
         json_object_set_new(j, "camera", json_pack("[f,f,f,f,f]", (double)cam.pos[0], (double)cam.pos[1],
                                                    (double)cam.pos[2], (double)cam.yaw, (double)cam.pitch));
         json_object_set_new(j, "triangles", json_integer(st.triangles));
         json_object_set_new(j, "nodes_drawn", json_integer((json_int_t)c.pl.count));
         json_object_set_new(j, "forced", json_integer(st.forced));
-        json_object_set_new(j, "lod_ms", json_real(st.ms));
-        json_object_set_new(j, "draw_ms", json_real(ds.draw_ms));
+        json_object_set_new(j, "lod_ms", jx_dbl(st.ms));
+        json_object_set_new(j, "draw_ms", jx_dbl(ds.draw_ms));
         json_object_set_new(j, "tiles_loaded", json_integer(loads));
         json_object_set_new(j, "tiles_resident", json_integer(ss.resident));
         json_object_set_new(j, "tiles_failed", json_integer(ss.failed));
         json_object_set_new(j, "cache_slots", json_integer(hz_stream_slots(c.s)));
-        json_object_set_new(j, "cache_mb", json_real((double)ss.cache_bytes / 1048576.0));
+        json_object_set_new(j, "cache_mb", jx_dbl((double)ss.cache_bytes / 1048576.0));
         json_object_set_new(j, "late_nodes", json_integer(ss.late));
         json_object_set_new(j, "load_rounds", json_integer(rounds));
-        json_object_set_new(j, "load_ms", json_real(load_ms));
+        json_object_set_new(j, "load_ms", jx_dbl(load_ms));
         json_object_set_new(j, "terrain_in_view", json_boolean(c.pl.count > 0));
-        json_object_set_new(j, "peak_rss_mb", json_real((double)hz_peak_rss_bytes() / 1048576.0));
+        json_object_set_new(j, "peak_rss_mb", jx_dbl((double)hz_peak_rss_bytes() / 1048576.0));
         print_json(j);
     } else if (!o.quiet) {
         printf("%s: %u triangles in %zu nodes, %u tiles loaded (%u resident, %.0f MB), lod %.2f ms, draw %.1f ms\n",
@@ -716,24 +713,24 @@ int stream_bench(int argc, char **argv)
     const double med_frame = pct(frame, F, 0.5), p99 = pct(frame, F, 0.99), med_lod = pct(lod, F, 0.5);
     const double med_tris = pct(tris, F, 0.5);
     json_t *j = json_object();
-    json_object_set_new(j, "terrain", json_string(o.terrain));
-    json_object_set_new(j, "path", json_string(path.name[0] ? path.name : "flyover"));
+    json_object_set_new(j, "terrain", jx_str(o.terrain));
+    json_object_set_new(j, "path", jx_str(path.name[0] ? path.name : "flyover"));
     json_object_set_new(j, "frames", json_integer(F));
-    json_object_set_new(j, "pixel_error", json_real(o.tau));
-    json_object_set_new(j, "cache_mb_limit", json_real(o.cache_mb));
-    json_object_set_new(j, "frame_ms_median", json_real(med_frame));
-    json_object_set_new(j, "frame_ms_p99", json_real(p99));
-    json_object_set_new(j, "frame_ms_worst", json_real(worst));
-    json_object_set_new(j, "lod_ms_median", json_real(med_lod));
-    json_object_set_new(j, "triangles_median", json_real(med_tris));
+    json_object_set_new(j, "pixel_error", jx_dbl(o.tau));
+    json_object_set_new(j, "cache_mb_limit", jx_dbl(o.cache_mb));
+    json_object_set_new(j, "frame_ms_median", jx_dbl(med_frame));
+    json_object_set_new(j, "frame_ms_p99", jx_dbl(p99));
+    json_object_set_new(j, "frame_ms_worst", jx_dbl(worst));
+    json_object_set_new(j, "lod_ms_median", jx_dbl(med_lod));
+    json_object_set_new(j, "triangles_median", jx_dbl(med_tris));
     json_object_set_new(j, "tiles_requested", json_integer((json_int_t)requested));
     json_object_set_new(j, "tiles_loaded", json_integer((json_int_t)loaded));
     json_object_set_new(j, "tiles_evicted", json_integer((json_int_t)evicted));
-    json_object_set_new(j, "cache_mb_max", json_real(cache_max));
-    json_object_set_new(j, "late_frame_fraction", json_real((double)late_frames / F));
-    json_object_set_new(j, "peak_rss_mb", json_real((double)hz_peak_rss_bytes() / 1048576.0));
+    json_object_set_new(j, "cache_mb_max", jx_dbl(cache_max));
+    json_object_set_new(j, "late_frame_fraction", jx_dbl((double)late_frames / F));
+    json_object_set_new(j, "peak_rss_mb", jx_dbl((double)hz_peak_rss_bytes() / 1048576.0));
     if (hz_stream_warning(c.s))
-        json_object_set_new(j, "warning", json_string(hz_stream_warning(c.s)));
+        json_object_set_new(j, "warning", jx_str(hz_stream_warning(c.s)));
     json_object_set_new(j, "per_frame", frames);
     frames = NULL;
     if (o.json) {

@@ -307,28 +307,50 @@ int cmd_tree(int argc, char **argv)
         if (t->nodes[n].count > maxn)
             maxn = t->nodes[n].count;
     if (json) {
-        printf("{\"species\":\"%s\",\"seed\":%llu,\"leaves\":%u,\"leaf_nodes\":%u,\"branch_nodes\":%u,\"levels\":%u,"
-               "\"max_node_leaves\":%u,\"triangles\":%llu,\"bark_triangles\":%u,\"hull_triangles\":%u,"
-               "\"hull_raw_triangles\":%u,\"hull_closed_manifold\":%s,\"height_m\":%.2f,\"source_ms\":%.1f,"
-               "\"ranked\":%s,\"rank_ms\":%.1f,\"rank_render_ms\":%.1f,\"rank_vmi_ms\":%.1f,\"rank_views\":%u,"
-               "\"rank_res\":%u,\"rank_layers\":%u,\"rank_pixels\":%llu,\"rank_deep_pixel_frac\":%.4f,"
-               "\"hull_ms\":%.1f,\"memory_bytes\":%zu,\"file_bytes\":%lld,\"peak_rss_mb\":%.1f",
-               t->species, (unsigned long long)t->seed, t->leaf_count, t->node_count, t->branch_count, t->levels,
-               maxn, (unsigned long long)hz_tree_triangles(t), t->bark.index_count / 3, t->hull.index_count / 3,
-               hs.raw_triangles, t->hull.index_count && !topo.bad_edges && !topo.bad_vertices ? "true" : "false",
-               (double)t->height, source_ms, t->ranked ? "true" : "false", rs.nodes ? rs.ms : t->rank_ms,
-               rs.render_ms, rs.vmi_ms, t->rank_views, t->rank_res, t->rank_layers, (unsigned long long)rs.pixels,
-               rs.pixels ? (double)rs.deep_pixels / (double)rs.pixels : 0.0, hs.ms, hz_tree_memory_bytes(t),
-               file_bytes, (double)hz_peak_rss_bytes() / 1048576.0);
+        json_t *j = json_object();
+        jx_set(j, "species", jx_str(t->species));
+        jx_set(j, "seed", jx_int((long long)t->seed));
+        jx_set(j, "leaves", jx_int(t->leaf_count));
+        jx_set(j, "leaf_nodes", jx_int(t->node_count));
+        jx_set(j, "branch_nodes", jx_int(t->branch_count));
+        jx_set(j, "levels", jx_int(t->levels));
+        jx_set(j, "max_node_leaves", jx_int(maxn));
+        jx_set(j, "triangles", jx_int((long long)hz_tree_triangles(t)));
+        jx_set(j, "bark_triangles", jx_int(t->bark.index_count / 3));
+        jx_set(j, "hull_triangles", jx_int(t->hull.index_count / 3));
+        jx_set(j, "hull_raw_triangles", jx_int(hs.raw_triangles));
+        jx_set(j, "hull_closed_manifold", jx_bool(t->hull.index_count && !topo.bad_edges && !topo.bad_vertices));
+        jx_set(j, "height_m", jx_fix(t->height, 2));
+        jx_set(j, "source_ms", jx_fix(source_ms, 1));
+        jx_set(j, "ranked", jx_bool(t->ranked));
+        jx_set(j, "rank_ms", jx_fix(rs.nodes ? rs.ms : t->rank_ms, 1));
+        jx_set(j, "rank_render_ms", jx_fix(rs.render_ms, 1));
+        jx_set(j, "rank_vmi_ms", jx_fix(rs.vmi_ms, 1));
+        jx_set(j, "rank_views", jx_int(t->rank_views));
+        jx_set(j, "rank_res", jx_int(t->rank_res));
+        jx_set(j, "rank_layers", jx_int(t->rank_layers));
+        jx_set(j, "rank_pixels", jx_int((long long)rs.pixels));
+        jx_set(j, "rank_deep_pixel_frac", jx_fix(rs.pixels ? (double)rs.deep_pixels / (double)rs.pixels : 0.0, 4));
+        jx_set(j, "hull_ms", jx_fix(hs.ms, 1));
+        jx_set(j, "memory_bytes", jx_int((long long)hz_tree_memory_bytes(t)));
+        jx_set(j, "file_bytes", jx_int(file_bytes));
+        jx_set(j, "peak_rss_mb", jx_fix((double)hz_peak_rss_bytes() / 1048576.0, 1));
         if (pr) {
-            printf(",\"pr_rate\":%g,\"pr_views\":%u,\"pr_res\":%u", (double)prd.rate, rows[0].r.views, rows[0].r.res);
-            for (int k = 0; k < 4; k++)
-                printf(",\"%s%s_precision\":%.4f,\"%s%s_recall\":%.4f,\"%s%s_f\":%.4f", rows[k].order,
-                       rows[k].enlarge ? "_enlarged" : "", rows[k].r.precision, rows[k].order,
-                       rows[k].enlarge ? "_enlarged" : "", rows[k].r.recall, rows[k].order,
-                       rows[k].enlarge ? "_enlarged" : "", rows[k].r.f_measure);
+            jx_set(j, "pr_rate", jx_num(prd.rate));
+            jx_set(j, "pr_views", jx_int(rows[0].r.views));
+            jx_set(j, "pr_res", jx_int(rows[0].r.res));
+            for (int k = 0; k < 4; k++) {
+                char key[64];
+                const char *en = rows[k].enlarge ? "_enlarged" : "";
+                snprintf(key, sizeof key, "%s%s_precision", rows[k].order, en);
+                jx_set(j, key, jx_fix(rows[k].r.precision, 4));
+                snprintf(key, sizeof key, "%s%s_recall", rows[k].order, en);
+                jx_set(j, key, jx_fix(rows[k].r.recall, 4));
+                snprintf(key, sizeof key, "%s%s_f", rows[k].order, en);
+                jx_set(j, key, jx_fix(rows[k].r.f_measure, 4));
+            }
         }
-        printf("}\n");
+        jx_print(j, stdout);
     } else {
         printf("tree          %s (seed %llu)\n", t->species, (unsigned long long)t->seed);
         printf("hierarchy     %u branch nodes in %u levels, %u leaf nodes (<= %u leaves each)\n", t->branch_count,

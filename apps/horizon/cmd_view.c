@@ -33,7 +33,7 @@ typedef struct view_opts {
     float eye_height;     /* walk mode, metres; 0 -> 1.8 */
     float hud_scale;      /* 0 -> 2 for windows >= 600 px high, else 1 */
     float mouse_sens;     /* degrees per pixel; 0 -> 0.15 */
-    bool walk, free_cam, fans, boxes, no_hud, no_vsync;
+    bool walk, free_cam, fans, boxes, no_hud, hud_full, no_vsync;
 } view_opts;
 
 static void usage(void)
@@ -53,6 +53,7 @@ static void usage(void)
             "  --free                  start with the free camera instead of the viewer camera\n"
             "  --fans / --boxes        start with the fan view / node boxes on (--wireframe too)\n"
             "  --no-hud                start with the HUD hidden\n"
+            "  --hud-full              start with the full HUD (default: the compact corner; F6 switches)\n"
             "  --hud-scale S           HUD text size (default 2, 1 below 600 px)\n"
             "  --mouse-sens D          mouse look degrees per pixel (default 0.15)\n"
             "  --no-vsync              do not wait for the display (measure FPS)\n"
@@ -67,7 +68,7 @@ static void usage(void)
             "  --screenshot FILE.png   write the last frame when quitting\n"
             "  --json                  print a summary (frames, FPS, size, camera) as JSON on exit\n"
             "keys: WASD move, Q/E down/up, shift fast, ctrl slow, mouse drag (or M) look, arrows turn,\n"
-            "      scroll speed, Tab viewer/free, G walk, 1/2 C, 3/4 C2, K culling, F1 HUD, H help,\n"
+            "      scroll speed, Tab viewer/free, G walk, 1/2 C, 3/4 C2, K culling, F1 HUD, F6 full HUD, H help,\n"
             "      F2 wireframe, F3 fans, F4 freeze LOD camera, F5 node boxes, R reset, P/F12 shot, Esc quit,\n"
             "      with --forest: T tree simplification on/off, Y hysteresis on/off\n"
             "effect keys: U sky, F flare, J shadows, I detail, B billboards, O fog, V water, N weather,\n"
@@ -85,6 +86,7 @@ static int split_view_opts(int n, char **args, view_opts *vo, char **rest, int *
         if (!strcmp(a, "--fans")) { vo->fans = true; continue; }
         if (!strcmp(a, "--boxes")) { vo->boxes = true; continue; }
         if (!strcmp(a, "--no-hud")) { vo->no_hud = true; continue; }
+        if (!strcmp(a, "--hud-full")) { vo->hud_full = true; continue; }
         if (!strcmp(a, "--no-vsync")) { vo->no_vsync = true; continue; }
         static const char *const valued[] = {"--config", "--script", "--screenshot", "--shot-dir", "--path",
                                              "--frames", "--dt", "--speed", "--walk-speed", "--eye-height",
@@ -143,6 +145,7 @@ typedef struct view {
     hz_lod_params lod;
     bool morph_uploaded;         /* cdlod morph data is on the GPU */
     bool frozen, wire, fans, boxes, hud, help;
+    bool hud_full;               /* the full HUD (F6 toggles it); else the compact corner */
     hz_index_list il;
     hz_patch_list pl; /* cdlod: the nodes drawn */
     hz_node_list leaves, culled;
@@ -443,6 +446,11 @@ static bool handle_press(view *v, int key)
     case HZ_KEY_F1:
         v->hud = !v->hud;
         break;
+    case HZ_KEY_F1 + 5:
+        /* F6: the full HUD (every figure) or the compact corner. */
+        v->hud_full = !v->hud_full;
+        v->hud = true;
+        break;
     case HZ_KEY_F1 + 1:
         v->wire = !v->wire;
         break;
@@ -596,8 +604,44 @@ static void queue_boxes(view *v, const hz_node_list *nodes, const float rgba[4],
     }
 }
 
+/* The compact HUD: a few short lines in the top-left corner, the view left
+ * free (F6 shows every figure, F1 hides the HUD). */
+static void queue_hud_compact(view *v)
+{
+    const float sc = v->hud_scale, lh = 12.0f * sc, x0 = 6.0f * sc;
+    const hz_camera *c = &v->fc.cam;
+    const float g = hz_flycam_ground(&v->fc);
+    char lines[4][96];
+    snprintf(lines[0], sizeof lines[0], "%.1f FPS  %.1f ms", v->fps, v->frame_ms);
+    if (v->lod.mode == HZ_LOD_CDLOD || v->lod.mode == HZ_LOD_ROAM || v->lod.pixel_error > 0)
+        snprintf(lines[1], sizeof lines[1], "%s %.3g px  %.0fk tris", hz_lod_mode_name(v->lod.mode),
+                 (double)cli_pixel_error(&v->lod), (double)v->st.triangles / 1000.0);
+    else
+        snprintf(lines[1], sizeof lines[1], "%s C %.3g  %.0fk tris", hz_lod_mode_name(v->lod.mode),
+                 (double)(v->lod.c > 0 ? v->lod.c : 25.0f), (double)v->st.triangles / 1000.0);
+    snprintf(lines[2], sizeof lines[2], "alt %.0f m  +%.0f m", (double)c->pos[1], (double)(c->pos[1] - g));
+    snprintf(lines[3], sizeof lines[3], "F6 more  H keys");
+    float w = 0;
+    for (int k = 0; k < 4; k++) {
+        float tw;
+        hz_overlay_text_size(lines[k], sc, &tw, NULL);
+        w = tw > w ? tw : w;
+    }
+    v->hud_w = w + 2 * x0;
+    v->hud_h = 4.0f * lh + 2 * x0;
+    hz_overlay_rect(v->ov, 0, 0, v->hud_w, v->hud_h, C_PANEL);
+    for (int k = 0; k < 4; k++)
+        text(v, x0, x0 + (float)k * lh, k == 3 ? C_DIM : C_WHITE, lines[k]);
+}
+
 static void queue_hud(view *v, uint32_t boxes_drawn, size_t boxes_wanted)
 {
+    if (!v->hud_full) {
+        (void)boxes_drawn;
+        (void)boxes_wanted;
+        queue_hud_compact(v);
+        return;
+    }
     const float sc = v->hud_scale, lh = 12.0f * sc, x0 = 8.0f * sc;
     char lines[14][256];
     int nl = 0;
@@ -712,7 +756,8 @@ static void queue_help(view *v)
         "Tab          viewer / free camera\n"
         "G            walk mode (viewer camera)\n"
         "1 2 / 3 4    C - + / C2 - +       K  culling on/off\n"
-        "F1 HUD   F2 wireframe   F3 fans (centre red, rim white,\n"
+        "F1 HUD on/off   F6 full HUD / compact\n"
+        "F2 wireframe   F3 fans (centre red, rim white,\n"
         "         finest blue)   F4 freeze LOD camera   F5 boxes\n"
         "R reset camera   P or F12 screenshot   H help   Esc quit\n"
         "Effects: U sky  F flare  J shadows  I detail  B trees\n"
@@ -948,26 +993,48 @@ static void print_json(view *v)
     hz_fx_format(v->afx.effects, fxs, sizeof fxs);
     float az, el;
     app_fx_sun_angles(&v->afx, &az, &el);
-    printf("{\"terrain\":\"%s\",\"heightmap_size\":%u,\"frames\":%u,\"width\":%u,\"height\":%u,"
-           "\"fps_mean\":%.2f,\"frame_ms_median\":%.3f,\"frame_ms_p95\":%.3f,\"triangles\":%u,"
-           "\"nodes_visited\":%u,\"nodes_culled\":%u,\"lod_ms\":%.3f,\"draw_ms\":%.3f,\"lod_mode\":\"%s\","
-           "\"pixel_error\":%g,\"lod_c\":%g,\"lod_c2\":%g,"
-           "\"camera_mode\":\"%s\",\"camera\":[%.3f,%.3f,%.3f,%.3f,%.3f],\"ground\":%.3f,\"speed\":%g,"
-           "\"eye_height\":%g,\"wireframe\":%s,\"fans\":%s,\"frozen\":%s,\"boxes\":%s,\"no_cull\":%s,"
-           "\"screenshots\":%u,\"forest_trees\":%u,\"forest_triangles_drawn\":%llu,\"gl\":\"%s\",\"effects\":\"%s\","
-           "\"sun\":[%.2f,%.2f],\"weather\":\"%s\",\"billboards\":%u,\"particles\":%u,\"reflections\":%u}\n",
-           v->t->source, v->t->hm.size, v->frame, v->width, v->height, total > 0 ? 1000.0 * (double)v->frame_times_n / total : 0.0,
-           med, p95, v->st.triangles, v->st.nodes_visited, v->st.nodes_culled, v->st.ms, v->ds.draw_ms,
-           hz_lod_mode_name(v->lod.mode), (double)v->lod.pixel_error,
-           (double)(v->lod.c > 0 ? v->lod.c : 25.0f), (double)(v->lod.c2 > 0 ? v->lod.c2 : 2.5f),
-           hz_flycam_mode_name(&v->fc), (double)c->pos[0], (double)c->pos[1], (double)c->pos[2], (double)c->yaw,
-           (double)c->pitch, (double)hz_flycam_ground(&v->fc), (double)v->fc.speed, (double)v->fc.eye_height,
-           v->wire ? "true" : "false", v->fans ? "true" : "false", v->frozen ? "true" : "false",
-           v->boxes ? "true" : "false", v->lod.no_cull ? "true" : "false", v->shots,
-           v->cf ? v->cf->frame.trees : 0u, v->cf ? (unsigned long long)v->cf->frame.triangles_drawn : 0ull,
-           hz_window_describe(v->win), fxs, (double)az, (double)el,
-           v->afx.fx.weather == HZ_WEATHER_SNOW ? "snow" : "rain", v->ds.billboards, v->ds.particles,
-           v->ds.reflections);
+    json_t *j = json_object();
+    jx_set(j, "terrain", jx_str(v->t->source));
+    jx_set(j, "heightmap_size", jx_int(v->t->hm.size));
+    jx_set(j, "frames", jx_int(v->frame));
+    jx_set(j, "width", jx_int(v->width));
+    jx_set(j, "height", jx_int(v->height));
+    jx_set(j, "fps_mean", jx_fix(total > 0 ? 1000.0 * (double)v->frame_times_n / total : 0.0, 2));
+    jx_set(j, "frame_ms_median", jx_fix(med, 3));
+    jx_set(j, "frame_ms_p95", jx_fix(p95, 3));
+    jx_set(j, "triangles", jx_int(v->st.triangles));
+    jx_set(j, "nodes_visited", jx_int(v->st.nodes_visited));
+    jx_set(j, "nodes_culled", jx_int(v->st.nodes_culled));
+    jx_set(j, "lod_ms", jx_fix(v->st.ms, 3));
+    jx_set(j, "draw_ms", jx_fix(v->ds.draw_ms, 3));
+    jx_set(j, "lod_mode", jx_str(hz_lod_mode_name(v->lod.mode)));
+    jx_set(j, "pixel_error", jx_num(cli_pixel_error(&v->lod)));
+    jx_set(j, "lod_c", jx_num(v->lod.c > 0 ? v->lod.c : 25.0f));
+    jx_set(j, "lod_c2", jx_num(v->lod.c2 > 0 ? v->lod.c2 : 2.5f));
+    jx_set(j, "camera_mode", jx_str(hz_flycam_mode_name(&v->fc)));
+    jx_set(j, "camera", json_pack("[ooooo]", jx_fix(c->pos[0], 3), jx_fix(c->pos[1], 3), jx_fix(c->pos[2], 3),
+                                  jx_fix(c->yaw, 3), jx_fix(c->pitch, 3)));
+    jx_set(j, "ground", jx_fix(hz_flycam_ground(&v->fc), 3));
+    jx_set(j, "speed", jx_num(v->fc.speed));
+    jx_set(j, "eye_height", jx_num(v->fc.eye_height));
+    jx_set(j, "wireframe", jx_bool(v->wire));
+    jx_set(j, "fans", jx_bool(v->fans));
+    jx_set(j, "frozen", jx_bool(v->frozen));
+    jx_set(j, "boxes", jx_bool(v->boxes));
+    jx_set(j, "no_cull", jx_bool(v->lod.no_cull));
+    jx_set(j, "screenshots", jx_int(v->shots));
+    jx_set(j, "forest_trees", jx_int(v->cf ? v->cf->frame.trees : 0u));
+    jx_set(j, "forest_triangles_drawn", jx_int(v->cf ? (long long)v->cf->frame.triangles_drawn : 0));
+    jx_set(j, "gl", jx_str(hz_window_describe(v->win)));
+    jx_set(j, "effects", jx_str(fxs));
+    jx_set(j, "sun", json_pack("[oo]", jx_fix(az, 2), jx_fix(el, 2)));
+    jx_set(j, "weather", jx_str(v->afx.fx.weather == HZ_WEATHER_SNOW ? "snow" : "rain"));
+    jx_set(j, "billboards", jx_int(v->ds.billboards));
+    jx_set(j, "particles", jx_int(v->ds.particles));
+    jx_set(j, "reflections", jx_int(v->ds.reflections));
+    jx_set(j, "hud", jx_str(v->hud ? (v->hud_full ? "full" : "compact") : "off"));
+    jx_set(j, "hud_size", json_pack("[oo]", jx_fix(v->hud_w, 1), jx_fix(v->hud_h, 1)));
+    jx_print(j, stdout);
 }
 
 static bool ends_with(const char *s, const char *suf)
@@ -1179,6 +1246,7 @@ int cmd_view(int argc, char **argv)
     v->fans = vo->fans;
     v->boxes = vo->boxes;
     v->hud = !vo->no_hud;
+    v->hud_full = vo->hud_full;
     if (v->have_path) {
         v->path_active = true;
         hz_path_sample(&v->path, 0.0f, &v->fc.cam);

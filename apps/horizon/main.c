@@ -2,6 +2,7 @@
 #include "cli.h"
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 static void usage(void)
@@ -13,7 +14,13 @@ static void usage(void)
                     "  view     open a window to fly over the terrain, HUD and debug views (--help)\n"
                     "  info     size, CRS, corners, spacing, heights and nodata of DEM files (--help)\n"
                     "  import   DEM files or a generated terrain to a streamed pyramid (.hzp) (--help)\n"
-                    "  tree     grow/import a tree, rank its leaves by VMI, build its crown hull (--help)\n");
+                    "  tree     grow/import a tree, rank its leaves by VMI, build its crown hull (--help)\n"
+                    "options are --name VALUE or --name=VALUE; horizon --version prints the version\n");
+}
+
+static void version(void)
+{
+    printf("horizon %s\n", HZ_VERSION);
 }
 
 int main(int argc, char **argv)
@@ -22,18 +29,37 @@ int main(int argc, char **argv)
         usage();
         return argc < 2 ? 2 : 0;
     }
-    if (!strcmp(argv[1], "render"))
-        return cmd_render(argc, argv);
-    if (!strcmp(argv[1], "bench"))
-        return cmd_bench(argc, argv);
-    if (!strcmp(argv[1], "tree"))
-        return cmd_tree(argc, argv);
-    if (!strcmp(argv[1], "info"))
-        return cmd_info(argc, argv);
+    if (!strcmp(argv[1], "--version") || !strcmp(argv[1], "-V")) {
+        version();
+        return 0;
+    }
+    /* Pyramids: import and streamed render/bench parse their own options (getopt_long). */
     if (!strcmp(argv[1], "import"))
         return cmd_import(argc, argv);
-    if (!strcmp(argv[1], "view"))
-        return cmd_view(argc, argv);
+    if ((!strcmp(argv[1], "render") || !strcmp(argv[1], "bench")) && cli_wants_stream(argc, argv, 2))
+        return !strcmp(argv[1], "render") ? stream_render(argc, argv) : stream_bench(argc, argv);
+    static const struct {
+        const char *name;
+        int (*fn)(int, char **);
+    } cmds[] = {{"render", cmd_render}, {"bench", cmd_bench}, {"tree", cmd_tree}, {"info", cmd_info},
+                {"view", cmd_view}};
+    for (size_t k = 0; k < sizeof cmds / sizeof *cmds; k++)
+        if (!strcmp(argv[1], cmds[k].name)) {
+            int n;
+            char **v;
+            int rc = cli_args_normalize(cmds[k].name, argc, argv, &n, &v);
+            if (rc)
+                return rc;
+            for (int i = 2; i < n; i++)
+                if (!strcmp(v[i], "--version")) {
+                    version();
+                    free(v);
+                    return 0;
+                }
+            rc = cmds[k].fn(n, v);
+            free(v);
+            return rc;
+        }
     fprintf(stderr, "horizon: unknown command '%s'\n", argv[1]);
     usage();
     return 2;

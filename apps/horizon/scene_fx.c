@@ -196,6 +196,28 @@ static int load_textures(const char *dir, hz_renderer *r, const char *cmd, uint6
     return 0;
 }
 
+/* The climate the ground follows: a georeferenced DEM's own (the lon/lat of
+ * its centre), else --latitude or 45 degrees; --climate picks the kind. */
+static hz_climate app_climate(const cli_opts *o, const hz_terrain *t, bool *known)
+{
+    double lon = 0, lat = o->have_latitude ? o->latitude : 45.0;
+    *known = false;
+    if (t->georef) {
+        const float cx = ((float)t->data_x + 0.5f * (float)(t->data_w ? t->data_w - 1 : t->hm.size - 1)) * t->spacing;
+        const float cz = ((float)t->data_y + 0.5f * (float)(t->data_h ? t->data_h - 1 : t->hm.size - 1)) * t->spacing;
+        if (hz_georef_local_to_lonlat(t->georef, cx, cz, &lon, &lat, NULL) == HZ_OK)
+            *known = true;
+    }
+    if (o->climate == HZ_CLIMATE_AUTO && *known)
+        return hz_climate_at(lon, lat);
+    if (o->climate == HZ_CLIMATE_AUTO) {
+        const double a = fabs(lat);
+        return hz_climate_of_kind(a < 23.5 ? HZ_CLIMATE_TROPICAL : a > 66.5 ? HZ_CLIMATE_POLAR : HZ_CLIMATE_TEMPERATE,
+                                  lat);
+    }
+    return hz_climate_of_kind(o->climate, lat);
+}
+
 int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer *r, const char *cmd)
 {
     double t0 = hz_time_ms();
@@ -210,12 +232,23 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
     const bool all = !strcmp(cmd, "view"); /* the viewer may switch any effect on later */
     const uint32_t fx = all ? HZ_FX_ALL : a->effects;
     hz_err err = {0};
+    a->climate = app_climate(o, t, &a->climate_known);
+    hz_renderer_set_climate(r, &a->climate);
+    const bool dry = a->climate.aridity >= 0.6f; /* no forests, no lakes */
 
     if (o->water_mode != 1) {
-        a->water = true;
         bool sea = false;
         a->water_level = o->water_mode == 2 ? o->water_level : hz_water_level_auto(&t->hm, t->zscale, 0, &sea);
-        if (fx & HZ_FX_WATER) {
+        a->water = true;
+        if (o->water_mode == 0) {
+            /* A georeferenced DEM's sea is at 0 m: a flat plain higher up
+             * is land, not a sea. Deserts and steppes have no lakes. */
+            if (sea && a->climate_known && fabsf(a->water_level / t->zscale) > 10.0f)
+                a->water = false;
+            else if (!sea && dry)
+                a->water = false;
+        }
+        if (a->water && (fx & HZ_FX_WATER)) {
             /* A sea reaches the horizon; lakes (and a given level) stay on the map. */
             const float ext = hz_terrain_extent(t);
             hz_water_plane plane = {.height = a->water_level, .rect = {0, 0, ext, ext}};
@@ -241,9 +274,13 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
     }
     if ((fx & HZ_FX_SHADOWS) && build_lightmap(a, t, r, cmd))
         return 1;
-    if ((fx & HZ_FX_BILLBOARDS) && o->trees >= 0.0f) {
+    /* Trees below the climate's tree line (absolute metres, as a fraction of
+     * the heightmap's range for the scatter), none in deserts and steppes. */
+    const float lo = t->min_h * t->zscale, hi = t->max_h * t->zscale;
+    const float tree_frac = hi > lo ? (a->climate.tree_line * t->zscale - lo) / (hi - lo) : 1.0f;
+    if ((fx & HZ_FX_BILLBOARDS) && o->trees >= 0.0f && !dry && tree_frac > 0.02f) {
         hz_scatter_desc td = {.density = o->trees, .water_level = a->water ? a->water_level : -INFINITY,
-                           .seed = t->hm.size ^ 0x7715u};
+                           .tree_line = fminf(tree_frac, 1.5f), .seed = t->hm.size ^ 0x7715u};
         hz_billboard *trees = NULL;
         if (hz_trees_scatter(&t->hm, t->spacing, t->zscale, &td, &trees, &a->trees, &err) == HZ_OK && t->valid) {
             /* No trees on nodata or padding (not drawn): keep those whose

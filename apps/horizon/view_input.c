@@ -2,6 +2,8 @@
 #define _POSIX_C_SOURCE 200809L
 #include "view_input.h"
 
+#include <ini.h>
+
 #include <ctype.h>
 #include <errno.h>
 #include <math.h>
@@ -80,7 +82,7 @@ static int next_line(FILE *f, const char *file, const char *what, char *line, si
 
 /* Options that take no value: those of the shared parser and ours. */
 static const char *const flag_opts[] = {"no-cull", "json",     "wireframe",     "quiet",      "walk",
-                                        "free",    "fans",     "boxes",         "no-hud",     "no-vsync",
+                                        "free",    "fans",     "boxes",         "no-hud", "hud-full",     "no-vsync",
                                         "no-simplify", "no-hysteresis", "no-enlarge", "no-node-cull"};
 
 bool view_is_flag(const char *name)
@@ -130,81 +132,132 @@ static char *trim(char *s)
 /* Reads `key = value` lines into "--key value" tokens. skip_source: the
  * command line names the terrain itself, so --dem/--generate here are dropped
  * (cli_parse refuses both at once). Returns 0 or 2 (message printed). */
+/* libinih reads the config; a line reader in front of it keeps the checks it
+ * lacks (binary data, over-long lines) and counts lines, so that every error
+ * names the file and the line. */
+typedef struct cfg_ctx {
+    FILE *f;
+    const char *file;
+    int lineno;
+    int rc;           /* 0, 1 out of memory, 2 after a message */
+    strlist *out;
+    bool skip_source;
+    char last[1024];  /* the line read last (inih stops at the first error: the bad one) */
+} cfg_ctx;
+
+static char *cfg_reader(char *str, int num, void *stream)
+{
+    cfg_ctx *c = stream;
+    char line[1024];
+    if (c->rc || num < 2)
+        return NULL;
+    int r = next_line(c->f, c->file, "config", line, sizeof line, &c->lineno);
+    if (r == 2)
+        c->rc = 2;
+    if (r)
+        return NULL;
+    snprintf(c->last, sizeof c->last, "%s", line);
+    snprintf(str, (size_t)num, "%s\n", line);
+    return str;
+}
+
+static int cfg_handler(void *user, const char *section, const char *name, const char *value)
+{
+    cfg_ctx *c = user;
+    char q[256], key_buf[256], val_buf[1024];
+    if (c->rc)
+        return 0;
+    if (section && section[0]) {
+        fprintf(stderr, "horizon view: %s:%d: sections ([%s]) are not used: one 'key = value' per line\n", c->file,
+                c->lineno, view_printable(section, q, sizeof q));
+        c->rc = 2;
+        return 0;
+    }
+    snprintf(key_buf, sizeof key_buf, "%s", name);
+    snprintf(val_buf, sizeof val_buf, "%s", value ? value : "");
+    char *key = trim(key_buf), *val = trim(val_buf);
+    /* A trailing comment after whitespace ('#'; inih strips ';'). */
+    for (char *h = val; *h; h++)
+        if (*h == '#' && h > val && isspace((unsigned char)h[-1])) {
+            *h = 0;
+            val = trim(val);
+            break;
+        }
+    size_t vl = strlen(val);
+    if (vl >= 2 && ((val[0] == '"' && val[vl - 1] == '"') || (val[0] == '\'' && val[vl - 1] == '\''))) {
+        val[vl - 1] = 0;
+        val++;
+    }
+    while (*key == '-')
+        key++;
+    if (!*key) {
+        fprintf(stderr, "horizon view: %s:%d: empty key\n", c->file, c->lineno);
+        c->rc = 2;
+        return 0;
+    }
+    if (!strcmp(key, "config")) {
+        fprintf(stderr, "horizon view: %s:%d: config files do not nest\n", c->file, c->lineno);
+        c->rc = 2;
+        return 0;
+    }
+    if (c->skip_source && (!strcmp(key, "dem") || !strcmp(key, "generate")))
+        return 1;
+    char opt[300];
+    snprintf(opt, sizeof opt, "--%s", key);
+    if (view_is_flag(key)) {
+        if (!strcmp(val, "true") || !strcmp(val, "yes") || !strcmp(val, "on") || !strcmp(val, "1")) {
+            if (!strlist_add(c->out, opt))
+                c->rc = 1;
+        } else if (strcmp(val, "false") && strcmp(val, "no") && strcmp(val, "off") && strcmp(val, "0")) {
+            fprintf(stderr, "horizon view: %s:%d: '%s' takes true or false, got '%s'\n", c->file, c->lineno,
+                    view_printable(key, q, sizeof q), val);
+            c->rc = 2;
+        }
+        return c->rc == 0;
+    }
+    if (!*val) {
+        fprintf(stderr, "horizon view: %s:%d: '%s' needs a value\n", c->file, c->lineno,
+                view_printable(key, q, sizeof q));
+        c->rc = 2;
+        return 0;
+    }
+    if (!strlist_add(c->out, opt) || !strlist_add(c->out, val))
+        c->rc = 1;
+    return c->rc == 0;
+}
+
 int view_config_read(const char *file, strlist *out, bool skip_source)
 {
     FILE *f = open_text(file, "config");
     if (!f)
         return 2;
-    char line[1024], q[256];
-    int lineno = 0, rc = 0;
-    while (!rc && (rc = next_line(f, file, "config", line, sizeof line, &lineno)) == 0) {
-        char *s = trim(line);
-        if (!*s || *s == '#' || *s == ';')
-            continue;
-        char *eq = strchr(s, '=');
-        if (!eq) {
-            fprintf(stderr, "horizon view: %s:%d: expected 'key = value', got '%s'\n", file, lineno,
-                    view_printable(s, q, sizeof q));
-            rc = 2;
-            break;
-        }
-        *eq = 0;
-        char *key = trim(s), *val = trim(eq + 1);
-        /* A trailing comment after whitespace. */
-        for (char *h = val; *h; h++)
-            if (*h == '#' && h > val && isspace((unsigned char)h[-1])) {
-                *h = 0;
-                val = trim(val);
-                break;
-            }
-        size_t vl = strlen(val);
-        if (vl >= 2 && ((val[0] == '"' && val[vl - 1] == '"') || (val[0] == '\'' && val[vl - 1] == '\''))) {
-            val[vl - 1] = 0;
-            val++;
-        }
-        while (*key == '-')
-            key++;
-        if (!*key) {
-            fprintf(stderr, "horizon view: %s:%d: empty key\n", file, lineno);
-            rc = 2;
-            break;
-        }
-        if (!strcmp(key, "config")) {
-            fprintf(stderr, "horizon view: %s:%d: config files do not nest\n", file, lineno);
-            rc = 2;
-            break;
-        }
-        if (skip_source && (!strcmp(key, "dem") || !strcmp(key, "generate")))
-            continue;
-        char opt[128];
-        snprintf(opt, sizeof opt, "--%s", key);
-        if (view_is_flag(key)) {
-            if (!strcmp(val, "true") || !strcmp(val, "yes") || !strcmp(val, "on") || !strcmp(val, "1")) {
-                if (!strlist_add(out, opt))
-                    rc = 1;
-            } else if (strcmp(val, "false") && strcmp(val, "no") && strcmp(val, "off") && strcmp(val, "0")) {
-                fprintf(stderr, "horizon view: %s:%d: '%s' takes true or false, got '%s'\n", file, lineno,
-                        view_printable(key, q, sizeof q), val);
-                rc = 2;
-            }
-            continue;
-        }
-        if (!*val) {
-            fprintf(stderr, "horizon view: %s:%d: '%s' needs a value\n", file, lineno, view_printable(key, q, sizeof q));
-            rc = 2;
-            break;
-        }
-        if (!strlist_add(out, opt) || !strlist_add(out, val))
-            rc = 1;
+    cfg_ctx c = {.f = f, .file = file, .out = out, .skip_source = skip_source};
+    /* NOTE: libinih's settings are process-wide variables (Debian builds
+     * them so): one key per line (an indented line is not a continuation),
+     * stop at the first error, lines as long as ours. */
+    ini_allow_multiline = false;
+    ini_stop_on_first_error = true;
+    ini_use_stack = false;
+    ini_max_line = 1100;
+    const int r = ini_parse_stream(cfg_reader, &c, cfg_handler, &c);
+    int rc = c.rc;
+    if (!rc && r > 0) {
+        /* A line inih could not read as 'key = value' (quoted, escaped). */
+        char q[256];
+        if (r == c.lineno)
+            fprintf(stderr, "horizon view: %s:%d: expected 'key = value', got '%s'\n", file, r,
+                    view_printable(trim(c.last), q, sizeof q));
+        else
+            fprintf(stderr, "horizon view: %s:%d: expected 'key = value'\n", file, r);
+        rc = 2;
+    } else if (!rc && r < 0) {
+        rc = 1;
     }
-    if (rc < 0)
-        rc = 0; /* end of file */
     if (rc == 1)
         fprintf(stderr, "horizon view: out of memory reading %s\n", file);
     fclose(f);
     return rc;
 }
-
 
 void script_free(script *s)
 {

@@ -69,6 +69,12 @@ typedef struct hz_dem_info {
     uint64_t file_voids;   /* nodata samples in the stored raster (before reprojection) */
     bool reprojected;      /* GDALWarp made the returned grid (its voids include the area outside
                               the input's footprint) */
+    double full_scale;     /* the largest value of the stored sample type, what a normalised
+                              file's top maps to: 255 or 65535 (8/16-bit unsigned: grey PNG,
+                              .r16, GDAL Byte/UInt16), 32767 (int16: .hgt, GDAL Int16),
+                              4294967295 / 2147483647 (GDAL UInt32 / Int32), 1 for float
+                              samples (.r32, GDAL Float32/64: normalised floats are 0..1);
+                              0 when there is none (Terrarium, which stores metres) */
 } hz_dem_info;
 
 /* Reads a DEM into out (allocated here; free with hz_grid_free). Voids become

@@ -211,7 +211,7 @@ void hz_texgen_sprite(hz_sprite kind, uint32_t w, uint32_t h, uint64_t seed, uin
 
 /* A water level for a heightmap that has none given (metres, zscale applied):
  * a flat area among the lowest tenth of the heights (at least 0.5 % of the
- * samples within 0.5 m of each other, e.g. a sea in a DEM) gives a sea 1 m
+ * samples within 0.5 m of each other, e.g. a sea in a DEM) gives a sea 0.1 m
  * above it (*is_sea true); otherwise lakes fill the lowest `fraction` of the
  * samples (0 -> 0.04). is_sea may be NULL. */
 float hz_water_level_auto(const hz_heightmap *hm, float zscale, float fraction, bool *is_sea);

@@ -5,6 +5,7 @@
 #define HORIZON_RENDER_H
 
 #include "horizon/camera.h"
+#include "horizon/climate.h"
 #include "horizon/fx.h"
 #include "horizon/heightmap.h"
 #include "horizon/lod.h"
@@ -202,6 +203,12 @@ hz_result hz_renderer_set_colormap(hz_renderer *r, const uint8_t *rgb, uint32_t 
  * hz_forest_cover_map) darkens the ground under the trees so forests read at
  * any distance. NULL removes it. */
 hz_result hz_renderer_set_forest_cover(hz_renderer *r, const uint8_t *cover, uint32_t side, hz_err *err);
+
+/* The ground's climate (horizon/climate.h): snow, alpine and forest zones by
+ * absolute height (metres above sea level, the heightmap's metres before
+ * zscale), dry ground by aridity. NULL or never called: temperate at 45
+ * degrees (snow above ~3000 m). */
+void hz_renderer_set_climate(hz_renderer *r, const hz_climate *c);
 
 /* HZ_FX_WATER: water planes, drawn grouped by material. One reflection pass is
  * rendered per distinct height among the visible planes (at most 4; further

@@ -39,6 +39,15 @@ typedef struct hz_terrain_desc {
                                else the name (SRTM 90/30 m, "_10m" ...), else 30 m for DEMs, 10 m
                                for generated. A georeferenced DEM is resampled to it. */
     float zscale;           /* 0 -> 1 */
+    /* Normalised DEMs: when height_min < height_max, a stored value v (as stored:
+       the units are not applied) becomes height_min + v / full_scale *
+       (height_max - height_min) metres, full_scale being the top of the file's
+       sample type (hz_dem_info.full_scale: 65535 for 16-bit PNGs). Both 0 -> the
+       heights as the file and units say. Refused for generated terrains and
+       Terrarium files, and with units other than auto or raw. */
+    float height_min, height_max;
+    float height_offset;    /* metres added to every height (after height_min/max, before
+                               zscale); 0 -> none */
     float propagate_c;      /* see hz_lod_desc; 0 -> 25 */
     uint32_t patch_cells;   /* cdlod patch grid cells per side (hz_lod_desc); 0 -> 8 */
     uint64_t max_memory;    /* bytes the terrain may take while prepared (grid, heightmap, LOD
@@ -92,12 +101,19 @@ float hz_terrain_height_at(const hz_terrain *t, float x, float z);
  * (x, z): the two triangles of the cell, as the reference mesh draws them;
  * clamped to the map. */
 float hz_terrain_surface_at(const hz_terrain *t, float x, float z);
-/* The default camera: above the centre, looking toward the horizon. */
+/* The highest real sample (nodata and padding excluded; on maps over 1025^2
+ * among every k-th sample, k = size / 1024): world x, z and the height in
+ * metres (times zscale). */
+void hz_terrain_focus(const hz_terrain *t, float *x, float *z, float *h);
+/* The default camera: frames the highest ground (hz_terrain_focus) from
+ * 3x the relief away (within 8 - 35 % of the map's side), back toward the
+ * map's middle, above the summit, looking at it. */
 hz_camera hz_terrain_default_camera(const hz_terrain *t, uint32_t width, uint32_t height);
 
 /* Built-in camera paths over this terrain, 60 s long:
  *  "flyover": low (clearance above the highest ground nearby) and fast
- *             (300 m/s, a jet), along the middle of the diagonal, looking
+ *             (300 m/s, a jet), along a diagonal (NW to SE) over the
+ *             highest ground (hz_terrain_focus), inside the DEM, looking
  *             slightly down;
  *  "orbit":   high circle around the centre, looking at the centre;
  *  "ground":  2 m above the ground (walking height), 5 m/s from the centre

@@ -216,8 +216,10 @@ float hz_water_level_auto(const hz_heightmap *hm, float zscale, float fraction, 
     }
     float level;
     if ((double)best >= 0.005 * (double)total) {
-        /* 1 m above the top of the flat band: never coplanar with it. */
-        level = zscale * hm->offset + step * (float)best_top + 1.0f;
+        /* 0.1 m above the top of the flat band: never coplanar with it (the
+         * reverse-Z depth resolves millimetres at tens of km), and no land
+         * above the sea's own level is flooded (1 m drowned coastal flats). */
+        level = zscale * hm->offset + step * (float)best_top + 0.1f;
         if (is_sea)
             *is_sea = true;
     } else {

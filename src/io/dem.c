@@ -586,6 +586,7 @@ hz_result hz_dem_load(const hz_dem_desc *desc, hz_grid *out, hz_dem_info *info, 
     }
 
     hz_dem_units units = desc->units;
+    uint32_t png_bits = 16;
     bool name_terrarium = strstr(ni.base, "terrarium") != NULL;
     if ((f == HZ_DEM_PNG || f == HZ_DEM_TERRARIUM) && data.size >= 24 && !memcmp(data.data + 12, "IHDR", 4)) {
         /* The grid the header asks for (decoded as floats) and, for an
@@ -615,6 +616,7 @@ hz_result hz_dem_load(const hz_dem_desc *desc, hz_grid *out, hz_dem_info *info, 
         if (r != HZ_OK)
             return r;
         f = pr.terrarium ? HZ_DEM_TERRARIUM : HZ_DEM_PNG;
+        png_bits = pr.bit_depth;
     } else {
         r = decode_raw(path, f, &data, desc, out, err);
         free(data.data);
@@ -644,6 +646,11 @@ hz_result hz_dem_load(const hz_dem_desc *desc, hz_grid *out, hz_dem_info *info, 
         info->file_width = out->width;
         info->file_height = out->height;
         info->file_voids = voids;
+        info->full_scale = f == HZ_DEM_TERRARIUM ? 0.0
+                           : f == HZ_DEM_PNG     ? (png_bits == 8 ? 255.0 : 65535.0)
+                           : f == HZ_DEM_R16     ? 65535.0
+                           : f == HZ_DEM_HGT     ? 32767.0
+                                                 : 1.0;
     }
     return HZ_OK;
 }

@@ -465,6 +465,14 @@ hz_result hz_io_gdal_load(const hz_dem_desc *d, hz_grid *out, hz_dem_info *info,
     if (GDALGetRasterCount(src) >= 1) {
         const char *u = GDALGetRasterUnitType(GDALGetRasterBand(src, 1));
         snprintf(units, units_cap, "%s", u ? u : "");
+        switch (GDALGetRasterDataType(GDALGetRasterBand(src, 1))) {
+        case GDT_Byte: info->full_scale = 255.0; break;
+        case GDT_UInt16: info->full_scale = 65535.0; break;
+        case GDT_Int16: info->full_scale = 32767.0; break;
+        case GDT_UInt32: info->full_scale = 4294967295.0; break;
+        case GDT_Int32: info->full_scale = 2147483647.0; break;
+        default: info->full_scale = 1.0; break; /* floats */
+        }
     }
     hz_io_progress prog = {d->progress, d->progress_user, "read", 0, -1};
     if (needs_warp(d, src, g)) {

@@ -91,7 +91,7 @@ void prog_cache_clear(prog_cache *c);
 /* Uniform location slots per family. */
 enum { TL_SIZE, TL_SPACING, TL_HSCALE, TL_HOFFSET, TL_VIEWPROJ, TL_SUN, TL_HORIZON, TL_EYE, TL_FOG, TL_AMBIENT,
        TL_HRANGE, TL_WIRE, TL_MORPH_SCALE, TL_MORPH_START, TL_NORMAL_TEX, TL_NRM_SCALE, TL_MAP, TL_TILE, TL_TOP,
-       TL_BASE, TL_STREAM};
+       TL_BASE, TL_CLIMATE, TL_STREAM };
 enum { BL_VIEWPROJ, BL_CAM_RIGHT, BL_CAM_UP, BL_PX_PER_M, BL_BLEND, BL_FIRST, BL_FACING };
 enum { WL_RECT, WL_LEVEL, WL_VIEWPROJ, WL_HAS_REFLECTION, WL_VIEWPORT, WL_SIZE, WL_SPACING, WL_HSCALE, WL_HOFFSET,
        WL_DEEP, WL_CLARITY, WL_WAVES, WL_REFLECTIVITY };
@@ -154,6 +154,8 @@ struct hz_renderer {
     bool has_heights;
     uint32_t size;
     float spacing, hscale, hoffset, hmin, hmax;
+    float zscale;
+    hz_climate climate;  /* ground colour by absolute height (hz_renderer_set_climate) */
 
     GLuint depth_fbo;   /* the framebuffer holding the last frame's depth */
 

@@ -40,7 +40,8 @@ static const char *fbo_status_name(GLenum s)
 static const char *const terrain_names[] = {
     "u_size",    "u_spacing", "u_hscale", "u_hoffset",     "u_viewproj",    "u_sun_dir",    "u_sky_horizon",
     "u_eye",     "u_fog_density", "u_ambient", "u_hrange", "u_wire",        "u_morph_scale", "u_morph_start",
-    "u_normal_tex", "u_nrm_scale", "u_map",   "u_tile",     "u_top",         "u_base",       "u_stream", NULL};
+    "u_normal_tex", "u_nrm_scale", "u_map",   "u_tile",     "u_top",         "u_base",       "u_climate",
+    "u_stream", NULL};
 
 hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_err *err)
 {
@@ -169,6 +170,8 @@ hz_renderer *hz_renderer_create(const hz_renderer_desc *desc, hz_err *err)
         return NULL;
     }
     r->ctx = ctx;
+    r->climate = hz_climate_of_kind(HZ_CLIMATE_TEMPERATE, 45.0);
+    r->zscale = 1.0f;
     r->width = d.width;
     r->height = d.height;
     r->to_default = d.to_default_framebuffer;
@@ -414,6 +417,7 @@ hz_result hz_renderer_set_heightmap(hz_renderer *r, const hz_heightmap *hm, floa
     r->spacing = spacing;
     r->hscale = hm->scale * zscale;
     r->hoffset = hm->offset * zscale;
+    r->zscale = zscale > 0 ? zscale : 1.0f;
     res = make_normal_texture(r, hm, err);
     if (res != HZ_OK)
         return res;
@@ -588,6 +592,9 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
         glUniform1f(tl[TL_FOG], sp->fog_density);
         glUniform1f(tl[TL_AMBIENT], sp->ambient);
         glUniform2f(tl[TL_HRANGE], r->hmin, r->hmax);
+        /* Lines in world units (metres times zscale), as v_world.y. */
+        glUniform4f(tl[TL_CLIMATE], r->climate.snow_line * r->zscale, r->climate.tree_line * r->zscale,
+                    r->climate.aridity, r->zscale);
         glUniform1i(tl[TL_WIRE], 0);
         /* cdlod geomorphing (patches, main view only); reflections are unmorphed. */
         glUniform1f(tl[TL_MORPH_SCALE], patches ? sp->morph_scale : 0.0f);
@@ -992,4 +999,9 @@ hz_result hz_renderer_read_sky_mask(hz_renderer *r, uint8_t *mask, hz_err *err)
     }
     free(depth);
     return res;
+}
+
+void hz_renderer_set_climate(hz_renderer *r, const hz_climate *c)
+{
+    r->climate = c ? *c : hz_climate_of_kind(HZ_CLIMATE_TEMPERATE, 45.0);
 }

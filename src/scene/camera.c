@@ -30,10 +30,26 @@ void hz_camera_forward(const hz_camera *c, vec3 dest)
 
 void hz_camera_view(const hz_camera *c, mat4 dest)
 {
-    vec3 f, eye, up = {0.0f, 1.0f, 0.0f};
-    hz_camera_forward(c, f);
-    glm_vec3_copy((float *)c->pos, eye);
-    glm_look(eye, f, up, dest);
+    /* Built from the angles, in double, with the right vector from the yaw
+     * (as hz_camera_frustum does). NOTE: glm_look(eye, dir, up) forms
+     * eye + dir: 50 km from the origin a float's step is 4 mm, so a view
+     * within 0.1 degree of straight down lost the horizontal part of dir,
+     * became parallel to up, and the view matrix degenerated (a blank image). */
+    double pitch = glm_rad(glm_clamp(c->pitch, -89.9f, 89.9f)), yaw = glm_rad(c->yaw);
+    double f[3] = {sin(yaw) * cos(pitch), sin(pitch), -cos(yaw) * cos(pitch)};
+    double r[3] = {cos(yaw), 0.0, sin(yaw)}; /* f x up, normalised */
+    double u[3] = {r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2], r[0] * f[1] - r[1] * f[0]};
+    const double e[3] = {c->pos[0], c->pos[1], c->pos[2]};
+    glm_mat4_zero(dest);
+    for (int k = 0; k < 3; k++) {
+        dest[k][0] = (float)r[k];
+        dest[k][1] = (float)u[k];
+        dest[k][2] = (float)-f[k];
+    }
+    dest[3][0] = (float)-(r[0] * e[0] + r[1] * e[1] + r[2] * e[2]);
+    dest[3][1] = (float)-(u[0] * e[0] + u[1] * e[1] + u[2] * e[2]);
+    dest[3][2] = (float)(f[0] * e[0] + f[1] * e[1] + f[2] * e[2]);
+    dest[3][3] = 1.0f;
 }
 
 void hz_camera_proj(const hz_camera *c, mat4 dest)

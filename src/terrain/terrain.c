@@ -119,19 +119,47 @@ hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
         hz_err_set(err, HZ_ERR_VALUE, "zscale must be a positive number (got %g)", (double)desc->zscale);
         goto fail;
     }
+    const bool ranged = desc->height_min != 0.0f || desc->height_max != 0.0f;
+    if (ranged && (!isfinite(desc->height_min) || !isfinite(desc->height_max) ||
+                   !(desc->height_min < desc->height_max))) {
+        hz_err_set(err, HZ_ERR_VALUE, "height range: MIN must be below MAX (got %g, %g)", (double)desc->height_min,
+                   (double)desc->height_max);
+        goto fail;
+    }
+    if (ranged && !desc->dem_path && desc->dem_path_count == 0) {
+        hz_err_set(err, HZ_ERR_VALUE, "a height range maps a DEM file's stored values; a generated terrain has none "
+                                      "(use --amplitude)");
+        goto fail;
+    }
+    if (ranged && desc->units != HZ_UNITS_AUTO && desc->units != HZ_UNITS_RAW) {
+        hz_err_set(err, HZ_ERR_VALUE, "a height range maps the stored values to metres: it replaces the units "
+                                      "(give one or the other)");
+        goto fail;
+    }
+    if (!isfinite(desc->height_offset) || fabsf(desc->height_offset) > 1e5f) {
+        hz_err_set(err, HZ_ERR_VALUE, "height offset must be in [-1e5, 1e5] metres (got %g)",
+                   (double)desc->height_offset);
+        goto fail;
+    }
     double t0 = hz_time_ms();
     float default_spacing;
     hz_georef *geo = NULL;
     hz_grid_fit_info fi = {0};
     if (desc->dem_path || desc->dem_path_count > 0) {
         hz_dem_desc dd = {.path = desc->dem_path, .paths = desc->dem_paths, .path_count = desc->dem_path_count,
-                          .format = desc->format, .units = desc->units,
+                          .format = desc->format, .units = ranged ? HZ_UNITS_RAW : desc->units,
                           .width = desc->raw_width, .height = desc->raw_height, .metric = true, .crs = desc->crs,
                           .spacing = desc->spacing, .georef = &geo,
                           .progress = desc->progress, .progress_user = desc->progress_user,
                           .max_memory = desc->max_memory};
         if (hz_dem_load(&dd, &g, &t->info, err) != HZ_OK)
             goto fail;
+        if (ranged && !(t->info.full_scale > 0)) {
+            hz_err_set(err, HZ_ERR_VALUE, "'%s' stores metres (Terrarium), not normalised values: a height range "
+                                          "does not apply", base_name(dd.path_count ? dd.paths[0] : dd.path));
+            hz_georef_destroy(geo);
+            goto fail;
+        }
         /* What fitting will make of it, before filling and fitting. */
         const uint32_t side = hz_grid_fit_side(g.width, g.height, desc->fit);
         if (side && check_side(desc, side, base_name(desc->dem_path_count ? desc->dem_paths[0] : desc->dem_path),
@@ -163,6 +191,13 @@ hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
         snprintf(t->source, sizeof t->source, "%s %u seed %llu",
                  gd.kind == HZ_GEN_DIAMOND ? "diamond" : "perlin", gd.size, (unsigned long long)gd.seed);
         default_spacing = 10.0f;
+    }
+    if (ranged || desc->height_offset != 0.0f) {
+        /* NaN voids stay NaN. */
+        const double k = ranged ? ((double)desc->height_max - desc->height_min) / t->info.full_scale : 1.0;
+        const double b = (ranged ? (double)desc->height_min : 0.0) + desc->height_offset;
+        for (size_t s = 0; s < (size_t)g.width * g.height; s++)
+            g.z[s] = (float)(g.z[s] * k + b);
     }
     if (hz_grid_fit(&g, desc->fit, &fi, t->note, sizeof t->note, err) != HZ_OK) {
         hz_georef_destroy(geo);
@@ -197,6 +232,13 @@ hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
     t->zscale = desc->zscale > 0 ? desc->zscale : 1.0f;
     t->min_h = t->hm.offset;
     t->max_h = t->hm.offset + 65535.0f * t->hm.scale;
+    if (!ranged && (desc->dem_path || desc->dem_path_count) && t->max_h > 9000.0f) {
+        /* Above Everest (8849 m): most likely a normalised file. */
+        const size_t len = strlen(t->note);
+        snprintf(t->note + len, sizeof t->note - len,
+                 "%sheights reach %.0f m, higher than any mountain: if the file is normalised (0..65535), "
+                 "give its range with --height-range MIN,MAX", len ? "; " : "", (double)t->max_h);
+    }
     t->lod = hz_lod_create(&(hz_lod_desc){.hm = &t->hm, .spacing = t->spacing, .zscale = t->zscale,
                                           .propagate_c = desc->propagate_c, .patch_cells = desc->patch_cells,
                                           .progress = desc->progress,
@@ -286,17 +328,74 @@ static void data_centre(const hz_terrain *t, float *x, float *z)
     *z = ((float)t->data_y + 0.5f * (float)(h - 1)) * t->spacing;
 }
 
+void hz_terrain_focus(const hz_terrain *t, float *x, float *z, float *h)
+{
+    /* The highest real sample (nodata and padding excluded), on a grid of at
+     * most ~1024^2 samples: the summit or the crater rim, what a first view
+     * of a place should show. */
+    const uint32_t n = t->hm.size, step = n > 1024 ? (n + 1023) / 1024 : 1;
+    const uint32_t i0 = t->data_w ? t->data_x : 0, j0 = t->data_h ? t->data_y : 0;
+    const uint32_t i1 = t->data_w ? t->data_x + t->data_w : n, j1 = t->data_h ? t->data_y + t->data_h : n;
+    float best = -INFINITY;
+    uint32_t bi = (i0 + i1) / 2, bj = (j0 + j1) / 2;
+    for (uint32_t j = j0; j < j1 && j < n; j += step)
+        for (uint32_t i = i0; i < i1 && i < n; i += step) {
+            if (t->valid && !t->valid[(size_t)j * n + i])
+                continue;
+            const float v = hz_heightmap_get(&t->hm, i, j);
+            if (v > best) {
+                best = v;
+                bi = i;
+                bj = j;
+            }
+        }
+    *x = (float)bi * t->spacing;
+    *z = (float)bj * t->spacing;
+    *h = (best > -INFINITY ? best : hz_heightmap_get(&t->hm, bi, bj)) * t->zscale;
+}
+
+/* The DEM's samples as a world rectangle (x0, z0) - (x1, z1). */
+static void data_rect(const hz_terrain *t, float r[4])
+{
+    uint32_t w = t->data_w ? t->data_w : t->hm.size, h = t->data_h ? t->data_h : t->hm.size;
+    r[0] = (float)t->data_x * t->spacing;
+    r[1] = (float)t->data_y * t->spacing;
+    r[2] = (float)(t->data_x + w - 1) * t->spacing;
+    r[3] = (float)(t->data_y + h - 1) * t->spacing;
+}
+
 hz_camera hz_terrain_default_camera(const hz_terrain *t, uint32_t width, uint32_t height)
 {
     float ext = hz_terrain_extent(t);
     float relief = (t->max_h - t->min_h) * t->zscale;
+    float rect[4], fx, fz, fh, cx, cz;
+    data_rect(t, rect);
+    data_centre(t, &cx, &cz);
+    hz_terrain_focus(t, &fx, &fz, &fh);
+    const float side = fminf(rect[2] - rect[0], rect[3] - rect[1]);
+    /* Back from the summit toward the middle of the map (so the view crosses
+     * the map), far enough for the relief to fill the view. */
+    const float dist = fminf(fmaxf(3.0f * relief, 0.08f * side), 0.35f * side);
+    float dx = cx - fx, dz = cz - fz, len = sqrtf(dx * dx + dz * dz);
+    if (len < 0.1f * side) {
+        /* A summit near the middle: seen from the south-south-west (yaw 30). */
+        dx = -sinf(glm_rad(30.0f));
+        dz = cosf(glm_rad(30.0f));
+    } else {
+        dx /= len;
+        dz /= len;
+    }
     hz_camera c = {0};
-    data_centre(t, &c.pos[0], &c.pos[2]);
-    c.pos[1] = hz_terrain_height_at(t, c.pos[0], c.pos[2]) + 0.15f * relief + 0.01f * ext;
-    if (c.pos[1] < t->max_h * t->zscale * 0.9f)
-        c.pos[1] = t->max_h * t->zscale * 0.9f;
-    c.yaw = 30.0f;
-    c.pitch = -10.0f;
+    c.pos[0] = glm_clamp(fx + dist * dx, rect[0], rect[2]);
+    c.pos[2] = glm_clamp(fz + dist * dz, rect[1], rect[3]);
+    const float hx = fx - c.pos[0], hz = fz - c.pos[2], hd = fmaxf(sqrtf(hx * hx + hz * hz), 1.0f);
+    /* Above the summit (nothing hides it) and above the ground under the eye. */
+    c.pos[1] = fmaxf(fh + 0.2f * relief + 0.005f * side,
+                     hz_terrain_height_at(t, c.pos[0], c.pos[2]) + 0.05f * relief + 2.0f);
+    c.yaw = glm_deg(atan2f(hx, -hz));
+    /* Aim a little below the summit: it sits above the middle of the image,
+     * its slopes below. */
+    c.pitch = -glm_deg(atanf((c.pos[1] - (fh - 0.3f * relief)) / hd));
     c.fov_y = 60.0f;
     c.aspect = height ? (float)width / (float)height : 16.0f / 9.0f;
     c.znear = 0.25f; /* reverse-Z float depth: a near plane this close costs no precision */
@@ -328,11 +427,29 @@ hz_result hz_terrain_path(const hz_terrain *t, const char *name, hz_path *out, h
     const float duration = 60.0f;
     if (!strcmp(name, "flyover")) {
         /* A fast jet: 300 m/s for 60 s (or the whole diagonal of a smaller
-         * map), centred on the diagonal. */
+         * map). */
         const float clearance = fmaxf(60.0f, 0.05f * relief);
         const float len = fminf(0.8f * E, 300.0f * duration / sqrtf(2.0f)); /* along x (and z) */
-        const float x0 = cx - 0.5f * len, x1 = cx + 0.5f * len, z0 = cz - 0.5f * len, z1 = cz + 0.5f * len;
-        const float yaw = glm_deg(atan2f(1.0f, -1.0f)); /* toward +x +z */
+        /* Through the highest ground (hz_terrain_focus), along the diagonal
+         * (NW-SE or SW-NE) that crosses more of the DEM there, the segment
+         * slid along it to stay inside the DEM's samples. */
+        float fx, fz, fh, rect[4];
+        hz_terrain_focus(t, &fx, &fz, &fh);
+        data_rect(t, rect);
+        float lo[2], hi[2];
+        for (int d = 0; d < 2; d++) {
+            /* x = fx + s, z = fz + s (d = 0) or fz - s (d = 1): the chord s in [lo, hi]. */
+            const float zs = d == 0 ? 1.0f : -1.0f;
+            const float za = (rect[1] - fz) * zs, zb = (rect[3] - fz) * zs;
+            lo[d] = fmaxf(rect[0] - fx, fminf(za, zb));
+            hi[d] = fminf(rect[2] - fx, fmaxf(za, zb));
+        }
+        const int d = hi[1] - lo[1] > hi[0] - lo[0] ? 1 : 0;
+        const float zs = d == 0 ? 1.0f : -1.0f;
+        const float L = fminf(len, hi[d] - lo[d]);
+        const float s0 = glm_clamp(-0.5f * L, lo[d], hi[d] - L);
+        const float x0 = fx + s0, x1 = fx + s0 + L, z0 = fz + zs * s0, z1 = fz + zs * (s0 + L);
+        const float yaw = glm_deg(atan2f(1.0f, -zs)); /* toward +x, +z or -z */
         for (n = 0; n < 61; n++) {
             float u = (float)n / 60.0f, x = x0 + u * (x1 - x0), z = z0 + u * (z1 - z0);
             k[n] = (hz_path_key){u * duration, x, max_ground_near(t, x, z, 0.03f * E) + clearance, z, yaw, -8.0f};

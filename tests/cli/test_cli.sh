@@ -61,7 +61,8 @@ assert hd["height_min"] == 34 and hd["height_max"] == 581 and hd["nodata"] == 0,
 assert n46["nodata"] == 103743 and n46["height_min"] == 187 and n46["height_max"] == 4173, n46
 PY
 then ok "info --json: CRS, spacing, corners, nodata"; else bad "info --json (exit $rc): $json"; fi
-json=$($R --dem "$DATA/heidelberg_dem_hd_utm32n_25m_float32.tif" --effects none --json --out "$TMP/hd.png")
+# A camera over the data's centre (local 13000, 8900: 1040 x 712 cells of 25 m, halved).
+json=$($R --dem "$DATA/heidelberg_dem_hd_utm32n_25m_float32.tif" --effects none --camera 13000,1000,8900,30,-10 --json --out "$TMP/hd.png")
 rc=$?
 if [ $rc -eq 0 ] && python3 - "$json" <<'PY'
 import json, sys
@@ -70,7 +71,7 @@ j = json.loads(sys.argv[1])
 assert j["heightmap_size"] == 2049 and j["data_size"] == [1041, 713], j
 assert j["samples_valid"] == 1041 * 713 == j["file_samples"], j
 assert j["crs"] == "EPSG:32632" and j["triangles_masked"] > 0, j
-# The default camera is over the data's centre (gdalinfo: 478335.126, 5473887.890; 8d42'4.66"E 49d25'2.22"N).
+# The camera is over the data's centre (gdalinfo: 478335.126, 5473887.890; 8d42'4.66"E 49d25'2.22"N).
 e, n, _ = j["camera_crs"]
 assert abs(e - 478335.126) < 0.01 and abs(n - 5473887.890) < 0.01, j["camera_crs"]
 lon, lat = j["camera_lonlat"]
@@ -79,7 +80,8 @@ assert abs(lon - (8 + 42/60 + 4.66/3600)) < 1e-5 and abs(lat - (49 + 25/60 + 2.2
 assert abs(j["origin_crs"][0] - 465335.126) < 0.01 and abs(j["origin_crs"][1] - 5482787.890) < 0.01, j["origin_crs"]
 PY
 then ok "render --json: heidelberg whole, camera in UTM 32N and lon/lat"; else bad "render heidelberg (exit $rc): $json"; fi
-json=$($R --dem "$DATA/srtm_sierra_coast/N39W122.hgt.zip" --dem "$DATA/srtm_sierra_coast/N39W121.hgt.zip" --effects none --json --out "$TMP/two.png")
+# A camera over the data's centre (2435 x 1603 samples at 71.68 m).
+json=$($R --dem "$DATA/srtm_sierra_coast/N39W122.hgt.zip" --dem "$DATA/srtm_sierra_coast/N39W121.hgt.zip" --effects none --camera 87232,3000,57414,30,-10 --json --out "$TMP/two.png")
 rc=$?
 if [ $rc -eq 0 ] && python3 - "$json" <<'PY'
 import json, sys
@@ -167,8 +169,8 @@ cmp -s "$TMP/a.png" "$TMP/b.png" && ok "repeatable render" || bad "same seed gav
 cmp -s "$TMP/a.png" "$TMP/c.png" && bad "different seeds gave the same image" || ok "seed changes terrain"
 
 # More C*C2 -> more triangles.
-t1=$($R --generate diamond --size 1025 --lod-c 25 --lod-c2 2.5 --json --out "$TMP/d.png" | python3 -c "import json,sys;print(json.load(sys.stdin)['triangles'])")
-t2=$($R --generate diamond --size 1025 --lod-c 50 --lod-c2 5 --json --out "$TMP/d.png" | python3 -c "import json,sys;print(json.load(sys.stdin)['triangles'])")
+t1=$($R --generate diamond --size 1025 --lod quadtree --lod-c 25 --lod-c2 2.5 --json --out "$TMP/d.png" | python3 -c "import json,sys;print(json.load(sys.stdin)['triangles'])")
+t2=$($R --generate diamond --size 1025 --lod quadtree --lod-c 50 --lod-c2 5 --json --out "$TMP/d.png" | python3 -c "import json,sys;print(json.load(sys.stdin)['triangles'])")
 [ -n "$t1" ] && [ -n "$t2" ] && [ "$t2" -gt "$t1" ] && ok "C*C2 raises triangles ($t1 -> $t2)" || bad "triangles $t1 -> $t2"
 
 # A real DEM that is not 2^n+1: fitted with a note, rendered.

@@ -12,6 +12,7 @@
 #include <stdlib.h>
 
 #include "horizon/metrics.h"
+#include "horizon/path.h"
 #include "horizon/render.h"
 #include "horizon/terrain.h"
 
@@ -73,6 +74,14 @@ static void test_sky_above_lit_terrain_below(void **state)
 {
     ctx *c = *state;
     hz_camera cam = hz_terrain_default_camera(c->t, W, H);
+    /* Above the middle of the map, looking toward the horizon (the default
+     * camera before issue 15 framed the summit: rock and snow, not green). */
+    const float mid = 0.5f * hz_terrain_extent(c->t);
+    cam.pos[0] = cam.pos[2] = mid;
+    cam.pos[1] = fmaxf(hz_terrain_height_at(c->t, mid, mid) + 0.15f * (c->t->max_h - c->t->min_h) + 0.01f * 2 * mid,
+                       0.9f * c->t->max_h);
+    cam.yaw = 30.0f;
+    cam.pitch = -10.0f;
     uint8_t *rgb = malloc(W * H * 3), *sky = malloc(W * H);
     assert_true(draw(c, &cam, 25, 2.5f, rgb, sky) > 1000);
     hz_image_write_png(HZ_TEST_TMP "/frame_default.png", rgb, W, H, NULL);
@@ -253,6 +262,59 @@ static void test_gpu_morph_matches_cpu(void **state)
     free(flat);
 }
 
+/* Issue 15: the default camera frames the highest ground, wherever it is:
+ * a cone in the south-west corner of a 257^2 map (the old camera above the
+ * middle, looking north-north-east, never saw it) sits near the middle of the
+ * image, the eye above it; the flyover passes over it. */
+static void test_default_camera_frames_the_summit(void **state)
+{
+    (void)state;
+    hz_err err = {0};
+    hz_grid g;
+    const uint32_t n = 257;
+    assert_int_equal(hz_grid_alloc(&g, n, n, &err), HZ_OK);
+    const float ci = 0.2f * (float)(n - 1), cj = 0.8f * (float)(n - 1);
+    for (uint32_t j = 0; j < n; j++)
+        for (uint32_t i = 0; i < n; i++) {
+            const float d = hypotf((float)i - ci, (float)j - cj);
+            g.z[(size_t)j * n + i] = 100.0f + fmaxf(0.0f, 900.0f - 30.0f * d) + 5.0f * sinf(0.3f * (float)i);
+        }
+    const char *path = HZ_TEST_TMP "/cone_sw.png";
+    assert_int_equal(hz_dem_write_png16(path, &g, 0.0f, 1200.0f, &err), HZ_OK);
+    hz_grid_free(&g);
+    hz_terrain *t = hz_terrain_create(&(hz_terrain_desc){.dem_path = path, .spacing = 10.0f,
+                                                        .height_min = 0.0f, .height_max = 1200.0f},
+                                      &err);
+    assert_non_null(t);
+    float fx, fz, fh;
+    hz_terrain_focus(t, &fx, &fz, &fh);
+    assert_true(fabsf(fx - ci * 10.0f) < 15.0f && fabsf(fz - cj * 10.0f) < 15.0f);
+    assert_true(fabsf(fh - 1000.0f) < 10.0f); /* the height range mapped 0..65535 to 0..1200 m */
+    hz_camera cam = hz_terrain_default_camera(t, W, H);
+    assert_true(cam.pos[1] > fh);
+    mat4 vp;
+    hz_camera_viewproj(&cam, vp);
+    vec4 top = {fx, fh, fz, 1.0f}, clip;
+    glm_mat4_mulv(vp, top, clip);
+    assert_true(clip[3] > 0.0f);
+    const float sx = clip[0] / clip[3], sy = clip[1] / clip[3];
+    fprintf(stderr, "summit on screen at (%.2f, %.2f), camera %.0f,%.0f,%.0f yaw %.1f pitch %.1f\n", (double)sx,
+            (double)sy, (double)cam.pos[0], (double)cam.pos[1], (double)cam.pos[2], (double)cam.yaw,
+            (double)cam.pitch);
+    assert_true(fabsf(sx) < 0.3f && sy > -0.1f && sy < 0.8f);
+    hz_path fly;
+    assert_int_equal(hz_terrain_path(t, "flyover", &fly, &err), HZ_OK);
+    float closest = INFINITY;
+    for (int k = 0; k <= 600; k++) {
+        hz_camera pc;
+        hz_path_sample(&fly, 60.0f * (float)k / 600.0f, &pc);
+        closest = fminf(closest, hypotf(pc.pos[0] - fx, pc.pos[2] - fz));
+    }
+    assert_true(closest < 100.0f);
+    hz_path_free(&fly);
+    hz_terrain_destroy(t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -260,6 +322,7 @@ int main(void)
         cmocka_unit_test(test_more_detail_closer_to_reference),
         cmocka_unit_test(test_modes_close_to_reference),
         cmocka_unit_test(test_gpu_morph_matches_cpu),
+        cmocka_unit_test(test_default_camera_frames_the_summit),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

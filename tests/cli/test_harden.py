@@ -76,7 +76,7 @@ def num(s):
 
 RANGE = re.compile(r"\[(-?[0-9][0-9.e+-]*[A-Za-z]?), (-?[0-9][0-9.e+-]*[A-Za-z]?)\]")
 tested = set()
-COMPOUND = {"--camera", "--forest-at", "--rate-weights", "--sun", "--wind", "--raw-size"}
+COMPOUND = {"--camera", "--forest-at", "--rate-weights", "--sun", "--wind", "--raw-size", "--height-range"}
 for cmd in ["render", "bench", "view", "tree"]:
     rc, helptext, _ = run([cmd, "--help"])
     opts = sorted(set(re.findall(r"(?m)(?:^|\s)(--[a-z0-9][a-z0-9-]*)", helptext)))

@@ -55,6 +55,38 @@ static void test_view_maps_eye_and_forward(void **state)
 
 /* Points just inside / outside each side of the frustum, classified by the
  * planes and by clip space, must agree. */
+/* Issue 15: a straight-down view far from the origin (pitch -90 / -89.9 at
+ * 40 km, 50 km) is a proper rotation that maps the point below the eye to the
+ * screen centre and the yaw's right to screen +x; glm_look lost the horizontal
+ * part of the view direction there (a float's step at 50 km is 4 mm) and gave
+ * a degenerate matrix. */
+static void test_view_straight_down_far_from_origin(void **state)
+{
+    (void)state;
+    const float pitches[] = {-90.0f, -89.9f, -89.95f, 90.0f};
+    for (int k = 0; k < 4; k++) {
+        hz_camera c = {.pos = {40000.0f, 5000.0f, 50000.0f}, .yaw = 30.0f, .pitch = pitches[k]};
+        mat4 v;
+        hz_camera_view(&c, v);
+        /* Rows of the rotation are orthonormal. */
+        for (int a = 0; a < 3; a++)
+            for (int b = 0; b < 3; b++) {
+                float d = v[0][a] * v[0][b] + v[1][a] * v[1][b] + v[2][a] * v[2][b];
+                assert_true(fabsf(d - (a == b ? 1.0f : 0.0f)) < 1e-5f);
+            }
+        const float dy = pitches[k] < 0 ? -1000.0f : 1000.0f;
+        vec4 below = {40000.0f, 5000.0f + dy, 50000.0f, 1.0f}, e;
+        glm_mat4_mulv(v, below, e);
+        assert_true(fabsf(e[0]) < 0.01f * 1000.0f && fabsf(e[1]) < 0.01f * 1000.0f);
+        assert_true(e[2] < -999.0f); /* in front */
+        /* The yaw's right (cos yaw, 0, sin yaw) is screen +x. */
+        vec4 right = {40000.0f + 100.0f * cosf(glm_rad(30.0f)), 5000.0f + dy, 50000.0f + 100.0f * sinf(glm_rad(30.0f)),
+                      1.0f};
+        glm_mat4_mulv(v, right, e);
+        assert_true(e[0] > 99.0f);
+    }
+}
+
 static void test_planes_match_projection(void **state)
 {
     (void)state;
@@ -99,6 +131,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_directions),
         cmocka_unit_test(test_view_maps_eye_and_forward),
+        cmocka_unit_test(test_view_straight_down_far_from_origin),
         cmocka_unit_test(test_planes_match_projection),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

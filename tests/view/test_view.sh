@@ -59,11 +59,18 @@ cat > "$TMP/flight.txt" <<'EOF'
 50  key RIGHT up
 59  key W up
 EOF
+# The start camera (the default: it frames the highest ground), from render.
+START=$("$HZ" render --quiet --width 1280 --height 720 "${GEN[@]}" --effects none --json --out "$TMP/start.png" |
+        python3 -c "import json,sys; print(json.dumps(json.load(sys.stdin)['camera']))")
 if run flight_gen "${GEN[@]}" --frames 60 --script "$TMP/flight.txt" --screenshot "$TMP/flight_gen.png"; then
   judge "generated flight: 60 frames, 1280x720" "$OUT" 'j["frames"]==60 and j["width"]==1280 and j["height"]==720 and j["screenshots"]==1'
   judge "generated flight: terrain drawn" "$OUT" 'j["triangles"]>1000 and j["fps_mean"]>0'
+  judge "view: the default LOD is cdlod at 1 px" "$OUT" 'j["lod_mode"]=="cdlod" and j["pixel_error"]==1'
+  # Issue 15: the compact HUD leaves the view (one corner: under 30 % of the width, 20 % of the height).
+  judge "view: compact HUD by default, in one corner" "$OUT" \
+    'j["hud"]=="compact" and 0 < j["hud_size"][0] < 0.3*1280 and 0 < j["hud_size"][1] < 0.2*720'
   judge "generated flight: the camera moved and turned" "$OUT" \
-    'abs(j["camera"][0]-5120)+abs(j["camera"][2]-5120)>100 and abs(j["camera"][3]-30)>20'
+    "abs(j['camera'][0]-$START[0])+abs(j['camera'][2]-$START[2])>100 and abs(j['camera'][3]-$START[3])>20"
   s=$(shot "$TMP/flight_gen.png")
   judge "generated flight screenshot: terrain, sky and HUD text" "$s" \
     'j["width"]==1280 and j["height"]==720 and j["sky"]>0.05 and j["terrain"]>0.2 and j["hud_text"]>0.01'
@@ -94,6 +101,17 @@ if run resize "${GEN[@]}" --frames 60 --script "$TMP/resize.txt" --screenshot "$
     'j["width"]==800 and j["height"]==500 and j["sky"]>0.05 and j["terrain"]>0.2'
   judge "resize: last frame 1024x640 with terrain and sky" "$(shot "$TMP/resize_end.png")" \
     'j["width"]==1024 and j["height"]==640 and j["sky"]>0.05 and j["terrain"]>0.2'
+fi
+
+# 3b. F6: the full HUD (every figure), F6 again the compact corner.
+printf '0 key F6 press\n' > "$TMP/hudfull.txt"
+if run hudfull "${GEN[@]}" --size 257 --frames 2 --script "$TMP/hudfull.txt"; then
+  judge "F6: the full HUD is wider and taller than the compact one" "$OUT" \
+    'j["hud"]=="full" and j["hud_size"][0] > 0.45*1280 and j["hud_size"][1] > 0.2*720'
+fi
+printf '0 key F6 press\n1 key F6 press\n' > "$TMP/hudback.txt"
+if run hudback "${GEN[@]}" --size 257 --frames 3 --script "$TMP/hudback.txt"; then
+  judge "F6 twice: back to the compact HUD" "$OUT" 'j["hud"]=="compact" and j["hud_size"][0] < 0.3*1280'
 fi
 
 # 4. The seed's fan view: centre red, rim white, finest-level fans blue.
