@@ -19,6 +19,7 @@ PKGS=(
   libmeshoptimizer-dev # crown hull simplification
   libassimp-dev        # tree import (OBJ, glTF, ...)
   clang libclang-rt-14-dev  # make test: the ASan/UBSan build and the libFuzzer targets (build-san/)
+  libcurl4-openssl-dev nginx  # --terrain http(s)://...: range requests (libcurl); tests serve pyramids with nginx
 )
 # "bench": also gnuplot for horizon bench --plot
 if [ "${1:-}" = bench ]; then PKGS+=(gnuplot-nox); fi
