@@ -30,6 +30,7 @@
 
 #define MAX_HANDLES 64u
 #define HDR_BYTES 512u
+#define DOWN_MS 5000.0 /* after a read whose every attempt found no server */
 
 typedef struct http_src {
     hz_pyr_src base;
@@ -43,6 +44,7 @@ typedef struct http_src {
     uint64_t jitter;
     hz_pyr_transfer t;
     hz_dcache *cache;
+    double down_until;    /* hz_time_ms: the server did not answer; reads fail at once until then */
     uint8_t header[HDR_BYTES];
     bool have_header;
 } http_src;
@@ -234,6 +236,17 @@ static void sleep_ms(double ms)
 static hz_result fetch(http_src *h, void *buf, size_t n, uint64_t off, const uint64_t *sum, uint64_t *total,
                        char *etag, size_t etag_cap, hz_err *err)
 {
+    /* A server that answered nothing to a whole read's attempts (refused,
+     * unreachable, timed out) is not asked again for DOWN_MS: otherwise
+     * every missing tile would wait for all its timeouts in turn. */
+    pthread_mutex_lock(&h->lock);
+    const double down = h->down_until - hz_time_ms();
+    if (down > 0)
+        h->t.failures++;
+    pthread_mutex_unlock(&h->lock);
+    if (down > 0)
+        return hz_err_set(err, HZ_ERR_IO, "bytes %" PRIu64 "+%zu: the server did not answer; asking again in %.1f s",
+                          off, n, down / 1000.0);
     CURL *c = handle_take(h);
     if (!c)
         return hz_err_set(err, HZ_ERR_MEMORY, "libcurl: cannot create a handle");
@@ -260,6 +273,8 @@ static hz_result fetch(http_src *h, void *buf, size_t n, uint64_t off, const uin
     if (res != FETCH_OK) {
         pthread_mutex_lock(&h->lock);
         h->t.failures++;
+        if (x.status == 0) /* no HTTP answer at all */
+            h->down_until = hz_time_ms() + DOWN_MS;
         pthread_mutex_unlock(&h->lock);
         return hz_err_set(err, sum && strstr(why, "checksum") ? HZ_ERR_FORMAT : HZ_ERR_IO,
                           "bytes %" PRIu64 "+%zu: %s (%u attempt%s)", off, n, why, attempt + 1, attempt ? "s" : "");
