@@ -66,6 +66,42 @@ def same(a, b):
     return os.path.exists(a) and os.path.exists(b) and open(a, "rb").read() == open(b, "rb").read()
 
 
+M64 = (1 << 64) - 1
+P1, P2, P3, P4, P5 = (0x9E3779B185EBCA87, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9, 0x85EBCA77C2B2AE63,
+                      0x27D4EB2F165667C5)
+
+
+def xxh64(b, seed=0):
+    """XXH64 (the disk cache's entry trailer), to forge an entry only the index's checksum can catch."""
+    rotl = lambda x, r: ((x << r) | (x >> (64 - r))) & M64
+    rnd = lambda acc, v: (rotl((acc + v * P2) & M64, 31) * P1) & M64
+    n, i = len(b), 0
+    if n >= 32:
+        v = [(seed + P1 + P2) & M64, (seed + P2) & M64, seed, (seed - P1) & M64]
+        while i + 32 <= n:
+            for k in range(4):
+                v[k] = rnd(v[k], struct.unpack_from("<Q", b, i + 8 * k)[0])
+            i += 32
+        h = (rotl(v[0], 1) + rotl(v[1], 7) + rotl(v[2], 12) + rotl(v[3], 18)) & M64
+        for k in range(4):
+            h = ((h ^ rnd(0, v[k])) * P1 + P4) & M64
+    else:
+        h = (seed + P5) & M64
+    h = (h + n) & M64
+    while i + 8 <= n:
+        h = (rotl(h ^ rnd(0, struct.unpack_from("<Q", b, i)[0]), 27) * P1 + P4) & M64
+        i += 8
+    if i + 4 <= n:
+        h = (rotl(h ^ (struct.unpack_from("<I", b, i)[0] * P1 & M64), 23) * P2 + P3) & M64
+        i += 4
+    while i < n:
+        h = (rotl(h ^ (b[i] * P5 & M64), 11) * P1) & M64
+        i += 1
+    h = ((h ^ (h >> 33)) * P2) & M64
+    h = ((h ^ (h >> 29)) * P3) & M64
+    return h ^ (h >> 32)
+
+
 def free_port():
     s = socket.socket()
     s.bind(("127.0.0.1", 0))
@@ -301,6 +337,17 @@ try:
     if j3:
         check(j3["http"]["disk_cache_rejected"] == 1 and j3["http"]["requests"] == 2 and
               same(tmp("dc3.png"), local[1]), "a damaged cache entry is refused by its checksum and fetched again")
+    # an entry whose own checksum holds but whose bytes are not the tile the index names (another
+    # version, a forged file): refused by the index's checksum
+    check(xxh64(data[recs[0][0]:recs[0][0] + recs[0][1]]) == recs[0][3], "the test's XXH64 matches the index's")
+    b = bytearray(open(victim, "rb").read()[:-8])
+    b[len(b) // 3] ^= 0x01
+    open(victim, "wb").write(bytes(b) + struct.pack("<Q", xxh64(bytes(b))))
+    rc, j3, err, _ = run_json(["render", "--terrain", ng.url, "--out", tmp("dc3.png"), "--disk-cache", dc,
+                               "--width", "480", "--height", "270"] + CAMS[1], "render past a forged cache entry")
+    if j3:
+        check(j3["http"]["disk_cache_rejected"] == 1 and j3["http"]["requests"] == 2 and
+              same(tmp("dc3.png"), local[1]), "a cache entry that is not the indexed tile is refused and fetched again")
     # the bound: a bench reads more than 1 MB (the coarse level whole, then the flight)
     small = tmp("dsmall")
     rc, j4, err, _ = run_json(["bench", "--terrain", ng.url, "--frames", "40", "--width", "320", "--height", "180",
