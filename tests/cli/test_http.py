@@ -16,7 +16,10 @@ pid and logs in TMPDIR; no root paths) and a faulty proxy in front of it.
   warning and exit 0; a server ignoring ranges is refused at once.
 
 usage: test_http.py HORIZON TMPDIR"""
-import hashlib, http.client, http.server, json, os, shutil, socket, struct, subprocess, sys, threading, time
+import json, os, shutil, struct, subprocess, sys, time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from http_fixtures import NGINX, Nginx, Proxy  # noqa: E402
 
 HZ, TMP = sys.argv[1], os.path.abspath(sys.argv[2])
 shutil.rmtree(TMP, ignore_errors=True)
@@ -102,27 +105,7 @@ def xxh64(b, seed=0):
     return h ^ (h >> 32)
 
 
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
-
-
-def wait_port(port, secs=10):
-    end = time.time() + secs
-    while time.time() < end:
-        try:
-            socket.create_connection(("127.0.0.1", port), 0.2).close()
-            return True
-        except OSError:
-            time.sleep(0.05)
-    return False
-
-
 # ---------------------------------------------------------------- nginx
-NGINX = shutil.which("nginx") or "/usr/sbin/nginx"
 if not os.access(NGINX, os.X_OK):
     bad("nginx is not installed (scripts/deps.sh installs it)")
     sys.exit(1)
@@ -142,137 +125,9 @@ recs = [struct.unpack_from("<QIIQ", data, idx_off + 24 * k) for k in range((idx_
 LEVEL1 = {r[0] for r in recs[16:20]}
 
 
-class Nginx:
-    def __init__(self):
-        self.port = free_port()
-        d = tmp("nginx")
-        os.makedirs(d, exist_ok=True)
-        self.log = os.path.join(d, "access.log")
-        conf = os.path.join(d, "nginx.conf")
-        with open(conf, "w") as f:
-            f.write("""worker_processes 1;
-pid %(d)s/nginx.pid;
-error_log %(d)s/error.log;
-daemon off;
-events { worker_connections 256; }
-http {
-  log_format conn '$connection $connection_requests $status $http_range $body_bytes_sent';
-  access_log %(d)s/access.log conn;
-  client_body_temp_path %(d)s/body; proxy_temp_path %(d)s/proxy; fastcgi_temp_path %(d)s/fcgi;
-  uwsgi_temp_path %(d)s/uwsgi; scgi_temp_path %(d)s/scgi;
-  types { application/octet-stream hzp; }
-  server {
-    listen 127.0.0.1:%(port)d;
-    root %(www)s;
-    location ~ \\.hzp$ { add_header Cache-Control "public, max-age=86400, immutable"; }
-  }
-}
-""" % {"d": d, "port": self.port, "www": www})
-        self.p = subprocess.Popen([NGINX, "-c", conf, "-p", d + "/", "-e", os.path.join(d, "error.log")],
-                                  stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        if not wait_port(self.port):
-            self.stop()
-            raise RuntimeError("nginx did not start: " + self.p.stderr.read().decode())
-        self.url = "http://127.0.0.1:%d/x.hzp" % self.port
-
-    def log_lines(self):
-        return [l.split() for l in open(self.log)] if os.path.exists(self.log) else []
-
-    def stop(self):
-        if self.p.poll() is None:
-            self.p.terminate()
-            try:
-                self.p.wait(10)
-            except subprocess.TimeoutExpired:
-                self.p.kill()
-                self.p.wait()
-
-
-# ---------------------------------------------------------------- faulty proxy
-class Proxy(http.server.ThreadingHTTPServer):
-    """Forwards GETs to nginx. mode:
-    flaky   - per range asked: attempt 1 -> 500, 2 -> dropped mid-body,
-              3 -> answer after `delay` s, 4 on -> the right bytes
-    fail1   - level-1 tiles always 500, the rest as nginx answers
-    corrupt1 - level-1 tiles with one byte flipped
-    norange - 200 and the whole file (a server ignoring ranges)"""
-    daemon_threads = True
-
-    def __init__(self, upstream_port, mode, delay=2.0):
-        self.upstream, self.mode, self.delay = upstream_port, mode, delay
-        self.attempts, self.lock, self.counts = {}, threading.Lock(), {}
-        super().__init__(("127.0.0.1", 0), ProxyHandler)
-        self.port = self.server_address[1]
-        self.url = "http://127.0.0.1:%d/x.hzp" % self.port
-        self.t = threading.Thread(target=self.serve_forever, daemon=True)
-        self.t.start()
-
-    def handle_error(self, request, client_address):
-        pass  # the client closing a connection it timed out on is part of the test
-
-    def count(self, what):
-        with self.lock:
-            self.counts[what] = self.counts.get(what, 0) + 1
-
-    def stop(self):
-        self.shutdown()
-        self.server_close()
-
-
-class ProxyHandler(http.server.BaseHTTPRequestHandler):
-    protocol_version = "HTTP/1.1"
-    disable_nagle_algorithm = True  # headers and body go in two writes: no 40 ms delayed-ACK stall
-
-    def log_message(self, *a):
-        pass
-
-    def do_GET(self):
-        srv = self.server
-        rng = self.headers.get("Range", "")
-        start = int(rng[6:].split("-")[0]) if rng.startswith("bytes=") else -1
-        with srv.lock:
-            n = srv.attempts[rng] = srv.attempts.get(rng, 0) + 1
-        if srv.mode == "flaky" and n == 1 or srv.mode == "fail1" and start in LEVEL1:
-            srv.count("500")
-            body = b"<html>internal error</html>"
-            self.send_response(500)
-            self.send_header("Content-Length", str(len(body)))
-            self.end_headers()
-            self.wfile.write(body)
-            return
-        if srv.mode == "flaky" and n == 3:
-            srv.count("delay")
-            time.sleep(srv.delay)
-        up = http.client.HTTPConnection("127.0.0.1", srv.upstream, timeout=10)
-        up.request("GET", self.path, headers={} if srv.mode == "norange" else {"Range": rng})
-        r = up.getresponse()
-        body = r.read()
-        up.close()
-        if srv.mode == "corrupt1" and start in LEVEL1 and len(body) > 100:
-            srv.count("corrupt")
-            body = body[:100] + bytes([body[100] ^ 0x5A]) + body[101:]
-        try:
-            self.send_response(r.status)
-            for h in ("Content-Range", "ETag", "Last-Modified", "Accept-Ranges"):
-                if r.getheader(h):
-                    self.send_header(h, r.getheader(h))
-            self.send_header("Content-Length", str(len(body)))
-            self.end_headers()
-            if srv.mode == "flaky" and n == 2:
-                srv.count("drop")
-                self.wfile.write(body[: len(body) // 2])
-                self.wfile.flush()
-                self.close_connection = True
-                self.connection.shutdown(socket.SHUT_RDWR)
-                return
-            self.wfile.write(body)
-        except (BrokenPipeError, ConnectionResetError):
-            self.close_connection = True
-
-
 # ---------------------------------------------------------------- tests
 CAMS = [[], ["--camera", "2500,900,2500,135,-12"]]  # default (above the centre), and low across the map
-ng = Nginx()
+ng = Nginx(www, tmp("nginx"))
 try:
     # 1. local vs http, byte for byte
     local = []
@@ -383,7 +238,7 @@ finally:
     ng.stop()
 
 # 4. faults, through the proxy in front of a fresh nginx
-ng = Nginx()
+ng = Nginx(www, tmp("nginx"))
 try:
     px = Proxy(ng.port, "flaky", delay=2.0)
     rc, j, err, dt = run_json(["render", "--terrain", px.url, "--out", tmp("flaky.png"), "--width", "480", "--height",
@@ -399,7 +254,7 @@ try:
               "every read retried 3 times (%d retries for %d reads; proxy: %s)" % (h["retries"], reads, px.counts))
         check("retried" in err, "the retries are said on stderr")
 
-    px = Proxy(ng.port, "fail1")
+    px = Proxy(ng.port, "fail1", targets=LEVEL1)
     rc, j, err, dt = run_json(["render", "--terrain", px.url, "--out", tmp("fail1.png"), "--width", "480", "--height",
                                "270"] + CAMS[1], "render with level-1 tiles failing", timeout=240)
     if j:
@@ -415,7 +270,7 @@ try:
         check(rc == 0 and j["tiles_failed"] >= 1 and "warning" in j and j["http"]["failures"] >= 1,
               "the flight completes with %d tiles failed, a warning and the figures (%.1f s)" % (j["tiles_failed"], dt))
 
-    px = Proxy(ng.port, "corrupt1")
+    px = Proxy(ng.port, "corrupt1", targets=LEVEL1)
     rc, j, err, dt = run_json(["render", "--terrain", px.url, "--out", tmp("corrupt1.png"), "--width", "480",
                                "--height", "270"] + CAMS[1], "render with corrupt level-1 tiles", timeout=240)
     px.stop()
