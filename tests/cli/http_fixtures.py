@@ -1,4 +1,4 @@
-"""Shared by tests/cli/test_http.py and bench/http.py: a real nginx started
+"""Shared by tests/cli/test_http.py and bench/http_bench.py: a real nginx started
 on 127.0.0.1 on a free port from a config written into a folder of the
 caller's (no root paths), and a faulty / slow proxy in front of it."""
 import http.client, http.server, os, shutil, socket, subprocess, threading, time
