@@ -89,6 +89,7 @@ class Proxy(http.server.ThreadingHTTPServer):
         self.upstream, self.mode, self.delay = upstream_port, mode, delay
         self.targets, self.latency = set(targets), latency
         self.attempts, self.lock, self.counts = {}, threading.Lock(), {}
+        self.inflight = self.max_inflight = 0  # requests being answered at once
         super().__init__(("127.0.0.1", 0), ProxyHandler)
         self.port = self.server_address[1]
         self.url = "http://127.0.0.1:%d/%s" % (self.port, name)
@@ -116,6 +117,16 @@ class ProxyHandler(http.server.BaseHTTPRequestHandler):
 
     def do_GET(self):
         srv = self.server
+        with srv.lock:
+            srv.inflight += 1
+            srv.max_inflight = max(srv.max_inflight, srv.inflight)
+        try:
+            self.answer(srv)
+        finally:
+            with srv.lock:
+                srv.inflight -= 1
+
+    def answer(self, srv):
         rng = self.headers.get("Range", "")
         start = int(rng[6:].split("-")[0]) if rng.startswith("bytes=") else -1
         with srv.lock:

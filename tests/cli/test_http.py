@@ -253,6 +253,7 @@ try:
         check(h["retries"] == 3 * reads and px.counts.get("drop") == reads and px.counts.get("delay") == reads,
               "every read retried 3 times (%d retries for %d reads; proxy: %s)" % (h["retries"], reads, px.counts))
         check("retried" in err, "the retries are said on stderr")
+        check(px.max_inflight >= 3, "several requests in flight: up to %d at once" % px.max_inflight)
 
     px = Proxy(ng.port, "fail1", targets=LEVEL1)
     rc, j, err, dt = run_json(["render", "--terrain", px.url, "--out", tmp("fail1.png"), "--width", "480", "--height",
