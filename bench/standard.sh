@@ -114,6 +114,9 @@ fr=${F:-36}
 echo "== forest ($fr frames)" >&2
 "$HZ" bench --quiet --generate perlin --size 4097 --seed 1 --forest 1660 --frames "$fr" --json "$OUT/forest.json" >/dev/null
 
+# Pyramids over HTTP (issue 17): nginx on loopback and a proxy adding 50 ms per
+# request; tiles/s, MB/s and the flyover -> out/bench/http.json. HTTP=0 skips it.
+[ "${HTTP:-1}" = 0 ] || python3 bench/http_bench.py "$HZ" "$OUT"
 python3 bench/summary.py "$OUT" > "$OUT/summary.md"
 # Terrain pyramids: import and streaming figures (PYRAMID=0 skips them, BIG=1 adds 65537^2).
 if [ "${PYRAMID:-1}" = 1 ]; then

@@ -22,6 +22,7 @@ PKGS=(
   libjansson-dev       # JSON output (escaped, valid whatever the file names)
   libinih-dev          # horizon view --config files
   clang libclang-rt-14-dev  # make test: the ASan/UBSan build and the libFuzzer targets (build-san/)
+  libcurl4-openssl-dev nginx  # --terrain http(s)://...: range requests (libcurl); tests serve pyramids with nginx
 )
 # "bench": also gnuplot for horizon bench --plot
 if [ "${1:-}" = bench ]; then PKGS+=(gnuplot-nox); fi

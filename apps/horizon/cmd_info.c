@@ -114,6 +114,20 @@ static int info_one(const char *path, const char *crs, json_t *arr)
     return 0;
 }
 
+/* A terrain pyramid: by its name (.hzp, also over http) or its signature. */
+static bool is_pyramid(const char *path)
+{
+    const size_t len = strlen(path);
+    if (len > 4 && !strcmp(path + len - 4, ".hzp"))
+        return true;
+    FILE *f = fopen(path, "rb");
+    char magic[8] = {0};
+    const bool got = f && fread(magic, 1, 8, f) == 8;
+    if (f)
+        fclose(f);
+    return got && !memcmp(magic, "HZPYRAMD", 8);
+}
+
 int cmd_info(int argc, char **argv)
 {
     bool json = false, verify = false;
@@ -159,8 +173,7 @@ int cmd_info(int argc, char **argv)
         }
         if (argv[i][0] == '-' && argv[i][1])
             continue;
-        const size_t len = strlen(argv[i]);
-        if (len > 4 && !strcmp(argv[i] + len - 4, ".hzp")) {
+        if (is_pyramid(argv[i])) {
             if (pyramid_info(argv[i], verify, arr))
                 rc = 1;
             continue;

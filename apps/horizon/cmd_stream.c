@@ -10,6 +10,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "horizon/gl_limits.h"
 #include "horizon/path.h"
 #include "horizon/pyramid.h"
 #include "horizon/safety.h"
@@ -285,6 +286,7 @@ typedef struct sopts {
     bool have_camera, json, quiet;
     float camera[5];
     uint32_t width, height, frames;
+    hz_pyr_remote remote; /* --terrain http(s)://: --disk-cache, --http-* */
 } sopts;
 
 static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
@@ -296,6 +298,10 @@ static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         {"height", required_argument, 0, 'H'},  {"path", required_argument, 0, 'p'},
         {"frames", required_argument, 0, 'f'},  {"json", no_argument, 0, 'J'},
         {"quiet", no_argument, 0, 'q'},         {"lod", required_argument, 0, 'l'},
+        /* a pyramid over http(s) */
+        {"disk-cache", required_argument, 0, 1001}, {"disk-cache-mb", required_argument, 0, 1002},
+        {"http-timeout", required_argument, 0, 1003}, {"http-retries", required_argument, 0, 1004},
+        {"http-connections", required_argument, 0, 1005},
         {0, 0, 0, 0}};
     *o = (sopts){.cache_mb = 256, .tau = 1.0, .width = 1280, .height = 720, .frames = 120};
     optind = 2;
@@ -313,6 +319,21 @@ static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         case 'p': o->path = optarg; break;
         case 'J': o->json = true; break;
         case 'q': o->quiet = true; break;
+        /* a pyramid over http(s) (docs/serving.md) */
+        case 1001: o->remote.disk_cache = optarg; break;
+        case 1002:
+            if (!num("--disk-cache-mb", optarg, 1, 1 << 24, &v)) return 2;
+            o->remote.disk_cache_bytes = (uint64_t)(v * 1048576.0);
+            break;
+        case 1003:
+            if (!num("--http-timeout", optarg, 0.1, 600, &v)) return 2;
+            o->remote.timeout_ms = (uint32_t)(v * 1000.0);
+            break;
+        case 1004: if (!num("--http-retries", optarg, 1, 20, &v)) return 2; o->remote.retries = (uint32_t)v; break;
+        case 1005:
+            if (!num("--http-connections", optarg, 1, 16, &v)) return 2;
+            o->remote.connections = (uint32_t)v;
+            break;
         case 'l':
             if (strcmp(optarg, "cdlod")) {
                 fprintf(stderr, "horizon %s: a streamed --terrain is drawn with --lod cdlod only\n", cmd);
@@ -337,7 +358,8 @@ static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         }
         default:
             fprintf(stderr, "horizon %s --terrain: options are --terrain --cache-mb --out --camera --pixel-error "
-                            "--width --height --path --frames --json --quiet\n", cmd);
+                            "--width --height --path --frames --json --quiet --disk-cache --disk-cache-mb "
+                            "--http-timeout --http-retries --http-connections\n", cmd);
             return 2;
         }
     }
@@ -372,16 +394,16 @@ static int sctx_open(sctx *c, const sopts *o, const char *cmd)
 {
     hz_err err = {0};
     memset(c, 0, sizeof *c);
-    c->s = hz_stream_create(&(hz_stream_desc){.path = o->terrain, .cache_bytes = (uint64_t)(o->cache_mb * 1048576.0)},
-                            &err);
-    if (!c->s) {
-        fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
-        return 1;
-    }
+    /* the GL context first: the cache holds no more tiles than an array texture has layers */
     c->gl = hz_gl_create_headless(&err);
     if (c->gl)
         c->r = hz_renderer_create(&(hz_renderer_desc){.width = o->width, .height = o->height}, &err);
-    if (!c->r || hz_renderer_set_stream(c->r, hz_stream_info(c->s), hz_stream_slots(c->s), hz_stream_texels(c->s),
+    if (c->r)
+        c->s = hz_stream_create(&(hz_stream_desc){.path = o->terrain,
+                                                  .cache_bytes = (uint64_t)(o->cache_mb * 1048576.0),
+                                                  .remote = o->remote, .max_slots = hz_gl_query_max_tile_layers()},
+                                &err);
+    if (!c->r || !c->s || hz_renderer_set_stream(c->r, hz_stream_info(c->s), hz_stream_slots(c->s), hz_stream_texels(c->s),
                                         &err) != HZ_OK) {
         fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
         sctx_free(c);
@@ -389,6 +411,32 @@ static int sctx_open(sctx *c, const sopts *o, const char *cmd)
     }
     c->lp = (hz_lod_params){.mode = HZ_LOD_CDLOD, .pixel_error = (float)o->tau, .viewport_height = o->height};
     return 0;
+}
+
+/* Transfer figures of a pyramid read over http(s) (NULL for a file), and a
+ * line on stderr when reads were retried or failed. */
+static json_t *transfer_json(const sctx *c, const char *cmd, double ms)
+{
+    const hz_pyramid *p = hz_stream_pyramid(c->s);
+    if (!hz_pyramid_is_remote(p))
+        return NULL;
+    const hz_pyr_transfer t = hz_pyramid_query_transfer(p);
+    if (t.retries || t.failures || t.offline)
+        fprintf(stderr, "horizon %s: http: %llu requests, %llu retried, %llu reads failed (drawn coarser)%s\n", cmd,
+                (unsigned long long)t.requests, (unsigned long long)t.retries, (unsigned long long)t.failures,
+                t.offline ? "; the server did not answer: read from the disk cache" : "");
+    json_t *o = json_object();
+    json_object_set_new(o, "requests", json_integer((json_int_t)t.requests));
+    json_object_set_new(o, "bytes", json_integer((json_int_t)t.bytes));
+    json_object_set_new(o, "retries", json_integer((json_int_t)t.retries));
+    json_object_set_new(o, "failures", json_integer((json_int_t)t.failures));
+    json_object_set_new(o, "disk_cache_hits", json_integer((json_int_t)t.cache_hits));
+    json_object_set_new(o, "disk_cache_bytes", json_integer((json_int_t)t.cache_bytes));
+    json_object_set_new(o, "disk_cache_evicted", json_integer((json_int_t)t.cache_evicted));
+    json_object_set_new(o, "disk_cache_rejected", json_integer((json_int_t)t.cache_rejected));
+    json_object_set_new(o, "offline", json_boolean(t.offline));
+    json_object_set_new(o, "mb_per_s", json_real(ms > 0 ? (double)(t.bytes + t.cache_bytes) / 1e3 / ms : 0));
+    return o;
 }
 
 /* Uploads what the loader finished. */
@@ -495,6 +543,7 @@ int stream_render(int argc, char **argv)
     free(rgb);
     if (hz_stream_warning(c.s))
         fprintf(stderr, "horizon render: warning: %s\n", hz_stream_warning(c.s));
+    json_t *http = transfer_json(&c, "render", load_ms);
     if (c.pl.count == 0)
         fprintf(stderr, "horizon render: the terrain is not in view: the image shows only sky\n");
     if (o.json) {
@@ -520,12 +569,15 @@ int stream_render(int argc, char **argv)
         json_object_set_new(j, "load_ms", jx_dbl(load_ms));
         json_object_set_new(j, "terrain_in_view", json_boolean(c.pl.count > 0));
         json_object_set_new(j, "peak_rss_mb", jx_dbl((double)hz_peak_rss_bytes() / 1048576.0));
+        if (http)
+            json_object_set(j, "http", http);
         print_json(j);
     } else if (!o.quiet) {
         printf("%s: %u triangles in %zu nodes, %u tiles loaded (%u resident, %.0f MB), lod %.2f ms, draw %.1f ms\n",
                out, st.triangles, c.pl.count, loads, ss.resident, (double)ss.cache_bytes / 1048576.0, st.ms,
                ds.draw_ms);
     }
+    json_decref(http);
     rc = 0;
 done:
     if (rc)
@@ -545,7 +597,7 @@ static int coarse_load(const sopts *o, coarse *g)
 {
     hz_pyramid *p;
     hz_err err = {0};
-    if (hz_pyramid_open(o->terrain, &p, &err) != HZ_OK) {
+    if (hz_pyramid_open_with(o->terrain, &o->remote, &p, &err) != HZ_OK) {
         fprintf(stderr, "horizon bench: %s\n", err.msg);
         return 1;
     }
@@ -629,7 +681,7 @@ int stream_bench(int argc, char **argv)
         /* As the in-memory flyover: 300 m/s for 60 s across the middle of
          * the data, max(60 m, 5 % of the relief) above the highest ground near. */
         hz_pyramid *p;
-        if (hz_pyramid_open(o.terrain, &p, &err) != HZ_OK) {
+        if (hz_pyramid_open_with(o.terrain, &o.remote, &p, &err) != HZ_OK) {
             fprintf(stderr, "horizon bench: %s\n", err.msg);
             free(g.h);
             return 1;
@@ -671,6 +723,8 @@ int stream_bench(int argc, char **argv)
     json_t *frames = json_array();
     uint64_t late_frames = 0, requested = 0, loaded = 0, evicted = 0;
     double worst = 0, cache_max = 0;
+    uint32_t failed = 0;
+    const double fly0 = hz_time_ms();
     rc = 1;
     if (!frame || !lod || !tris)
         goto done;
@@ -701,6 +755,7 @@ int stream_bench(int argc, char **argv)
         tris[f] = st.triangles;
         worst = frame[f] > worst ? frame[f] : worst;
         late_frames += ss.late > 0;
+        failed = ss.failed > failed ? ss.failed : failed;
         requested += ss.requested, loaded += ss.loaded, evicted += ss.evicted;
         cache_max = fmax(cache_max, (double)ss.cache_bytes / 1048576.0);
         json_array_append_new(frames, json_pack("{s:i,s:f,s:f,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:f}", "frame", (int)f,
@@ -728,6 +783,10 @@ int stream_bench(int argc, char **argv)
     json_object_set_new(j, "tiles_evicted", json_integer((json_int_t)evicted));
     json_object_set_new(j, "cache_mb_max", jx_dbl(cache_max));
     json_object_set_new(j, "late_frame_fraction", jx_dbl((double)late_frames / F));
+    json_object_set_new(j, "tiles_failed", jx_int((long long)failed));
+    json_t *http = transfer_json(&c, "bench", hz_time_ms() - fly0);
+    if (http)
+        json_object_set_new(j, "http", http);
     json_object_set_new(j, "peak_rss_mb", jx_dbl((double)hz_peak_rss_bytes() / 1048576.0));
     if (hz_stream_warning(c.s))
         json_object_set_new(j, "warning", jx_str(hz_stream_warning(c.s)));

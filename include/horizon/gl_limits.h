@@ -12,6 +12,10 @@ extern "C" {
  * (GL_MAX_TEXTURE_BUFFER_SIZE texels, at most 2^31 - 1); 0 when there is no
  * current context or the value is unknown. Needs a current context. */
 uint64_t hz_gl_query_max_heightmap_samples(void);
+/* The most layers of one array texture (GL_MAX_ARRAY_TEXTURE_LAYERS): the
+ * tile slots a streamed terrain's cache can have; 0 when unknown. Needs a
+ * current context. */
+uint32_t hz_gl_query_max_tile_layers(void);
 
 #ifdef __cplusplus
 }

@@ -57,8 +57,44 @@ typedef struct hz_pyr_tile {
 typedef struct hz_pyramid hz_pyramid;
 
 /* Opens and checks the header and the index (a truncated or corrupt file is
- * refused). Tiles are read on demand; thread-safe reads. */
+ * refused). Tiles are read on demand; thread-safe reads. path is a file or an
+ * http:// or https:// URL (read with hz_pyr_remote's defaults). */
 hz_result hz_pyramid_open(const char *path, hz_pyramid **out, hz_err *err);
+
+/* How a pyramid at an http(s) URL is read (docs/serving.md): HTTP range
+ * requests on the one file (the header, the index, then one per tile),
+ * connections kept alive, retries with exponential backoff, and an optional
+ * folder keeping what was fetched, validated by the index's checksums, so a
+ * second run (or one offline) reads from disk. Ignored for files. */
+typedef struct hz_pyr_remote {
+    const char *disk_cache;    /* folder of fetched bytes (created); NULL -> none */
+    uint64_t disk_cache_bytes; /* bound of that folder, least recently used out first; 0 -> 1 GB */
+    uint32_t timeout_ms;       /* one request, connection included; 0 -> 10000 */
+    uint32_t retries;          /* more attempts after a failed one (5xx, 408, 429, a timeout, a dropped
+                                * connection, a short or corrupt body); 0 -> 4 */
+    uint32_t connections;      /* kept-alive handles (and the stream's loader threads); 0 -> 8 */
+} hz_pyr_remote;
+
+/* What reading cost so far (all threads). Zero for a file. */
+typedef struct hz_pyr_transfer {
+    uint64_t requests;     /* HTTP requests sent, every attempt counted */
+    uint64_t bytes;        /* response bytes received for reads */
+    uint64_t retries;      /* attempts after a failed one */
+    uint64_t failures;     /* reads that failed after every attempt */
+    uint64_t cache_hits;   /* reads served by the disk cache */
+    uint64_t cache_bytes;  /* bytes served by the disk cache */
+    uint64_t cache_evicted; /* entries removed to stay under the bound */
+    uint64_t cache_rejected; /* entries that failed their checksum (fetched again) */
+    bool offline;          /* opened from the disk cache: the server did not answer */
+} hz_pyr_transfer;
+
+/* hz_pyramid_open with the options of a remote pyramid (remote may be NULL:
+ * defaults). remote->disk_cache is not retained; the rest is copied. */
+hz_result hz_pyramid_open_with(const char *path, const hz_pyr_remote *remote, hz_pyramid **out, hz_err *err);
+/* True when p is read over http(s). */
+bool hz_pyramid_is_remote(const hz_pyramid *p);
+/* Transfer figures since open; all zero for a file. */
+hz_pyr_transfer hz_pyramid_query_transfer(const hz_pyramid *p);
 void hz_pyramid_close(hz_pyramid *p);
 const hz_pyr_info *hz_pyramid_info(const hz_pyramid *p);
 /* Tiles per side of level l. */

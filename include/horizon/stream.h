@@ -22,6 +22,10 @@ typedef struct hz_stream_desc {
     const char *path;       /* the .hzp */
     uint64_t cache_bytes;   /* tile texels held (GPU); 0 -> 256 MB; at least 8 tiles per level */
     bool synchronous;       /* tests: tiles load on the calling thread in hz_stream_update */
+    uint32_t max_slots;     /* the most tiles the GPU cache can hold (hz_gl_query_max_tile_layers);
+                               0 -> no limit but the 16-bit layer index */
+    hz_pyr_remote remote;   /* path is an http(s) URL: how to read it (see horizon/pyramid.h) */
+    uint32_t loaders;       /* loader threads; 0 -> 1 for a file, remote.connections (8) for a URL */
 } hz_stream_desc;
 
 typedef struct hz_stream_stats {
@@ -38,6 +42,8 @@ typedef struct hz_stream_stats {
 hz_stream *hz_stream_create(const hz_stream_desc *desc, hz_err *err);
 void hz_stream_destroy(hz_stream *s);
 const hz_pyr_info *hz_stream_info(const hz_stream *s);
+/* The pyramid read (transfer figures: hz_pyramid_query_transfer). */
+const hz_pyramid *hz_stream_pyramid(const hz_stream *s);
 /* GPU layers the renderer must hold: one per cache slot, each (T+3)^2 RGBA16UI:
  * sample (a, b) of a tile at texel (a + 1, b + 1), a one-sample apron around it. */
 uint32_t hz_stream_slots(const hz_stream *s);

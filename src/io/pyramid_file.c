@@ -1,6 +1,7 @@
 /* The .hzp file: header, tiles (zstd, XXH64), index; reading and writing.
  * Layout in docs/pyramid.md. Nothing here knows how the LOD data is made. */
 #include "io_internal.h"
+#include "pyramid_src.h"
 
 #include "horizon/pyramid.h"
 #include "horizon/safety.h"
@@ -133,7 +134,7 @@ typedef struct idx_rec {
 } idx_rec;
 
 struct hz_pyramid {
-    int fd;
+    hz_pyr_src *src;
     char path[4096];
     hz_pyr_info info;
     char *wkt;
@@ -146,19 +147,61 @@ static hz_result bad_file(hz_err *err, const char *path, const char *why)
     return hz_err_set(err, HZ_ERR_FORMAT, "'%s' is not a valid terrain pyramid: %s", path, why);
 }
 
-static bool read_at(int fd, void *buf, size_t n, uint64_t off)
+/* ---- byte sources: a local file here, http(s) in pyramid_http.c ---- */
+
+typedef struct file_src {
+    hz_pyr_src base;
+    int fd;
+} file_src;
+
+static hz_result file_read(hz_pyr_src *src, void *buf, size_t n, uint64_t off, const uint64_t *sum, hz_err *err)
 {
+    (void)sum; /* the caller checks it */
+    const int fd = ((file_src *)src)->fd;
     uint8_t *b = buf;
     while (n > 0) {
         ssize_t r = pread(fd, b, n, (off_t)off);
         if (r <= 0) {
             if (r < 0 && errno == EINTR)
                 continue;
-            return false;
+            return hz_err_set(err, HZ_ERR_IO, "%s", r < 0 ? strerror(errno) : "short read (truncated?)");
         }
         b += r, n -= (size_t)r, off += (uint64_t)r;
     }
-    return true;
+    return HZ_OK;
+}
+
+static void file_close(hz_pyr_src *src)
+{
+    close(((file_src *)src)->fd);
+    free(src);
+}
+
+static const hz_pyr_src_vt FILE_VT = {.read = file_read, .close = file_close};
+
+static hz_result file_open(const char *path, hz_pyr_src **out, hz_err *err)
+{
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0)
+        return hz_err_set(err, HZ_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        close(fd);
+        return hz_err_set(err, HZ_ERR_IO, "'%s' is not a regular file", path);
+    }
+    file_src *f = calloc(1, sizeof *f);
+    if (!f) {
+        close(fd);
+        return hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
+    }
+    *f = (file_src){.base = {.vt = &FILE_VT, .size = (uint64_t)st.st_size}, .fd = fd};
+    *out = &f->base;
+    return HZ_OK;
+}
+
+static bool read_at(hz_pyr_src *src, void *buf, size_t n, uint64_t off, hz_err *e)
+{
+    return src->vt->read(src, buf, n, off, NULL, e) == HZ_OK;
 }
 
 static bool is_pow2_plus1(uint32_t v)
@@ -168,28 +211,30 @@ static bool is_pow2_plus1(uint32_t v)
 
 hz_result hz_pyramid_open(const char *path, hz_pyramid **out, hz_err *err)
 {
+    return hz_pyramid_open_with(path, NULL, out, err);
+}
+
+hz_result hz_pyramid_open_with(const char *path, const hz_pyr_remote *remote, hz_pyramid **out, hz_err *err)
+{
     *out = NULL;
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (fd < 0)
-        return hz_err_set(err, HZ_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
-    struct stat st;
-    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-        close(fd);
-        return hz_err_set(err, HZ_ERR_IO, "'%s' is not a regular file", path);
-    }
+    hz_pyr_src *src = NULL;
+    hz_result r = hz_pyr_is_url(path) ? hz_pyr_http_open(path, remote, &src, err) : file_open(path, &src, err);
+    if (r != HZ_OK)
+        return r;
     hz_pyramid *p = calloc(1, sizeof *p);
     if (!p) {
-        close(fd);
+        src->vt->close(src);
         return hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
     }
-    p->fd = fd;
+    p->src = src;
     snprintf(p->path, sizeof p->path, "%s", path);
-    hz_result r = HZ_OK;
     uint8_t h[HDR_BYTES];
-    const uint64_t fsize = (uint64_t)st.st_size;
+    const uint64_t fsize = src->size;
     hz_pyr_info *in = &p->info;
-    if (fsize < HDR_BYTES || !read_at(fd, h, HDR_BYTES, 0)) {
-        r = bad_file(err, path, "shorter than its header (truncated?)");
+    hz_err re = {0};
+    if (fsize < HDR_BYTES || !read_at(src, h, HDR_BYTES, 0, &re)) {
+        r = src->remote && re.msg[0] ? hz_err_set(err, HZ_ERR_IO, "'%s': cannot read the header: %s", path, re.msg)
+                                     : bad_file(err, path, "shorter than its header (truncated?)");
         goto fail;
     }
     if (memcmp(h, MAGIC, 8) != 0) {
@@ -262,9 +307,10 @@ hz_result hz_pyramid_open(const char *path, hz_pyramid **out, hz_err *err)
                        (unsigned long long)tiles);
         goto fail;
     }
-    if (!read_at(fd, raw, idx_bytes, idx_off) || (wkt_bytes && !read_at(fd, p->wkt, wkt_bytes, wkt_off))) {
+    if (!read_at(src, raw, idx_bytes, idx_off, &re) || (wkt_bytes && !read_at(src, p->wkt, wkt_bytes, wkt_off, &re))) {
         free(raw);
-        r = bad_file(err, path, "cannot read the index (truncated?)");
+        r = src->remote ? hz_err_set(err, HZ_ERR_IO, "'%s': cannot read the index: %s", path, re.msg)
+                        : bad_file(err, path, "cannot read the index (truncated?)");
         goto fail;
     }
     if (XXH64(raw, tiles * IDX_REC, 0) != get64(raw + tiles * IDX_REC)) {
@@ -296,11 +342,21 @@ void hz_pyramid_close(hz_pyramid *p)
 {
     if (!p)
         return;
-    if (p->fd >= 0)
-        close(p->fd);
+    if (p->src)
+        p->src->vt->close(p->src);
     free(p->idx);
     free(p->wkt);
     free(p);
+}
+
+bool hz_pyramid_is_remote(const hz_pyramid *p)
+{
+    return p->src->remote;
+}
+
+hz_pyr_transfer hz_pyramid_query_transfer(const hz_pyramid *p)
+{
+    return p->src->vt->transfer ? p->src->vt->transfer(p->src) : (hz_pyr_transfer){0};
 }
 
 const hz_pyr_info *hz_pyramid_info(const hz_pyramid *p)
@@ -402,8 +458,10 @@ hz_result hz_pyramid_read_tile(hz_pyramid *p, uint32_t level, uint32_t tx, uint3
         return hz_err_set(err, HZ_ERR_MEMORY, "out of memory reading a tile");
     }
     hz_result res = HZ_OK;
-    if (!read_at(p->fd, z, e->bytes, e->offset))
-        res = hz_err_set(err, HZ_ERR_IO, "'%s': cannot read tile %u/%u/%u (truncated?)", p->path, level, tx, tz);
+    hz_err re = {0};
+    if (p->src->vt->read(p->src, z, e->bytes, e->offset, &e->sum, &re) != HZ_OK)
+        res = hz_err_set(err, re.code ? re.code : HZ_ERR_IO, "'%s': cannot read tile %u/%u/%u: %s", p->path, level, tx,
+                         tz, re.msg);
     else if (XXH64(z, e->bytes, 0) != e->sum)
         res = hz_err_set(err, HZ_ERR_FORMAT, "'%s': tile %u/%u/%u fails its checksum (corrupt)", p->path, level, tx, tz);
     if (res == HZ_OK) {

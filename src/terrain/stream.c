@@ -27,6 +27,7 @@
 #define NEVER 65535u
 #define PREFETCH 1.5f
 #define MAX_INFLIGHT 16u
+#define MAX_LOADERS 16u
 
 enum { SLOT_FREE = 0, SLOT_LOADING, SLOT_READY, SLOT_RESIDENT, SLOT_FAILED };
 
@@ -60,7 +61,8 @@ struct hz_stream {
     uint32_t hash_cap;
     uint64_t frame;
     /* loader */
-    pthread_t th;
+    pthread_t th[MAX_LOADERS]; /* one for a file; several for a URL (requests in flight) */
+    uint32_t nth;
     bool has_thread, quit, sync;
     pthread_mutex_t lock;
     pthread_cond_t cv, idle;
@@ -319,6 +321,8 @@ static void *loader(void *arg)
         s->qn--;
         s->slots[k].queued = false;
         s->busy++;
+        if (s->qn > 0) /* the selection signals one loader: wake the next one */
+            pthread_cond_signal(&s->cv);
         pthread_mutex_unlock(&s->lock);
         load_one(s, k);
         pthread_mutex_lock(&s->lock);
@@ -340,7 +344,7 @@ hz_stream *hz_stream_create(const hz_stream_desc *d, hz_err *err)
     pthread_mutex_init(&s->lock, NULL);
     pthread_cond_init(&s->cv, NULL);
     pthread_cond_init(&s->idle, NULL);
-    if (hz_pyramid_open(d->path, &s->pyr, err) != HZ_OK) {
+    if (hz_pyramid_open_with(d->path, &d->remote, &s->pyr, err) != HZ_OK) {
         hz_stream_destroy(s);
         return NULL;
     }
@@ -356,6 +360,8 @@ hz_stream *hz_stream_create(const hz_stream_desc *d, hz_err *err)
         n = total;
     if (n > 65535) /* layer index: 16 bits */
         n = 65535;
+    if (d->max_slots && n > d->max_slots) /* what the GPU's array texture holds */
+        n = d->max_slots;
     s->nslots = (uint32_t)n;
     s->hash_cap = 1;
     while (s->hash_cap < 2 * s->nslots + 2)
@@ -403,11 +409,16 @@ hz_stream *hz_stream_create(const hz_stream_desc *d, hz_err *err)
     }
     s->sync = d->synchronous;
     if (!s->sync) {
-        if (pthread_create(&s->th, NULL, loader, s) != 0) {
+        uint32_t nl = d->loaders;
+        if (!nl)
+            nl = !hz_pyramid_is_remote(s->pyr) ? 1 : d->remote.connections ? d->remote.connections : 8;
+        nl = nl < MAX_LOADERS ? nl : MAX_LOADERS;
+        while (s->nth < nl && pthread_create(&s->th[s->nth], NULL, loader, s) == 0)
+            s->nth++;
+        if (s->nth == 0)
             s->sync = true; /* loads on the caller's thread: slower, same result */
-        } else {
+        else
             s->has_thread = true;
-        }
     }
     return s;
 }
@@ -421,7 +432,8 @@ void hz_stream_destroy(hz_stream *s)
         s->quit = true;
         pthread_cond_broadcast(&s->cv);
         pthread_mutex_unlock(&s->lock);
-        pthread_join(s->th, NULL);
+        for (uint32_t k = 0; k < s->nth; k++)
+            pthread_join(s->th[k], NULL);
     }
     for (uint32_t k = 0; s->slots && k < s->nslots; k++)
         slot_clear(&s->slots[k]);
@@ -437,6 +449,11 @@ void hz_stream_destroy(hz_stream *s)
     pthread_cond_destroy(&s->cv);
     pthread_cond_destroy(&s->idle);
     free(s);
+}
+
+const hz_pyramid *hz_stream_pyramid(const hz_stream *s)
+{
+    return s->pyr;
 }
 
 const hz_pyr_info *hz_stream_info(const hz_stream *s)
