@@ -16,6 +16,7 @@ PKGS=(
   xvfb                 # horizon view tests run in a virtual X server (scripts/with-xvfb.sh)
   libmeshoptimizer-dev # crown hull simplification
   libassimp-dev        # tree import (OBJ, glTF, ...)
+  libjansson-dev       # CityJSON and scene files
   clang libclang-rt-14-dev  # make test: the ASan/UBSan build and the libFuzzer targets (build-san/)
 )
 # "bench": also gnuplot for horizon bench --plot
