@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "horizon/camera.h"
+#include "horizon/occlusion.h"
 #include "horizon/scene.h"
 
 static void near3(const float *a, float x, float y, float z, float eps)
@@ -330,13 +331,62 @@ static void test_depth_first(void **state)
     hz_scene_destroy(s);
 }
 
+/* G4: a wall 10 m wide and 4 m high 10 m ahead. A box behind it is hidden;
+ * one peeking over it, one beside it and one in front of it are not. */
+static void test_occlusion(void **state)
+{
+    (void)state;
+    hz_occlusion o;
+    assert_true(hz_occlusion_init(&o, 128, 72));
+    hz_camera cam = {.pos = {0, 1, 0}, .fov_y = 60, .aspect = 16.0f / 9.0f, .znear = 0.5f, .zfar = 1000};
+    hz_occlusion_begin(&o, &cam);
+    const float wall[18] = {-5, -1, -10, 5, -1, -10, 5, 3, -10, -5, -1, -10, 5, 3, -10, -5, 3, -10};
+    /* As two triangles the cells along the diagonal stay open (a cell must
+     * be inside one triangle): the box straddling it is kept. */
+    hz_occlusion_rasterize(&o, wall, 2, NULL);
+    assert_int_equal(o.triangles, 2);
+    assert_true(o.cells_written > 100);
+    hz_box behind = {{-1, 0, -21}, {1, 2, -19}};
+    assert_false(hz_occlusion_box_hidden(&o, &behind));
+    /* As one quad: covered. */
+    const float quad[12] = {-5, -1, -10, 5, -1, -10, 5, 3, -10, -5, 3, -10};
+    hz_occlusion_begin(&o, &cam);
+    hz_occlusion_rasterize_quads(&o, quad, 1, NULL);
+    hz_box over = {{-1, 0, -21}, {1, 10, -19}};
+    hz_box beside = {{8, 0, -21}, {10, 2, -19}};
+    hz_box front = {{-1, 0, -6}, {1, 2, -4}};
+    hz_box just_behind = {{-1, 0, -10.5f}, {1, 2, -10.1f}};
+    assert_true(hz_occlusion_box_hidden(&o, &behind));
+    assert_true(hz_occlusion_box_hidden(&o, &just_behind));
+    assert_false(hz_occlusion_box_hidden(&o, &over));
+    assert_false(hz_occlusion_box_hidden(&o, &beside));
+    assert_false(hz_occlusion_box_hidden(&o, &front));
+    /* A tilted wall (a model matrix turning it 60 degrees about y): its far end
+     * is farther, and a box just behind its near end but nearer than its far
+     * end is kept (the cell's depth is the triangle's farthest vertex). */
+    mat4 m;
+    glm_translate_make(m, (vec3){0, 0, -10});
+    glm_rotate(m, glm_rad(60), (vec3){0, 1, 0});
+    glm_translate(m, (vec3){0, 0, 10});
+    hz_occlusion_begin(&o, &cam);
+    hz_occlusion_rasterize_quads(&o, quad, 1, m);
+    hz_box mid = {{-0.5f, 0, -11.5f}, {0.5f, 1, -11}};
+    assert_false(hz_occlusion_box_hidden(&o, &mid));
+    hz_box far = {{-0.5f, 0, -40}, {0.5f, 1, -39}};
+    assert_true(hz_occlusion_box_hidden(&o, &far));
+    /* A box reaching behind the eye is never hidden. */
+    hz_box around = {{-1, 0, -30}, {1, 1, 2}};
+    assert_false(hz_occlusion_box_hidden(&o, &around));
+    hz_occlusion_free(&o);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_inheritance),     cmocka_unit_test(test_ypr),
         cmocka_unit_test(test_bounds_after_move), cmocka_unit_test(test_frustum_culling),
         cmocka_unit_test(test_render_queue),    cmocka_unit_test(test_raycast),
-        cmocka_unit_test(test_depth_first),
+        cmocka_unit_test(test_depth_first),     cmocka_unit_test(test_occlusion),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
