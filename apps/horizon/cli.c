@@ -132,6 +132,7 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
     o->forest_seed = 1;
     o->forest = (hz_forest_params){.simplify = true, .hysteresis = true, .enlarge = true, .node_culling = true};
     o->effects = HZ_FX_DEFAULT;
+    int city_rc;
     for (int i = first; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -478,6 +479,9 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             o->wireframe = true;
         } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
             o->quiet = true;
+        } else if ((city_rc = city_cli_option(&o->city, a, v, cmd, &i)) >= 0) {
+            if (city_rc)
+                return city_rc;
         } else {
             fprintf(stderr, "horizon %s: unknown option '%s' (see horizon %s --help)\n", cmd, a, cmd);
             return 2;

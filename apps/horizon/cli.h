@@ -6,6 +6,7 @@
 #include "horizon/render.h"
 #include "horizon/terrain.h"
 #include "horizon/forest_render.h"
+#include "city_cli.h"
 
 #define CLI_MAX_DEMS 4096
 
@@ -49,6 +50,7 @@ typedef struct cli_opts {
     float trees;          /* trees per hectare inside forests; 0 default, < 0 none */
     const char *colormap; /* PNG over the whole terrain */
     const char *textures; /* directory of PNGs replacing the procedural detail textures / sprites */
+    city_opts city;       /* --city, --pick, --cull, --draw (city_cli.c) */
 } cli_opts;
 
 /* Effect resources of a terrain for a renderer: light map for the sun,

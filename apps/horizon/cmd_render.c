@@ -86,6 +86,7 @@ int cmd_render(int argc, char **argv)
                             "Renders one frame headless (EGL, no window) and prints its figures.\n");
             cli_usage_terrain();
             cli_usage_forest();
+            city_cli_usage();
             fprintf(stderr, "output:\n"
                             "  --out FILE.png          image (default render.png)\n"
                             "  --dump-mesh FILE.obj    the frame's LOD mesh, world coordinates\n"
@@ -104,10 +105,18 @@ int cmd_render(int argc, char **argv)
     const cli_file outs[] = {{out, "--out", CLI_FILE}, {o.dump_mesh, "--dump-mesh", CLI_FILE}};
     if ((rc = cli_check_outputs("render", outs, 2, ins, nin)))
         return rc;
+    city_app *ca = city_app_load(&o, "render", &rc);
+    if (rc)
+        return rc;
     hz_terrain *t = cli_load_terrain(&o);
-    if (!t)
+    if (!t || (ca && city_app_place(ca, t, "render"))) {
+        city_app_destroy(ca);
+        hz_terrain_destroy(t);
         return 1;
+    }
     hz_camera cam = o.forest_n && !o.have_camera ? cli_forest_camera(&o, t) : cli_camera(&o, t);
+    if (ca)
+        cam = city_app_camera(ca, &o, t);
     cli_forest *cf = NULL;
 
     cli_lod_frame lf = {0};
@@ -166,6 +175,11 @@ int cmd_render(int argc, char **argv)
             goto done;
         cli_forest_hook(cf, &sp);
     }
+    if (ca) {
+        if (city_app_gpu(ca, "render"))
+            goto done;
+        city_app_frame(ca, &o, &cam, &sp);
+    }
     double draw[3];
     hz_draw_stats ds = {0};
     for (int k = 0; k < 3; k++) {
@@ -173,6 +187,10 @@ int cmd_render(int argc, char **argv)
             goto done;
         if (cf && cf->hook.failed) {
             err = cf->hook.err;
+            goto done;
+        }
+        if (ca && ca->hook.failed) {
+            err = ca->hook.err;
             goto done;
         }
         draw[k] = ds.draw_ms;
@@ -244,6 +262,10 @@ int cmd_render(int argc, char **argv)
                    (unsigned long long)fr->leaves_drawn, fr->nodes_culled, cf->hook.draw_ms, fr->select_ms,
                    cf->prep_ms);
         }
+        if (ca)
+            city_app_print(ca, true);
+        if (o.city.have_pick)
+            city_app_pick(ca, t, &cam, o.city.pick[0], o.city.pick[1], o.width, o.height, true);
         printf("}\n");
     } else {
         printf("terrain       %s (%ux%u, %.1f m spacing%s%s)\n", t->source, t->hm.size, t->hm.size,
@@ -281,6 +303,10 @@ int cmd_render(int argc, char **argv)
                    fr->triangles_full ? 100.0 * (double)fr->triangles_drawn / (double)fr->triangles_full : 0.0,
                    cf->hook.draw_ms, fr->select_ms, o.forest.simplify ? "" : " (unsimplified)");
         }
+        if (ca)
+            city_app_print(ca, false);
+        if (o.city.have_pick)
+            city_app_pick(ca, t, &cam, o.city.pick[0], o.city.pick[1], o.width, o.height, false);
         printf("image         %s (%ux%u)\n", out, o.width, o.height);
     }
     rc = 0;
@@ -288,6 +314,7 @@ done:
     if (rc)
         fprintf(stderr, "horizon render: %s\n", err.msg[0] ? err.msg : "failed");
     cli_forest_destroy(cf);
+    city_app_destroy(ca);
     app_fx_free(&afx);
     hz_renderer_destroy(ren);
     hz_gl_destroy(gl);

@@ -1,0 +1,75 @@
+/* City models and scene objects on the terrain for render / bench / view:
+ * --city FILE.city.json, --pick X,Y, the culling switches. The CLI's own
+ * code for issue 13; cli.c only forwards unknown options here. */
+#ifndef HZ_CITY_CLI_H
+#define HZ_CITY_CLI_H
+
+#include "horizon/city.h"
+#include "horizon/occlusion.h"
+#include "horizon/scene_render.h"
+#include "horizon/terrain.h"
+
+typedef struct city_opts {
+    const char *city;     /* --city FILE */
+    bool have_pick;
+    float pick[2];        /* --pick X,Y: pixel, x right, y down from the top-left */
+    bool no_frustum;      /* --cull none|frustum|occlusion (default occlusion) */
+    bool no_occlusion;
+    bool naive;           /* --draw naive|sorted (default sorted) */
+    float tin_cell;       /* --tin-cell M: TINRelief grid when the city is its own terrain (default 5) */
+} city_opts;
+
+/* One option of argv at *i (value v, may be NULL). Returns -1 when it is
+ * not a city option, 0 when consumed (*i advanced past a value), 2 after
+ * printing a usage error. */
+int city_cli_option(city_opts *c, const char *a, const char *v, const char *cmd, int *i);
+void city_cli_usage(void);
+
+struct cli_opts;
+
+typedef struct city_app {
+    hz_city *city;
+    hz_scene *scene;
+    hz_city_placed placed;
+    double place_ms;
+    char tin_path[256];    /* the TINRelief grid written for the terrain (removed at the end) */
+    /* occluders: terrain quads (world) and per building node its wall quads (local) */
+    float *terrain_quads;
+    size_t terrain_quad_count;
+    uint32_t *occ_node;    /* building node per quad run */
+    uint32_t *occ_first, *occ_count;
+    float *occ_quads;      /* local coordinates */
+    uint32_t occ_nodes;
+    hz_occlusion occ;
+    double occ_ms;         /* last frame's occlusion buffer build */
+    /* GL */
+    hz_scene_gpu *gpu;
+    hz_scene_hook hook;
+} city_app;
+
+/* Loads the city (before the terrain): when the command has no terrain
+ * source (--dem / --generate), the city's TINRelief becomes the terrain (a
+ * GeoTIFF grid in $TMPDIR, in o->terrain). NULL with *rc = 0 when there is
+ * no --city; NULL with *rc = 1 after printing an error. */
+city_app *city_app_load(struct cli_opts *o, const char *cmd, int *rc);
+/* Places the city on the terrain (through its georeference, clamped to
+ * hz_terrain_surface_at; a terrain without one gets the city centred) and
+ * prepares the occluders. 0, or 1 after printing. */
+int city_app_place(city_app *a, const hz_terrain *t, const char *cmd);
+/* A camera looking at the city from the south-east (when --camera is not given). */
+hz_camera city_app_camera(const city_app *a, const struct cli_opts *o, const hz_terrain *t);
+/* Uploads the scene (current GL context). 0 or 1 after printing. */
+int city_app_gpu(city_app *a, const char *cmd);
+/* Per frame: the occlusion buffer for cam (unless off) and sp's object
+ * hook (chained in front of a hook sp already has). */
+void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam, hz_scene_params *sp);
+/* --pick: what is under pixel (x, y) of cam's image (w x h): the nearest of
+ * the scene's triangles and the terrain's surface; printed as text or JSON
+ * members. */
+void city_app_pick(const city_app *a, const hz_terrain *t, const hz_camera *cam, float x, float y, uint32_t w,
+                   uint32_t h, bool json);
+/* The figures: JSON members (",\"city\":{...}") or text lines. */
+void city_app_print(const city_app *a, bool json);
+void city_app_destroy(city_app *a);
+
+#endif
