@@ -18,7 +18,7 @@
 
 int city_cli_option(city_opts *c, const char *a, const char *v, const char *cmd, int *i)
 {
-    const bool takes = !strcmp(a, "--city") || !strcmp(a, "--pick") || !strcmp(a, "--cull") ||
+    const bool takes = !strcmp(a, "--city") || !strcmp(a, "--scene") || !strcmp(a, "--pick") || !strcmp(a, "--cull") ||
                        !strcmp(a, "--draw") || !strcmp(a, "--tin-cell");
     if (!takes)
         return -1;
@@ -29,6 +29,8 @@ int city_cli_option(city_opts *c, const char *a, const char *v, const char *cmd,
     (*i)++;
     if (!strcmp(a, "--city")) {
         c->city = v;
+    } else if (!strcmp(a, "--scene")) {
+        c->scene = v;
     } else if (!strcmp(a, "--pick")) {
         char buf[64], *it[3];
         snprintf(buf, sizeof buf, "%s", v);
@@ -69,6 +71,8 @@ void city_cli_usage(void)
             "  --city FILE.city.json   CityJSON 2.0 buildings (LoD1/LoD2 solids and surfaces) on the terrain,\n"
             "                          placed through its CRS and clamped to the ground; without --dem or\n"
             "                          --generate the model's TINRelief is the terrain\n"
+            "  --scene FILE.json       a scene file (docs/scene.md): terrain, sun, materials, models\n"
+            "                          (box, glTF/OBJ/FBX... through assimp) and a node tree\n"
             "  --tin-cell M            grid cell of that TINRelief terrain (default 5)\n"
             "  --cull none|frustum|occlusion   object culling (default occlusion: frustum + occlusion)\n"
             "  --draw sorted|naive     render queue sorted by shader/material/mesh, multi-draw and\n"
@@ -138,7 +142,7 @@ static int write_tin(city_app *a, struct cli_opts *o, const char *cmd)
 city_app *city_app_load(struct cli_opts *o, const char *cmd, int *rc)
 {
     *rc = 0;
-    if (!o->city.city)
+    if (!o->city.city && !o->city.scene)
         return NULL;
     *rc = 1;
     city_app *a = calloc(1, sizeof *a);
@@ -147,18 +151,46 @@ city_app *city_app_load(struct cli_opts *o, const char *cmd, int *rc)
         return NULL;
     }
     hz_err err = {0};
-    a->city = hz_city_load(o->city.city, NULL, &err);
-    if (!a->city) {
-        fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
-        free(a);
-        return NULL;
+    if (o->city.scene) {
+        a->file = hz_scene_file_open(o->city.scene, &a->file_info, &err);
+        if (!a->file) {
+            fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
+            city_app_destroy(a);
+            return NULL;
+        }
     }
-    if (a->city->note[0] && !o->quiet)
-        fprintf(stderr, "horizon %s: %s: %s\n", cmd, o->city.city, a->city->note);
+    if (o->city.city) {
+        a->city = hz_city_load(o->city.city, NULL, &err);
+        if (!a->city) {
+            fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
+            city_app_destroy(a);
+            return NULL;
+        }
+        if (a->city->note[0] && !o->quiet)
+            fprintf(stderr, "horizon %s: %s: %s\n", cmd, o->city.city, a->city->note);
+    }
     const bool has_terrain = o->terrain.dem_path || o->dem_count || o->terrain.generate;
-    if (!has_terrain && write_tin(a, o, cmd)) {
+    const hz_scene_file_info *fi = &a->file_info;
+    if (!has_terrain && a->file && fi->has_terrain) {
+        /* The scene's terrain (the command line's wins). */
+        if (fi->dem[0]) {
+            o->terrain.dem_path = fi->dem;
+        } else {
+            o->terrain.generate = !strcmp(fi->generate, "diamond") ? HZ_GEN_DIAMOND : HZ_GEN_PERLIN;
+            o->terrain.gen_size = fi->size;
+            o->terrain.seed = fi->seed;
+            o->terrain.amplitude = fi->amplitude;
+        }
+        if (fi->spacing > 0 && !(o->terrain.spacing > 0))
+            o->terrain.spacing = fi->spacing;
+    } else if (!has_terrain && a->city && write_tin(a, o, cmd)) {
         city_app_destroy(a);
         return NULL;
+    }
+    if (a->file && fi->has_sun && !o->have_sun) {
+        o->have_sun = true;
+        o->sun[0] = fi->sun[0];
+        o->sun[1] = fi->sun[1];
     }
     *rc = 0;
     return a;
@@ -269,50 +301,57 @@ int city_app_place(city_app *a, const hz_terrain *t, const char *cmd)
 {
     double t0 = hz_time_ms();
     hz_err err = {0};
-    a->scene = hz_scene_create(&(hz_scene_desc){.node_capacity = a->city->obj_count * 2 + 64});
+    a->scene = hz_scene_create(&(hz_scene_desc){.node_capacity = (a->city ? a->city->obj_count * 2 : 0) +
+                                                                 a->file_info.nodes + 64});
     if (!a->scene) {
         fprintf(stderr, "horizon %s: out of memory\n", cmd);
         return 1;
     }
-    hz_city_place p = {.georef = t->georef, .ground = ground, .ground_user = (void *)t};
-    if (!t->georef) {
-        /* A terrain without a place on Earth: the city's centre at the map's centre. */
-        const float e = hz_terrain_extent(t);
-        p.origin[0] = 0.5 * (a->city->extent[0] + a->city->extent[3]) - 0.5 * e;
-        p.origin[1] = 0.5 * (a->city->extent[1] + a->city->extent[4]) + 0.5 * e;
+    if (a->city) {
+        hz_city_place p = {.georef = t->georef, .ground = ground, .ground_user = (void *)t};
+        if (!t->georef) {
+            /* A terrain without a place on Earth: the city's centre at the map's centre. */
+            const float e = hz_terrain_extent(t);
+            p.origin[0] = 0.5 * (a->city->extent[0] + a->city->extent[3]) - 0.5 * e;
+            p.origin[1] = 0.5 * (a->city->extent[1] + a->city->extent[4]) + 0.5 * e;
+        }
+        if (hz_city_to_scene(a->city, a->scene, &p, &a->placed, &err) != HZ_OK) {
+            fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
+            return 1;
+        }
     }
-    if (hz_city_to_scene(a->city, a->scene, &p, &a->placed, &err) != HZ_OK) {
-        fprintf(stderr, "horizon %s: %s: %s\n", cmd, a->city->obj_count ? "city" : "", err.msg);
-        return 1;
+    if (a->file) {
+        hz_scene_file_place p = {.georef = t->georef, .ground = ground, .ground_user = (void *)t};
+        if (hz_scene_file_build(a->file, a->scene, &p, &a->file_stats, &err) != HZ_OK) {
+            fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
+            return 1;
+        }
     }
     hz_scene_update(a->scene);
-    /* Occluders. */
-    const uint32_t nn = hz_scene_node_count(a->scene);
-    a->occ_node = malloc((size_t)nn * sizeof *a->occ_node);
-    a->occ_first = malloc((size_t)nn * sizeof *a->occ_first);
-    a->occ_count = malloc((size_t)nn * sizeof *a->occ_count);
-    uint32_t vc, ic;
+    /* Occluders: every mesh's face quads once; the nodes drawing a mesh
+     * with quads occlude with it. */
+    const uint32_t nn = hz_scene_node_count(a->scene), nm = hz_scene_mesh_count(a->scene);
+    uint32_t ic;
     hz_scene_indices(a->scene, &ic);
-    hz_scene_vertices(a->scene, &vc);
-    a->occ_quads = malloc(((size_t)ic / 6 + 1) * 12 * sizeof *a->occ_quads);
-    if (!a->occ_node || !a->occ_first || !a->occ_count || !a->occ_quads || terrain_quads(a, t) ||
+    a->mesh_first = malloc(((size_t)nm + 1) * sizeof *a->mesh_first);
+    a->mesh_quads = malloc(((size_t)nm + 1) * sizeof *a->mesh_quads);
+    a->occ_node = malloc(((size_t)nn + 1) * sizeof *a->occ_node);
+    a->quads = malloc(((size_t)ic / 6 + 1) * 12 * sizeof *a->quads);
+    if (!a->mesh_first || !a->mesh_quads || !a->occ_node || !a->quads || terrain_quads(a, t) ||
         !hz_occlusion_init(&a->occ, 0, 0)) {
         fprintf(stderr, "horizon %s: out of memory for the occluders\n", cmd);
         return 1;
     }
     size_t q = 0;
+    for (uint32_t m = 0; m < nm; m++) {
+        a->mesh_first[m] = (uint32_t)q;
+        a->mesh_quads[m] = (uint32_t)mesh_quads(a->scene, m, a->quads + 12 * q);
+        q += a->mesh_quads[m];
+    }
     for (uint32_t id = 1; id <= nn; id++) {
         uint32_t m = hz_scene_node_mesh(a->scene, id);
-        if (m == HZ_MESH_NONE || hz_scene_node_material(a->scene, id) != a->placed.materials[HZ_SURF_WALL])
-            continue;
-        size_t k = mesh_quads(a->scene, m, a->occ_quads + 12 * q);
-        if (!k)
-            continue;
-        a->occ_node[a->occ_nodes] = id;
-        a->occ_first[a->occ_nodes] = (uint32_t)q;
-        a->occ_count[a->occ_nodes] = (uint32_t)k;
-        a->occ_nodes++;
-        q += k;
+        if (m != HZ_MESH_NONE && a->mesh_quads[m])
+            a->occ_node[a->occ_nodes++] = id;
     }
     a->place_ms = hz_time_ms() - t0;
     return 0;
@@ -360,8 +399,8 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
     if (!o->city.no_occlusion) {
         double t0 = hz_time_ms();
         hz_occlusion_begin(&a->occ, cam);
-        /* The ground near the eye, then the walls of the buildings in view
-         * within 1.5 km (big near occluders; far walls hide little). */
+        /* The ground, then the faces of the objects in view within 1.5 km
+         * (big near occluders; far walls hide little). */
         hz_occlusion_rasterize_quads(&a->occ, a->terrain_quads, a->terrain_quad_count, NULL);
         vec4 planes[6];
         hz_camera_frustum(cam, planes);
@@ -375,7 +414,8 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
                 continue;
             mat4 m;
             hz_scene_world_matrix(a->scene, a->occ_node[k], m);
-            hz_occlusion_rasterize_quads(&a->occ, a->occ_quads + 12 * (size_t)a->occ_first[k], a->occ_count[k], m);
+            const uint32_t mesh = hz_scene_node_mesh(a->scene, a->occ_node[k]);
+            hz_occlusion_rasterize_quads(&a->occ, a->quads + 12 * (size_t)a->mesh_first[mesh], a->mesh_quads[mesh], m);
         }
         a->hook.opts.occlusion = &a->occ;
         a->occ_ms = hz_time_ms() - t0;
@@ -447,29 +487,42 @@ void city_app_print(const city_app *a, bool json)
 {
     const hz_scene_draw_stats *s = &a->hook.stats;
     const hz_city *c = a->city;
+    const hz_scene_file_stats *fs = &a->file_stats;
     if (json) {
-        printf(",\"city\":{\"file_crs\":\"%s\",\"buildings\":%u,\"objects\":%u,\"faces\":%llu,\"triangles\":%llu,"
-               "\"load_ms\":%.1f,\"place_ms\":%.1f,\"clamp_mean_m\":%.3f,\"clamp_max_m\":%.3f,\"clamped\":%u,"
-               "\"without_ground\":%u,\"scene_objects\":%u,\"after_frustum\":%u,\"after_occlusion\":%u,"
-               "\"draw_calls\":%u,\"state_changes\":%u,\"queue_items\":%u,\"triangles_drawn\":%llu,"
-               "\"cull_ms\":%.3f,\"occlusion_ms\":%.3f,\"draw_ms\":%.3f,\"occluder_quads\":%llu}",
-               c->crs, c->buildings, c->obj_count, (unsigned long long)c->faces,
-               (unsigned long long)a->placed.triangles, c->load_ms, a->place_ms, a->placed.mean_shift,
-               a->placed.max_shift, a->placed.clamped, a->placed.outside, s->objects, s->after_frustum,
-               s->after_occlusion, s->draw_calls, s->state_changes, s->items, (unsigned long long)s->triangles,
-               s->cull_ms, a->occ_ms, s->draw_ms, (unsigned long long)a->occ.triangles);
+        printf(",\"city\":{\"scene_objects\":%u,\"after_frustum\":%u,\"after_occlusion\":%u,\"draw_calls\":%u,"
+               "\"state_changes\":%u,\"queue_items\":%u,\"triangles_drawn\":%llu,\"cull_ms\":%.3f,"
+               "\"occlusion_ms\":%.3f,\"draw_ms\":%.3f,\"occluder_quads\":%llu,\"place_ms\":%.1f,\"meshes\":%u",
+               s->objects, s->after_frustum, s->after_occlusion, s->draw_calls, s->state_changes, s->items,
+               (unsigned long long)s->triangles, s->cull_ms, a->occ_ms, s->draw_ms,
+               (unsigned long long)a->occ.triangles, a->place_ms, hz_scene_mesh_count(a->scene));
+        if (c)
+            printf(",\"file_crs\":\"%s\",\"buildings\":%u,\"objects\":%u,\"faces\":%llu,\"triangles\":%llu,"
+                   "\"load_ms\":%.1f,\"clamp_mean_m\":%.3f,\"clamp_max_m\":%.3f,\"clamped\":%u,\"without_ground\":%u",
+                   c->crs, c->buildings, c->obj_count, (unsigned long long)c->faces,
+                   (unsigned long long)a->placed.triangles, c->load_ms, a->placed.mean_shift, a->placed.max_shift,
+                   a->placed.clamped, a->placed.outside);
+        if (a->file)
+            printf(",\"scene_file\":{\"nodes\":%u,\"objects\":%u,\"clamped\":%u,\"meshes\":%u,\"build_ms\":%.1f}",
+                   fs->nodes, fs->objects, fs->clamped, fs->meshes, fs->ms);
+        printf("}");
         return;
     }
-    printf("city          %u buildings (%s, %llu faces -> %llu triangles), loaded in %.0f ms, placed in %.0f ms\n",
-           c->buildings, c->crs[0] ? c->crs : "no CRS", (unsigned long long)c->faces,
-           (unsigned long long)a->placed.triangles, c->load_ms, a->place_ms);
-    printf("city ground   %u clamped (mean move %.2f m, max %.2f m), %u without ground under them\n",
-           a->placed.clamped, a->placed.mean_shift, a->placed.max_shift, a->placed.outside);
-    printf("city objects  %u in scene, %u after frustum culling, %u after occlusion culling\n", s->objects,
+    if (c) {
+        printf("city          %u buildings (%s, %llu faces -> %llu triangles), loaded in %.0f ms\n", c->buildings,
+               c->crs[0] ? c->crs : "no CRS", (unsigned long long)c->faces, (unsigned long long)a->placed.triangles,
+               c->load_ms);
+        printf("city ground   %u clamped (mean move %.2f m, max %.2f m), %u without ground under them\n",
+               a->placed.clamped, a->placed.mean_shift, a->placed.max_shift, a->placed.outside);
+    }
+    if (a->file)
+        printf("scene file    %u nodes, %u objects (%u meshes), %u clamped to the ground, built in %.0f ms\n",
+               fs->nodes, fs->objects, fs->meshes, fs->clamped, fs->ms);
+    printf("objects       %u in scene, %u after frustum culling, %u after occlusion culling\n", s->objects,
            s->after_frustum, s->after_occlusion);
-    printf("city draw     %u draw calls, %u state changes, %llu triangles, %.1f ms draw, %.2f ms cull, "
-           "%.2f ms occlusion buffer\n",
-           s->draw_calls, s->state_changes, (unsigned long long)s->triangles, s->draw_ms, s->cull_ms, a->occ_ms);
+    printf("objects draw  %u draw calls, %u state changes, %u queue items, %llu triangles, %.1f ms draw, "
+           "%.2f ms cull, %.2f ms occlusion buffer\n",
+           s->draw_calls, s->state_changes, s->items, (unsigned long long)s->triangles, s->draw_ms, s->cull_ms,
+           a->occ_ms);
 }
 
 void city_app_destroy(city_app *a)
@@ -482,9 +535,10 @@ void city_app_destroy(city_app *a)
     hz_occlusion_free(&a->occ);
     free(a->terrain_quads);
     free(a->occ_node);
-    free(a->occ_first);
-    free(a->occ_count);
-    free(a->occ_quads);
+    free(a->mesh_first);
+    free(a->mesh_quads);
+    free(a->quads);
+    hz_scene_file_destroy(a->file);
     if (a->tin_path[0])
         unlink(a->tin_path);
     free(a);

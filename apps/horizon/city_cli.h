@@ -6,11 +6,13 @@
 
 #include "horizon/city.h"
 #include "horizon/occlusion.h"
+#include "horizon/scene_file.h"
 #include "horizon/scene_render.h"
 #include "horizon/terrain.h"
 
 typedef struct city_opts {
     const char *city;     /* --city FILE */
+    const char *scene;    /* --scene FILE (docs/scene.md) */
     bool have_pick;
     float pick[2];        /* --pick X,Y: pixel, x right, y down from the top-left */
     bool no_frustum;      /* --cull none|frustum|occlusion (default occlusion) */
@@ -28,17 +30,21 @@ void city_cli_usage(void);
 struct cli_opts;
 
 typedef struct city_app {
-    hz_city *city;
+    hz_city *city;         /* --city, or NULL */
+    hz_scene_file *file;   /* --scene, or NULL */
+    hz_scene_file_info file_info;
+    hz_scene_file_stats file_stats;
     hz_scene *scene;
     hz_city_placed placed;
     double place_ms;
     char tin_path[256];    /* the TINRelief grid written for the terrain (removed at the end) */
-    /* occluders: terrain quads (world) and per building node its wall quads (local) */
+    /* occluders: terrain quads (world); per mesh its face quads (local), per
+     * occluding node its mesh */
     float *terrain_quads;
     size_t terrain_quad_count;
-    uint32_t *occ_node;    /* building node per quad run */
-    uint32_t *occ_first, *occ_count;
-    float *occ_quads;      /* local coordinates */
+    uint32_t *mesh_first, *mesh_quads;   /* per mesh: first quad, count */
+    float *quads;
+    uint32_t *occ_node;
     uint32_t occ_nodes;
     hz_occlusion occ;
     double occ_ms;         /* last frame's occlusion buffer build */
@@ -47,10 +53,11 @@ typedef struct city_app {
     hz_scene_hook hook;
 } city_app;
 
-/* Loads the city (before the terrain): when the command has no terrain
+/* Loads the city and/or the scene file (before the terrain): when the command has no terrain
  * source (--dem / --generate), the city's TINRelief becomes the terrain (a
- * GeoTIFF grid in $TMPDIR, in o->terrain). NULL with *rc = 0 when there is
- * no --city; NULL with *rc = 1 after printing an error. */
+ * GeoTIFF grid in $TMPDIR, in o->terrain), else the scene file's terrain;
+ * the scene file's sun unless --sun. NULL with *rc = 0 when there is no
+ * --city nor --scene; NULL with *rc = 1 after printing an error. */
 city_app *city_app_load(struct cli_opts *o, const char *cmd, int *rc);
 /* Places the city on the terrain (through its georeference, clamped to
  * hz_terrain_surface_at; a terrain without one gets the city centred) and

@@ -38,10 +38,11 @@ void hz_occlusion_begin(hz_occlusion *o, const hz_camera *cam);
  * triangle's farthest vertex depth. Triangles crossing the near plane are
  * skipped (conservative). */
 void hz_occlusion_rasterize(hz_occlusion *o, const float *tri_xyz, size_t tri_count, const mat4 model);
-/* The same for planar or near-planar quads (4 vertices each, in order
- * around): a quad whose screen projection is convex is rasterised whole, so
- * the cells along its diagonal count as covered (two triangles would each
- * leave them out). */
+/* The same for quads: 4 vertices each, in order around, standing for the
+ * two triangles (v0, v1, v3) and (v1, v2, v3) that share the diagonal
+ * v1-v3. A quad whose screen projection is convex is rasterised as one
+ * polygon, so the cells along the diagonal count as covered (each triangle
+ * alone would leave them out); otherwise as its two triangles. */
 void hz_occlusion_rasterize_quads(hz_occlusion *o, const float *quad_xyz, size_t quad_count, const mat4 model);
 /* True when the world box is certainly hidden behind the occluders. */
 bool hz_occlusion_box_hidden(const hz_occlusion *o, const hz_box *b);

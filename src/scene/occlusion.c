@@ -122,10 +122,11 @@ static void rasterize_n(hz_occlusion *o, const float *v, size_t count, const mat
         if (n == 3 || convex4(s)) {
             raster_convex(o, s, n, dmax);
         } else {
-            float a[3][2] = {{s[0][0], s[0][1]}, {s[1][0], s[1][1]}, {s[2][0], s[2][1]}};
-            float b[3][2] = {{s[0][0], s[0][1]}, {s[2][0], s[2][1]}, {s[3][0], s[3][1]}};
-            raster_convex(o, a, 3, fmaxf(d[0], fmaxf(d[1], d[2])));
-            raster_convex(o, b, 3, fmaxf(d[0], fmaxf(d[2], d[3])));
+            /* The quad's own two triangles, split along v1-v3. */
+            float a[3][2] = {{s[0][0], s[0][1]}, {s[1][0], s[1][1]}, {s[3][0], s[3][1]}};
+            float b[3][2] = {{s[1][0], s[1][1]}, {s[2][0], s[2][1]}, {s[3][0], s[3][1]}};
+            raster_convex(o, a, 3, fmaxf(d[0], fmaxf(d[1], d[3])));
+            raster_convex(o, b, 3, fmaxf(d[1], fmaxf(d[2], d[3])));
         }
     }
     o->raster_ms += hz_time_ms() - t0;
