@@ -79,4 +79,7 @@ void city_app_pick(const city_app *a, const hz_terrain *t, const hz_camera *cam,
 void city_app_print(const city_app *a, bool json);
 void city_app_destroy(city_app *a);
 
+/* horizon city --blocks N --out FILE: a procedural city as a scene file. */
+int cmd_city(int argc, char **argv);
+
 #endif

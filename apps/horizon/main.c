@@ -12,7 +12,8 @@ static void usage(void)
                     "  bench    fly a camera path headless and measure every frame (--help)\n"
                     "  view     open a window to fly over the terrain, HUD and debug views (--help)\n"
                     "  info     size, CRS, corners, spacing, heights and nodata of DEM files (--help)\n"
-                    "  tree     grow/import a tree, rank its leaves by VMI, build its crown hull (--help)\n");
+                    "  tree     grow/import a tree, rank its leaves by VMI, build its crown hull (--help)\n"
+                    "  city     write a procedural city as a scene file (--help)\n");
 }
 
 int main(int argc, char **argv)
@@ -31,6 +32,8 @@ int main(int argc, char **argv)
         return cmd_info(argc, argv);
     if (!strcmp(argv[1], "view"))
         return cmd_view(argc, argv);
+    if (!strcmp(argv[1], "city"))
+        return cmd_city(argc, argv);
     fprintf(stderr, "horizon: unknown command '%s'\n", argv[1]);
     usage();
     return 2;
