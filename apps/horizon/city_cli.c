@@ -22,7 +22,8 @@
 int city_cli_option(city_opts *c, const char *a, const char *v, const char *cmd, int *i)
 {
     const bool takes = !strcmp(a, "--city") || !strcmp(a, "--scene") || !strcmp(a, "--pick") || !strcmp(a, "--cull") ||
-                       !strcmp(a, "--draw") || !strcmp(a, "--tin-cell");
+                       !strcmp(a, "--draw") || !strcmp(a, "--tin-cell") || !strcmp(a, "--city-bench") ||
+                       !strcmp(a, "--city-bench-frames");
     if (!takes)
         return -1;
     if (!v) {
@@ -34,6 +35,17 @@ int city_cli_option(city_opts *c, const char *a, const char *v, const char *cmd,
         c->city = v;
     } else if (!strcmp(a, "--scene")) {
         c->scene = v;
+    } else if (!strcmp(a, "--city-bench")) {
+        if (strcmp(v, "street") && strcmp(v, "overview")) {
+            fprintf(stderr, "horizon %s: --city-bench wants street or overview, not '%s'\n", cmd, v);
+            return 2;
+        }
+        c->bench = v;
+    } else if (!strcmp(a, "--city-bench-frames")) {
+        if (!cli_parse_u32(v, 1, 10000, &c->bench_frames)) {
+            fprintf(stderr, "horizon %s: --city-bench-frames wants a count in [1, 10000], not '%s'\n", cmd, v);
+            return 2;
+        }
     } else if (!strcmp(a, "--pick")) {
         char buf[64], *it[3];
         snprintf(buf, sizeof buf, "%s", v);
@@ -80,6 +92,9 @@ void city_cli_usage(void)
             "  --cull none|frustum|occlusion   object culling (default occlusion: frustum + occlusion)\n"
             "  --draw sorted|naive     render queue sorted by shader/material/mesh, multi-draw and\n"
             "                          instancing (default), or one draw per object in scene order\n"
+            "  --city-bench street|overview   (render) draw a path's frames (12, --city-bench-frames N)\n"
+            "                          with every culling/queue configuration; street: 2 m above the\n"
+            "                          ground from the scene's centre (or --camera's x, z, yaw) 400 m on\n"
             "  --pick X,Y              print what is under that pixel: node, attributes, world / CRS /\n"
             "                          lon-lat position of the hit\n");
 }
@@ -145,8 +160,13 @@ static int write_tin(city_app *a, struct cli_opts *o, const char *cmd)
 city_app *city_app_load(struct cli_opts *o, const char *cmd, int *rc)
 {
     *rc = 0;
-    if (!o->city.city && !o->city.scene)
+    if (!o->city.city && !o->city.scene) {
+        if (o->city.bench || o->city.naive || o->city.no_frustum || o->city.no_occlusion) {
+            fprintf(stderr, "horizon %s: --city-bench, --cull and --draw need --city or --scene\n", cmd);
+            *rc = 2;
+        }
         return NULL;
+    }
     *rc = 1;
     city_app *a = calloc(1, sizeof *a);
     if (!a) {
@@ -742,5 +762,163 @@ int cmd_city(int argc, char **argv)
     }
     json_decref(root);
     hz_terrain_destroy(t);
+    return rc;
+}
+
+/* ---- --city-bench: every culling / queue stage on and off on the same frames -- */
+
+typedef struct bench_cfg {
+    const char *name;
+    bool no_frustum, no_occlusion, naive;
+} bench_cfg;
+
+static const bench_cfg bench_cfgs[] = {
+    {"none_naive", true, true, true},        /* the reference: everything, one draw per object */
+    {"none_sorted", true, true, false},
+    {"frustum_naive", false, true, true},
+    {"frustum_sorted", false, true, false},
+    {"occlusion_naive", false, false, true},
+    {"occlusion_sorted", false, false, false}, /* everything on (the default) */
+};
+#define BENCH_CFGS (sizeof bench_cfgs / sizeof *bench_cfgs)
+
+static int cmp_d(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* The path's cameras: "street" walks 2 m above the ground from the scene's
+ * centre (or --camera's x, z, yaw) 400 m ahead; "overview" circles the
+ * scene 600 m up, looking at its centre. */
+static void bench_camera(const city_app *a, const struct cli_opts *o, const hz_terrain *t, const char *kind,
+                         uint32_t k, uint32_t n, hz_camera *c)
+{
+    *c = cli_camera(o, t);
+    hz_box b;
+    hz_scene_bounds(a->scene, &b);
+    float cx = 0.5f * (b.min[0] + b.max[0]), cz = 0.5f * (b.min[2] + b.max[2]);
+    float ext = fmaxf(b.max[0] - b.min[0], b.max[2] - b.min[2]);
+    const float u = n > 1 ? (float)k / (float)(n - 1) : 0;
+    if (!strcmp(kind, "street")) {
+        float x0 = o->have_camera ? o->camera[0] : cx, z0 = o->have_camera ? o->camera[2] : cz;
+        float yaw = o->have_camera ? o->camera[3] : 0;
+        float d = 400.0f * u;
+        c->pos[0] = x0 + d * sinf(glm_rad(yaw));
+        c->pos[2] = z0 - d * cosf(glm_rad(yaw));
+        c->pos[1] = hz_terrain_surface_at(t, c->pos[0], c->pos[2]) + 2.0f;
+        c->yaw = yaw;
+        c->pitch = 2;
+    } else {
+        float ang = glm_rad(360.0f * u), r = 0.6f * ext + 100.0f;
+        c->pos[0] = cx + r * sinf(ang);
+        c->pos[2] = cz + r * cosf(ang);
+        float g = hz_terrain_surface_at(t, cx, cz);
+        c->pos[1] = fmaxf(g, hz_terrain_surface_at(t, c->pos[0], c->pos[2])) + 600.0f;
+        c->yaw = glm_deg(atan2f(cx - c->pos[0], -(cz - c->pos[2])));
+        c->pitch = -glm_deg(atan2f(c->pos[1] - g, r));
+    }
+}
+
+int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *ren, app_fx *afx, bool json)
+{
+    const char *kind = o->city.bench;
+    const uint32_t frames = o->city.bench_frames ? o->city.bench_frames : 12;
+    const size_t px = (size_t)o->width * o->height * 3;
+    double *ms = calloc((size_t)frames * BENCH_CFGS, sizeof *ms);
+    double sum_obj[BENCH_CFGS][5] = {{0}}; /* after frustum, after occlusion, draw calls, state changes, occ ms */
+    uint64_t diff[BENCH_CFGS] = {0}, diff_frames[BENCH_CFGS] = {0};
+    uint8_t *img = malloc(px * BENCH_CFGS);
+    uint32_t objects = 0;
+    cli_lod_frame lf = {0};
+    hz_err err = {0};
+    int rc = 1;
+    if (!ms || !img) {
+        fprintf(stderr, "horizon render: out of memory\n");
+        goto out;
+    }
+    for (uint32_t k = 0; k < frames; k++) {
+        hz_camera cam;
+        bench_camera(a, o, t, kind, k, frames, &cam);
+        if (cli_lod_select(t, &cam, &o->lod, &lf) != HZ_OK) {
+            fprintf(stderr, "horizon render: out of memory in LOD selection\n");
+            goto out;
+        }
+        /* A warm-up draw, then every configuration in an order rotating per frame. */
+        for (uint32_t r = 0; r <= BENCH_CFGS; r++) {
+            const uint32_t ci = r == 0 ? 0 : (r - 1 + k) % BENCH_CFGS;
+            const bench_cfg *bc = &bench_cfgs[ci];
+            city_opts keep = o->city;
+            o->city.no_frustum = bc->no_frustum;
+            o->city.no_occlusion = bc->no_occlusion;
+            o->city.naive = bc->naive;
+            hz_scene_params sp = {0};
+            app_fx_params(afx, t, &cam, &o->lod, o->time, &sp);
+            const uint32_t *idx;
+            uint32_t count;
+            cli_lod_scene(&lf, &sp, &idx, &count);
+            city_app_frame(a, o, &cam, &sp);
+            o->city = keep;
+            hz_draw_stats ds = {0};
+            if (hz_renderer_draw(ren, &cam, &sp, idx, count, &ds, &err) != HZ_OK || a->hook.failed) {
+                fprintf(stderr, "horizon render: %s\n", a->hook.failed ? a->hook.err.msg : err.msg);
+                goto out;
+            }
+            if (r == 0)
+                continue;
+            const hz_scene_draw_stats *s = &a->hook.stats;
+            objects = s->objects;
+            ms[ci * frames + k] = ds.draw_ms + a->occ_ms;
+            sum_obj[ci][0] += s->after_frustum;
+            sum_obj[ci][1] += s->after_occlusion;
+            sum_obj[ci][2] += s->draw_calls;
+            sum_obj[ci][3] += s->state_changes;
+            sum_obj[ci][4] += a->occ_ms;
+            if (hz_renderer_read_rgb(ren, img + px * ci, &err) != HZ_OK) {
+                fprintf(stderr, "horizon render: %s\n", err.msg);
+                goto out;
+            }
+        }
+        /* Pixels that differ from the reference (everything drawn, naive). */
+        for (uint32_t ci = 1; ci < BENCH_CFGS; ci++) {
+            uint64_t d = 0;
+            for (size_t p = 0; p < px; p += 3)
+                d += memcmp(img + p, img + px * ci + p, 3) != 0;
+            diff[ci] = d > diff[ci] ? d : diff[ci];
+            diff_frames[ci] += d > 0;
+        }
+    }
+    if (json)
+        printf("{\"bench\":\"%s\",\"frames\":%u,\"objects\":%u,\"width\":%u,\"height\":%u,\"configs\":[", kind,
+               frames, objects, o->width, o->height);
+    else
+        printf("city bench    %s path, %u frames, %u objects, %ux%u (frame ms: median over frames, all passes + "
+               "occlusion buffer)\n%-18s %9s %9s %9s %9s %9s %9s %12s\n",
+               kind, frames, objects, o->width, o->height, "config", "frame_ms", "frustum", "occlusion", "draws",
+               "states", "occ_ms", "diff_px_max");
+    for (uint32_t ci = 0; ci < BENCH_CFGS; ci++) {
+        double *v = ms + ci * frames;
+        qsort(v, frames, sizeof *v, cmp_d);
+        double med = frames % 2 ? v[frames / 2] : 0.5 * (v[frames / 2 - 1] + v[frames / 2]);
+        const double f = frames;
+        if (json)
+            printf("%s{\"config\":\"%s\",\"frame_ms\":%.3f,\"after_frustum\":%.1f,\"after_occlusion\":%.1f,"
+                   "\"draw_calls\":%.1f,\"state_changes\":%.1f,\"occlusion_ms\":%.3f,\"diff_pixels_max\":%llu,"
+                   "\"diff_frames\":%llu}",
+                   ci ? "," : "", bench_cfgs[ci].name, med, sum_obj[ci][0] / f, sum_obj[ci][1] / f,
+                   sum_obj[ci][2] / f, sum_obj[ci][3] / f, sum_obj[ci][4] / f, (unsigned long long)diff[ci],
+                   (unsigned long long)diff_frames[ci]);
+        else
+            printf("%-18s %9.1f %9.0f %9.0f %9.0f %9.0f %9.2f %12llu\n", bench_cfgs[ci].name, med, sum_obj[ci][0] / f,
+                   sum_obj[ci][1] / f, sum_obj[ci][2] / f, sum_obj[ci][3] / f, sum_obj[ci][4] / f,
+                   (unsigned long long)diff[ci]);
+    }
+    if (json)
+        printf("]}\n");
+    rc = 0;
+out:
+    cli_lod_frame_free(&lf);
+    free(ms);
+    free(img);
     return rc;
 }

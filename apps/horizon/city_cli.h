@@ -19,6 +19,8 @@ typedef struct city_opts {
     bool no_occlusion;
     bool naive;           /* --draw naive|sorted (default sorted) */
     float tin_cell;       /* --tin-cell M: TINRelief grid when the city is its own terrain (default 5) */
+    const char *bench;    /* --city-bench street|overview */
+    uint32_t bench_frames; /* --city-bench-frames N (default 12) */
 } city_opts;
 
 /* One option of argv at *i (value v, may be NULL). Returns -1 when it is
@@ -78,6 +80,12 @@ void city_app_pick(const city_app *a, const hz_terrain *t, const hz_camera *cam,
 /* The figures: JSON members (",\"city\":{...}") or text lines. */
 void city_app_print(const city_app *a, bool json);
 void city_app_destroy(city_app *a);
+
+struct app_fx;
+/* --city-bench: the path's frames drawn with every culling / queue
+ * configuration (rotating order), medians and pixel differences printed.
+ * 0 or 1 after printing. */
+int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *ren, struct app_fx *afx, bool json);
 
 /* horizon city --blocks N --out FILE: a procedural city as a scene file. */
 int cmd_city(int argc, char **argv);

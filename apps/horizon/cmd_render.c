@@ -178,6 +178,11 @@ int cmd_render(int argc, char **argv)
     if (ca) {
         if (city_app_gpu(ca, "render"))
             goto done;
+        if (o.city.bench) {
+            rc = city_app_bench(ca, &o, t, ren, &afx, o.json);
+            err.msg[0] = 0;
+            goto done_bench;
+        }
         city_app_frame(ca, &o, &cam, &sp);
     }
     double draw[3];
@@ -313,6 +318,7 @@ int cmd_render(int argc, char **argv)
 done:
     if (rc)
         fprintf(stderr, "horizon render: %s\n", err.msg[0] ? err.msg : "failed");
+done_bench:
     cli_forest_destroy(cf);
     city_app_destroy(ca);
     app_fx_free(&afx);

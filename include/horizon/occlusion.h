@@ -27,7 +27,7 @@ typedef struct hz_occlusion {
     double raster_ms;
 } hz_occlusion;
 
-/* Allocates a w x h buffer (0 -> 256 x 144); false on out of memory. */
+/* Allocates a w x h buffer (0 -> 256 x 144; w at most 1024); false on out of memory. */
 bool hz_occlusion_init(hz_occlusion *o, uint32_t w, uint32_t h);
 void hz_occlusion_free(hz_occlusion *o);
 /* Clears the buffer for a camera. */

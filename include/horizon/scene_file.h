@@ -36,7 +36,6 @@ typedef struct hz_scene_file_info {
     /* "lights" */
     bool has_sun;
     float sun[2];          /* azimuth (clockwise from north), elevation, degrees */
-    float ambient;         /* 0 = default */
     uint32_t nodes, models, materials;
 } hz_scene_file_info;
 

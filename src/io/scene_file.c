@@ -314,13 +314,13 @@ static hz_result read_terrain_lights(hz_scene_file *f)
     json_t *l = json_object_get(f->root, "lights");
     if (l) {
         size_t n = push_key(f, "lights");
-        static const char *const keys[] = {"sun", "ambient", NULL};
+        static const char *const keys[] = {"sun", NULL};
         if (!json_is_object(l))
             return fail(f, HZ_ERR_FORMAT, "must be an object");
         if (!only_keys(f, l, keys))
             return HZ_ERR_FORMAT;
-        double sun[2] = {0, 0}, amb = 0;
-        if (!get_vec(f, l, "sun", 2, -360, 360, sun) || !get_num(f, l, "ambient", 0, 1, &amb))
+        double sun[2] = {0, 0};
+        if (!get_vec(f, l, "sun", 2, -360, 360, sun))
             return f->err ? f->err->code : HZ_ERR_VALUE;
         if (json_object_get(l, "sun")) {
             if (sun[1] < -90 || sun[1] > 90) {
@@ -331,7 +331,6 @@ static hz_result read_terrain_lights(hz_scene_file *f)
             in->sun[0] = (float)sun[0];
             in->sun[1] = (float)sun[1];
         }
-        in->ambient = (float)amb;
         f->path[n] = 0;
     }
     return HZ_OK;

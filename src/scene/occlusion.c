@@ -7,7 +7,7 @@
 
 bool hz_occlusion_init(hz_occlusion *o, uint32_t w, uint32_t h)
 {
-    *o = (hz_occlusion){.w = w ? w : 256, .h = h ? h : 144};
+    *o = (hz_occlusion){.w = w ? (w > 1024 ? 1024 : w) : 256, .h = h ? h : 144};
     o->depth = malloc((size_t)o->w * o->h * sizeof *o->depth);
     return o->depth != NULL;
 }
@@ -66,25 +66,41 @@ static void raster_convex(hz_occlusion *o, float s[][2], int n, float dmax)
         y0 = fminf(y0, s[k][1]);
         y1 = fmaxf(y1, s[k][1]);
     }
-    /* Cells whose four corners (integer points) are all inside. */
+    /* Cells whose four corners (integer points) are all inside: each
+     * corner point is tested once (two rows of flags), edge functions
+     * stepped along the row. */
     long i0 = (long)ceilf(fmaxf(x0, 0)), i1 = (long)floorf(fminf(x1, (float)o->w)) - 1;
     long j0 = (long)ceilf(fmaxf(y0, 0)), j1 = (long)floorf(fminf(y1, (float)o->h)) - 1;
-    for (long j = j0; j <= j1; j++)
-        for (long i = i0; i <= i1; i++) {
+    if (i0 > i1 || j0 > j1)
+        return;
+    uint8_t rows[2][1025];
+    const long np = i1 - i0 + 2; /* corner points per row */
+    if (np > 1025)
+        return; /* wider than any buffer we make (w <= 1024) */
+    for (long j = j0; j <= j1 + 1; j++) {
+        uint8_t *r = rows[(j - j0) & 1];
+        float e[4], dx[4];
+        for (int k = 0; k < n; k++) {
+            const float *a = s[k], *b = s[(k + 1) % n];
+            e[k] = sg * edge(a, b, (float)i0, (float)j);
+            dx[k] = -sg * (b[1] - a[1]); /* d(edge)/dx */
+        }
+        for (long i = 0; i < np; i++) {
             bool in = true;
-            for (int c = 0; c < 4 && in; c++) {
-                float x = (float)(i + (c & 1)), y = (float)(j + (c >> 1));
-                for (int k = 0; k < n && in; k++)
-                    in = sg * edge(s[k], s[(k + 1) % n], x, y) >= 0;
-            }
-            if (!in)
-                continue;
-            float *cell = &o->depth[(size_t)j * o->w + (size_t)i];
-            if (dmax < *cell) {
-                *cell = dmax;
+            for (int k = 0; k < n; k++)
+                in = in && e[k] + dx[k] * (float)i >= 0;
+            r[i] = in;
+        }
+        if (j == j0)
+            continue;
+        const uint8_t *lo = rows[(j - 1 - j0) & 1], *hi = r;
+        float *row = &o->depth[(size_t)(j - 1) * o->w];
+        for (long i = 0; i < np - 1; i++)
+            if (lo[i] & lo[i + 1] & hi[i] & hi[i + 1] && dmax < row[i0 + i]) {
+                row[i0 + i] = dmax;
                 o->cells_written++;
             }
-        }
+    }
 }
 
 static bool convex4(float s[4][2])

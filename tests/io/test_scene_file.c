@@ -40,7 +40,7 @@ static void test_build(void **state)
     fclose(fp);
     const char *json =
         "{\"horizon_scene\": 1,"
-        " \"lights\": {\"sun\": [200, 35], \"ambient\": 0.25},"
+        " \"lights\": {\"sun\": [200, 35]},"
         " \"materials\": {\"brick\": {\"color\": [0.6, 0.3, 0.2]}, \"glass\": {\"color\": [0.3, 0.5, 0.6]}},"
         " \"models\": {\"house\": {\"box\": [10, 6, 8], \"material\": \"brick\"}, \"tetra\": {\"file\": \"tetra.obj\"}},"
         " \"nodes\": ["
