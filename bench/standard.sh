@@ -113,5 +113,9 @@ fr=${F:-36}
 echo "== forest ($fr frames)" >&2
 "$HZ" bench --quiet --generate perlin --size 4097 --seed 1 --forest 1660 --frames "$fr" --json "$OUT/forest.json" >/dev/null
 
+# City models and scene objects (issue 13): bench/city.sh writes city_*.json and city.md.
+bash bench/city.sh "$HZ" "$DATA" "$OUT" >/dev/null
+
 python3 bench/summary.py "$OUT" > "$OUT/summary.md"
+cat "$OUT/city.md" >> "$OUT/summary.md"
 cat "$OUT/summary.md"

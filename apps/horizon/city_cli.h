@@ -13,6 +13,7 @@
 typedef struct city_opts {
     const char *city;     /* --city FILE */
     const char *scene;    /* --scene FILE (docs/scene.md) */
+    const char *footprints; /* --footprints FILE: OGR polygons extruded */
     bool have_pick;
     float pick[2];        /* --pick X,Y: pixel, x right, y down from the top-left */
     bool no_frustum;      /* --cull none|frustum|occlusion (default occlusion) */
@@ -33,6 +34,8 @@ struct cli_opts;
 
 typedef struct city_app {
     hz_city *city;         /* --city, or NULL */
+    hz_city *fp;           /* --footprints, or NULL */
+    hz_city_placed fp_placed;
     hz_scene_file *file;   /* --scene, or NULL */
     hz_scene_file_info file_info;
     hz_scene_file_stats file_stats;

@@ -71,6 +71,24 @@ hz_city *hz_city_load(const char *path, const hz_city_desc *desc, hz_err *err);
 hz_city *hz_city_load_memory(const char *data, size_t size, const char *name, const hz_city_desc *desc, hz_err *err);
 void hz_city_destroy(hz_city *c);
 
+/* Vector footprints through GDAL's OGR (GeoJSON, GeoPackage, Shapefile, OSM
+ * PBF ... every layer with polygons) extruded to closed LoD1 solids: walls
+ * (one quad per ring edge, outward), a flat roof and a floor. Height per
+ * feature: the number in height_field, else levels_field times
+ * level_height, else default_height. Every field becomes an attribute;
+ * the object id is the field "osm_id" or "id" when present, else the
+ * layer name and feature id. Geographic CRSs (lon/lat, e.g. GeoJSON's
+ * default) are projected to the WGS 84 UTM zone of the data's centre. The
+ * solids' bases are at height 0: place them with a ground function.
+ * NULL + err on an unreadable file, no polygon, a CRS PROJ does not know. */
+typedef struct hz_footprint_desc {
+    const char *height_field;   /* NULL -> "height" */
+    const char *levels_field;   /* NULL -> "building:levels" */
+    float level_height;         /* metres per level; 0 -> 3 */
+    float default_height;       /* 0 -> 10 */
+} hz_footprint_desc;
+hz_city *hz_city_load_footprints(const char *path, const hz_footprint_desc *desc, hz_err *err);
+
 /* Triangulates one planar polygon (outer ring then holes, vertices in 3D,
  * no ring closes itself by repeating its first vertex): ear clipping on the
  * plane of its Newell normal, holes bridged to the outer ring. ring_start

@@ -80,6 +80,26 @@ assert c['clamped'] == 2344 and c['without_ground'] == 0, c
 PY
 then ok "city on a generated terrain: every building clamped"; else bad "city on generated (exit $rc)"; fi
 
+# ---- OGR footprints in lon/lat on the georeferenced Heidelberg DEM (UTM 32N): extruded,
+# clamped, and the big one picked by its pixel
+cat > "$TMP/hd.geojson" <<'GJ'
+{"type":"FeatureCollection","features":[
+{"type":"Feature","properties":{"osm_id":4711,"height":15,"name":"test hall"},"geometry":{"type":"Polygon","coordinates":[[[8.69,49.41],[8.6903,49.41],[8.6903,49.4102],[8.69,49.4102],[8.69,49.41]]]}},
+{"type":"Feature","properties":{"osm_id":4712,"building:levels":"3"},"geometry":{"type":"Polygon","coordinates":[[[8.6906,49.41],[8.6908,49.41],[8.6908,49.4101],[8.6906,49.4101],[8.6906,49.41]]]}}]}
+GJ
+j=$($HZ render --quiet --effects none --dem "$DATA/heidelberg_dem_hd_utm32n_25m_float32.tif" --footprints "$TMP/hd.geojson" \
+     --pick 540,300 --json --out "$TMP/fp.png"); rc=$?
+if [ $rc -eq 0 ] && python3 - "$j" <<'PY'
+import json, sys
+d = json.loads(sys.argv[1]); f = d['city']['footprints']; p = d['pick']
+assert f['buildings'] == 2 and f['clamped'] == 2 and f['crs'] == 'EPSG:32632', f
+assert p['node'] == '4711' and p['attributes']['osm_id'] == 4711 and p['attributes']['extruded_height'] == 15, p
+lon, lat = p['lonlat']
+assert 8.69 - 1e-5 <= lon <= 8.6903 + 1e-5 and 49.41 - 1e-5 <= lat <= 49.4102 + 1e-5, p['lonlat']
+PY
+then ok "footprints extruded on heidelberg, pixel picks osm_id 4711"; else bad "footprints (exit $rc): $j"; fi
+expect_fail "footprints not vector"   "not a vector file"        $R --generate perlin --size 257 --footprints "$DATA/PROVENANCE.md"
+
 # ---- refusals
 printf '{"type":"CityJSON","version":"2.0","CityObjects":{},"vertices":[]}' > "$TMP/notransform.city.json"
 expect_fail "city without transform"  "transform: missing"       $R --city "$TMP/notransform.city.json"

@@ -273,11 +273,99 @@ static void test_mamre(void **state)
     hz_city_destroy(c);
 }
 
+/* Closed and outward: every directed edge of an object's triangles has its
+ * reverse exactly once, and the divergence-theorem volume is positive. */
+static double solid_volume(const hz_city *c, const hz_city_object *o)
+{
+    double vol = 0;
+    for (uint32_t t = o->first_tri; t < o->first_tri + o->tri_count; t++) {
+        const double *a = c->verts + 3 * c->tris[3 * t], *b = c->verts + 3 * c->tris[3 * t + 1],
+                     *d = c->verts + 3 * c->tris[3 * t + 2];
+        /* relative to the first vertex: keeps UTM coordinates exact */
+        const double *o0 = c->verts + 3 * c->tris[3 * o->first_tri];
+        double p[3] = {a[0] - o0[0], a[1] - o0[1], a[2] - o0[2]}, q[3] = {b[0] - o0[0], b[1] - o0[1], b[2] - o0[2]},
+               r[3] = {d[0] - o0[0], d[1] - o0[1], d[2] - o0[2]};
+        vol += (p[0] * (q[1] * r[2] - q[2] * r[1]) - p[1] * (q[0] * r[2] - q[2] * r[0]) +
+                p[2] * (q[0] * r[1] - q[1] * r[0])) / 6.0;
+        for (int k = 0; k < 3; k++) {
+            uint32_t u = c->tris[3 * t + (uint32_t)k], v = c->tris[3 * t + (uint32_t)(k + 1) % 3];
+            int fwd = 0, rev = 0;
+            for (uint32_t s2 = o->first_tri; s2 < o->first_tri + o->tri_count; s2++)
+                for (int m = 0; m < 3; m++) {
+                    uint32_t x = c->tris[3 * s2 + (uint32_t)m], y = c->tris[3 * s2 + (uint32_t)(m + 1) % 3];
+                    fwd += x == u && y == v;
+                    rev += x == v && y == u;
+                }
+            if (fwd != 1 || rev != 1)
+                fail_msg("%s: edge %u-%u used %d times forward, %d reversed", o->id, u, v, fwd, rev);
+        }
+    }
+    return vol;
+}
+
+static void test_footprints(void **state)
+{
+    (void)state;
+    FILE *fp = fopen(HZ_TEST_TMP "/fp.geojson", "w");
+    assert_non_null(fp);
+    /* A 20 x 10 m block with a 4 x 4 m courtyard, 12 m high; an L of 3 x 2 units
+     * of 10 m (area 400 m2) with 4 levels (12 m); a point (skipped). Rings are
+     * given clockwise on purpose: the extrusion orients them itself. */
+    fputs("{\"type\":\"FeatureCollection\",\"crs\":{\"type\":\"name\",\"properties\":{\"name\":"
+          "\"urn:ogc:def:crs:EPSG::32633\"}},\"features\":["
+          "{\"type\":\"Feature\",\"properties\":{\"osm_id\":11,\"height\":12},\"geometry\":{\"type\":\"Polygon\","
+          "\"coordinates\":[[[500000,4000000],[500000,4000010],[500020,4000010],[500020,4000000],[500000,4000000]],"
+          "[[500008,4000003],[500012,4000003],[500012,4000007],[500008,4000007],[500008,4000003]]]}},"
+          "{\"type\":\"Feature\",\"properties\":{\"osm_id\":12,\"building:levels\":\"4\"},\"geometry\":{"
+          "\"type\":\"MultiPolygon\",\"coordinates\":[[[[500100,4000000],[500100,4000020],[500110,4000020],"
+          "[500110,4000010],[500130,4000010],[500130,4000000],[500100,4000000]]]]}},"
+          "{\"type\":\"Feature\",\"properties\":{},\"geometry\":{\"type\":\"Point\",\"coordinates\":[500000,4000000]}}"
+          "]}", fp);
+    fclose(fp);
+    hz_err err = {0};
+    hz_city *c = hz_city_load_footprints(HZ_TEST_TMP "/fp.geojson", NULL, &err);
+    if (!c)
+        fail_msg("%s", err.msg);
+    assert_string_equal(c->crs, "EPSG:32633");
+    assert_int_equal(c->buildings, 2);
+    assert_int_equal(c->obj_count, 2);
+    assert_string_equal(c->obj[0].id, "11");
+    assert_non_null(strstr(c->obj[1].attributes, "\"building:levels\":\"4\""));
+    double v0 = solid_volume(c, &c->obj[0]), v1 = solid_volume(c, &c->obj[1]);
+    assert_true(fabs(v0 - (200 - 16) * 12) < 1e-6);
+    assert_true(fabs(v1 - 400 * 12) < 1e-6);
+    assert_true(fabs(c->extent[5] - 12) < 1e-9 && fabs(c->extent[2]) < 1e-9);
+    hz_city_destroy(c);
+    /* lon/lat (GeoJSON's default CRS): projected to the UTM zone, in metres. */
+    fp = fopen(HZ_TEST_TMP "/fp_ll.geojson", "w");
+    fputs("{\"type\":\"FeatureCollection\",\"features\":[{\"type\":\"Feature\",\"properties\":{\"height\":5},"
+          "\"geometry\":{\"type\":\"Polygon\",\"coordinates\":[[[8.69,49.41],[8.6903,49.41],[8.6903,49.4102],"
+          "[8.69,49.4102],[8.69,49.41]]]}}]}", fp);
+    fclose(fp);
+    c = hz_city_load_footprints(HZ_TEST_TMP "/fp_ll.geojson", NULL, &err);
+    if (!c)
+        fail_msg("%s", err.msg);
+    assert_string_equal(c->crs, "EPSG:32632");
+    double w = c->extent[3] - c->extent[0], d = c->extent[4] - c->extent[1];
+    assert_true(w > 20 && w < 24 && d > 21 && d < 24); /* 0.0003 deg lon = 21.8 m, 0.0002 lat = 22.2 m */
+    assert_true(solid_volume(c, &c->obj[0]) > 0);
+    hz_city_destroy(c);
+    /* Refusals: not a vector file, no polygon. */
+    assert_null(hz_city_load_footprints(MAMRE "x", NULL, &err));
+    assert_non_null(strstr(err.msg, "not a vector file"));
+    fp = fopen(HZ_TEST_TMP "/fp_pt.geojson", "w");
+    fputs("{\"type\":\"FeatureCollection\",\"features\":[{\"type\":\"Feature\",\"properties\":{},"
+          "\"geometry\":{\"type\":\"Point\",\"coordinates\":[8.69,49.41]}}]}", fp);
+    fclose(fp);
+    assert_null(hz_city_load_footprints(HZ_TEST_TMP "/fp_pt.geojson", NULL, &err));
+    assert_non_null(strstr(err.msg, "no polygon"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_box_solid),  cmocka_unit_test(test_semantics), cmocka_unit_test(test_refusals),
-        cmocka_unit_test(test_triangulate), cmocka_unit_test(test_mamre),
+        cmocka_unit_test(test_triangulate), cmocka_unit_test(test_mamre),  cmocka_unit_test(test_footprints),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
