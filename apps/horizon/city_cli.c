@@ -483,6 +483,26 @@ static uint32_t named(const hz_scene *s, uint32_t n)
     return n;
 }
 
+void city_app_pick_line(const city_app *a, const hz_terrain *t, const hz_camera *cam, float x, float y, uint32_t w,
+                        uint32_t h, char *buf, size_t n)
+{
+    hz_pick_result r = hz_pick(t, a ? a->scene : NULL, cam, x, y, w, h);
+    uint32_t nd = r.node ? named(a->scene, r.node) : 0;
+    if (!r.hit) {
+        snprintf(buf, n, "nothing under %.0f,%.0f (sky)", (double)x, (double)y);
+        return;
+    }
+    int k = snprintf(buf, n, "%s at %.1f, %.1f, %.1f", nd ? hz_scene_name(a->scene, nd) : "terrain", (double)r.pos[0],
+                     (double)r.pos[1], (double)r.pos[2]);
+    double cx, cy, lon, lat;
+    if (t->georef && k > 0 && (size_t)k < n) {
+        hz_georef_local_to_crs(t->georef, r.pos[0], r.pos[2], &cx, &cy);
+        if (hz_georef_crs_to_lonlat(t->georef, cx, cy, &lon, &lat, NULL) == HZ_OK)
+            snprintf(buf + k, n - (size_t)k, "  %s %.1f, %.1f  lon/lat %.6f, %.6f", hz_georef_label(t->georef), cx, cy,
+                     lon, lat);
+    }
+}
+
 void city_app_pick(const city_app *a, const hz_terrain *t, const hz_camera *cam, float x, float y, uint32_t w,
                    uint32_t h, bool json)
 {

@@ -80,6 +80,9 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
  * members. */
 void city_app_pick(const city_app *a, const hz_terrain *t, const hz_camera *cam, float x, float y, uint32_t w,
                    uint32_t h, bool json);
+/* The same as one line (a HUD message). */
+void city_app_pick_line(const city_app *a, const hz_terrain *t, const hz_camera *cam, float x, float y, uint32_t w,
+                        uint32_t h, char *buf, size_t n);
 /* The figures: JSON members (",\"city\":{...}") or text lines. */
 void city_app_print(const city_app *a, bool json);
 void city_app_destroy(city_app *a);
