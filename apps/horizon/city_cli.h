@@ -18,6 +18,7 @@ typedef struct city_opts {
     float pick[2];        /* --pick X,Y: pixel, x right, y down from the top-left */
     bool no_frustum;      /* --cull none|frustum|occlusion (default occlusion) */
     bool no_occlusion;
+    bool gpu_queries;     /* --cull gpu: GPU occlusion queries instead of the CPU buffer */
     bool naive;           /* --draw naive|sorted (default sorted) */
     float tin_cell;       /* --tin-cell M: TINRelief grid when the city is its own terrain (default 5) */
     const char *bench;    /* --city-bench street|overview */

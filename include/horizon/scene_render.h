@@ -31,6 +31,14 @@ typedef struct hz_scene_draw_opts {
      * hidden (hz_occlusion_box_hidden) are skipped. NULL: none. Built by the
      * caller for this pass's camera (hz_occlusion_begin / _rasterize). */
     const struct hz_occlusion *occlusion;
+    /* Occlusion culling on the GPU instead (main pass; for comparison):
+     * the objects nearer than gpu_near metres are drawn first as occluders,
+     * then every other object's world box is drawn against the depth
+     * buffer (terrain and those occluders) inside a
+     * GL_ANY_SAMPLES_PASSED_CONSERVATIVE query, and only the objects whose
+     * box passed are drawn. Conservative. */
+    bool gpu_queries;
+    float gpu_near;  /* 0 -> 300 m */
 } hz_scene_draw_opts;
 
 typedef struct hz_scene_draw_stats {
@@ -44,6 +52,8 @@ typedef struct hz_scene_draw_stats {
     double cull_ms;            /* frustum + occlusion + queue (CPU) */
     double draw_ms;            /* GL submission, glFinish'ed (main pass) */
     uint32_t nodes_tested;     /* frustum: boxes tested */
+    uint32_t queries;          /* GPU occlusion queries issued */
+    double query_ms;           /* issuing them and reading the results back */
 } hz_scene_draw_stats;
 
 /* Draws the scene for one pass (as the object hook does). stats may be NULL. */

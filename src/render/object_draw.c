@@ -22,6 +22,10 @@ typedef struct draw_cmd {
 
 struct hz_scene_gpu {
     GLuint prog, vao, vbo, ibo, inst_buf, cmd_buf;
+    GLuint box_prog, box_vao, box_vbo, box_ibo;  /* occlusion query proxies */
+    GLint ub_viewproj, ub_min, ub_max;
+    GLuint *queries;
+    uint32_t query_cap;
     GLint u_viewproj, u_clip, u_color, u_sun, u_sky, u_eye, u_fog, u_ambient, u_fog_far;
     size_t inst_cap, cmd_cap;  /* bytes */
     uint32_t mesh_count;
@@ -40,14 +44,19 @@ void hz_scene_gpu_destroy(hz_scene_gpu *g)
     if (hz_gl_has_context()) {
         glDeleteProgram(g->prog);
         glDeleteVertexArrays(1, &g->vao);
-        GLuint b[4] = {g->vbo, g->ibo, g->inst_buf, g->cmd_buf};
-        glDeleteBuffers(4, b);
+        GLuint b[6] = {g->vbo, g->ibo, g->inst_buf, g->cmd_buf, g->box_vbo, g->box_ibo};
+        glDeleteBuffers(6, b);
+        glDeleteProgram(g->box_prog);
+        glDeleteVertexArrays(1, &g->box_vao);
+        if (g->query_cap)
+            glDeleteQueries((GLsizei)g->query_cap, g->queries);
     }
     free(g->vis);
     free(g->order);
     free(g->items);
     free(g->mats);
     free(g->cmds);
+    free(g->queries);
     free(g);
 }
 
@@ -105,6 +114,29 @@ hz_scene_gpu *hz_scene_gpu_create(const hz_scene *s, hz_err *err)
         glEnableVertexAttribArray(2 + c);
     }
     glBindVertexArray(0);
+    /* The unit cube for occlusion queries. */
+    g->box_prog = hz_gl_program(hz_shader_object_box_vs, hz_shader_object_box_fs, "object_box", err);
+    if (!g->box_prog) {
+        hz_scene_gpu_destroy(g);
+        return NULL;
+    }
+    g->ub_viewproj = glGetUniformLocation(g->box_prog, "u_viewproj");
+    g->ub_min = glGetUniformLocation(g->box_prog, "u_min");
+    g->ub_max = glGetUniformLocation(g->box_prog, "u_max");
+    static const float cube[24] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0, 0, 0, 1, 1, 0, 1, 0, 1, 1, 1, 1, 1};
+    static const uint32_t cix[36] = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4,
+                                     2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5};
+    glGenVertexArrays(1, &g->box_vao);
+    glGenBuffers(1, &g->box_vbo);
+    glGenBuffers(1, &g->box_ibo);
+    glBindVertexArray(g->box_vao);
+    glBindBuffer(GL_ARRAY_BUFFER, g->box_vbo);
+    glBufferData(GL_ARRAY_BUFFER, sizeof cube, cube, GL_STATIC_DRAW);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 12, (const void *)0);
+    glEnableVertexAttribArray(0);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, g->box_ibo);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, sizeof cix, cix, GL_STATIC_DRAW);
+    glBindVertexArray(0);
     glBindBuffer(GL_ARRAY_BUFFER, 0);
     if (hz_gl_check(err, "scene buffers") != HZ_OK) {
         hz_scene_gpu_destroy(g);
@@ -150,6 +182,152 @@ static void stream(GLenum target, GLuint buf, size_t *cap, const void *data, siz
     glBufferSubData(target, 0, (GLsizeiptr)bytes, data);
 }
 
+/* Queues, uploads the world matrices of and draws nodes[0..n) (n <= the
+ * scratch capacity; nodes may alias g->vis). Adds to st. */
+static hz_result submit(hz_scene_gpu *g, const hz_scene *s, const hz_pass_info *pass, const hz_scene_draw_opts *opts,
+                        const uint32_t *nodes, uint32_t n, hz_scene_draw_stats *st, hz_err *err)
+{
+    if (!n)
+        return HZ_OK;
+    double t0 = hz_time_ms();
+    uint32_t ni = hz_scene_queue_build(s, nodes, n, !opts->naive, g->order, g->items, NULL);
+    if (!ni)
+        return hz_err_set(err, HZ_ERR_MEMORY, "scene: out of memory for the render queue");
+    st->items += ni;
+    for (uint32_t k = 0; k < n; k++) {
+        mat4 m;
+        hz_scene_world_matrix(s, g->order[k], m);
+        memcpy(g->mats + 16 * (size_t)k, m, sizeof m);
+    }
+    st->cull_ms += hz_time_ms() - t0;
+    glUseProgram(g->prog);
+    glBindVertexArray(g->vao);
+    st->state_changes += 2;
+    stream(GL_ARRAY_BUFFER, g->inst_buf, &g->inst_cap, g->mats, (size_t)n * 64);
+    glUniformMatrix4fv(g->u_viewproj, 1, GL_FALSE, (const float *)pass->viewproj);
+    glUniform4fv(g->u_clip, 1, pass->clip_plane);
+    glUniform3fv(g->u_sun, 1, pass->sun_dir);
+    glUniform3fv(g->u_sky, 1, pass->sky_color);
+    glUniform3fv(g->u_eye, 1, pass->cam->pos);
+    glUniform1f(g->u_fog, pass->fog_density);
+    glUniform1f(g->u_ambient, pass->ambient > 0 ? pass->ambient : 0.3f);
+    glUniform2fv(g->u_fog_far, 1, pass->fog_far);
+    /* Closed outward meshes: back faces culled (mirrored passes flip the
+     * front face, set by the renderer). */
+    glEnable(GL_CULL_FACE);
+    uint32_t last_mat = UINT32_MAX;
+    if (opts->naive) {
+        for (uint32_t k = 0; k < ni; k++) {
+            const hz_draw_item *it = &g->items[k];
+            const hz_mesh_range *m = hz_scene_mesh(s, it->mesh);
+            if (it->material != last_mat) {
+                const hz_material *mt = hz_scene_material(s, it->material);
+                glUniform3fv(g->u_color, 1, mt ? mt->color : (const float[3]){0.7f, 0.7f, 0.7f});
+                last_mat = it->material;
+                st->state_changes++;
+            }
+            glDrawElementsInstancedBaseVertexBaseInstance(
+                GL_TRIANGLES, (GLsizei)m->index_count, GL_UNSIGNED_INT,
+                (const void *)(uintptr_t)((size_t)m->first_index * 4), (GLsizei)it->count, (GLint)m->first_vertex,
+                it->first);
+            st->draw_calls++;
+            st->triangles += (uint64_t)m->index_count / 3 * it->count;
+        }
+    } else {
+        /* Commands for all items, then one multi-draw per material run. */
+        for (uint32_t k = 0; k < ni; k++) {
+            const hz_draw_item *it = &g->items[k];
+            const hz_mesh_range *m = hz_scene_mesh(s, it->mesh);
+            g->cmds[k] = (draw_cmd){m->index_count, it->count, m->first_index, (GLint)m->first_vertex, it->first};
+            st->triangles += (uint64_t)m->index_count / 3 * it->count;
+        }
+        size_t cmd_cap = g->cmd_cap;
+        stream(GL_DRAW_INDIRECT_BUFFER, g->cmd_buf, &cmd_cap, g->cmds, (size_t)ni * sizeof(draw_cmd));
+        g->cmd_cap = cmd_cap;
+        for (uint32_t k = 0; k < ni;) {
+            uint32_t e = k + 1;
+            while (e < ni && g->items[e].material == g->items[k].material && g->items[e].shader == g->items[k].shader)
+                e++;
+            const hz_material *mt = hz_scene_material(s, g->items[k].material);
+            glUniform3fv(g->u_color, 1, mt ? mt->color : (const float[3]){0.7f, 0.7f, 0.7f});
+            st->state_changes++;
+            glMultiDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT,
+                                        (const void *)(uintptr_t)((size_t)k * sizeof(draw_cmd)), (GLsizei)(e - k), 0);
+            st->draw_calls++;
+            k = e;
+        }
+        glBindBuffer(GL_DRAW_INDIRECT_BUFFER, 0);
+    }
+    glDisable(GL_CULL_FACE);
+    glBindVertexArray(0);
+    glUseProgram(0);
+    glBindBuffer(GL_ARRAY_BUFFER, 0);
+    return hz_gl_check(err, "scene draw");
+}
+
+/* GPU occlusion queries on vis[first..n): keeps the objects whose box shows
+ * past the depth buffer; returns the new n. */
+static uint32_t gpu_query(hz_scene_gpu *g, const hz_scene *s, const hz_pass_info *pass, uint32_t first, uint32_t n,
+                          hz_scene_draw_stats *st)
+{
+    const uint32_t q = n - first;
+    if (!q)
+        return n;
+    double t0 = hz_time_ms();
+    if (q > g->query_cap) {
+        GLuint *nq = realloc(g->queries, (size_t)q * sizeof *nq);
+        if (!nq)
+            return n; /* no queries: everything stays (conservative) */
+        g->queries = nq;
+        glGenQueries((GLsizei)(q - g->query_cap), g->queries + g->query_cap);
+        g->query_cap = q;
+    }
+    glUseProgram(g->box_prog);
+    glBindVertexArray(g->box_vao);
+    glUniformMatrix4fv(g->ub_viewproj, 1, GL_FALSE, (const float *)pass->viewproj);
+    glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+    glDepthMask(GL_FALSE);
+    glDepthFunc(GL_GEQUAL);
+    glDisable(GL_CULL_FACE);
+    bool *always = calloc(q, sizeof *always);
+    for (uint32_t k = 0; k < q; k++) {
+        hz_box b;
+        hz_scene_node_bounds(s, g->vis[first + k], &b);
+        /* A box around the eye (or across the near plane) would be clipped
+         * away: such objects are kept without asking. */
+        const float *e = pass->cam->pos;
+        const float m = 2.0f * (pass->cam->znear > 0 ? pass->cam->znear : 1.0f);
+        if (!always || (e[0] > b.min[0] - m && e[0] < b.max[0] + m && e[1] > b.min[1] - m && e[1] < b.max[1] + m &&
+                        e[2] > b.min[2] - m && e[2] < b.max[2] + m)) {
+            if (always)
+                always[k] = true;
+            continue;
+        }
+        glUniform3fv(g->ub_min, 1, b.min);
+        glUniform3fv(g->ub_max, 1, b.max);
+        glBeginQuery(GL_ANY_SAMPLES_PASSED_CONSERVATIVE, g->queries[k]);
+        glDrawElements(GL_TRIANGLES, 36, GL_UNSIGNED_INT, (const void *)0);
+        glEndQuery(GL_ANY_SAMPLES_PASSED_CONSERVATIVE);
+        st->queries++;
+    }
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    glDepthMask(GL_TRUE);
+    glDepthFunc(GL_GREATER);
+    glBindVertexArray(0);
+    glUseProgram(0);
+    uint32_t kept = first;
+    for (uint32_t k = 0; k < q; k++) {
+        GLuint any = 1;
+        if (!always || !always[k])
+            glGetQueryObjectuiv(g->queries[k], GL_QUERY_RESULT, &any);
+        if (any)
+            g->vis[kept++] = g->vis[first + k];
+    }
+    free(always);
+    st->query_ms += hz_time_ms() - t0;
+    return kept;
+}
+
 hz_result hz_scene_gpu_draw(hz_scene_gpu *g, const hz_scene *s, const hz_pass_info *pass,
                             const hz_scene_draw_opts *opts, hz_scene_draw_stats *stats, hz_err *err)
 {
@@ -189,88 +367,41 @@ hz_result hz_scene_gpu_draw(hz_scene_gpu *g, const hz_scene *s, const hz_pass_in
         }
         n = kept;
     }
-    st.after_occlusion = n;
-    uint32_t ni = hz_scene_queue_build(s, g->vis, n, !opts->naive, g->order, g->items, NULL);
-    if (n && !ni)
-        return hz_err_set(err, HZ_ERR_MEMORY, "scene: out of memory for the render queue");
-    st.items = ni;
-    for (uint32_t k = 0; k < n; k++) {
-        mat4 m;
-        hz_scene_world_matrix(s, g->order[k], m);
-        memcpy(g->mats + 16 * (size_t)k, m, sizeof m);
-    }
     st.cull_ms = hz_time_ms() - t0;
-    if (!n) {
-        if (stats)
-            *stats = st;
-        return HZ_OK;
-    }
-
-    glUseProgram(g->prog);
-    glBindVertexArray(g->vao);
-    st.state_changes += 2;
-    stream(GL_ARRAY_BUFFER, g->inst_buf, &g->inst_cap, g->mats, (size_t)n * 64);
-    glUniformMatrix4fv(g->u_viewproj, 1, GL_FALSE, (const float *)pass->viewproj);
-    glUniform4fv(g->u_clip, 1, pass->clip_plane);
-    glUniform3fv(g->u_sun, 1, pass->sun_dir);
-    glUniform3fv(g->u_sky, 1, pass->sky_color);
-    glUniform3fv(g->u_eye, 1, pass->cam->pos);
-    glUniform1f(g->u_fog, pass->fog_density);
-    glUniform1f(g->u_ambient, pass->ambient > 0 ? pass->ambient : 0.3f);
-    glUniform2fv(g->u_fog_far, 1, pass->fog_far);
-    /* Closed outward meshes: back faces culled (mirrored passes flip the
-     * front face, set by the renderer). */
-    glEnable(GL_CULL_FACE);
-    uint32_t last_mat = UINT32_MAX;
-    if (opts->naive) {
-        for (uint32_t k = 0; k < ni; k++) {
-            const hz_draw_item *it = &g->items[k];
-            const hz_mesh_range *m = hz_scene_mesh(s, it->mesh);
-            if (it->material != last_mat) {
-                const hz_material *mt = hz_scene_material(s, it->material);
-                glUniform3fv(g->u_color, 1, mt ? mt->color : (const float[3]){0.7f, 0.7f, 0.7f});
-                last_mat = it->material;
-                st.state_changes++;
+    hz_result r = HZ_OK;
+    if (opts->gpu_queries && pass->pass == HZ_PASS_MAIN) {
+        /* Near objects first (drawn, they occlude), then queries for the rest. */
+        const float near = opts->gpu_near > 0 ? opts->gpu_near : 300.0f;
+        uint32_t nn = 0;
+        for (uint32_t k = 0; k < n; k++) {
+            hz_box b;
+            hz_scene_node_bounds(s, g->vis[k], &b);
+            float d2 = 0;
+            for (int c = 0; c < 3; c++) {
+                float v = pass->cam->pos[c] < b.min[c] ? b.min[c] - pass->cam->pos[c]
+                          : pass->cam->pos[c] > b.max[c] ? pass->cam->pos[c] - b.max[c]
+                                                          : 0;
+                d2 += v * v;
             }
-            glDrawElementsInstancedBaseVertexBaseInstance(
-                GL_TRIANGLES, (GLsizei)m->index_count, GL_UNSIGNED_INT,
-                (const void *)(uintptr_t)((size_t)m->first_index * 4), (GLsizei)it->count, (GLint)m->first_vertex,
-                it->first);
-            st.draw_calls++;
-            st.triangles += (uint64_t)m->index_count / 3 * it->count;
+            if (d2 < near * near) {
+                uint32_t t = g->vis[nn];
+                g->vis[nn++] = g->vis[k];
+                g->vis[k] = t;
+            }
         }
+        r = submit(g, s, pass, opts, g->vis, nn, &st, err);
+        uint32_t kept = r == HZ_OK ? gpu_query(g, s, pass, nn, n, &st) : n;
+        /* submit() reorders nothing in vis; the far survivors follow the near ones. */
+        if (r == HZ_OK)
+            r = submit(g, s, pass, opts, g->vis + nn, kept - nn, &st, err);
+        n = kept;
     } else {
-        /* Commands for all items, then one multi-draw per material run. */
-        for (uint32_t k = 0; k < ni; k++) {
-            const hz_draw_item *it = &g->items[k];
-            const hz_mesh_range *m = hz_scene_mesh(s, it->mesh);
-            g->cmds[k] = (draw_cmd){m->index_count, it->count, m->first_index, (GLint)m->first_vertex, it->first};
-            st.triangles += (uint64_t)m->index_count / 3 * it->count;
-        }
-        size_t cmd_cap = g->cmd_cap;
-        stream(GL_DRAW_INDIRECT_BUFFER, g->cmd_buf, &cmd_cap, g->cmds, (size_t)ni * sizeof(draw_cmd));
-        g->cmd_cap = cmd_cap;
-        for (uint32_t k = 0; k < ni;) {
-            uint32_t e = k + 1;
-            while (e < ni && g->items[e].material == g->items[k].material && g->items[e].shader == g->items[k].shader)
-                e++;
-            const hz_material *mt = hz_scene_material(s, g->items[k].material);
-            glUniform3fv(g->u_color, 1, mt ? mt->color : (const float[3]){0.7f, 0.7f, 0.7f});
-            st.state_changes++;
-            glMultiDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT,
-                                        (const void *)(uintptr_t)((size_t)k * sizeof(draw_cmd)), (GLsizei)(e - k), 0);
-            st.draw_calls++;
-            k = e;
-        }
-        glBindBuffer(GL_DRAW_INDIRECT_BUFFER, 0);
+        r = submit(g, s, pass, opts, g->vis, n, &st, err);
     }
-    glDisable(GL_CULL_FACE);
-    glBindVertexArray(0);
-    glUseProgram(0);
-    glBindBuffer(GL_ARRAY_BUFFER, 0);
+    st.after_occlusion = n;
     if (stats)
         *stats = st;
-    return hz_gl_check(err, "scene draw");
+    return r;
 }
 
 void hz_scene_draw_hook(void *user, const hz_pass_info *pass)
