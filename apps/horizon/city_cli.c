@@ -443,7 +443,19 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
     a->hook.opts = (hz_scene_draw_opts){.no_frustum = o->city.no_frustum, .naive = o->city.naive,
                                         .gpu_queries = o->city.gpu_queries};
     a->occ_ms = 0;
-    if (!o->city.no_occlusion) {
+    /* Adaptive: when the last buffer hid under 5 % of the objects in the
+     * frustum (a view from above), the next 7 frames go without one (only
+     * frustum culling: still conservative), then it is tried again. */
+    if (a->occ_built) {
+        const hz_scene_draw_stats *ls = &a->hook.stats;
+        if (ls->after_frustum && (double)ls->after_occlusion > 0.95 * (double)ls->after_frustum)
+            a->occ_rest = 7;
+    } else if (a->occ_rest) {
+        a->occ_rest--;
+    }
+    a->occ_built = false;
+    if (!o->city.no_occlusion && !a->occ_rest) {
+        a->occ_built = true;
         double t0 = hz_time_ms();
         hz_occlusion_begin(&a->occ, cam);
         /* The ground, then the faces of the objects in view within 1.5 km

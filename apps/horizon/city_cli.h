@@ -54,6 +54,8 @@ typedef struct city_app {
     uint32_t occ_nodes;
     hz_occlusion occ;
     double occ_ms;         /* last frame's occlusion buffer build */
+    bool occ_built;        /* the last frame had an occlusion buffer */
+    uint32_t occ_rest;     /* frames left without one (it hid too little) */
     /* GL */
     hz_scene_gpu *gpu;
     hz_scene_hook hook;
