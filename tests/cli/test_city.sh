@@ -100,6 +100,30 @@ PY
 then ok "footprints extruded on heidelberg, pixel picks osm_id 4711"; else bad "footprints (exit $rc): $j"; fi
 expect_fail "footprints not vector"   "not a vector file"        $R --generate perlin --size 257 --footprints "$DATA/PROVENANCE.md"
 
+# ---- horizon city: a procedural city as a scene file, rendered with instancing
+out=$($HZ city --blocks 3 --generate perlin --size 513 --seed 4 --out "$TMP/c3.json"); rc=$?
+j=$($R --scene "$TMP/c3.json" --json --out "$TMP/c3.png"); rc2=$?
+if [ $rc -eq 0 ] && [ $rc2 -eq 0 ] && python3 - "$TMP/c3.json" "$j" <<'PY'
+import json, sys
+sc = json.load(open(sys.argv[1])); d = json.loads(sys.argv[2]); c = d['city']
+blocks = sc['nodes'][0]['children']
+n = sum(len(b['children']) for b in blocks)
+assert len(blocks) == 9 and 150 < n < 250, (len(blocks), n)
+assert sc['terrain'] == {'generate': 'perlin', 'size': 513, 'seed': 4}, sc['terrain']
+assert c['scene_file']['objects'] == n and c['scene_file']['clamped'] == n and c['meshes'] == 1, c
+assert c['draw_calls'] <= 4 and c['queue_items'] <= 4, c   # one box mesh, instanced, per material
+PY
+then ok "horizon city: 9 blocks written, rendered in <= 4 instanced draws"; else bad "horizon city (exit $rc $rc2): $out $j"; fi
+expect_fail "city without --blocks"   "give --blocks"            $HZ city --generate perlin --size 257 --out "$TMP/x.json"
+expect_fail "city --blocks 0"         "--blocks wants"           $HZ city --blocks 0 --out "$TMP/x.json"
+printf '{"nodes": [{"model": "tower"}]}' > "$TMP/badmodel.json"
+expect_fail "scene unknown model"     "badmodel.json: nodes\[0\].model: unknown model \"tower\"" \
+  $R --generate perlin --size 257 --scene "$TMP/badmodel.json"
+printf '{"nodes": [{"name": "a", "crs": [1, 2, 3]}]}' > "$TMP/crsnogeo.json"
+expect_fail "scene crs without georef" "nodes\[0\].crs: needs a terrain with a georeference" \
+  $R --generate perlin --size 257 --scene "$TMP/crsnogeo.json"
+expect_fail "--city-bench without objects" "need --city or --scene" $R --generate perlin --size 257 --city-bench street
+
 # ---- refusals
 printf '{"type":"CityJSON","version":"2.0","CityObjects":{},"vertices":[]}' > "$TMP/notransform.city.json"
 expect_fail "city without transform"  "transform: missing"       $R --city "$TMP/notransform.city.json"
