@@ -19,7 +19,7 @@ PKGS=(
   xvfb                 # horizon view tests run in a virtual X server (scripts/with-xvfb.sh)
   libmeshoptimizer-dev # crown hull simplification
   libassimp-dev        # tree import (OBJ, glTF, ...)
-  libjansson-dev       # JSON output (escaped, valid whatever the file names)
+  libjansson-dev       # JSON output (escaped, valid whatever the file names), CityJSON and scene files
   libinih-dev          # horizon view --config files
   clang libclang-rt-14-dev  # make test: the ASan/UBSan build and the libFuzzer targets (build-san/)
   libcurl4-openssl-dev nginx  # --terrain http(s)://...: range requests (libcurl); tests serve pyramids with nginx

@@ -141,6 +141,7 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
     /* cdlod at 1 px is the best measured mode on every row of the bench;
      * the seed's modes stay one --lod away. */
     o->lod.mode = HZ_LOD_CDLOD;
+    int city_rc;
     for (int i = first; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -509,6 +510,9 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             o->wireframe = true;
         } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
             o->quiet = true;
+        } else if ((city_rc = city_cli_option(&o->city, a, v, cmd, &i)) >= 0) {
+            if (city_rc)
+                return city_rc;
         } else {
             fprintf(stderr, "horizon %s: unknown option '%s' (see horizon %s --help)\n", cmd, a, cmd);
             return 2;

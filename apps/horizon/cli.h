@@ -7,6 +7,7 @@
 #include "horizon/terrain.h"
 #include "horizon/forest_render.h"
 #include "json_out.h"
+#include "city_cli.h"
 
 #define CLI_MAX_DEMS 4096
 
@@ -54,6 +55,7 @@ typedef struct cli_opts {
     hz_climate_kind climate; /* 0 auto: from the georeference's lon/lat, else temperate */
     bool have_latitude;
     float latitude;          /* --latitude: where a DEM without a georeference lies */
+    city_opts city;       /* --city, --pick, --cull, --draw (city_cli.c) */
 } cli_opts;
 
 /* Effect resources of a terrain for a renderer: light map for the sun,

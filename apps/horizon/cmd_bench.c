@@ -89,6 +89,7 @@ static void usage(void)
                     "Flies a camera path headless and measures every frame.\n");
     cli_usage_terrain();
     cli_usage_forest();
+    city_cli_usage();
     fprintf(stderr,
             "bench:\n"
             "  --path flyover|orbit|ground|FILE.csv  camera path (CSV: t,x,y,z,yaw,pitch; default flyover)\n"
@@ -298,6 +299,7 @@ typedef struct bench {
     hz_err err;
     /* Effects: the LOD frames and their references get the same ones. */
     app_fx afx;
+    city_app *ca;          /* --city / --scene / --footprints: drawn in every frame */
 } bench;
 
 /* The scene parameters of frame f seen by cam: the effects at the frame's
@@ -307,6 +309,8 @@ static void frame_params(bench *b, const hz_camera *cam, uint32_t f, uint32_t hi
 {
     *sp = (hz_scene_params){0};
     app_fx_params(&b->afx, b->t, cam, &b->o.lod, (double)f / b->fps + b->o.time, sp);
+    if (b->ca)
+        city_app_frame(b->ca, &b->o, cam, sp);
     sp->history = history;
     sp->reset_history = f == 0;
 }
@@ -1033,18 +1037,27 @@ int cmd_bench(int argc, char **argv)
         modes[nmodes++] = b.o.lod.mode;
     b.quiet = b.o.quiet;
 
+    int crc = 0;
+    b.ca = city_app_load(&b.o, "bench", &crc);
+    if (crc)
+        return crc;
     b.t = cli_load_terrain(&b.o);
-    if (!b.t)
+    if (!b.t || (b.ca && city_app_place(b.ca, b.t, "bench"))) {
+        city_app_destroy(b.ca);
+        hz_terrain_destroy(b.t);
         return 1;
+    }
     for (int m = 0; m < nmodes; m++)
         if (hz_lod_prepare(b.t->lod, modes[m]) != HZ_OK) {
             fprintf(stderr, "horizon bench: out of memory preparing the %s LOD data\n", hz_lod_mode_name(modes[m]));
+            city_app_destroy(b.ca);
             hz_terrain_destroy(b.t);
             return 1;
         }
     if (b.o.forest_n) {
         if (nmodes > 1) {
             fprintf(stderr, "horizon bench: --forest measures one --lod mode at a time\n");
+            city_app_destroy(b.ca);
             hz_terrain_destroy(b.t);
             return 2;
         }
@@ -1108,6 +1121,8 @@ int cmd_bench(int argc, char **argv)
     for (int m = 0; m < nmodes; m++)
         if (cli_renderer_morph(b.ren, b.t, modes[m], &b.err) != HZ_OK)
             goto done;
+    if (b.ca && city_app_gpu(b.ca, "bench"))
+        goto done;
     /* --effect-costs builds every effect's resources ("view" does). */
     if (app_fx_setup(&b.afx, &b.o, b.t, b.ren, costs_out ? "view" : "bench")) {
         snprintf(b.err.msg, sizeof b.err.msg, "effects setup failed");
@@ -1179,6 +1194,7 @@ done:
         hz_outfile_discard(&jof); /* a failed run leaves the old file as it was */
     }
     app_fx_free(&b.afx);
+    city_app_destroy(b.ca);
     hz_renderer_destroy(b.ren);
     hz_gl_destroy(gl);
     if (b.ref_rgb)

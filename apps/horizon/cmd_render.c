@@ -88,6 +88,7 @@ int cmd_render(int argc, char **argv)
                             "Renders one frame headless (EGL, no window) and prints its figures.\n");
             cli_usage_terrain();
             cli_usage_forest();
+            city_cli_usage();
             fprintf(stderr, "output:\n"
                             "  --out FILE.png          image (default render.png)\n"
                             "  --dump-mesh FILE.obj    the frame's LOD mesh, world coordinates\n"
@@ -111,10 +112,18 @@ int cmd_render(int argc, char **argv)
         fprintf(stderr, "horizon render: note: --lod-c, --lod-c2 and --criterion apply to the quadtree modes; "
                         "%s takes --pixel-error (add --lod quadtree for C and C2)\n",
                 hz_lod_mode_name(o.lod.mode));
+    city_app *ca = city_app_load(&o, "render", &rc);
+    if (rc)
+        return rc;
     hz_terrain *t = cli_load_terrain(&o);
-    if (!t)
+    if (!t || (ca && city_app_place(ca, t, "render"))) {
+        city_app_destroy(ca);
+        hz_terrain_destroy(t);
         return 1;
+    }
     hz_camera cam = o.forest_n && !o.have_camera ? cli_forest_camera(&o, t) : cli_camera(&o, t);
+    if (ca)
+        cam = city_app_camera(ca, &o, t);
     cli_forest *cf = NULL;
 
     cli_lod_frame lf = {0};
@@ -173,6 +182,16 @@ int cmd_render(int argc, char **argv)
             goto done;
         cli_forest_hook(cf, &sp);
     }
+    if (ca) {
+        if (city_app_gpu(ca, "render"))
+            goto done;
+        if (o.city.bench) {
+            rc = city_app_bench(ca, &o, t, ren, &afx, o.json);
+            err.msg[0] = 0;
+            goto done_bench;
+        }
+        city_app_frame(ca, &o, &cam, &sp);
+    }
     double draw[3];
     hz_draw_stats ds = {0};
     for (int k = 0; k < 3; k++) {
@@ -180,6 +199,10 @@ int cmd_render(int argc, char **argv)
             goto done;
         if (cf && cf->hook.failed) {
             err = cf->hook.err;
+            goto done;
+        }
+        if (ca && ca->hook.failed) {
+            err = ca->hook.err;
             goto done;
         }
         draw[k] = ds.draw_ms;
@@ -286,6 +309,10 @@ int cmd_render(int argc, char **argv)
             jx_set(j, "forest_select_ms", jx_fix(fr->select_ms, 3));
             jx_set(j, "forest_prep_ms", jx_fix(cf->prep_ms, 1));
         }
+        if (ca)
+            city_app_print(ca, j);
+        if (o.city.have_pick)
+            city_app_pick(ca, t, &cam, o.city.pick[0], o.city.pick[1], o.width, o.height, j);
         if (jx_print(j, stdout)) {
             snprintf(err.msg, sizeof err.msg, "cannot write the JSON to stdout");
             goto done;
@@ -329,13 +356,19 @@ int cmd_render(int argc, char **argv)
                    fr->triangles_full ? 100.0 * (double)fr->triangles_drawn / (double)fr->triangles_full : 0.0,
                    cf->hook.draw_ms, fr->select_ms, o.forest.simplify ? "" : " (unsimplified)");
         }
+        if (ca)
+            city_app_print(ca, NULL);
+        if (o.city.have_pick)
+            city_app_pick(ca, t, &cam, o.city.pick[0], o.city.pick[1], o.width, o.height, NULL);
         printf("image         %s (%ux%u)\n", out, o.width, o.height);
     }
     rc = 0;
 done:
     if (rc)
         fprintf(stderr, "horizon render: %s\n", err.msg[0] ? err.msg : "failed");
+done_bench:
     cli_forest_destroy(cf);
+    city_app_destroy(ca);
     app_fx_free(&afx);
     hz_renderer_destroy(ren);
     hz_gl_destroy(gl);

@@ -42,6 +42,7 @@ static void usage(void)
                     "Opens a window to fly over the terrain (X11; xvfb-run for none).\n");
     cli_usage_terrain();
     cli_usage_forest();
+    city_cli_usage();
     fprintf(stderr,
             "view:\n"
             "  --config FILE           settings as 'key = value' lines (keys are these long option\n"
@@ -137,6 +138,9 @@ typedef struct view {
     hz_renderer *ren;
     hz_terrain *t;
     cli_forest *cf;              /* --forest */
+    city_app *ca;                /* --city / --scene / --footprints */
+    bool left_was;               /* left button down last frame */
+    float click_move;            /* cursor motion since the press (a click picks) */
     hz_flycam fc;
     hz_camera start_cam;
     float base_znear;
@@ -683,6 +687,12 @@ static void queue_hud(view *v, uint32_t boxes_drawn, size_t boxes_wanted)
                  (double)fr->triangles_full / 1e6, v->cf->hook.draw_ms,
                  v->o.forest.simplify ? "T simplified" : "T FULL", v->o.forest.hysteresis ? "  Y hyst." : "");
     }
+    if (v->ca) {
+        const hz_scene_draw_stats *cs = &v->ca->hook.stats;
+        snprintf(lines[nl++], 256, "objects %u, %u in frustum, %u unoccluded  %u draws  %u state changes  %.1f ms",
+                 cs->objects, cs->after_frustum, cs->after_occlusion, cs->draw_calls, cs->state_changes,
+                 cs->draw_ms + v->ca->occ_ms);
+    }
     float az, el;
     app_fx_sun_angles(&v->afx, &az, &el);
     snprintf(lines[nl++], 256, "sun az %.0f el %.0f ([ ] - =)   time %.1f s   trees %u   %s %u   water %s",
@@ -873,6 +883,23 @@ static bool frame(view *v, bool *render_failed)
         hz_flycam_update(&v->fc, &fi, dt);
     }
     v->look_yaw = v->look_pitch = 0.0f;
+    /* A click (press and release without dragging) picks what is under the cursor. */
+    {
+        const bool ld = hz_window_mouse_down(v->win, HZ_MOUSE_LEFT);
+        if (ld && !v->left_was)
+            v->click_move = 0;
+        if (ld)
+            v->click_move += fabsf(in.mouse_dx) + fabsf(in.mouse_dy);
+        float cx, cy;
+        if (!ld && v->left_was && v->click_move < 4.0f && hz_window_cursor(v->win, &cx, &cy)) {
+            char line[400];
+            city_app_pick_line(v->ca, v->t, &v->fc.cam, cx, cy, v->width, v->height, line, sizeof line);
+            set_message(v, 6.0, "%s", line);
+            city_app_pick(v->ca, v->t, &v->fc.cam, cx, cy, v->width, v->height, NULL);
+            fflush(stdout);
+        }
+        v->left_was = ld;
+    }
     /* Walking needs a near plane closer than the eye height. */
     v->fc.cam.znear = v->fc.walk ? fminf(v->base_znear, 0.25f * v->fc.eye_height) : v->base_znear;
 
@@ -912,12 +939,19 @@ static bool frame(view *v, bool *render_failed)
         }
         cli_forest_hook(v->cf, &sp);
     }
+    if (v->ca)
+        city_app_frame(v->ca, &v->o, &v->fc.cam, &sp);
     uint32_t count = v->fans || patches ? 0 : (uint32_t)v->il.count;
     if (patches && !v->fans) {
         sp.patches = v->pl.data;
         sp.patch_count = (uint32_t)v->pl.count;
     }
     if (hz_renderer_draw(v->ren, &v->fc.cam, &sp, v->il.data, count, &v->ds, &v->err) != HZ_OK) {
+        *render_failed = true;
+        return false;
+    }
+    if (v->ca && v->ca->hook.failed) {
+        v->err = v->ca->hook.err;
         *render_failed = true;
         return false;
     }
@@ -1162,6 +1196,18 @@ int cmd_view(int argc, char **argv)
     td.progress = loading_progress;
     td.progress_user = &ld;
     td.max_samples = hz_gl_query_max_heightmap_samples(); /* refused before the work */
+    {
+        int crc = 0;
+        v->ca = city_app_load(&v->o, "view", &crc);
+        if (crc) {
+            rc = crc;
+            goto out;
+        }
+        td = v->o.terrain; /* the city's TIN or the scene's terrain */
+        td.progress = loading_progress;
+        td.progress_user = &ld;
+        td.max_samples = hz_gl_query_max_heightmap_samples();
+    }
     v->t = hz_terrain_create(&td, &v->err);
     if (!v->t) {
         fprintf(stderr, "horizon view: %s\n", v->err.msg);
@@ -1219,8 +1265,13 @@ int cmd_view(int argc, char **argv)
         v->have_path = true;
     }
 
+    if (v->ca && (city_app_place(v->ca, v->t, "view") || city_app_gpu(v->ca, "view")))
+        goto out;
+
     /* Cameras. */
     hz_camera cam = v->cf && !v->o.have_camera ? cli_forest_camera(&v->o, v->t) : cli_camera(&v->o, v->t);
+    if (v->ca)
+        cam = city_app_camera(v->ca, &v->o, v->t);
     cam.aspect = (float)v->width / (float)v->height;
     v->start_cam = cam;
     v->base_znear = cam.znear;
@@ -1271,6 +1322,7 @@ out:
     if (v->win)
         hz_window_make_current(v->win);
     cli_forest_destroy(v->cf);
+    city_app_destroy(v->ca);
     app_fx_free(&v->afx);
     hz_renderer_destroy(v->ren);
     hz_overlay_destroy(v->ov);

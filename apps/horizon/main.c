@@ -15,6 +15,7 @@ static void usage(void)
                     "  info     size, CRS, corners, spacing, heights and nodata of DEM files (--help)\n"
                     "  import   DEM files or a generated terrain to a streamed pyramid (.hzp) (--help)\n"
                     "  tree     grow/import a tree, rank its leaves by VMI, build its crown hull (--help)\n"
+                    "  city     write a procedural city as a scene file (--help)\n"
                     "options are --name VALUE or --name=VALUE; horizon --version prints the version\n");
 }
 
@@ -36,6 +37,8 @@ int main(int argc, char **argv)
     /* Pyramids: import and streamed render/bench parse their own options (getopt_long). */
     if (!strcmp(argv[1], "import"))
         return cmd_import(argc, argv);
+    if (!strcmp(argv[1], "city"))
+        return cmd_city(argc, argv);
     if ((!strcmp(argv[1], "render") || !strcmp(argv[1], "bench")) && cli_wants_stream(argc, argv, 2))
         return !strcmp(argv[1], "render") ? stream_render(argc, argv) : stream_bench(argc, argv);
     static const struct {

@@ -101,6 +101,10 @@ void hz_window_framebuffer_size(const hz_window *w, uint32_t *width, uint32_t *h
 void hz_window_set_size(hz_window *w, uint32_t width, uint32_t height);
 void hz_window_set_title(hz_window *w, const char *title);
 void hz_window_request_close(hz_window *w);
+/* The cursor in framebuffer pixels from the top-left corner (x right, y
+ * down); false while unknown (no cursor event yet) or captured. Injected
+ * mouse moves move it too. */
+bool hz_window_cursor(const hz_window *w, float *x, float *y);
 /* Mouse capture for mouse look: hides the cursor and reports unbounded motion. */
 void hz_window_capture_mouse(hz_window *w, bool capture);
 bool hz_window_mouse_captured(const hz_window *w);

@@ -314,6 +314,22 @@ void hz_window_inject_mouse_move(hz_window *w, float dx, float dy)
 {
     w->mouse_dx += dx;
     w->mouse_dy += dy;
+    w->cursor_x += dx;
+    w->cursor_y += dy;
+    w->cursor_valid = true;
+}
+
+bool hz_window_cursor(const hz_window *w, float *x, float *y)
+{
+    if (!w->cursor_valid || hz_window_mouse_captured(w))
+        return false;
+    /* Screen coordinates -> framebuffer pixels (HiDPI). */
+    int ww = 0, wh = 0, fw = 0, fh = 0;
+    glfwGetWindowSize(w->win, &ww, &wh);
+    glfwGetFramebufferSize(w->win, &fw, &fh);
+    *x = (float)(w->cursor_x * (ww > 0 ? (double)fw / ww : 1.0));
+    *y = (float)(w->cursor_y * (wh > 0 ? (double)fh / wh : 1.0));
+    return true;
 }
 
 void hz_window_inject_scroll(hz_window *w, float notches)

@@ -1,0 +1,1026 @@
+/* --city: a CityJSON model on the terrain (its own TINRelief or a DEM),
+ * culled, drawn from the sorted render queue, and picked. */
+#include "city_cli.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include <cpl_conv.h>
+#include <gdal.h>
+#include <ogr_srs_api.h>
+
+#include "cli.h"
+#include "horizon/pick.h"
+#include "horizon/safety.h"
+
+#include <jansson.h>
+
+int city_cli_option(city_opts *c, const char *a, const char *v, const char *cmd, int *i)
+{
+    const bool takes = !strcmp(a, "--city") || !strcmp(a, "--scene") || !strcmp(a, "--footprints") || !strcmp(a, "--pick") || !strcmp(a, "--cull") ||
+                       !strcmp(a, "--draw") || !strcmp(a, "--tin-cell") || !strcmp(a, "--city-bench") ||
+                       !strcmp(a, "--city-bench-frames");
+    if (!takes)
+        return -1;
+    if (!v) {
+        fprintf(stderr, "horizon %s: option %s needs a value\n", cmd, a);
+        return 2;
+    }
+    (*i)++;
+    if (!strcmp(a, "--city")) {
+        c->city = v;
+    } else if (!strcmp(a, "--scene")) {
+        c->scene = v;
+    } else if (!strcmp(a, "--footprints")) {
+        c->footprints = v;
+    } else if (!strcmp(a, "--city-bench")) {
+        if (strcmp(v, "street") && strcmp(v, "overview")) {
+            fprintf(stderr, "horizon %s: --city-bench wants street or overview, not '%s'\n", cmd, v);
+            return 2;
+        }
+        c->bench = v;
+    } else if (!strcmp(a, "--city-bench-frames")) {
+        if (!cli_parse_u32(v, 1, 10000, &c->bench_frames)) {
+            fprintf(stderr, "horizon %s: --city-bench-frames wants a count in [1, 10000], not '%s'\n", cmd, v);
+            return 2;
+        }
+    } else if (!strcmp(a, "--pick")) {
+        char buf[64], *it[3];
+        snprintf(buf, sizeof buf, "%s", v);
+        if (cli_split(buf, it, 3) != 2 || !cli_parse_float(it[0], 0, 1e5, &c->pick[0]) ||
+            !cli_parse_float(it[1], 0, 1e5, &c->pick[1])) {
+            fprintf(stderr, "horizon %s: --pick wants X,Y (pixels from the top-left corner), not '%s'\n", cmd, v);
+            return 2;
+        }
+        c->have_pick = true;
+    } else if (!strcmp(a, "--cull")) {
+        c->gpu_queries = false;
+        if (!strcmp(v, "none")) {
+            c->no_frustum = c->no_occlusion = true;
+        } else if (!strcmp(v, "frustum")) {
+            c->no_frustum = false;
+            c->no_occlusion = true;
+        } else if (!strcmp(v, "occlusion")) {
+            c->no_frustum = c->no_occlusion = false;
+        } else if (!strcmp(v, "gpu")) {
+            c->no_frustum = false;
+            c->no_occlusion = c->gpu_queries = true;
+        } else {
+            fprintf(stderr, "horizon %s: --cull wants none, frustum, occlusion or gpu, not '%s'\n", cmd, v);
+            return 2;
+        }
+    } else if (!strcmp(a, "--draw")) {
+        if (strcmp(v, "naive") && strcmp(v, "sorted")) {
+            fprintf(stderr, "horizon %s: --draw wants naive or sorted, not '%s'\n", cmd, v);
+            return 2;
+        }
+        c->naive = !strcmp(v, "naive");
+    } else if (!cli_parse_float(v, 0.5, 1000, &c->tin_cell)) {
+        fprintf(stderr, "horizon %s: --tin-cell wants metres in [0.5, 1000], not '%s'\n", cmd, v);
+        return 2;
+    }
+    return 0;
+}
+
+void city_cli_usage(void)
+{
+    fprintf(stderr,
+            "city models and scene objects:\n"
+            "  --city FILE.city.json   CityJSON 2.0 buildings (LoD1/LoD2 solids and surfaces) on the terrain,\n"
+            "                          placed through its CRS and clamped to the ground; without --dem or\n"
+            "                          --generate the model's TINRelief is the terrain\n"
+            "  --scene FILE.json       a scene file (docs/scene.md): terrain, sun, materials, models\n"
+            "                          (box, glTF/OBJ/FBX... through assimp) and a node tree\n"
+            "  --footprints FILE       building footprints GDAL/OGR reads (GeoJSON, GeoPackage, Shapefile,\n"
+            "                          OSM PBF ...) extruded by their height, else building:levels x 3 m,\n"
+            "                          else 10 m, and clamped to the ground\n"
+            "  --tin-cell M            grid cell of that TINRelief terrain (default 5)\n"
+            "  --cull none|frustum|occlusion|gpu   object culling (default occlusion: frustum + the CPU\n"
+            "                          occlusion buffer; gpu: frustum + GPU occlusion queries)\n"
+            "  --draw sorted|naive     render queue sorted by shader/material/mesh, multi-draw and\n"
+            "                          instancing (default), or one draw per object in scene order\n"
+            "  --city-bench street|overview   (render) draw a path's frames (12, --city-bench-frames N)\n"
+            "                          with every culling/queue configuration; street: 2 m above the\n"
+            "                          ground from the scene's centre (or --camera's x, z, yaw) 400 m on\n"
+            "  --pick X,Y              print what is under that pixel: node, attributes, world / CRS /\n"
+            "                          lon-lat position of the hit\n");
+}
+
+/* The TIN as a GeoTIFF the terrain loader reads (nodata NaN). */
+static int write_tin(city_app *a, struct cli_opts *o, const char *cmd)
+{
+    float *g = NULL;
+    uint32_t w, h;
+    double gt[6];
+    hz_err err = {0};
+    double cell = o->city.tin_cell > 0 ? o->city.tin_cell : 5.0;
+    if (hz_city_tin_grid(a->city, cell, &g, &w, &h, gt, &err) != HZ_OK) {
+        fprintf(stderr, "horizon %s: %s; give a terrain with --dem or --generate\n", cmd, err.msg);
+        return 1;
+    }
+    const char *tmp = getenv("TMPDIR");
+    snprintf(a->tin_path, sizeof a->tin_path, "%s/hz_tin_%d_XXXXXX", tmp && tmp[0] ? tmp : "/tmp", (int)getpid());
+    int fd = mkstemp(a->tin_path);
+    if (fd < 0) {
+        fprintf(stderr, "horizon %s: cannot create a temporary file for the TIN grid in %s\n", cmd,
+                tmp ? tmp : "/tmp");
+        free(g);
+        a->tin_path[0] = 0;
+        return 1;
+    }
+    close(fd);
+    unlink(a->tin_path);
+    strncat(a->tin_path, ".tif", sizeof a->tin_path - strlen(a->tin_path) - 1);
+    GDALAllRegister();
+    GDALDriverH drv = GDALGetDriverByName("GTiff");
+    GDALDatasetH ds = drv ? GDALCreate(drv, a->tin_path, (int)w, (int)h, 1, GDT_Float32, NULL) : NULL;
+    int rc = 1;
+    if (ds) {
+        GDALSetGeoTransform(ds, gt);
+        OGRSpatialReferenceH srs = OSRNewSpatialReference(NULL);
+        char *wkt = NULL;
+        if (srs && a->city->crs[0] && OSRSetFromUserInput(srs, a->city->crs) == OGRERR_NONE &&
+            OSRExportToWkt(srs, &wkt) == OGRERR_NONE)
+            GDALSetProjection(ds, wkt);
+        CPLFree(wkt);
+        if (srs)
+            OSRDestroySpatialReference(srs);
+        GDALRasterBandH b = GDALGetRasterBand(ds, 1);
+        GDALSetRasterNoDataValue(b, NAN);
+        if (GDALRasterIO(b, GF_Write, 0, 0, (int)w, (int)h, g, (int)w, (int)h, GDT_Float32, 0, 0) == CE_None)
+            rc = 0;
+        GDALClose(ds);
+    }
+    free(g);
+    if (rc) {
+        fprintf(stderr, "horizon %s: cannot write the TIN grid %s\n", cmd, a->tin_path);
+        return 1;
+    }
+    o->terrain.dem_path = a->tin_path;
+    /* The TIN has holes under the buildings' footprints: drawn filled. */
+    o->terrain.fill_voids = true;
+    if (o->terrain.format == 0)
+        o->terrain.format = HZ_DEM_GDAL;
+    return 0;
+}
+
+city_app *city_app_load(struct cli_opts *o, const char *cmd, int *rc)
+{
+    *rc = 0;
+    if (!o->city.city && !o->city.scene && !o->city.footprints) {
+        if (o->city.bench || o->city.naive || o->city.no_frustum || o->city.no_occlusion) {
+            fprintf(stderr, "horizon %s: --city-bench, --cull and --draw need --city or --scene\n", cmd);
+            *rc = 2;
+        }
+        return NULL;
+    }
+    *rc = 1;
+    city_app *a = calloc(1, sizeof *a);
+    if (!a) {
+        fprintf(stderr, "horizon %s: out of memory\n", cmd);
+        return NULL;
+    }
+    hz_err err = {0};
+    if (o->city.scene) {
+        a->file = hz_scene_file_open(o->city.scene, &a->file_info, &err);
+        if (!a->file) {
+            fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
+            city_app_destroy(a);
+            return NULL;
+        }
+    }
+    if (o->city.city) {
+        a->city = hz_city_load(o->city.city, NULL, &err);
+        if (!a->city) {
+            fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
+            city_app_destroy(a);
+            return NULL;
+        }
+        if (a->city->note[0] && !o->quiet)
+            fprintf(stderr, "horizon %s: %s: %s\n", cmd, o->city.city, a->city->note);
+    }
+    if (o->city.footprints) {
+        a->fp = hz_city_load_footprints(o->city.footprints, NULL, &err);
+        if (!a->fp) {
+            fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
+            city_app_destroy(a);
+            return NULL;
+        }
+    }
+    const bool has_terrain = o->terrain.dem_path || o->dem_count || o->terrain.generate;
+    const hz_scene_file_info *fi = &a->file_info;
+    if (!has_terrain && a->file && fi->has_terrain) {
+        /* The scene's terrain (the command line's wins). */
+        if (fi->dem[0]) {
+            o->terrain.dem_path = fi->dem;
+        } else {
+            o->terrain.generate = !strcmp(fi->generate, "diamond") ? HZ_GEN_DIAMOND : HZ_GEN_PERLIN;
+            o->terrain.gen_size = fi->size;
+            o->terrain.seed = fi->seed;
+            o->terrain.amplitude = fi->amplitude;
+        }
+        if (fi->spacing > 0 && !(o->terrain.spacing > 0))
+            o->terrain.spacing = fi->spacing;
+    } else if (!has_terrain && a->city && write_tin(a, o, cmd)) {
+        city_app_destroy(a);
+        return NULL;
+    }
+    if (a->file && fi->has_sun && !o->have_sun) {
+        o->have_sun = true;
+        o->sun[0] = fi->sun[0];
+        o->sun[1] = fi->sun[1];
+    }
+    *rc = 0;
+    return a;
+}
+
+static float ground(void *user, float x, float z)
+{
+    const hz_terrain *t = user;
+    const float e = hz_terrain_extent(t);
+    if (x < 0 || z < 0 || x > e || z > e)
+        return NAN;
+    return hz_terrain_surface_at(t, x, z);
+}
+
+/* Wall quads of a mesh: consecutive triangle pairs that share an edge (how
+ * a planar 4-vertex face is triangulated). Appends to q (local coords). */
+static size_t mesh_quads(const hz_scene *s, uint32_t mesh, float *q)
+{
+    const hz_mesh_range *m = hz_scene_mesh(s, mesh);
+    uint32_t vc, ic;
+    const hz_vertex *v = hz_scene_vertices(s, &vc);
+    const uint32_t *ix = hz_scene_indices(s, &ic);
+    size_t n = 0;
+    for (uint32_t k = 0; k + 5 < m->index_count; k += 3) {
+        const float *A[3], *B[3];
+        for (int c = 0; c < 3; c++) {
+            A[c] = v[m->first_vertex + ix[m->first_index + k + (uint32_t)c]].pos;
+            B[c] = v[m->first_vertex + ix[m->first_index + k + 3 + (uint32_t)c]].pos;
+        }
+        /* The vertex of A not in B, and of B not in A. */
+        int xa = -1, yb = -1, shared = 0;
+        for (int c = 0; c < 3; c++) {
+            bool in = false, inb = false;
+            for (int d = 0; d < 3; d++) {
+                in = in || !memcmp(A[c], B[d], 12);
+                inb = inb || !memcmp(B[c], A[d], 12);
+            }
+            if (!in)
+                xa = c;
+            else
+                shared++;
+            if (!inb)
+                yb = c;
+        }
+        if (shared != 2 || xa < 0 || yb < 0)
+            continue;
+        /* A = (x, p, q) in order; the quad is x, p, y, q. */
+        const float *x = A[xa], *p = A[(xa + 1) % 3], *y = B[yb], *qq = A[(xa + 2) % 3];
+        const float *quad[4] = {x, p, y, qq};
+        for (int c = 0; c < 4; c++)
+            memcpy(q + 12 * n + 3 * c, quad[c], 12);
+        n++;
+        k += 3; /* the pair is used */
+    }
+    return n;
+}
+
+/* Terrain occluder quads: a coarse grid over the valid data, each corner at
+ * the lowest sample of the cells around it, so the quads lie under the
+ * surface (inside the ground): anything behind them is behind ground. */
+static int terrain_quads(city_app *a, const hz_terrain *t)
+{
+    const uint32_t n = t->hm.size, step = 4;
+    const uint32_t cn = (n - 1) / step; /* coarse cells per side */
+    float *cmin = malloc((size_t)(cn + 1) * (cn + 1) * sizeof *cmin);
+    a->terrain_quads = malloc((size_t)cn * cn * 12 * sizeof *a->terrain_quads);
+    if (!cmin || !a->terrain_quads) {
+        free(cmin);
+        return 1;
+    }
+    /* Corner heights: min over the samples of the (up to 4) coarse cells touching the corner. */
+    for (uint32_t cj = 0; cj <= cn; cj++)
+        for (uint32_t ci = 0; ci <= cn; ci++) {
+            float m = INFINITY;
+            uint32_t i0 = ci ? (ci - 1) * step : 0, i1 = ci < cn ? (ci + 1) * step : ci * step;
+            uint32_t j0 = cj ? (cj - 1) * step : 0, j1 = cj < cn ? (cj + 1) * step : cj * step;
+            for (uint32_t j = j0; j <= j1 && j < n; j++)
+                for (uint32_t i = i0; i <= i1 && i < n; i++)
+                    m = fminf(m, hz_heightmap_get(&t->hm, i, j) * t->zscale);
+            cmin[(size_t)cj * (cn + 1) + ci] = m - 1.0f; /* a metre of margin for the LOD's error */
+        }
+    size_t q = 0;
+    for (uint32_t cj = 0; cj < cn; cj++)
+        for (uint32_t ci = 0; ci < cn; ci++) {
+            /* Only over real data: a cell touching a masked sample is no occluder. */
+            bool ok = true;
+            if (t->valid)
+                for (uint32_t j = cj * step; j <= (cj + 1) * step && ok; j++)
+                    for (uint32_t i = ci * step; i <= (ci + 1) * step && ok; i++)
+                        ok = t->valid[(size_t)j * n + i];
+            if (!ok)
+                continue;
+            const uint32_t cc[4][2] = {{ci, cj}, {ci, cj + 1}, {ci + 1, cj + 1}, {ci + 1, cj}};
+            for (int k = 0; k < 4; k++) {
+                float *p = a->terrain_quads + 12 * q + 3 * k;
+                p[0] = (float)(cc[k][0] * step) * t->spacing;
+                p[1] = cmin[(size_t)cc[k][1] * (cn + 1) + cc[k][0]];
+                p[2] = (float)(cc[k][1] * step) * t->spacing;
+            }
+            q++;
+        }
+    a->terrain_quad_count = q;
+    free(cmin);
+    return 0;
+}
+
+int city_app_place(city_app *a, const hz_terrain *t, const char *cmd)
+{
+    double t0 = hz_time_ms();
+    hz_err err = {0};
+    a->scene = hz_scene_create(&(hz_scene_desc){.node_capacity = (a->city ? a->city->obj_count * 2 : 0) +
+                                                                 a->file_info.nodes + 64});
+    if (!a->scene) {
+        fprintf(stderr, "horizon %s: out of memory\n", cmd);
+        return 1;
+    }
+    hz_city *cities[2] = {a->city, a->fp};
+    hz_city_placed *placed[2] = {&a->placed, &a->fp_placed};
+    for (int k = 0; k < 2; k++) {
+        if (!cities[k])
+            continue;
+        hz_city_place p = {.georef = t->georef, .ground = ground, .ground_user = (void *)t};
+        if (!t->georef) {
+            /* A terrain without a place on Earth: the model's centre at the map's centre. */
+            const float e = hz_terrain_extent(t);
+            p.origin[0] = 0.5 * (cities[k]->extent[0] + cities[k]->extent[3]) - 0.5 * e;
+            p.origin[1] = 0.5 * (cities[k]->extent[1] + cities[k]->extent[4]) + 0.5 * e;
+        }
+        if (hz_city_to_scene(cities[k], a->scene, &p, placed[k], &err) != HZ_OK) {
+            fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
+            return 1;
+        }
+    }
+    if (a->file) {
+        hz_scene_file_place p = {.georef = t->georef, .ground = ground, .ground_user = (void *)t};
+        if (hz_scene_file_build(a->file, a->scene, &p, &a->file_stats, &err) != HZ_OK) {
+            fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
+            return 1;
+        }
+    }
+    hz_scene_update(a->scene);
+    /* Occluders: every mesh's face quads once; the nodes drawing a mesh
+     * with quads occlude with it. */
+    const uint32_t nn = hz_scene_node_count(a->scene), nm = hz_scene_mesh_count(a->scene);
+    uint32_t ic;
+    hz_scene_indices(a->scene, &ic);
+    a->mesh_first = malloc(((size_t)nm + 1) * sizeof *a->mesh_first);
+    a->mesh_quads = malloc(((size_t)nm + 1) * sizeof *a->mesh_quads);
+    a->occ_node = malloc(((size_t)nn + 1) * sizeof *a->occ_node);
+    a->quads = malloc(((size_t)ic / 6 + 1) * 12 * sizeof *a->quads);
+    if (!a->mesh_first || !a->mesh_quads || !a->occ_node || !a->quads || terrain_quads(a, t) ||
+        !hz_occlusion_init(&a->occ, 0, 0)) {
+        fprintf(stderr, "horizon %s: out of memory for the occluders\n", cmd);
+        return 1;
+    }
+    size_t q = 0;
+    for (uint32_t m = 0; m < nm; m++) {
+        a->mesh_first[m] = (uint32_t)q;
+        a->mesh_quads[m] = (uint32_t)mesh_quads(a->scene, m, a->quads + 12 * q);
+        q += a->mesh_quads[m];
+    }
+    for (uint32_t id = 1; id <= nn; id++) {
+        uint32_t m = hz_scene_node_mesh(a->scene, id);
+        if (m != HZ_MESH_NONE && a->mesh_quads[m])
+            a->occ_node[a->occ_nodes++] = id;
+    }
+    a->place_ms = hz_time_ms() - t0;
+    return 0;
+}
+
+hz_camera city_app_camera(const city_app *a, const struct cli_opts *o, const hz_terrain *t)
+{
+    hz_camera c = cli_camera(o, t);
+    if (o->have_camera)
+        return c;
+    hz_box b;
+    hz_scene_bounds(a->scene, &b);
+    if (hz_box_is_empty(&b))
+        return c;
+    float cx = 0.5f * (b.min[0] + b.max[0]), cz = 0.5f * (b.min[2] + b.max[2]);
+    float ext = fmaxf(b.max[0] - b.min[0], b.max[2] - b.min[2]);
+    /* From the south-east, 30 degrees down, far enough to frame the city. */
+    float d = 0.75f * ext + 50.0f;
+    c.pos[0] = cx + d * 0.5f;
+    c.pos[2] = cz + d * 0.866f;
+    float gy = hz_terrain_surface_at(t, cx, cz);
+    c.pos[1] = fmaxf(gy, hz_terrain_surface_at(t, c.pos[0], c.pos[2])) + d * 0.55f;
+    c.yaw = glm_deg(atan2f(cx - c.pos[0], -(cz - c.pos[2])));
+    c.pitch = -glm_deg(atan2f(c.pos[1] - gy, d));
+    return c;
+}
+
+int city_app_gpu(city_app *a, const char *cmd)
+{
+    hz_err err = {0};
+    a->gpu = hz_scene_gpu_create(a->scene, &err);
+    if (!a->gpu) {
+        fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
+        return 1;
+    }
+    return 0;
+}
+
+void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam, hz_scene_params *sp)
+{
+    a->hook.gpu = a->gpu;
+    a->hook.scene = a->scene;
+    a->hook.opts = (hz_scene_draw_opts){.no_frustum = o->city.no_frustum, .naive = o->city.naive,
+                                        .gpu_queries = o->city.gpu_queries};
+    a->occ_ms = 0;
+    /* Adaptive: when the last buffer hid under 5 % of the objects in the
+     * frustum (a view from above), the next 7 frames go without one (only
+     * frustum culling: still conservative), then it is tried again. */
+    if (a->occ_built) {
+        const hz_scene_draw_stats *ls = &a->hook.stats;
+        if (ls->after_frustum && (double)ls->after_occlusion > 0.95 * (double)ls->after_frustum)
+            a->occ_rest = 7;
+    } else if (a->occ_rest) {
+        a->occ_rest--;
+    }
+    a->occ_built = false;
+    if (!o->city.no_occlusion && !a->occ_rest) {
+        a->occ_built = true;
+        double t0 = hz_time_ms();
+        hz_occlusion_begin(&a->occ, cam);
+        /* The ground, then the faces of the objects in view within 1.5 km
+         * (big near occluders; far walls hide little). */
+        /* Terrain quads in runs of a row: skip runs whose first corner is
+         * beyond 3 km (far ground hides little and costs the most). */
+        const float reach = 3000.0f;
+        for (size_t k = 0; k < a->terrain_quad_count; k++) {
+            const float *q = a->terrain_quads + 12 * k;
+            float dx = q[0] - cam->pos[0], dz = q[2] - cam->pos[2];
+            if (dx * dx + dz * dz < reach * reach)
+                hz_occlusion_rasterize_quads(&a->occ, q, 1, NULL);
+        }
+        vec4 planes[6];
+        hz_camera_frustum(cam, planes);
+        for (uint32_t k = 0; k < a->occ_nodes; k++) {
+            hz_box b;
+            hz_scene_node_bounds(a->scene, a->occ_node[k], &b);
+            if (hz_box_vs_planes(&b, planes, 6) < 0)
+                continue;
+            float dx = 0.5f * (b.min[0] + b.max[0]) - cam->pos[0], dz = 0.5f * (b.min[2] + b.max[2]) - cam->pos[2];
+            if (dx * dx + dz * dz > 1500.0f * 1500.0f)
+                continue;
+            mat4 m;
+            hz_scene_world_matrix(a->scene, a->occ_node[k], m);
+            const uint32_t mesh = hz_scene_node_mesh(a->scene, a->occ_node[k]);
+            hz_occlusion_rasterize_quads(&a->occ, a->quads + 12 * (size_t)a->mesh_first[mesh], a->mesh_quads[mesh], m);
+        }
+        a->hook.opts.occlusion = &a->occ;
+        a->occ_ms = hz_time_ms() - t0;
+    }
+    a->hook.next = sp->draw_objects;
+    a->hook.next_user = sp->draw_objects_user;
+    sp->draw_objects = hz_scene_draw_hook;
+    sp->draw_objects_user = &a->hook;
+}
+
+/* The node a user means: the nearest ancestor with a name (roofs are unnamed
+ * children of their building). */
+static uint32_t named(const hz_scene *s, uint32_t n)
+{
+    while (n && !hz_scene_name(s, n)[0])
+        n = hz_scene_parent(s, n);
+    return n;
+}
+
+void city_app_pick_line(const city_app *a, const hz_terrain *t, const hz_camera *cam, float x, float y, uint32_t w,
+                        uint32_t h, char *buf, size_t n)
+{
+    hz_pick_result r = hz_pick(t, a ? a->scene : NULL, cam, x, y, w, h);
+    uint32_t nd = r.node ? named(a->scene, r.node) : 0;
+    if (!r.hit) {
+        snprintf(buf, n, "nothing under %.0f,%.0f (sky)", (double)x, (double)y);
+        return;
+    }
+    int k = snprintf(buf, n, "%s at %.1f, %.1f, %.1f", nd ? hz_scene_name(a->scene, nd) : "terrain", (double)r.pos[0],
+                     (double)r.pos[1], (double)r.pos[2]);
+    double cx, cy, lon, lat;
+    if (t->georef && k > 0 && (size_t)k < n) {
+        hz_georef_local_to_crs(t->georef, r.pos[0], r.pos[2], &cx, &cy);
+        if (hz_georef_crs_to_lonlat(t->georef, cx, cy, &lon, &lat, NULL) == HZ_OK)
+            snprintf(buf + k, n - (size_t)k, "  %s %.1f, %.1f  lon/lat %.6f, %.6f", hz_georef_label(t->georef), cx, cy,
+                     lon, lat);
+    }
+}
+
+void city_app_pick(const city_app *a, const hz_terrain *t, const hz_camera *cam, float x, float y, uint32_t w,
+                   uint32_t h, json_t *json)
+{
+    hz_pick_result r = hz_pick(t, a ? a->scene : NULL, cam, x, y, w, h);
+    double cx = 0, cy = 0, lon = 0, lat = 0;
+    bool crs = r.hit && t->georef, ll = false;
+    if (crs) {
+        hz_georef_local_to_crs(t->georef, r.pos[0], r.pos[2], &cx, &cy);
+        ll = hz_georef_crs_to_lonlat(t->georef, cx, cy, &lon, &lat, NULL) == HZ_OK;
+    }
+    uint32_t n = r.node ? named(a->scene, r.node) : 0;
+    const char *name = n ? hz_scene_name(a->scene, n) : "";
+    const char *attrs = n ? hz_scene_attributes(a->scene, n) : "";
+    if (json) {
+        json_t *pk = json_object();
+        jx_set(pk, "pixel", json_pack("[ff]", (double)x, (double)y));
+        jx_set(pk, "hit", jx_bool(r.hit));
+        if (r.hit) {
+            jx_set(pk, "what", jx_str(r.terrain ? "terrain" : "node"));
+            jx_set(pk, "world", json_pack("[fff]", (double)r.pos[0], (double)r.pos[1], (double)r.pos[2]));
+            jx_set(pk, "distance", jx_fix(r.distance, 3));
+            if (n) {
+                jx_set(pk, "node", jx_str(name));
+                json_t *at = attrs[0] ? json_loads(attrs, 0, NULL) : NULL;
+                jx_set(pk, "attributes", at ? at : json_object());
+            }
+            if (crs) {
+                jx_set(pk, "crs", jx_str(hz_georef_label(t->georef)));
+                jx_set(pk, "crs_xy", json_pack("[ff]", cx, cy));
+            }
+            if (ll)
+                jx_set(pk, "lonlat", json_pack("[ff]", lon, lat));
+        }
+        jx_set(json, "pick", pk);
+        return;
+    }
+    if (!r.hit) {
+        printf("pick          %g,%g: nothing (sky)\n", (double)x, (double)y);
+        return;
+    }
+    if (n)
+        printf("pick          %g,%g: %s %s\n", (double)x, (double)y, name, attrs);
+    else
+        printf("pick          %g,%g: terrain\n", (double)x, (double)y);
+    printf("pick world    %.2f, %.2f, %.2f (%.1f m away)\n", (double)r.pos[0], (double)r.pos[1], (double)r.pos[2],
+           (double)r.distance);
+    if (crs)
+        printf("pick CRS      %s: %.3f, %.3f, height %.2f\n", hz_georef_label(t->georef), cx, cy, (double)r.pos[1]);
+    if (ll)
+        printf("pick lon/lat  %.7f, %.7f\n", lon, lat);
+}
+
+void city_app_print(const city_app *a, json_t *json)
+{
+    const hz_scene_draw_stats *s = &a->hook.stats;
+    const hz_city *c = a->city;
+    const hz_scene_file_stats *fs = &a->file_stats;
+    if (json) {
+        json_t *o = json_object();
+        jx_set(o, "scene_objects", jx_int(s->objects));
+        jx_set(o, "after_frustum", jx_int(s->after_frustum));
+        jx_set(o, "after_occlusion", jx_int(s->after_occlusion));
+        jx_set(o, "draw_calls", jx_int(s->draw_calls));
+        jx_set(o, "state_changes", jx_int(s->state_changes));
+        jx_set(o, "queue_items", jx_int(s->items));
+        jx_set(o, "triangles_drawn", jx_int((long long)s->triangles));
+        jx_set(o, "cull_ms", jx_fix(s->cull_ms, 3));
+        jx_set(o, "occlusion_ms", jx_fix(a->occ_ms, 3));
+        jx_set(o, "draw_ms", jx_fix(s->draw_ms, 3));
+        jx_set(o, "occluder_quads", jx_int((long long)a->occ.triangles));
+        jx_set(o, "place_ms", jx_fix(a->place_ms, 1));
+        jx_set(o, "meshes", jx_int(hz_scene_mesh_count(a->scene)));
+        if (c) {
+            jx_set(o, "file_crs", jx_str(c->crs));
+            jx_set(o, "buildings", jx_int(c->buildings));
+            jx_set(o, "objects", jx_int(c->obj_count));
+            jx_set(o, "faces", jx_int((long long)c->faces));
+            jx_set(o, "triangles", jx_int((long long)a->placed.triangles));
+            jx_set(o, "load_ms", jx_fix(c->load_ms, 1));
+            jx_set(o, "clamp_mean_m", jx_fix(a->placed.mean_shift, 3));
+            jx_set(o, "clamp_max_m", jx_fix(a->placed.max_shift, 3));
+            jx_set(o, "clamped", jx_int(a->placed.clamped));
+            jx_set(o, "without_ground", jx_int(a->placed.outside));
+        }
+        if (a->fp) {
+            json_t *f = json_object();
+            jx_set(f, "buildings", jx_int(a->fp->buildings));
+            jx_set(f, "crs", jx_str(a->fp->crs));
+            jx_set(f, "clamped", jx_int(a->fp_placed.clamped));
+            jx_set(f, "without_ground", jx_int(a->fp_placed.outside));
+            jx_set(f, "load_ms", jx_fix(a->fp->load_ms, 1));
+            jx_set(o, "footprints", f);
+        }
+        if (a->file) {
+            json_t *f = json_object();
+            jx_set(f, "nodes", jx_int(fs->nodes));
+            jx_set(f, "objects", jx_int(fs->objects));
+            jx_set(f, "clamped", jx_int(fs->clamped));
+            jx_set(f, "meshes", jx_int(fs->meshes));
+            jx_set(f, "build_ms", jx_fix(fs->ms, 1));
+            jx_set(o, "scene_file", f);
+        }
+        jx_set(json, "city", o);
+        return;
+    }
+    if (c) {
+        printf("city          %u buildings (%s, %llu faces -> %llu triangles), loaded in %.0f ms\n", c->buildings,
+               c->crs[0] ? c->crs : "no CRS", (unsigned long long)c->faces, (unsigned long long)a->placed.triangles,
+               c->load_ms);
+        printf("city ground   %u clamped (mean move %.2f m, max %.2f m), %u without ground under them\n",
+               a->placed.clamped, a->placed.mean_shift, a->placed.max_shift, a->placed.outside);
+    }
+    if (a->fp)
+        printf("footprints    %u buildings extruded (%s), %u clamped (mean move %.2f m), %u without ground\n",
+               a->fp->buildings, a->fp->crs, a->fp_placed.clamped, a->fp_placed.mean_shift, a->fp_placed.outside);
+    if (a->file)
+        printf("scene file    %u nodes, %u objects (%u meshes), %u clamped to the ground, built in %.0f ms\n",
+               fs->nodes, fs->objects, fs->meshes, fs->clamped, fs->ms);
+    printf("objects       %u in scene, %u after frustum culling, %u after occlusion culling\n", s->objects,
+           s->after_frustum, s->after_occlusion);
+    printf("objects draw  %u draw calls, %u state changes, %u queue items, %llu triangles, %.1f ms draw, "
+           "%.2f ms cull, %.2f ms occlusion buffer\n",
+           s->draw_calls, s->state_changes, s->items, (unsigned long long)s->triangles, s->draw_ms, s->cull_ms,
+           a->occ_ms);
+}
+
+void city_app_destroy(city_app *a)
+{
+    if (!a)
+        return;
+    hz_scene_gpu_destroy(a->gpu);
+    hz_scene_destroy(a->scene);
+    hz_city_destroy(a->city);
+    hz_city_destroy(a->fp);
+    hz_occlusion_free(&a->occ);
+    free(a->terrain_quads);
+    free(a->occ_node);
+    free(a->mesh_first);
+    free(a->mesh_quads);
+    free(a->quads);
+    hz_scene_file_destroy(a->file);
+    if (a->tin_path[0])
+        unlink(a->tin_path);
+    free(a);
+}
+
+/* ---- horizon city: a procedural city as a scene file ---------------------- */
+
+static uint64_t rng_next(uint64_t *s)
+{
+    uint64_t z = (*s += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+
+static double rng_unit(uint64_t *s)
+{
+    return (double)(rng_next(s) >> 11) * (1.0 / 9007199254740992.0);
+}
+
+/* One block of buildings along its four edges (lots of 12-24 m, 10-18 m deep,
+ * facing the street), heights rising toward the city centre. */
+static bool add_block(json_t *children, uint64_t *rng, double bx, double bz, double side, double r_norm,
+                      uint32_t bi, uint32_t bj, uint32_t *count)
+{
+    static const char *const mats[4] = {"concrete", "brick", "plaster", "glass"};
+    for (int e = 0; e < 4; e++) {
+        /* Edge e: along x (north, south) or z (west, east); yaw faces the street. */
+        double along = -0.5 * side + 2.0;
+        while (along < 0.5 * side - 14.0) {
+            double w = 12.0 + 12.0 * rng_unit(rng), d = 10.0 + 8.0 * rng_unit(rng);
+            if (along + w > 0.5 * side - 2.0)
+                w = 0.5 * side - 2.0 - along;
+            double tall = exp(-3.0 * r_norm * r_norm);
+            double h = 6.0 + (8.0 + 70.0 * tall * rng_unit(rng)) * rng_unit(rng) + 30.0 * tall;
+            double c = along + 0.5 * w, off = 0.5 * side - 0.5 * d - 1.0;
+            double x, z, yaw;
+            switch (e) {
+            case 0: x = c, z = -off, yaw = 0; break;   /* north edge */
+            case 1: x = off, z = c, yaw = 90; break;   /* east */
+            case 2: x = -c, z = off, yaw = 180; break; /* south */
+            default: x = -off, z = -c, yaw = 270; break;
+            }
+            char name[64];
+            snprintf(name, sizeof name, "b_%u_%u_%u", bi, bj, *count);
+            const char *mat = mats[rng_next(rng) % (tall > 0.5 ? 4u : 3u)];
+            json_t *n = json_pack("{s:s, s:s, s:s, s:[f,f,f], s:f, s:[f,f,f], s:s, s:{s:[i,i], s:f, s:i}}", "name",
+                                  name, "model", "box", "material", mat, "position", bx + x, 0.0, bz + z, "yaw", yaw,
+                                  "scale", w, h, d, "clamp", "ground", "attributes", "block", (int)bi, (int)bj,
+                                  "height", floor(h * 10) / 10, "levels", (int)(h / 3.2));
+            if (!n || json_array_append_new(children, n))
+                return false;
+            (*count)++;
+            along += w + 1.0 + 3.0 * rng_unit(rng);
+        }
+    }
+    return true;
+}
+
+int cmd_city(int argc, char **argv)
+{
+    uint32_t blocks = 0;
+    float block = 120, street = 20;
+    char **rest = calloc((size_t)argc + 1, sizeof *rest);
+    if (!rest)
+        return 1;
+    int nr = 0;
+    for (int i = 0; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (i >= 2 && (!strcmp(a, "--help") || !strcmp(a, "-h"))) {
+            fprintf(stderr, "usage: horizon city --blocks N --out FILE.json [terrain options] [--block M] [--street M]\n"
+                            "Writes a scene file (docs/scene.md) of a procedural city: N x N blocks of --block metres\n"
+                            "(default 120) between streets of --street metres (default 20), buildings along each\n"
+                            "block's edges (about 24 per block), taller toward the centre, four materials, one box\n"
+                            "model instanced, every building clamped to the ground; centred on the terrain given\n"
+                            "(default: a generated one), which the scene names. --seed also seeds the city.\n");
+            cli_usage_terrain();
+            free(rest);
+            return 0;
+        }
+        if (i >= 2 && (!strcmp(a, "--blocks") || !strcmp(a, "--block") || !strcmp(a, "--street"))) {
+            bool ok = v && (!strcmp(a, "--blocks") ? cli_parse_u32(v, 1, 400, &blocks)
+                            : !strcmp(a, "--block") ? cli_parse_float(v, 40, 2000, &block)
+                                                    : cli_parse_float(v, 4, 500, &street));
+            if (!ok) {
+                fprintf(stderr, "horizon city: %s wants %s, not '%s'\n", a,
+                        !strcmp(a, "--blocks") ? "a count in [1, 400]"
+                        : !strcmp(a, "--block") ? "metres in [40, 2000]"
+                                                : "metres in [4, 500]",
+                        v ? v : "(nothing)");
+                free(rest);
+                return 2;
+            }
+            i++;
+            continue;
+        }
+        rest[nr++] = argv[i];
+    }
+    cli_opts o;
+    int rc = cli_parse(nr, rest, 2, &o, "city");
+    free(rest);
+    if (rc)
+        return rc;
+    if (!blocks || !o.out) {
+        fprintf(stderr, "horizon city: give --blocks N and --out FILE.json (see horizon city --help)\n");
+        return 2;
+    }
+    cli_file ins[8];
+    const size_t nin = cli_opts_inputs(&o, ins, 0, 8);
+    const cli_file outs[] = {{o.out, "--out", CLI_FILE}};
+    if ((rc = cli_check_outputs("city", outs, 1, ins, nin)))
+        return rc;
+    hz_terrain *t = cli_load_terrain(&o);
+    if (!t)
+        return 1;
+    /* Centre on the DEM's data (not its padding). */
+    const uint32_t dw = t->data_w ? t->data_w : t->hm.size, dh = t->data_h ? t->data_h : t->hm.size;
+    const double cx = ((double)t->data_x + 0.5 * (dw - 1)) * t->spacing;
+    const double cz = ((double)t->data_y + 0.5 * (dh - 1)) * t->spacing;
+    const double pitch = (double)block + (double)street;
+    const double half = 0.5 * pitch * blocks;
+    if (half > 0.5 * (double)(dw < dh ? dw : dh) * t->spacing && !o.quiet)
+        fprintf(stderr, "horizon city: the city (%.0f m across) is larger than the terrain's data (%.0f m)\n",
+                2 * half, (double)(dw < dh ? dw : dh) * t->spacing);
+    json_t *root = json_object(), *nodes = json_array(), *children = json_array();
+    /* The DEM by its absolute path: the scene resolves relative names against its own folder. */
+    char *dem_abs = o.terrain.dem_path ? realpath(o.terrain.dem_path, NULL) : NULL;
+    json_t *terrain = o.terrain.dem_path ? json_pack("{s:s}", "dem", dem_abs ? dem_abs : o.terrain.dem_path)
+                                         : json_pack("{s:s, s:i, s:I}", "generate",
+                                                     o.terrain.generate == HZ_GEN_DIAMOND ? "diamond" : "perlin",
+                                                     "size", (int)(o.terrain.gen_size ? o.terrain.gen_size : 4097),
+                                                     "seed", (json_int_t)o.terrain.seed);
+    free(dem_abs);
+    if (terrain && o.terrain.spacing > 0)
+        json_object_set_new(terrain, "spacing", json_real(o.terrain.spacing));
+    json_t *mats = json_pack("{s:{s:[f,f,f]}, s:{s:[f,f,f]}, s:{s:[f,f,f]}, s:{s:[f,f,f]}}", "concrete", "color",
+                             0.62, 0.62, 0.60, "brick", "color", 0.58, 0.32, 0.24, "plaster", "color", 0.82, 0.76,
+                             0.62, "glass", "color", 0.36, 0.47, 0.55);
+    json_t *models = json_pack("{s:{s:[f,f,f]}}", "box", "box", 1.0, 1.0, 1.0);
+    uint64_t rng = o.terrain.seed * 0x2545f4914f6cdd1dull + blocks;
+    uint32_t count = 0;
+    bool ok = root && nodes && children && terrain && mats && models;
+    for (uint32_t bj = 0; ok && bj < blocks; bj++)
+        for (uint32_t bi = 0; ok && bi < blocks; bi++) {
+            double bx = ((double)bi + 0.5) * pitch - half, bz = ((double)bj + 0.5) * pitch - half;
+            double r = sqrt(bx * bx + bz * bz) / (half > 0 ? half : 1);
+            json_t *bl = json_array();
+            char name[32];
+            snprintf(name, sizeof name, "block_%u_%u", bi, bj);
+            ok = bl && add_block(bl, &rng, bx, bz, block, r, bi, bj, &count);
+            json_t *node = ok ? json_pack("{s:s, s:o}", "name", name, "children", bl) : NULL;
+            ok = node && !json_array_append_new(children, node);
+        }
+    json_t *city = ok ? json_pack("{s:s, s:[f,f,f], s:o}", "name", "city", "position", cx, 0.0, cz, "children",
+                                  children)
+                      : NULL;
+    ok = city && !json_array_append_new(nodes, city);
+    if (ok) {
+        json_object_set_new(root, "horizon_scene", json_integer(1));
+        json_object_set_new(root, "terrain", terrain);
+        json_object_set_new(root, "lights", json_pack("{s:[f,f]}", "sun", 235.0, 35.0));
+        json_object_set_new(root, "materials", mats);
+        json_object_set_new(root, "models", models);
+        json_object_set_new(root, "nodes", nodes);
+    }
+    hz_outfile of;
+    hz_err err = {0};
+    rc = 1;
+    if (!ok) {
+        fprintf(stderr, "horizon city: out of memory\n");
+    } else if (hz_outfile_begin(&of, o.out, &err) != HZ_OK) {
+        fprintf(stderr, "horizon city: %s\n", err.msg);
+    } else if (json_dump_file(root, of.tmp, JSON_COMPACT) != 0) {
+        hz_outfile_discard(&of);
+        fprintf(stderr, "horizon city: cannot write %s\n", o.out);
+    } else if (hz_outfile_commit(&of, &err) != HZ_OK) {
+        fprintf(stderr, "horizon city: %s\n", err.msg);
+    } else {
+        printf("city          %u x %u blocks, %u buildings, %.0f m across, centred at %.0f, %.0f on %s\n", blocks,
+               blocks, count, 2 * half, cx, cz, t->source);
+        printf("scene         %s\n", o.out);
+        rc = 0;
+    }
+    if (!ok) {
+        json_decref(terrain);
+        json_decref(mats);
+        json_decref(models);
+        json_decref(children);
+        json_decref(nodes);
+    }
+    json_decref(root);
+    hz_terrain_destroy(t);
+    return rc;
+}
+
+/* ---- --city-bench: every culling / queue stage on and off on the same frames -- */
+
+typedef struct bench_cfg {
+    const char *name;
+    bool no_frustum, no_occlusion, naive, gpu;
+} bench_cfg;
+
+static const bench_cfg bench_cfgs[] = {
+    {"none_naive", true, true, true, false},        /* the reference: everything, one draw per object */
+    {"none_sorted", true, true, false, false},
+    {"frustum_naive", false, true, true, false},
+    {"frustum_sorted", false, true, false, false},
+    {"occlusion_naive", false, false, true, false},
+    {"occlusion_sorted", false, false, false, false}, /* everything on (the default) */
+    {"gpuquery_sorted", false, true, false, true}, /* GPU occlusion queries instead of the CPU buffer */
+};
+#define BENCH_CFGS (sizeof bench_cfgs / sizeof *bench_cfgs)
+
+static int cmp_d(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* The path's cameras: "street" walks 2 m above the ground from the scene's
+ * centre (or --camera's x, z, yaw) 400 m ahead; "overview" circles the
+ * scene 600 m up, looking at its centre. */
+static void bench_camera(const city_app *a, const struct cli_opts *o, const hz_terrain *t, const char *kind,
+                         uint32_t k, uint32_t n, hz_camera *c)
+{
+    *c = cli_camera(o, t);
+    hz_box b;
+    hz_scene_bounds(a->scene, &b);
+    float cx = 0.5f * (b.min[0] + b.max[0]), cz = 0.5f * (b.min[2] + b.max[2]);
+    float ext = fmaxf(b.max[0] - b.min[0], b.max[2] - b.min[2]);
+    const float u = n > 1 ? (float)k / (float)(n - 1) : 0;
+    if (!strcmp(kind, "street")) {
+        float x0 = o->have_camera ? o->camera[0] : cx, z0 = o->have_camera ? o->camera[2] : cz;
+        float yaw = o->have_camera ? o->camera[3] : 0;
+        float d = 400.0f * u;
+        c->pos[0] = x0 + d * sinf(glm_rad(yaw));
+        c->pos[2] = z0 - d * cosf(glm_rad(yaw));
+        c->pos[1] = hz_terrain_surface_at(t, c->pos[0], c->pos[2]) + 2.0f;
+        c->yaw = yaw;
+        c->pitch = 2;
+    } else {
+        float ang = glm_rad(360.0f * u), r = 0.6f * ext + 100.0f;
+        c->pos[0] = cx + r * sinf(ang);
+        c->pos[2] = cz + r * cosf(ang);
+        float g = hz_terrain_surface_at(t, cx, cz);
+        c->pos[1] = fmaxf(g, hz_terrain_surface_at(t, c->pos[0], c->pos[2])) + 600.0f;
+        c->yaw = glm_deg(atan2f(cx - c->pos[0], -(cz - c->pos[2])));
+        c->pitch = -glm_deg(atan2f(c->pos[1] - g, r));
+    }
+}
+
+int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *ren, app_fx *afx, bool json)
+{
+    const char *kind = o->city.bench;
+    const uint32_t frames = o->city.bench_frames ? o->city.bench_frames : 12;
+    const size_t px = (size_t)o->width * o->height * 3;
+    double *ms = calloc((size_t)frames * BENCH_CFGS, sizeof *ms);
+    double sum_obj[BENCH_CFGS][6] = {{0}}; /* after frustum, after occlusion, draw calls, state changes, occ ms,
+                                             query ms */
+    uint64_t diff[BENCH_CFGS] = {0}, diff_frames[BENCH_CFGS] = {0};
+    uint8_t *img = malloc(px * BENCH_CFGS);
+    uint32_t objects = 0;
+    cli_lod_frame lf = {0};
+    hz_err err = {0};
+    int rc = 1;
+    if (!ms || !img) {
+        fprintf(stderr, "horizon render: out of memory\n");
+        goto out;
+    }
+    for (uint32_t k = 0; k < frames; k++) {
+        hz_camera cam;
+        bench_camera(a, o, t, kind, k, frames, &cam);
+        if (cli_lod_select(t, &cam, &o->lod, &lf) != HZ_OK) {
+            fprintf(stderr, "horizon render: out of memory in LOD selection\n");
+            goto out;
+        }
+        /* A warm-up draw, then every configuration in an order rotating per frame. */
+        for (uint32_t r = 0; r <= BENCH_CFGS; r++) {
+            const uint32_t ci = r == 0 ? 0 : (r - 1 + k) % BENCH_CFGS;
+            const bench_cfg *bc = &bench_cfgs[ci];
+            city_opts keep = o->city;
+            o->city.no_frustum = bc->no_frustum;
+            o->city.no_occlusion = bc->no_occlusion;
+            o->city.naive = bc->naive;
+            o->city.gpu_queries = bc->gpu;
+            hz_scene_params sp = {0};
+            app_fx_params(afx, t, &cam, &o->lod, o->time, &sp);
+            const uint32_t *idx;
+            uint32_t count;
+            cli_lod_scene(&lf, &sp, &idx, &count);
+            city_app_frame(a, o, &cam, &sp);
+            o->city = keep;
+            hz_draw_stats ds = {0};
+            if (hz_renderer_draw(ren, &cam, &sp, idx, count, &ds, &err) != HZ_OK || a->hook.failed) {
+                fprintf(stderr, "horizon render: %s\n", a->hook.failed ? a->hook.err.msg : err.msg);
+                goto out;
+            }
+            if (r == 0)
+                continue;
+            const hz_scene_draw_stats *s = &a->hook.stats;
+            objects = s->objects;
+            ms[ci * frames + k] = ds.draw_ms + a->occ_ms;
+            sum_obj[ci][0] += s->after_frustum;
+            sum_obj[ci][1] += s->after_occlusion;
+            sum_obj[ci][2] += s->draw_calls;
+            sum_obj[ci][3] += s->state_changes;
+            sum_obj[ci][4] += a->occ_ms;
+            sum_obj[ci][5] += s->query_ms;
+            if (hz_renderer_read_rgb(ren, img + px * ci, &err) != HZ_OK) {
+                fprintf(stderr, "horizon render: %s\n", err.msg);
+                goto out;
+            }
+        }
+        /* Pixels that differ from the unculled frame drawn in the same queue
+         * order (none_naive or none_sorted): what culling changed. (Between
+         * the two orders, coplanar faces of touching buildings may resolve
+         * differently at equal depth.) */
+        for (uint32_t ci = 2; ci < BENCH_CFGS; ci++) {
+            const uint8_t *ref = img + px * (bench_cfgs[ci].naive ? 0 : 1);
+            uint64_t d = 0;
+            for (size_t p = 0; p < px; p += 3)
+                d += memcmp(ref + p, img + px * ci + p, 3) != 0;
+            diff[ci] = d > diff[ci] ? d : diff[ci];
+            diff_frames[ci] += d > 0;
+        }
+    }
+    if (json)
+        printf("{\"bench\":\"%s\",\"frames\":%u,\"objects\":%u,\"width\":%u,\"height\":%u,\"configs\":[", kind,
+               frames, objects, o->width, o->height);
+    else
+        printf("city bench    %s path, %u frames, %u objects, %ux%u (frame ms: median over frames, all passes + "
+               "occlusion buffer)\n%-18s %9s %9s %9s %9s %9s %9s %12s\n",
+               kind, frames, objects, o->width, o->height, "config", "frame_ms", "frustum", "occlusion", "draws",
+               "states", "occ_ms", "diff_px_max");
+    for (uint32_t ci = 0; ci < BENCH_CFGS; ci++) {
+        double *v = ms + ci * frames;
+        qsort(v, frames, sizeof *v, cmp_d);
+        double med = frames % 2 ? v[frames / 2] : 0.5 * (v[frames / 2 - 1] + v[frames / 2]);
+        const double f = frames;
+        if (json)
+            printf("%s{\"config\":\"%s\",\"frame_ms\":%.3f,\"after_frustum\":%.1f,\"after_occlusion\":%.1f,"
+                   "\"draw_calls\":%.1f,\"state_changes\":%.1f,\"occlusion_ms\":%.3f,\"query_ms\":%.3f,"
+                   "\"diff_pixels_max\":%llu,\"diff_frames\":%llu}",
+                   ci ? "," : "", bench_cfgs[ci].name, med, sum_obj[ci][0] / f, sum_obj[ci][1] / f,
+                   sum_obj[ci][2] / f, sum_obj[ci][3] / f, sum_obj[ci][4] / f, sum_obj[ci][5] / f,
+                   (unsigned long long)diff[ci],
+                   (unsigned long long)diff_frames[ci]);
+        else
+            printf("%-18s %9.1f %9.0f %9.0f %9.0f %9.0f %9.2f %12llu\n", bench_cfgs[ci].name, med, sum_obj[ci][0] / f,
+                   sum_obj[ci][1] / f, sum_obj[ci][2] / f, sum_obj[ci][3] / f,
+                   sum_obj[ci][4] / f + sum_obj[ci][5] / f, (unsigned long long)diff[ci]);
+    }
+    if (json)
+        printf("]}\n");
+    rc = 0;
+out:
+    cli_lod_frame_free(&lf);
+    free(ms);
+    free(img);
+    return rc;
+}

@@ -1,0 +1,104 @@
+/* City models and scene objects on the terrain for render / bench / view:
+ * --city FILE.city.json, --pick X,Y, the culling switches. The CLI's own
+ * code for issue 13; cli.c only forwards unknown options here. */
+#ifndef HZ_CITY_CLI_H
+#define HZ_CITY_CLI_H
+
+#include <jansson.h>
+
+#include "horizon/city.h"
+#include "horizon/occlusion.h"
+#include "horizon/scene_file.h"
+#include "horizon/scene_render.h"
+#include "horizon/terrain.h"
+
+typedef struct city_opts {
+    const char *city;     /* --city FILE */
+    const char *scene;    /* --scene FILE (docs/scene.md) */
+    const char *footprints; /* --footprints FILE: OGR polygons extruded */
+    bool have_pick;
+    float pick[2];        /* --pick X,Y: pixel, x right, y down from the top-left */
+    bool no_frustum;      /* --cull none|frustum|occlusion (default occlusion) */
+    bool no_occlusion;
+    bool gpu_queries;     /* --cull gpu: GPU occlusion queries instead of the CPU buffer */
+    bool naive;           /* --draw naive|sorted (default sorted) */
+    float tin_cell;       /* --tin-cell M: TINRelief grid when the city is its own terrain (default 5) */
+    const char *bench;    /* --city-bench street|overview */
+    uint32_t bench_frames; /* --city-bench-frames N (default 12) */
+} city_opts;
+
+/* One option of argv at *i (value v, may be NULL). Returns -1 when it is
+ * not a city option, 0 when consumed (*i advanced past a value), 2 after
+ * printing a usage error. */
+int city_cli_option(city_opts *c, const char *a, const char *v, const char *cmd, int *i);
+void city_cli_usage(void);
+
+struct cli_opts;
+
+typedef struct city_app {
+    hz_city *city;         /* --city, or NULL */
+    hz_city *fp;           /* --footprints, or NULL */
+    hz_city_placed fp_placed;
+    hz_scene_file *file;   /* --scene, or NULL */
+    hz_scene_file_info file_info;
+    hz_scene_file_stats file_stats;
+    hz_scene *scene;
+    hz_city_placed placed;
+    double place_ms;
+    char tin_path[256];    /* the TINRelief grid written for the terrain (removed at the end) */
+    /* occluders: terrain quads (world); per mesh its face quads (local), per
+     * occluding node its mesh */
+    float *terrain_quads;
+    size_t terrain_quad_count;
+    uint32_t *mesh_first, *mesh_quads;   /* per mesh: first quad, count */
+    float *quads;
+    uint32_t *occ_node;
+    uint32_t occ_nodes;
+    hz_occlusion occ;
+    double occ_ms;         /* last frame's occlusion buffer build */
+    bool occ_built;        /* the last frame had an occlusion buffer */
+    uint32_t occ_rest;     /* frames left without one (it hid too little) */
+    /* GL */
+    hz_scene_gpu *gpu;
+    hz_scene_hook hook;
+} city_app;
+
+/* Loads the city and/or the scene file (before the terrain): when the command has no terrain
+ * source (--dem / --generate), the city's TINRelief becomes the terrain (a
+ * GeoTIFF grid in $TMPDIR, in o->terrain), else the scene file's terrain;
+ * the scene file's sun unless --sun. NULL with *rc = 0 when there is no
+ * --city nor --scene; NULL with *rc = 1 after printing an error. */
+city_app *city_app_load(struct cli_opts *o, const char *cmd, int *rc);
+/* Places the city on the terrain (through its georeference, clamped to
+ * hz_terrain_surface_at; a terrain without one gets the city centred) and
+ * prepares the occluders. 0, or 1 after printing. */
+int city_app_place(city_app *a, const hz_terrain *t, const char *cmd);
+/* A camera looking at the city from the south-east (when --camera is not given). */
+hz_camera city_app_camera(const city_app *a, const struct cli_opts *o, const hz_terrain *t);
+/* Uploads the scene (current GL context). 0 or 1 after printing. */
+int city_app_gpu(city_app *a, const char *cmd);
+/* Per frame: the occlusion buffer for cam (unless off) and sp's object
+ * hook (chained in front of a hook sp already has). */
+void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam, hz_scene_params *sp);
+/* --pick: what is under pixel (x, y) of cam's image (w x h): the nearest of
+ * the scene's triangles and the terrain's surface; printed as text or JSON
+ * members. */
+void city_app_pick(const city_app *a, const hz_terrain *t, const hz_camera *cam, float x, float y, uint32_t w,
+                   uint32_t h, json_t *json);
+/* The same as one line (a HUD message). */
+void city_app_pick_line(const city_app *a, const hz_terrain *t, const hz_camera *cam, float x, float y, uint32_t w,
+                        uint32_t h, char *buf, size_t n);
+/* The figures: JSON members (",\"city\":{...}") or text lines. */
+void city_app_print(const city_app *a, json_t *json);
+void city_app_destroy(city_app *a);
+
+struct app_fx;
+/* --city-bench: the path's frames drawn with every culling / queue
+ * configuration (rotating order), medians and pixel differences printed.
+ * 0 or 1 after printing. */
+int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *ren, struct app_fx *afx, bool json);
+
+/* horizon city --blocks N --out FILE: a procedural city as a scene file. */
+int cmd_city(int argc, char **argv);
+
+#endif

@@ -1,0 +1,43 @@
+/* horizon picking: what is under a pixel, the nearest of the terrain's
+ * surface and a scene's mesh triangles. No GL. */
+#ifndef HORIZON_PICK_H
+#define HORIZON_PICK_H
+
+#include "horizon/camera.h"
+#include "horizon/scene.h"
+#include "horizon/terrain.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* The ray of pixel (x, y) of cam's w x h image (x right, y down from the
+ * top-left corner; pixel centres at +0.5): origin on the near plane, unit
+ * direction, world space. */
+void hz_camera_pixel_ray(const hz_camera *cam, float x, float y, uint32_t w, uint32_t h, float origin[3],
+                         float dir[3]);
+
+/* Intersection of a ray with the terrain's full-resolution surface (the
+ * triangles hz_terrain_surface_at interpolates, as the reference mesh
+ * draws them; masked samples included), nearest t in (0, t_max], marched
+ * a quarter cell at a time and refined by bisection on the piecewise-linear
+ * surface. False when the ray leaves the map or reaches t_max first. */
+bool hz_terrain_raycast(const hz_terrain *t, const float origin[3], const float dir[3], float t_max, float *t_hit);
+
+typedef struct hz_pick_result {
+    bool hit;
+    bool terrain;        /* the terrain is nearest (node = HZ_NODE_NONE) */
+    uint32_t node;       /* the scene node hit, else HZ_NODE_NONE */
+    float pos[3];        /* world metres */
+    float distance;      /* from the ray origin, metres */
+} hz_pick_result;
+
+/* Picks pixel (x, y): scene may be NULL (terrain only), t may be NULL
+ * (scene only). The scene must be updated (hz_scene_update). */
+hz_pick_result hz_pick(const hz_terrain *t, const hz_scene *s, const hz_camera *cam, float x, float y, uint32_t w,
+                       uint32_t h);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,186 @@
+/* CPU occlusion buffer (SPEC G4): conservative coarse depth of the big
+ * occluders; see occlusion.h. */
+#include "horizon/occlusion.h"
+
+#include <math.h>
+#include <stdlib.h>
+
+bool hz_occlusion_init(hz_occlusion *o, uint32_t w, uint32_t h)
+{
+    *o = (hz_occlusion){.w = w ? (w > 1024 ? 1024 : w) : 256, .h = h ? h : 144};
+    o->depth = malloc((size_t)o->w * o->h * sizeof *o->depth);
+    return o->depth != NULL;
+}
+
+void hz_occlusion_free(hz_occlusion *o)
+{
+    free(o->depth);
+    o->depth = NULL;
+}
+
+void hz_occlusion_begin(hz_occlusion *o, const hz_camera *cam)
+{
+    hz_camera_view(cam, o->view);
+    hz_camera_proj(cam, o->proj);
+    o->znear = cam->znear > 0 ? cam->znear : 1.0f;
+    for (size_t k = 0; k < (size_t)o->w * o->h; k++)
+        o->depth[k] = INFINITY;
+    o->triangles = o->cells_written = 0;
+    o->raster_ms = 0;
+}
+
+/* Screen position in cells (x right, y up) and view depth of a world point;
+ * false when it is nearer than the near plane. */
+static bool project(const hz_occlusion *o, const mat4 mv, const float p[3], float s[2], float *d)
+{
+    vec4 v, c;
+    glm_mat4_mulv((vec4 *)mv, (vec4){p[0], p[1], p[2], 1}, v);
+    *d = -v[2];
+    if (!(*d >= o->znear))
+        return false;
+    glm_mat4_mulv((vec4 *)o->proj, v, c);
+    s[0] = (c[0] / c[3] * 0.5f + 0.5f) * (float)o->w;
+    s[1] = (c[1] / c[3] * 0.5f + 0.5f) * (float)o->h;
+    return true;
+}
+
+static float edge(const float *a, const float *b, float x, float y)
+{
+    return (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]);
+}
+
+/* A convex screen polygon of n <= 4 vertices (either winding) at depth dmax. */
+static void raster_convex(hz_occlusion *o, float s[][2], int n, float dmax)
+{
+    float area = 0;
+    for (int k = 0; k < n; k++)
+        area += s[k][0] * s[(k + 1) % n][1] - s[(k + 1) % n][0] * s[k][1];
+    if (fabsf(area) < 1e-6f)
+        return;
+    o->triangles++;
+    const float sg = area > 0 ? 1.0f : -1.0f;
+    float x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
+    for (int k = 0; k < n; k++) {
+        x0 = fminf(x0, s[k][0]);
+        x1 = fmaxf(x1, s[k][0]);
+        y0 = fminf(y0, s[k][1]);
+        y1 = fmaxf(y1, s[k][1]);
+    }
+    /* Cells whose four corners (integer points) are all inside: each
+     * corner point is tested once (two rows of flags), edge functions
+     * stepped along the row. */
+    long i0 = (long)ceilf(fmaxf(x0, 0)), i1 = (long)floorf(fminf(x1, (float)o->w)) - 1;
+    long j0 = (long)ceilf(fmaxf(y0, 0)), j1 = (long)floorf(fminf(y1, (float)o->h)) - 1;
+    if (i0 > i1 || j0 > j1)
+        return;
+    uint8_t rows[2][1025];
+    const long np = i1 - i0 + 2; /* corner points per row */
+    if (np > 1025)
+        return; /* wider than any buffer we make (w <= 1024) */
+    for (long j = j0; j <= j1 + 1; j++) {
+        uint8_t *r = rows[(j - j0) & 1];
+        float e[4], dx[4];
+        for (int k = 0; k < n; k++) {
+            const float *a = s[k], *b = s[(k + 1) % n];
+            e[k] = sg * edge(a, b, (float)i0, (float)j);
+            dx[k] = -sg * (b[1] - a[1]); /* d(edge)/dx */
+        }
+        for (long i = 0; i < np; i++) {
+            bool in = true;
+            for (int k = 0; k < n; k++)
+                in = in && e[k] + dx[k] * (float)i >= 0;
+            r[i] = in;
+        }
+        if (j == j0)
+            continue;
+        const uint8_t *lo = rows[(j - 1 - j0) & 1], *hi = r;
+        float *row = &o->depth[(size_t)(j - 1) * o->w];
+        for (long i = 0; i < np - 1; i++)
+            if (lo[i] & lo[i + 1] & hi[i] & hi[i + 1] && dmax < row[i0 + i]) {
+                row[i0 + i] = dmax;
+                o->cells_written++;
+            }
+    }
+}
+
+static bool convex4(float s[4][2])
+{
+    float sg = 0;
+    for (int k = 0; k < 4; k++) {
+        float e = edge(s[k], s[(k + 1) % 4], s[(k + 2) % 4][0], s[(k + 2) % 4][1]);
+        if (e == 0 || (sg != 0 && (e > 0) != (sg > 0)))
+            return false;
+        sg = e;
+    }
+    return true;
+}
+
+/* n = 3 (triangles) or 4 (quads: as one convex polygon when its screen
+ * projection is convex, so the diagonal leaves no uncovered cells). */
+static void rasterize_n(hz_occlusion *o, const float *v, size_t count, const mat4 model, int n)
+{
+    double t0 = hz_time_ms();
+    mat4 mv;
+    if (model)
+        glm_mat4_mul(o->view, (vec4 *)model, mv);
+    else
+        glm_mat4_copy(o->view, mv);
+    for (size_t t = 0; t < count; t++) {
+        float s[4][2], d[4];
+        bool ok = true;
+        for (int k = 0; k < n && ok; k++)
+            ok = project(o, mv, v + (size_t)(3 * n) * t + 3 * k, s[k], &d[k]);
+        if (!ok)
+            continue;
+        float dmax = d[0];
+        for (int k = 1; k < n; k++)
+            dmax = fmaxf(dmax, d[k]);
+        if (n == 3 || convex4(s)) {
+            raster_convex(o, s, n, dmax);
+        } else {
+            /* The quad's own two triangles, split along v1-v3. */
+            float a[3][2] = {{s[0][0], s[0][1]}, {s[1][0], s[1][1]}, {s[3][0], s[3][1]}};
+            float b[3][2] = {{s[1][0], s[1][1]}, {s[2][0], s[2][1]}, {s[3][0], s[3][1]}};
+            raster_convex(o, a, 3, fmaxf(d[0], fmaxf(d[1], d[3])));
+            raster_convex(o, b, 3, fmaxf(d[1], fmaxf(d[2], d[3])));
+        }
+    }
+    o->raster_ms += hz_time_ms() - t0;
+}
+
+void hz_occlusion_rasterize(hz_occlusion *o, const float *tri, size_t count, const mat4 model)
+{
+    rasterize_n(o, tri, count, model, 3);
+}
+
+void hz_occlusion_rasterize_quads(hz_occlusion *o, const float *quad, size_t count, const mat4 model)
+{
+    rasterize_n(o, quad, count, model, 4);
+}
+
+bool hz_occlusion_box_hidden(const hz_occlusion *o, const hz_box *b)
+{
+    if (hz_box_is_empty(b))
+        return false;
+    float x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY, near = INFINITY;
+    for (int k = 0; k < 8; k++) {
+        float p[3] = {k & 1 ? b->max[0] : b->min[0], k & 2 ? b->max[1] : b->min[1], k & 4 ? b->max[2] : b->min[2]};
+        float s[2], d;
+        if (!project(o, o->view, p, s, &d))
+            return false; /* reaches the eye's side of the near plane */
+        x0 = fminf(x0, s[0]);
+        x1 = fmaxf(x1, s[0]);
+        y0 = fminf(y0, s[1]);
+        y1 = fmaxf(y1, s[1]);
+        near = fminf(near, d);
+    }
+    long i0 = (long)floorf(fmaxf(x0, 0)), i1 = (long)floorf(fminf(x1, (float)o->w - 0.5f));
+    long j0 = (long)floorf(fmaxf(y0, 0)), j1 = (long)floorf(fminf(y1, (float)o->h - 0.5f));
+    if (i0 > i1 || j0 > j1)
+        return false; /* off screen: the frustum's business */
+    for (long j = j0; j <= j1; j++)
+        for (long i = i0; i <= i1; i++)
+            if (!(o->depth[(size_t)j * o->w + (size_t)i] < near))
+                return false;
+    return true;
+}

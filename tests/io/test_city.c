@@ -1,0 +1,371 @@
+/* CityJSON: dequantisation, solids, the semantic roof/wall split, the split
+ * by normals without semantics, refusals (bad indices, a missing transform,
+ * an unknown CRS, bad semantics), polygon triangulation (concave, holes), the
+ * real Mamre model and its placement on its own TINRelief. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "horizon/city.h"
+
+/* A 10 x 8 x 6 m box as a Solid in EPSG:32734, quantised at 1 cm; faces
+ * counter-clockwise from outside; semantics: 0 ground, 1 roof, 2 wall. */
+#define BOX_VERTS "[[0,0,0],[1000,0,0],[1000,800,0],[0,800,0],[0,0,600],[1000,0,600],[1000,800,600],[0,800,600]]"
+#define BOX_FACES                                                                                                  \
+    "[[[0,3,2,1]],[[4,5,6,7]],[[0,1,5,4]],[[1,2,6,5]],[[2,3,7,6]],[[3,0,4,7]]]"
+
+static const char *box_json(char *buf, size_t n, const char *transform, const char *crs, const char *faces,
+                            const char *semantics)
+{
+    snprintf(buf, n,
+             "{\"type\":\"CityJSON\",\"version\":\"2.0\",%s"
+             "\"metadata\":{\"referenceSystem\":\"%s\"},"
+             "\"CityObjects\":{\"b1\":{\"type\":\"Building\",\"attributes\":{\"osm_id\":42},"
+             "\"geometry\":[{\"type\":\"Solid\",\"lod\":\"1\",\"boundaries\":[%s]%s}]}},"
+             "\"vertices\":" BOX_VERTS "}",
+             transform, crs, faces, semantics);
+    return buf;
+}
+
+#define TRANSFORM "\"transform\":{\"scale\":[0.01,0.01,0.01],\"translate\":[265000.0,6289000.0,150.0]},"
+#define CRS32734 "https://www.opengis.net/def/crs/EPSG/0/32734"
+
+static double tri_area(const hz_city *c, uint32_t t)
+{
+    const double *a = c->verts + 3 * c->tris[3 * t], *b = c->verts + 3 * c->tris[3 * t + 1],
+                 *d = c->verts + 3 * c->tris[3 * t + 2];
+    double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
+    double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+    return 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+}
+
+static void test_box_solid(void **state)
+{
+    (void)state;
+    char buf[4096];
+    hz_err err = {0};
+    box_json(buf, sizeof buf, TRANSFORM, CRS32734, BOX_FACES, "");
+    hz_city *c = hz_city_load_memory(buf, strlen(buf), "box", NULL, &err);
+    assert_non_null(c);
+    assert_string_equal(c->crs, "EPSG:32734");
+    assert_int_equal(c->vert_count, 8);
+    /* Dequantised: v = i * scale + translate. */
+    assert_true(fabs(c->verts[3 * 6 + 0] - 265010.0) < 1e-6);
+    assert_true(fabs(c->verts[3 * 6 + 1] - 6289008.0) < 1e-6);
+    assert_true(fabs(c->verts[3 * 6 + 2] - 156.0) < 1e-6);
+    assert_int_equal(c->buildings, 1);
+    assert_int_equal(c->obj[0].faces, 6);
+    assert_int_equal(c->tri_count, 12);
+    assert_false(c->semantics);
+    /* By normals: 2 roof, 2 ground, 8 wall triangles, with the right areas. */
+    double area[HZ_SURF_KINDS] = {0};
+    for (uint32_t t = 0; t < c->tri_count; t++)
+        area[c->tri_kind[t]] += tri_area(c, t);
+    assert_true(fabs(area[HZ_SURF_ROOF] - 80) < 1e-6);
+    assert_true(fabs(area[HZ_SURF_GROUND] - 80) < 1e-6);
+    assert_true(fabs(area[HZ_SURF_WALL] - 2 * (10 * 6 + 8 * 6)) < 1e-6);
+    assert_string_equal(c->obj[0].attributes, "{\"osm_id\":42}");
+    assert_true(fabs(c->extent[5] - 156.0) < 1e-9);
+    assert_string_equal(c->note, "");
+    hz_city_destroy(c);
+}
+
+/* Semantics say the "top" is a wall and a side is the roof: the split
+ * follows the file, not the normals. */
+static void test_semantics(void **state)
+{
+    (void)state;
+    char buf[4096];
+    hz_err err = {0};
+    box_json(buf, sizeof buf, TRANSFORM, CRS32734, BOX_FACES,
+             ",\"semantics\":{\"surfaces\":[{\"type\":\"GroundSurface\"},{\"type\":\"RoofSurface\"},"
+             "{\"type\":\"WallSurface\"}],\"values\":[[0,2,1,2,null,2]]}");
+    hz_city *c = hz_city_load_memory(buf, strlen(buf), "box", NULL, &err);
+    assert_non_null(c);
+    assert_true(c->semantics);
+    double area[HZ_SURF_KINDS] = {0};
+    for (uint32_t t = 0; t < c->tri_count; t++)
+        area[c->tri_kind[t]] += tri_area(c, t);
+    assert_true(fabs(area[HZ_SURF_ROOF] - 60) < 1e-6);   /* the south side, 10 x 6 */
+    assert_true(fabs(area[HZ_SURF_GROUND] - 80) < 1e-6);
+    assert_true(fabs(area[HZ_SURF_WALL] - (80 + 48 + 60 + 48)) < 1e-6); /* top, east, null north, west */
+    hz_city_destroy(c);
+}
+
+static void refused(const char *json, const char *needle)
+{
+    hz_err err = {0};
+    hz_city *c = hz_city_load_memory(json, strlen(json), "bad.city.json", NULL, &err);
+    if (c)
+        fail_msg("accepted; expected a message with \"%s\"", needle);
+    if (!strstr(err.msg, needle))
+        fail_msg("message \"%s\" lacks \"%s\"", err.msg, needle);
+    assert_non_null(strstr(err.msg, "bad.city.json"));
+}
+
+static void test_refusals(void **state)
+{
+    (void)state;
+    char buf[4096];
+    /* A vertex index past the end, with the JSON path of the ring. */
+    refused(box_json(buf, sizeof buf, TRANSFORM, CRS32734,
+                     "[[[0,3,2,1]],[[4,5,6,7]],[[0,1,5,4]],[[1,2,6,5]],[[2,3,7,6]],[[3,0,4,8]]]", ""),
+            "CityObjects.b1.geometry[0].boundaries[0][5]: ring 0, entry 3: vertex 8 out of range (8 vertices)");
+    refused(box_json(buf, sizeof buf, TRANSFORM, CRS32734, "[[[0,3,-1,1]]]", ""), "out of range");
+    refused(box_json(buf, sizeof buf, TRANSFORM, CRS32734, "[[[0,3,\"2\",1]]]", ""), "not an integer");
+    refused(box_json(buf, sizeof buf, "", CRS32734, BOX_FACES, ""), "transform: missing");
+    refused(box_json(buf, sizeof buf, "\"transform\":{\"scale\":[0,1,1],\"translate\":[0,0,0]},", CRS32734,
+                     BOX_FACES, ""),
+            "scale[0] = 0 must be > 0");
+    refused(box_json(buf, sizeof buf, TRANSFORM, "https://www.opengis.net/def/crs/EPSG/0/999999", BOX_FACES, ""),
+            "unknown CRS EPSG:999999");
+    refused(box_json(buf, sizeof buf, TRANSFORM, "my local grid", BOX_FACES, ""), "unknown CRS");
+    refused(box_json(buf, sizeof buf, TRANSFORM, CRS32734, BOX_FACES,
+                     ",\"semantics\":{\"surfaces\":[],\"values\":[[0,0,0,0,0,0]]}"),
+            "semantics value out of range");
+    refused("{\"type\":\"CityJSON\",", "line 1");
+    refused("{\"type\":\"GeoJSON\"}", "not a CityJSON file");
+    hz_err err = {0};
+    assert_null(hz_city_load("/nonexistent/x.city.json", NULL, &err));
+    assert_int_equal(err.code, HZ_ERR_IO);
+}
+
+static double poly_area(const double *pts, const uint32_t *tris, int n)
+{
+    double a = 0;
+    for (int t = 0; t < n; t++) {
+        const double *p = pts + 3 * tris[3 * t], *q = pts + 3 * tris[3 * t + 1], *r = pts + 3 * tris[3 * t + 2];
+        a += 0.5 * ((q[0] - p[0]) * (r[1] - p[1]) - (r[0] - p[0]) * (q[1] - p[1]));
+    }
+    return a;
+}
+
+static void test_triangulate(void **state)
+{
+    (void)state;
+    /* An L (concave), counter-clockwise in x-y: area 3. */
+    const double L[] = {0, 0, 5, 2, 0, 5, 2, 1, 5, 1, 1, 5, 1, 2, 5, 0, 2, 5};
+    uint32_t rs[3] = {0, 6}, tris[64];
+    int n = hz_polygon_triangulate(L, rs, 1, tris);
+    assert_int_equal(n, 4);
+    assert_true(fabs(poly_area(L, tris, n) - 3) < 1e-12); /* positive: winding kept */
+    /* Clockwise input keeps its (clockwise) winding. */
+    const double Lr[] = {0, 2, 5, 1, 2, 5, 1, 1, 5, 2, 1, 5, 2, 0, 5, 0, 0, 5};
+    n = hz_polygon_triangulate(Lr, rs, 1, tris);
+    assert_int_equal(n, 4);
+    assert_true(fabs(poly_area(Lr, tris, n) + 3) < 1e-12);
+    /* A 4 x 4 square with a 2 x 2 hole (hole given counter-clockwise too): 12. */
+    const double H[] = {0, 0, 0, 4, 0, 0, 4, 4, 0, 0, 4, 0, 1, 1, 0, 3, 1, 0, 3, 3, 0, 1, 3, 0};
+    uint32_t rh[3] = {0, 4, 8};
+    n = hz_polygon_triangulate(H, rh, 2, tris);
+    assert_int_equal(n, 8);
+    assert_true(fabs(poly_area(H, tris, n) - 12) < 1e-12);
+    /* No triangle covers the hole's centre. */
+    for (int t = 0; t < n; t++) {
+        double c[2] = {2, 2}, s = 0;
+        for (int k = 0; k < 3; k++) {
+            const double *p = H + 3 * tris[3 * t + k], *q = H + 3 * tris[3 * t + (k + 1) % 3];
+            s += (q[0] - p[0]) * (c[1] - p[1]) - (c[0] - p[0]) * (q[1] - p[1]) > 0 ? 1 : -1;
+        }
+        assert_true(fabs(s) < 3);
+    }
+    /* A vertical wall (x-z plane) and a degenerate (collinear) ring. */
+    const double W[] = {0, 0, 0, 3, 0, 0, 3, 0, 2, 0, 0, 2};
+    uint32_t rw[2] = {0, 4};
+    assert_int_equal(hz_polygon_triangulate(W, rw, 1, tris), 2);
+    const double D[] = {0, 0, 0, 1, 0, 0, 2, 0, 0};
+    uint32_t rd[2] = {0, 3};
+    assert_int_equal(hz_polygon_triangulate(D, rd, 1, tris), 0);
+}
+
+#define MAMRE HZ_DATA_DIR "/city/mamre_lod1_epsg32734.city.json"
+
+static float tin_ground(void *user, float x, float z)
+{
+    /* The TIN grid as a ground: nearest cell of the rasterised TIN. */
+    const float *g = ((const float **)user)[0];
+    const uint32_t *wh = ((const uint32_t **)user)[1];
+    long i = lroundf(x / 5.0f), j = lroundf(z / 5.0f); /* sample (i, j) at (5 i, 5 j) */
+    i = i < 0 ? 0 : i >= (long)wh[0] ? (long)wh[0] - 1 : i;
+    j = j < 0 ? 0 : j >= (long)wh[1] ? (long)wh[1] - 1 : j;
+    return g[(size_t)j * wh[0] + (size_t)i];
+}
+
+/* The real model: 2 344 LoD1 buildings, one TIN. Buildings placed on the
+ * TIN stand on it: their base meets the ground the TIN gives under them. */
+static void test_mamre(void **state)
+{
+    (void)state;
+    hz_err err = {0};
+    hz_city *c = hz_city_load(MAMRE, NULL, &err);
+    if (!c)
+        fail_msg("%s", err.msg);
+    assert_int_equal(c->buildings, 2344);
+    assert_int_equal(c->terrain_objects, 1);
+    assert_string_equal(c->crs, "EPSG:32734");
+    /* The file's vertices are absolute: translate is not applied again. */
+    assert_non_null(strstr(c->note, "translate"));
+    /* Inside metadata.geographicalExtent (263698.09 6287743.43 138.27 266820.59
+     * 6290344.54 270.69, padded 250 m): the vertices' own extent. */
+    assert_true(fabs(c->extent[0] - 263948.088) < 0.01 && fabs(c->extent[3] - 266570.587) < 0.01);
+    assert_true(fabs(c->extent[1] - 6287993.433) < 0.01 && fabs(c->extent[4] - 6290094.540) < 0.01);
+    assert_true(fabs(c->extent[2] - 145.120) < 0.01 && fabs(c->extent[5] - 252.570) < 0.01);
+    /* osm_328118446: footprint of 5 corners -> walls 5 quads (10 triangles),
+     * roof and floor pentagons (3 each). */
+    const hz_city_object *o = NULL;
+    for (uint32_t k = 0; k < c->obj_count; k++)
+        if (!strcmp(c->obj[k].id, "osm_328118446"))
+            o = &c->obj[k];
+    assert_non_null(o);
+    assert_int_equal(o->faces, 7);
+    assert_int_equal(o->tri_count, 16);
+    uint32_t kinds[HZ_SURF_KINDS] = {0};
+    for (uint32_t t = o->first_tri; t < o->first_tri + o->tri_count; t++)
+        kinds[c->tri_kind[t]]++;
+    assert_int_equal(kinds[HZ_SURF_ROOF], 3);
+    assert_int_equal(kinds[HZ_SURF_GROUND], 3);
+    assert_non_null(strstr(o->attributes, "\"osm_id\":328118446"));
+
+    float *g = NULL;
+    uint32_t w, h;
+    double gt[6];
+    assert_int_equal(hz_city_tin_grid(c, 5.0, &g, &w, &h, gt, &err), HZ_OK);
+    assert_true(w >= 500 && w <= 530 && h >= 400 && h <= 430); /* 2.6 x 2.1 km */
+    uint32_t wh[2] = {w, h};
+    const void *user[2] = {g, wh};
+    hz_scene *s = hz_scene_create(NULL);
+    hz_city_placed pl;
+    /* Local = CRS - the grid's north-west sample centre, z south. */
+    hz_city_place p = {.origin = {gt[0] + 2.5, gt[3] - 2.5}, .ground = tin_ground, .ground_user = (void *)user};
+    assert_int_equal(hz_city_to_scene(c, s, &p, &pl, &err), HZ_OK);
+    assert_int_equal(pl.buildings, 2344);
+    hz_scene_update(s);
+    /* Each building's box bottom is at the lowest TIN ground under it, at most
+     * a few metres below its centre's ground (slopes), never above. */
+    uint32_t n = hz_scene_find(s, "osm_328118446");
+    assert_int_not_equal(n, HZ_NODE_NONE);
+    hz_box b;
+    hz_scene_subtree_bounds(s, n, &b);
+    /* The TIN has holes at the footprints and shares their base vertices: a
+     * building's base is the TIN's height at its corners, so clamping it on the
+     * (5 m nearest-cell) TIN grid moves it little, and it stays 4.1 m tall. */
+    printf("clamping: mean %.3f m, max %.3f m, %u clamped, %u without ground\n", pl.mean_shift, pl.max_shift,
+           pl.clamped, pl.outside);
+    assert_int_equal(pl.clamped + pl.outside, 2344);
+    assert_true(pl.clamped > 2300);
+    assert_true(fabsf(b.min[1] - 179.18f) < 0.5f);  /* its ground_height */
+    assert_true(fabsf(b.max[1] - b.min[1] - 4.1f) < 0.01f); /* building_height 4.1 */
+    assert_true(pl.mean_shift < 0.5 && pl.max_shift < 10);
+    /* Corners stand on ground at or above the base: nothing floats. */
+    for (int k = 0; k < 4; k++) {
+        float gx = k & 1 ? b.max[0] : b.min[0], gz = k & 2 ? b.max[2] : b.min[2];
+        float gk = tin_ground((void *)user, gx, gz);
+        assert_true(isnan(gk) || gk >= b.min[1] - 0.5f);
+    }
+    free(g);
+    hz_scene_destroy(s);
+    hz_city_destroy(c);
+}
+
+/* Closed and outward: every directed edge of an object's triangles has its
+ * reverse exactly once, and the divergence-theorem volume is positive. */
+static double solid_volume(const hz_city *c, const hz_city_object *o)
+{
+    double vol = 0;
+    for (uint32_t t = o->first_tri; t < o->first_tri + o->tri_count; t++) {
+        const double *a = c->verts + 3 * c->tris[3 * t], *b = c->verts + 3 * c->tris[3 * t + 1],
+                     *d = c->verts + 3 * c->tris[3 * t + 2];
+        /* relative to the first vertex: keeps UTM coordinates exact */
+        const double *o0 = c->verts + 3 * c->tris[3 * o->first_tri];
+        double p[3] = {a[0] - o0[0], a[1] - o0[1], a[2] - o0[2]}, q[3] = {b[0] - o0[0], b[1] - o0[1], b[2] - o0[2]},
+               r[3] = {d[0] - o0[0], d[1] - o0[1], d[2] - o0[2]};
+        vol += (p[0] * (q[1] * r[2] - q[2] * r[1]) - p[1] * (q[0] * r[2] - q[2] * r[0]) +
+                p[2] * (q[0] * r[1] - q[1] * r[0])) / 6.0;
+        for (int k = 0; k < 3; k++) {
+            uint32_t u = c->tris[3 * t + (uint32_t)k], v = c->tris[3 * t + (uint32_t)(k + 1) % 3];
+            int fwd = 0, rev = 0;
+            for (uint32_t s2 = o->first_tri; s2 < o->first_tri + o->tri_count; s2++)
+                for (int m = 0; m < 3; m++) {
+                    uint32_t x = c->tris[3 * s2 + (uint32_t)m], y = c->tris[3 * s2 + (uint32_t)(m + 1) % 3];
+                    fwd += x == u && y == v;
+                    rev += x == v && y == u;
+                }
+            if (fwd != 1 || rev != 1)
+                fail_msg("%s: edge %u-%u used %d times forward, %d reversed", o->id, u, v, fwd, rev);
+        }
+    }
+    return vol;
+}
+
+static void test_footprints(void **state)
+{
+    (void)state;
+    FILE *fp = fopen(HZ_TEST_TMP "/fp.geojson", "w");
+    assert_non_null(fp);
+    /* A 20 x 10 m block with a 4 x 4 m courtyard, 12 m high; an L of 3 x 2 units
+     * of 10 m (area 400 m2) with 4 levels (12 m); a point (skipped). Rings are
+     * given clockwise on purpose: the extrusion orients them itself. */
+    fputs("{\"type\":\"FeatureCollection\",\"crs\":{\"type\":\"name\",\"properties\":{\"name\":"
+          "\"urn:ogc:def:crs:EPSG::32633\"}},\"features\":["
+          "{\"type\":\"Feature\",\"properties\":{\"osm_id\":11,\"height\":12},\"geometry\":{\"type\":\"Polygon\","
+          "\"coordinates\":[[[500000,4000000],[500000,4000010],[500020,4000010],[500020,4000000],[500000,4000000]],"
+          "[[500008,4000003],[500012,4000003],[500012,4000007],[500008,4000007],[500008,4000003]]]}},"
+          "{\"type\":\"Feature\",\"properties\":{\"osm_id\":12,\"building:levels\":\"4\"},\"geometry\":{"
+          "\"type\":\"MultiPolygon\",\"coordinates\":[[[[500100,4000000],[500100,4000020],[500110,4000020],"
+          "[500110,4000010],[500130,4000010],[500130,4000000],[500100,4000000]]]]}},"
+          "{\"type\":\"Feature\",\"properties\":{},\"geometry\":{\"type\":\"Point\",\"coordinates\":[500000,4000000]}}"
+          "]}", fp);
+    fclose(fp);
+    hz_err err = {0};
+    hz_city *c = hz_city_load_footprints(HZ_TEST_TMP "/fp.geojson", NULL, &err);
+    if (!c)
+        fail_msg("%s", err.msg);
+    assert_string_equal(c->crs, "EPSG:32633");
+    assert_int_equal(c->buildings, 2);
+    assert_int_equal(c->obj_count, 2);
+    assert_string_equal(c->obj[0].id, "11");
+    assert_non_null(strstr(c->obj[1].attributes, "\"building:levels\":\"4\""));
+    double v0 = solid_volume(c, &c->obj[0]), v1 = solid_volume(c, &c->obj[1]);
+    assert_true(fabs(v0 - (200 - 16) * 12) < 1e-6);
+    assert_true(fabs(v1 - 400 * 12) < 1e-6);
+    assert_true(fabs(c->extent[5] - 12) < 1e-9 && fabs(c->extent[2]) < 1e-9);
+    hz_city_destroy(c);
+    /* lon/lat (GeoJSON's default CRS): projected to the UTM zone, in metres. */
+    fp = fopen(HZ_TEST_TMP "/fp_ll.geojson", "w");
+    fputs("{\"type\":\"FeatureCollection\",\"features\":[{\"type\":\"Feature\",\"properties\":{\"height\":5},"
+          "\"geometry\":{\"type\":\"Polygon\",\"coordinates\":[[[8.69,49.41],[8.6903,49.41],[8.6903,49.4102],"
+          "[8.69,49.4102],[8.69,49.41]]]}}]}", fp);
+    fclose(fp);
+    c = hz_city_load_footprints(HZ_TEST_TMP "/fp_ll.geojson", NULL, &err);
+    if (!c)
+        fail_msg("%s", err.msg);
+    assert_string_equal(c->crs, "EPSG:32632");
+    double w = c->extent[3] - c->extent[0], d = c->extent[4] - c->extent[1];
+    assert_true(w > 20 && w < 24 && d > 21 && d < 24); /* 0.0003 deg lon = 21.8 m, 0.0002 lat = 22.2 m */
+    assert_true(solid_volume(c, &c->obj[0]) > 0);
+    hz_city_destroy(c);
+    /* Refusals: not a vector file, no polygon. */
+    assert_null(hz_city_load_footprints(MAMRE "x", NULL, &err));
+    assert_non_null(strstr(err.msg, "not a vector file"));
+    fp = fopen(HZ_TEST_TMP "/fp_pt.geojson", "w");
+    fputs("{\"type\":\"FeatureCollection\",\"features\":[{\"type\":\"Feature\",\"properties\":{},"
+          "\"geometry\":{\"type\":\"Point\",\"coordinates\":[8.69,49.41]}}]}", fp);
+    fclose(fp);
+    assert_null(hz_city_load_footprints(HZ_TEST_TMP "/fp_pt.geojson", NULL, &err));
+    assert_non_null(strstr(err.msg, "no polygon"));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_box_solid),  cmocka_unit_test(test_semantics), cmocka_unit_test(test_refusals),
+        cmocka_unit_test(test_triangulate), cmocka_unit_test(test_mamre),  cmocka_unit_test(test_footprints),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

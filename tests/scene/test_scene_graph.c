@@ -1,0 +1,392 @@
+/* Scene graph (G1, G3, G5): inherited transforms against hand-computed
+ * matrices, bounds after moves (only the changed subtree recomputed),
+ * hierarchical frustum culling, the render queue's order, ray picking. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <string.h>
+
+#include "horizon/camera.h"
+#include "horizon/occlusion.h"
+#include "horizon/scene.h"
+
+static void near3(const float *a, float x, float y, float z, float eps)
+{
+    if (!(fabsf(a[0] - x) < eps && fabsf(a[1] - y) < eps && fabsf(a[2] - z) < eps))
+        fail_msg("(%g %g %g) != (%g %g %g)", (double)a[0], (double)a[1], (double)a[2], (double)x, (double)y,
+                 (double)z);
+}
+
+static void near_mat(mat4 a, const float e[16])
+{
+    /* e is row-major as written by hand: e[r * 4 + c] = a[c][r]. */
+    for (int r = 0; r < 4; r++)
+        for (int c = 0; c < 4; c++)
+            if (fabsf(a[c][r] - e[r * 4 + c]) > 1e-5f)
+                fail_msg("m[row %d][col %d] = %g, expected %g", r, c, (double)a[c][r], (double)e[r * 4 + c]);
+}
+
+/* A box mesh [-h, h]^3 (8 vertices, 12 triangles). */
+static uint32_t add_box(hz_scene *s, float h)
+{
+    hz_vertex v[8];
+    for (int k = 0; k < 8; k++) {
+        v[k] = (hz_vertex){{k & 1 ? h : -h, k & 2 ? h : -h, k & 4 ? h : -h}, {0, 1, 0}};
+    }
+    static const uint32_t ix[36] = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4,
+                                    2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5};
+    hz_err err = {0};
+    uint32_t m = hz_scene_add_mesh(s, v, 8, ix, 36, &err);
+    assert_int_not_equal(m, HZ_MESH_NONE);
+    return m;
+}
+
+/* parent: T(10, 0, 0) Ry(90 deg about +y); child: T(0, 0, -5) S(2);
+ * grandchild: rotation 90 about +x then T(1, 0, 0). Expected matrices
+ * written out by hand. */
+static void test_inheritance(void **state)
+{
+    (void)state;
+    hz_scene *s = hz_scene_create(NULL);
+    uint32_t p = hz_scene_add_node(s, HZ_NODE_NONE, "parent");
+    uint32_t c = hz_scene_add_node(s, p, "child");
+    uint32_t g = hz_scene_add_node(s, c, "grandchild");
+    hz_scene_set_translation(s, p, (float[3]){10, 0, 0});
+    hz_scene_set_axis_angle(s, p, (float[3]){0, 1, 0}, 90);
+    hz_scene_set_translation(s, c, (float[3]){0, 0, -5});
+    hz_scene_set_scale(s, c, (float[3]){2, 2, 2});
+    hz_scene_set_translation(s, g, (float[3]){1, 0, 0});
+    hz_scene_set_axis_angle(s, g, (float[3]){1, 0, 0}, 90);
+    assert_int_equal(hz_scene_update(s), 3);
+    mat4 m;
+    /* Ry(90): x -> -z, z -> x. */
+    hz_scene_world_matrix(s, p, m);
+    near_mat(m, (const float[16]){0, 0, 1, 10, 0, 1, 0, 0, -1, 0, 0, 0, 0, 0, 0, 1});
+    /* P * T(0,0,-5) * S(2): translation Ry(90)(0,0,-5) = (-5, 0, 0) + (10, 0, 0). */
+    hz_scene_world_matrix(s, c, m);
+    near_mat(m, (const float[16]){0, 0, 2, 5, 0, 2, 0, 0, -2, 0, 0, 0, 0, 0, 0, 1});
+    /* C * T(1,0,0) * Rx(90) (y -> z, z -> -y): origin at C(1,0,0) = (5, 0, -2);
+     * columns: x -> C x = (0,0,-2); y -> C z = (2,0,0); z -> C(-y) = (0,-2,0). */
+    hz_scene_world_matrix(s, g, m);
+    near_mat(m, (const float[16]){0, 2, 0, 5, 0, 0, -2, 0, -2, 0, 0, -2, 0, 0, 0, 1});
+    /* A point through the chain. */
+    vec3 w;
+    glm_mat4_mulv3(m, (vec3){0, 1, 0}, 1, w);
+    near3(w, 7, 0, -2, 1e-5f);
+    /* Nothing changed: no work. */
+    assert_int_equal(hz_scene_update(s), 0);
+    hz_scene_destroy(s);
+}
+
+/* Yaw/pitch/roll follow the camera's convention: forward -z turns east
+ * with yaw 90, up with pitch; roll banks about forward. */
+static void test_ypr(void **state)
+{
+    (void)state;
+    hz_scene *s = hz_scene_create(NULL);
+    uint32_t n = hz_scene_add_node(s, 0, "n");
+    mat4 m;
+    vec3 f;
+    hz_scene_set_ypr(s, n, 90, 0, 0);
+    hz_scene_update(s);
+    hz_scene_world_matrix(s, n, m);
+    glm_mat4_mulv3(m, (vec3){0, 0, -1}, 0, f);
+    near3(f, 1, 0, 0, 1e-5f);
+    hz_scene_set_ypr(s, n, 37, 30, 0);
+    hz_scene_update(s);
+    hz_scene_world_matrix(s, n, m);
+    glm_mat4_mulv3(m, (vec3){0, 0, -1}, 0, f);
+    hz_camera cam = {.yaw = 37, .pitch = 30};
+    vec3 cf;
+    hz_camera_forward(&cam, cf);
+    near3(f, cf[0], cf[1], cf[2], 1e-5f);
+    /* Roll 90 with yaw 0: the right axis +x goes down. */
+    hz_scene_set_ypr(s, n, 0, 0, 90);
+    hz_scene_update(s);
+    hz_scene_world_matrix(s, n, m);
+    glm_mat4_mulv3(m, (vec3){1, 0, 0}, 0, f);
+    near3(f, 0, -1, 0, 1e-5f);
+    /* rotate() composes: two 45 degree turns about y = yaw -90. */
+    hz_scene_set_ypr(s, n, 0, 0, 0);
+    hz_scene_rotate(s, n, (float[3]){0, 1, 0}, 45);
+    hz_scene_rotate(s, n, (float[3]){0, 1, 0}, 45);
+    hz_scene_update(s);
+    hz_scene_world_matrix(s, n, m);
+    glm_mat4_mulv3(m, (vec3){0, 0, -1}, 0, f);
+    near3(f, -1, 0, 0, 1e-5f);
+    hz_scene_destroy(s);
+}
+
+/* Two groups of two boxes; moving one group recomputes its subtree only, and
+ * the boxes follow. */
+static void test_bounds_after_move(void **state)
+{
+    (void)state;
+    hz_scene *s = hz_scene_create(NULL);
+    uint32_t box = add_box(s, 1);
+    uint32_t ga = hz_scene_add_node(s, 0, "a"), gb = hz_scene_add_node(s, 0, "b");
+    uint32_t a1 = hz_scene_add_node(s, ga, "a1"), a2 = hz_scene_add_node(s, ga, "a2");
+    uint32_t b1 = hz_scene_add_node(s, gb, "b1"), b2 = hz_scene_add_node(s, gb, "b2");
+    for (uint32_t k = a1; k <= b2; k++)
+        hz_scene_set_mesh(s, k, box, 0);
+    hz_scene_set_translation(s, a2, (float[3]){4, 0, 0});
+    hz_scene_set_translation(s, gb, (float[3]){0, 0, 100});
+    hz_scene_set_translation(s, b2, (float[3]){0, 10, 0});
+    assert_int_equal(hz_scene_update(s), 6);
+    hz_box b;
+    hz_scene_subtree_bounds(s, ga, &b);
+    near3(b.min, -1, -1, -1, 1e-5f);
+    near3(b.max, 5, 1, 1, 1e-5f);
+    hz_scene_subtree_bounds(s, gb, &b);
+    near3(b.min, -1, -1, 99, 1e-5f);
+    near3(b.max, 1, 11, 101, 1e-5f);
+    /* Move group a: a, a1, a2 recomputed (3), b untouched. */
+    hz_scene_translate(s, ga, (float[3]){0, 0, -50});
+    assert_int_equal(hz_scene_update(s), 3);
+    hz_scene_subtree_bounds(s, ga, &b);
+    near3(b.min, -1, -1, -51, 1e-5f);
+    near3(b.max, 5, 1, -49, 1e-5f);
+    hz_scene_node_bounds(s, a2, &b);
+    near3(b.min, 3, -1, -51, 1e-5f);
+    hz_scene_bounds(s, &b);
+    near3(b.min, -1, -1, -51, 1e-5f);
+    near3(b.max, 5, 11, 101, 1e-5f);
+    /* A leaf move: that node alone; its group's box shrinks back. */
+    hz_scene_set_translation(s, b2, (float[3]){0, 0, 0});
+    assert_int_equal(hz_scene_update(s), 1);
+    hz_scene_subtree_bounds(s, gb, &b);
+    near3(b.max, 1, 1, 101, 1e-5f);
+    /* A rotation of 45 degrees grows the axis-aligned box of a unit box to sqrt 2. */
+    hz_scene_set_axis_angle(s, b1, (float[3]){0, 1, 0}, 45);
+    hz_scene_update(s);
+    hz_scene_node_bounds(s, b1, &b);
+    near3(b.max, sqrtf(2), 1, 100 + sqrtf(2), 1e-4f);
+    hz_scene_destroy(s);
+}
+
+/* The camera at the origin looks north (-z). A group of boxes behind it is
+ * culled whole with one test; boxes ahead survive, one to the side does not. */
+static void test_frustum_culling(void **state)
+{
+    (void)state;
+    hz_scene *s = hz_scene_create(NULL);
+    uint32_t box = add_box(s, 1);
+    uint32_t front = hz_scene_add_node(s, 0, "front"), back = hz_scene_add_node(s, 0, "back");
+    uint32_t ids[8];
+    for (int k = 0; k < 4; k++) {
+        ids[k] = hz_scene_add_node(s, front, NULL);
+        hz_scene_set_mesh(s, ids[k], box, 0);
+        hz_scene_set_translation(s, ids[k], (float[3]){0, 0, -20.0f - 10.0f * (float)k});
+    }
+    /* Far to the east, beyond the 60 degree field of view. */
+    hz_scene_set_translation(s, ids[3], (float[3]){200, 0, -20});
+    for (int k = 4; k < 8; k++) {
+        ids[k] = hz_scene_add_node(s, back, NULL);
+        hz_scene_set_mesh(s, ids[k], box, 0);
+        hz_scene_set_translation(s, ids[k], (float[3]){(float)k, 0, 30});
+    }
+    hz_scene_update(s);
+    hz_camera cam = {.pos = {0, 0, 0}, .fov_y = 60, .aspect = 1, .znear = 0.5f, .zfar = 1000};
+    vec4 planes[6];
+    hz_camera_frustum(&cam, planes);
+    uint32_t out[8];
+    hz_cull_stats st;
+    uint32_t n = hz_scene_cull(s, planes, out, 8, &st);
+    assert_int_equal(n, 3);
+    assert_int_equal(out[0], ids[0]);
+    assert_int_equal(out[1], ids[1]);
+    assert_int_equal(out[2], ids[2]);
+    assert_int_equal(st.objects, 8);
+    assert_int_equal(st.subtrees_culled, 2); /* "back" whole, ids[3] */
+    assert_int_equal(st.nodes_tested, 2 + 4); /* two groups, the front group's four boxes */
+    /* Turn around: the back group is entirely inside, accepted with one test. */
+    cam.yaw = 180;
+    hz_camera_frustum(&cam, planes);
+    n = hz_scene_cull(s, planes, out, 8, &st);
+    assert_int_equal(n, 4);
+    assert_int_equal(out[0], ids[4]);
+    assert_int_equal(st.subtrees_inside, 1);
+    assert_int_equal(st.nodes_tested, 2);
+    /* cap smaller than the count: the count is still right. */
+    assert_int_equal(hz_scene_cull(s, planes, out, 2, NULL), 4);
+    hz_scene_destroy(s);
+}
+
+/* Sorted: grouped by shader, then material, then mesh, stable within a
+ * group; equal (material, mesh) runs become one instanced item. */
+static void test_render_queue(void **state)
+{
+    (void)state;
+    hz_scene *s = hz_scene_create(NULL);
+    uint32_t m0 = add_box(s, 1), m1 = add_box(s, 2);
+    hz_material mat = {.color = {1, 1, 1}};
+    hz_scene_add_material(s, &mat);     /* 0, shader 0 */
+    mat.shader = 1;
+    hz_scene_add_material(s, &mat);     /* 1, shader 1 */
+    mat.shader = 0;
+    hz_scene_add_material(s, &mat);     /* 2, shader 0 */
+    /* node k: material, mesh */
+    static const uint32_t spec[10][2] = {{1, 0}, {0, 1}, {2, 0}, {0, 0}, {1, 0},
+                                         {0, 1}, {2, 1}, {0, 0}, {2, 0}, {0, 1}};
+    uint32_t nodes[10];
+    for (int k = 0; k < 10; k++) {
+        nodes[k] = hz_scene_add_node(s, 0, NULL);
+        hz_scene_set_mesh(s, nodes[k], spec[k][1] ? m1 : m0, spec[k][0]);
+    }
+    uint32_t order[10];
+    hz_draw_item items[10];
+    hz_queue_stats st;
+    uint32_t ni = hz_scene_queue_build(s, nodes, 10, true, order, items, &st);
+    /* shader 0: mat 0 (mesh 0: nodes 3, 7; mesh 1: 1, 5, 9), mat 2 (mesh 0: 2, 8;
+     * mesh 1: 6); shader 1: mat 1 (mesh 0: 0, 4). */
+    const uint32_t expect[10] = {3, 7, 1, 5, 9, 2, 8, 6, 0, 4};
+    for (int k = 0; k < 10; k++)
+        assert_int_equal(order[k], nodes[expect[k]]);
+    assert_int_equal(ni, 5);
+    const uint32_t counts[5] = {2, 3, 2, 1, 2};
+    uint32_t first = 0;
+    for (uint32_t k = 0; k < ni; k++) {
+        assert_int_equal(items[k].count, counts[k]);
+        assert_int_equal(items[k].first, first);
+        first += items[k].count;
+        if (k)
+            assert_true(items[k - 1].shader < items[k].shader ||
+                        (items[k - 1].shader == items[k].shader && items[k - 1].material <= items[k].material));
+    }
+    assert_int_equal(st.shader_changes, 2);
+    assert_int_equal(st.material_changes, 3);
+    /* Unsorted: one item per node in the given order; every neighbour with
+     * another material is a change. */
+    ni = hz_scene_queue_build(s, nodes, 10, false, order, items, &st);
+    assert_int_equal(ni, 10);
+    for (int k = 0; k < 10; k++)
+        assert_int_equal(order[k], nodes[k]);
+    assert_int_equal(st.material_changes, 10);
+    assert_int_equal(st.shader_changes, 4);
+    hz_scene_destroy(s);
+}
+
+static void test_raycast(void **state)
+{
+    (void)state;
+    hz_scene *s = hz_scene_create(NULL);
+    uint32_t box = add_box(s, 1);
+    uint32_t g = hz_scene_add_node(s, 0, "g");
+    uint32_t near = hz_scene_add_node(s, g, "near"), far = hz_scene_add_node(s, g, "far");
+    hz_scene_set_mesh(s, near, box, 0);
+    hz_scene_set_mesh(s, far, box, 0);
+    hz_scene_set_translation(s, far, (float[3]){0, 0, -20});
+    hz_scene_set_translation(s, near, (float[3]){0.5f, 0, -10});
+    hz_scene_set_attributes(s, near, "{\"osm_id\":7}", NULL);
+    hz_scene_update(s);
+    hz_scene_hit h;
+    assert_true(hz_scene_raycast(s, (float[3]){0, 0, 0}, (float[3]){0, 0, -1}, 1000, &h));
+    assert_int_equal(h.node, near);
+    near3(h.pos, 0, 0, -9, 1e-4f);
+    assert_string_equal(hz_scene_attributes(s, h.node), "{\"osm_id\":7}");
+    /* Beside the near box: the far one. */
+    assert_true(hz_scene_raycast(s, (float[3]){-0.75f, 0, 0}, (float[3]){0, 0, -1}, 1000, &h));
+    assert_int_equal(h.node, far);
+    near3(h.pos, -0.75f, 0, -19, 1e-4f);
+    /* Limited by t_max, or aimed away: nothing. */
+    assert_false(hz_scene_raycast(s, (float[3]){0, 0, 0}, (float[3]){0, 0, -1}, 5, &h));
+    assert_false(hz_scene_raycast(s, (float[3]){0, 0, 0}, (float[3]){0, 1, 0}, 1000, &h));
+    assert_int_equal(hz_scene_find(s, "far"), far);
+    assert_int_equal(hz_scene_find(s, "none"), HZ_NODE_NONE);
+    hz_scene_destroy(s);
+}
+
+static bool visit_rec(void *user, const hz_scene *s, uint32_t node, uint32_t depth)
+{
+    char *buf = user;
+    char tmp[32];
+    snprintf(tmp, sizeof tmp, "%s:%u ", hz_scene_name(s, node), depth);
+    strcat(buf, tmp);
+    return strcmp(hz_scene_name(s, node), "skip") != 0;
+}
+
+static void test_depth_first(void **state)
+{
+    (void)state;
+    hz_scene *s = hz_scene_create(NULL);
+    uint32_t a = hz_scene_add_node(s, 0, "a");
+    uint32_t b = hz_scene_add_node(s, a, "b");
+    hz_scene_add_node(s, b, "c");
+    uint32_t k = hz_scene_add_node(s, a, "skip");
+    hz_scene_add_node(s, k, "hidden");
+    hz_scene_add_node(s, a, "d");
+    hz_scene_add_node(s, 0, "e");
+    char buf[256] = "";
+    hz_scene_visit(s, visit_rec, buf);
+    assert_string_equal(buf, "a:0 b:1 c:2 skip:1 d:1 e:0 ");
+    /* A mesh with a bad index is refused. */
+    hz_err err = {0};
+    hz_vertex v[3] = {0};
+    assert_int_equal(hz_scene_add_mesh(s, v, 3, (const uint32_t[3]){0, 1, 3}, 3, &err), HZ_MESH_NONE);
+    assert_non_null(strstr(err.msg, "out of range"));
+    hz_scene_destroy(s);
+}
+
+/* G4: a wall 10 m wide and 4 m high 10 m ahead. A box behind it is hidden;
+ * one peeking over it, one beside it and one in front of it are not. */
+static void test_occlusion(void **state)
+{
+    (void)state;
+    hz_occlusion o;
+    assert_true(hz_occlusion_init(&o, 128, 72));
+    hz_camera cam = {.pos = {0, 1, 0}, .fov_y = 60, .aspect = 16.0f / 9.0f, .znear = 0.5f, .zfar = 1000};
+    hz_occlusion_begin(&o, &cam);
+    const float wall[18] = {-5, -1, -10, 5, -1, -10, 5, 3, -10, -5, -1, -10, 5, 3, -10, -5, 3, -10};
+    /* As two triangles the cells along the diagonal stay open (a cell must
+     * be inside one triangle): the box straddling it is kept. */
+    hz_occlusion_rasterize(&o, wall, 2, NULL);
+    assert_int_equal(o.triangles, 2);
+    assert_true(o.cells_written > 100);
+    hz_box behind = {{-1, 0, -21}, {1, 2, -19}};
+    assert_false(hz_occlusion_box_hidden(&o, &behind));
+    /* As one quad: covered. */
+    const float quad[12] = {-5, -1, -10, 5, -1, -10, 5, 3, -10, -5, 3, -10};
+    hz_occlusion_begin(&o, &cam);
+    hz_occlusion_rasterize_quads(&o, quad, 1, NULL);
+    hz_box over = {{-1, 0, -21}, {1, 10, -19}};
+    hz_box beside = {{8, 0, -21}, {10, 2, -19}};
+    hz_box front = {{-1, 0, -6}, {1, 2, -4}};
+    hz_box just_behind = {{-1, 0, -10.5f}, {1, 2, -10.1f}};
+    assert_true(hz_occlusion_box_hidden(&o, &behind));
+    assert_true(hz_occlusion_box_hidden(&o, &just_behind));
+    assert_false(hz_occlusion_box_hidden(&o, &over));
+    assert_false(hz_occlusion_box_hidden(&o, &beside));
+    assert_false(hz_occlusion_box_hidden(&o, &front));
+    /* A tilted wall (a model matrix turning it 60 degrees about y): its far end
+     * is farther, and a box just behind its near end but nearer than its far
+     * end is kept (the cell's depth is the triangle's farthest vertex). */
+    mat4 m;
+    glm_translate_make(m, (vec3){0, 0, -10});
+    glm_rotate(m, glm_rad(60), (vec3){0, 1, 0});
+    glm_translate(m, (vec3){0, 0, 10});
+    hz_occlusion_begin(&o, &cam);
+    hz_occlusion_rasterize_quads(&o, quad, 1, m);
+    hz_box mid = {{-0.5f, 0, -11.5f}, {0.5f, 1, -11}};
+    assert_false(hz_occlusion_box_hidden(&o, &mid));
+    hz_box far = {{-0.5f, 0, -40}, {0.5f, 1, -39}};
+    assert_true(hz_occlusion_box_hidden(&o, &far));
+    /* A box reaching behind the eye is never hidden. */
+    hz_box around = {{-1, 0, -30}, {1, 1, 2}};
+    assert_false(hz_occlusion_box_hidden(&o, &around));
+    hz_occlusion_free(&o);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_inheritance),     cmocka_unit_test(test_ypr),
+        cmocka_unit_test(test_bounds_after_move), cmocka_unit_test(test_frustum_culling),
+        cmocka_unit_test(test_render_queue),    cmocka_unit_test(test_raycast),
+        cmocka_unit_test(test_depth_first),     cmocka_unit_test(test_occlusion),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
