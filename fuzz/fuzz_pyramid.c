@@ -71,10 +71,12 @@ static void check(const uint8_t *data, size_t size)
                 uint64_t s = 0;
                 for (size_t k = 0; k < (size_t)(c + 1) * (c + 1); k++)
                     s += t.h[k] + (t.valid ? t.valid[k] : 0u);
+                for (size_t k = 0; k < 4 * (size_t)c + 8; k++)
+                    s += t.apron[k];
+                for (size_t k = 0; k < (size_t)(t.nodes + 2) * (t.nodes + 2); k++)
+                    s += t.node_delta[k];
                 for (size_t k = 0; k < (size_t)t.nodes * t.nodes; k++)
-                    s += t.node_delta[k] + t.node_min[k] + t.node_max[k];
-                for (size_t k = 0; k < t.qtab_count; k++)
-                    s += t.qtab[k];
+                    s += t.node_min[k] + t.node_max[k];
                 if (s == UINT64_MAX)
                     abort();
                 hz_pyr_tile_free(&t);
