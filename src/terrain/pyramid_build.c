@@ -248,7 +248,7 @@ static void encode_one(const tile_ctx *c, tile_task *t)
         for (int64_t a = -1; a <= (int64_t)cc + 1; a++) {
             if (bz >= 0 && bz <= (int64_t)cc && a >= 0 && a <= (int64_t)cc)
                 continue;
-            ap[na_++] = apron_h(b, c->g, gs, (int64_t)X0 + (a << l), (int64_t)Z0 + (bz << l), l);
+            ap[na_++] = apron_h(b, c->g, gs, (int64_t)X0 + a * ((int64_t)1 << l), (int64_t)Z0 + bz * ((int64_t)1 << l), l);
         }
     const narr *na = &c->nodes[l];
     const int64_t kx0 = (int64_t)t->tx * k, kz0 = (int64_t)t->tz * k;

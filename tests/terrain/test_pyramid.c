@@ -117,7 +117,7 @@ static void test_round_trip_exact(void **state)
                     for (int64_t a = -1; a <= (int64_t)t.cells + 1; a++) {
                         if (bz >= 0 && bz <= (int64_t)t.cells && a >= 0 && a <= (int64_t)t.cells)
                             continue;
-                        const int64_t i = (int64_t)t.x0 + (a << l), j = (int64_t)t.z0 + (bz << l);
+                        const int64_t i = (int64_t)t.x0 + a * ((int64_t)1 << l), j = (int64_t)t.z0 + bz * ((int64_t)1 << l);
                         const uint16_t ah = t.apron[na++];
                         if (i < 0 || j < 0 || i >= W || j >= H || value_at((uint32_t)i, (uint32_t)j) == -32768)
                             continue;
