@@ -537,7 +537,8 @@ static void test_wrap_seamless(void **state)
     /* heights across the seam */
     hz_pyramid *p;
     assert_int_equal(hz_pyramid_open(whzp, &p, &err), HZ_OK);
-    const hz_pyr_info *in = hz_pyramid_info(p);
+    const hz_pyr_info info = *hz_pyramid_info(p); /* used after the close below */
+    const hz_pyr_info *in = &info;
     assert_true(in->wrap);
     const uint32_t N = in->size, m = hz_pyr_level_tiles(in, 0), c = hz_pyr_level_cells(in, 0);
     uint16_t *hh = malloc((size_t)N * N * sizeof *hh);
