@@ -782,7 +782,7 @@ static hz_result read_parts(build *b, uint32_t jobs, hz_err *err)
         np++;
     }
     closedir(dp);
-    if (r == HZ_OK)
+    if (r == HZ_OK && np > 1)
         qsort(parts, np, sizeof *parts, cmp_part);
     uint32_t expect = 0;
     for (size_t k = 0; r == HZ_OK && k < np; k++) {
