@@ -254,6 +254,8 @@ static int worker_count(uint32_t n)
     return n < 257 ? 1 : t;
 }
 
+static void perlin_setup(const hz_gen_desc *d, float persistence, uint32_t n, perlin_params *pp);
+
 static hz_result gen_perlin(const hz_gen_desc *d, float persistence, hz_grid *g, hz_err *err)
 {
     const uint32_t n = d->size;
@@ -265,30 +267,9 @@ static hz_result gen_perlin(const hz_gen_desc *d, float persistence, hz_grid *g,
         free(warp);
         return hz_err_set(err, HZ_ERR_MEMORY, "generate: out of memory");
     }
-    uint64_t s = d->seed ^ 0x5eed5eed5eed5eedULL;
-    noise_init(&pp->nz, &s);
-    double feature = d->feature_size > 0 ? (double)d->feature_size : (double)(n / 2);
-    if (feature < 2.0)
-        feature = 2.0;
-    int oct = (int)d->octaves;
-    if (oct == 0) { /* down to a wavelength of 2 samples */
-        oct = 1;
-        for (double w = feature; w >= 4.0 && oct < MAX_OCTAVES; w *= 0.5)
-            oct++;
-    }
-    pp->octaves = oct;
-    pp->freq0 = 1.0 / feature;
-    pp->persistence = persistence;
-    /* Offsets keep coordinates positive (int cast == floor) and decorrelate
-     * the octaves, which would otherwise share lattice points at the origin. */
-    for (int o = 0; o < MAX_OCTAVES + 4; o++) {
-        pp->offx[o] = 64.0 + (double)(splitmix64(&s) % 1024u) + (double)rnd01(&s);
-        pp->offy[o] = 64.0 + (double)(splitmix64(&s) % 1024u) + (double)rnd01(&s);
-    }
-    pp->warp_freq = 1.5 / feature;
-    pp->warp_amp = 0.12 * feature;
-    for (int o = 0; o < MAX_OCTAVES + 4; o++)
-        pp->mask[o] = PERM_N - 1;
+    hz_gen_desc whole = *d;
+    whole.periodic = false; /* repeating terrains are made window by window (hz_gen_window) */
+    perlin_setup(&whole, persistence, n, pp);
     for (uint32_t J = 0; J < cw; J++)
         for (uint32_t I = 0; I < cw; I++) {
             float *w = warp + ((size_t)J * cw + I) * 2;
@@ -430,7 +411,8 @@ struct hz_gen_window {
     float amplitude;
 };
 
-/* The same parameters gen_perlin derives from d (n = the map's side). */
+/* The Perlin parameters of d for a map of n samples a side (gen_perlin and
+ * the windows). */
 static void perlin_setup(const hz_gen_desc *d, float persistence, uint32_t n, perlin_params *pp)
 {
     uint64_t s = d->seed ^ 0x5eed5eed5eed5eedULL;

@@ -358,50 +358,6 @@ static hz_result split_node(cd_ctx *c, uint32_t l, uint32_t x, uint32_t z, bool 
     return HZ_OK;
 }
 
-/* Non-degenerate triangles of a patch: 2 P^2, less one per stitched odd
- * edge vertex (each collapses one triangle of its cell). */
-static uint32_t patch_triangles(uint32_t P, uint8_t coarse)
-{
-    uint32_t t = 2 * P * P;
-    for (int dir = 0; dir < 4; dir++)
-        if (coarse & (1u << dir))
-            t -= P / 2;
-    return t;
-}
-
-enum { SORT_BUCKETS = 1024 };
-
-static inline uint32_t dist_bucket(float d)
-{
-    /* log2(d + 1) in 1/32 steps from the float's exponent and top mantissa bits */
-    union {
-        float f;
-        uint32_t u;
-    } v = {.f = d + 1.0f};
-    const uint32_t k = (v.u >> 18) - (127u << 5);
-    return k < SORT_BUCKETS ? k : SORT_BUCKETS - 1;
-}
-
-static hz_result sort_patches(hz_lod *lod, hz_patch_list *out)
-{
-    const size_t n = out->count;
-    if (n < 2)
-        return HZ_OK;
-    if (list_reserve((void **)&lod->patch_tmp, &lod->patch_tmp_cap, n, sizeof(hz_patch)))
-        return HZ_ERR_MEMORY;
-    uint32_t start[SORT_BUCKETS + 1];
-    memset(start, 0, sizeof start);
-    for (size_t k = 0; k < n; k++)
-        start[dist_bucket(out->data[k].dist) + 1]++;
-    for (uint32_t b = 0; b < SORT_BUCKETS; b++)
-        start[b + 1] += start[b];
-    hz_patch *tmp = lod->patch_tmp;
-    for (size_t k = 0; k < n; k++)
-        tmp[start[dist_bucket(out->data[k].dist)]++] = out->data[k];
-    memcpy(out->data, tmp, n * sizeof *tmp);
-    return HZ_OK;
-}
-
 /* The selection proper; leaves end in lod->lv[] with their flags final. */
 static hz_result cdlod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, hz_node_list *culled,
                               hz_lod_stats *st)
@@ -473,7 +429,7 @@ static hz_result emit_patches(hz_lod *lod, const hz_camera *cam, hz_patch_list *
             out->data[out->count++] = (hz_patch){.x0 = x - s, .z0 = z - s, .shift = (uint8_t)shift,
                                                  .coarse = coarse, .level = (uint16_t)l,
                                                  .dist = box_distance((const vec3 *)box, cam->pos)};
-            st->triangles += patch_triangles(P, coarse);
+            st->triangles += hz__patch_triangles(P, coarse);
             st->leaves++;
             if (l > st->max_level)
                 st->max_level = l;
@@ -482,7 +438,7 @@ static hz_result emit_patches(hz_lod *lod, const hz_camera *cam, hz_patch_list *
     /* Nearest first, so the depth test rejects hidden fragments early: a
      * counting sort on the distance's logarithm (32 steps per doubling, 3 %),
      * O(nodes); a comparison sort took half the selection's time. */
-    return sort_patches(lod, out);
+    return hz__sort_patches(out, &lod->patch_tmp, &lod->patch_tmp_cap);
 }
 
 hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params, hz_patch_list *out,

@@ -63,7 +63,7 @@ struct hz_lod {
     uint16_t *morph_err;
     uint32_t patch;       /* cdlod patch cells per side (power of two) */
     uint32_t patch_level; /* finest level drawn as patches: half-size patch / 2 */
-    void *patch_tmp;      /* scratch of the patch sort */
+    hz_patch *patch_tmp;  /* scratch of the patch sort */
     size_t patch_tmp_cap;
     /* cdlod per-level node lists (forced splits add to earlier levels). */
     qnode *lv[32];
@@ -271,6 +271,13 @@ static inline float frustum_margin(const hz_camera *cam)
  * (union jack by the coarser cell's parity) of the coarser cell it centres.
  * False for a sample on every level's grid (the map's corners). */
 bool hz__morph_neighbours(uint32_t n, uint32_t i, uint32_t j, uint32_t ni[2], uint32_t nj[2]);
+
+/* Non-degenerate triangles of a P x P patch: 2 P^2, less one per stitched
+ * odd edge vertex (each collapses one triangle of its cell). */
+uint32_t hz__patch_triangles(uint32_t P, uint8_t coarse);
+/* Patches nearest first: a counting sort on the distance's logarithm (32
+ * steps per doubling, 3 %), O(patches); tmp is scratch kept by the caller. */
+hz_result hz__sort_patches(hz_patch_list *out, hz_patch **tmp, size_t *tmp_cap);
 
 /* Mode entry points (lod.c dispatches). */
 hz_result hz__lod_select_quadtree(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, hz_index_list *out,

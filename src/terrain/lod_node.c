@@ -116,3 +116,45 @@ bool hz__morph_neighbours(uint32_t n, uint32_t i, uint32_t j, uint32_t ni[2], ui
     }
     return true;
 }
+
+uint32_t hz__patch_triangles(uint32_t P, uint8_t coarse)
+{
+    uint32_t t = 2 * P * P;
+    for (int dir = 0; dir < 4; dir++)
+        if (coarse & (1u << dir))
+            t -= P / 2;
+    return t;
+}
+
+enum { SORT_BUCKETS = 1024 };
+
+static inline uint32_t dist_bucket(float d)
+{
+    /* log2(d + 1) in 1/32 steps from the float's exponent and top mantissa bits */
+    union {
+        float f;
+        uint32_t u;
+    } v = {.f = d + 1.0f};
+    const uint32_t k = (v.u >> 18) - (127u << 5);
+    return k < SORT_BUCKETS ? k : SORT_BUCKETS - 1;
+}
+
+hz_result hz__sort_patches(hz_patch_list *out, hz_patch **tmp, size_t *tmp_cap)
+{
+    const size_t n = out->count;
+    if (n < 2)
+        return HZ_OK;
+    if (list_reserve((void **)tmp, tmp_cap, n, sizeof(hz_patch)))
+        return HZ_ERR_MEMORY;
+    uint32_t start[SORT_BUCKETS + 1];
+    memset(start, 0, sizeof start);
+    for (size_t k = 0; k < n; k++)
+        start[dist_bucket(out->data[k].dist) + 1]++;
+    for (uint32_t b = 0; b < SORT_BUCKETS; b++)
+        start[b + 1] += start[b];
+    hz_patch *t = *tmp;
+    for (size_t k = 0; k < n; k++)
+        t[start[dist_bucket(out->data[k].dist)]++] = out->data[k];
+    memcpy(out->data, t, n * sizeof *t);
+    return HZ_OK;
+}

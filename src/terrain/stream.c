@@ -808,27 +808,6 @@ static void issue_requests(hz_stream *s)
     }
 }
 
-enum { SORT_BUCKETS = 1024 };
-
-static inline uint32_t dist_bucket(float d)
-{
-    union {
-        float f;
-        uint32_t u;
-    } v = {.f = d + 1.0f};
-    const uint32_t k = (v.u >> 18) - (127u << 5);
-    return k < SORT_BUCKETS ? k : SORT_BUCKETS - 1;
-}
-
-static uint32_t patch_triangles(uint32_t P, uint8_t coarse)
-{
-    uint32_t t = 2 * P * P;
-    for (int dir = 0; dir < 4; dir++)
-        if (coarse & (1u << dir))
-            t -= P / 2;
-    return t;
-}
-
 static hz_result emit(sel *c, hz_patch_list *out)
 {
     hz_stream *s = c->s;
@@ -857,27 +836,13 @@ static hz_result emit(sel *c, hz_patch_list *out)
                 .z0 = (uint32_t)(int32_t)(((int64_t)iz * P << sh) + img[1] * per), .shift = (uint8_t)sh, .coarse = coarse,
                 .level = (uint16_t)(top - sh), .dist = box_distance((const vec3 *)box, c->cam->pos),
                 .layer1 = (uint32_t)(q - s->slots) + 1, .ox = (uint16_t)(lx * P), .oz = (uint16_t)(lz * P)};
-            c->st->triangles += patch_triangles(P, coarse);
+            c->st->triangles += hz__patch_triangles(P, coarse);
             c->st->leaves++;
             if (top - sh > c->st->max_level)
                 c->st->max_level = top - sh;
         }
     }
-    const size_t n = out->count;
-    if (n < 2)
-        return HZ_OK;
-    if (list_reserve((void **)&s->tmp, &s->tmp_cap, n, sizeof *s->tmp) != HZ_OK)
-        return HZ_ERR_MEMORY;
-    uint32_t start[SORT_BUCKETS + 1];
-    memset(start, 0, sizeof start);
-    for (size_t k = 0; k < n; k++)
-        start[dist_bucket(out->data[k].dist) + 1]++;
-    for (uint32_t b = 0; b < SORT_BUCKETS; b++)
-        start[b + 1] += start[b];
-    for (size_t k = 0; k < n; k++)
-        s->tmp[start[dist_bucket(out->data[k].dist)]++] = out->data[k];
-    memcpy(out->data, s->tmp, n * sizeof *s->tmp);
-    return HZ_OK;
+    return hz__sort_patches(out, &s->tmp, &s->tmp_cap);
 }
 
 hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_params *params, hz_patch_list *out,
