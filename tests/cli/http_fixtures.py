@@ -36,7 +36,10 @@ class Nginx:
         self.log = os.path.join(d, "access.log")
         conf = os.path.join(d, "nginx.conf")
         with open(conf, "w") as f:
-            f.write("""worker_processes 1;
+            # started as root, nginx's workers would drop to nobody, who cannot read a
+            # checkout in a private folder (mktemp -d): they run as the test's user
+            f.write(("user %s;\n" % __import__("pwd").getpwuid(os.getuid()).pw_name if os.getuid() == 0 else "") +
+                    """worker_processes 1;
 pid %(d)s/nginx.pid;
 error_log %(d)s/error.log;
 daemon off;
