@@ -20,6 +20,10 @@ uniform sampler2D u_lightmap;       // R8: I = cos(r)(1 - Ie) + Ie, or Ie in sha
 uniform sampler2D u_detail;         // luminance detail per type, mean 0.5: R grass, G rock, B snow, A sand
 uniform sampler2D u_colormap;       // optional user colour map over the whole terrain
 uniform sampler2D u_cover;          // forest cover (R), 1 = forest
+uniform sampler2D u_img_ov;         // draped imagery: the overview of the whole footprint (RGBA)
+uniform sampler2DArray u_img_tiles; // draped imagery: tiles with a border of their neighbours' texels
+uniform vec4 u_img_map;             // uv = (world.xz - xy) * z over the footprint; w = tiles per side (0: none)
+uniform vec2 u_img_tile;            // texels per tile (border excluded), border texels
 
 in vec3 v_world;
 in vec3 v_normal;
@@ -102,6 +106,33 @@ vec3 splat(vec3 albedo, float slope, float dist)
     return albedo * mix(1.0, m, k) * far_var;
 }
 
+// Draped imagery (alpha 0 where the image has no data). Near: the tile
+// under the point, filtered with its own first mip levels (its border makes
+// them seamless); from where those run out (a texel under 1/4 pixel), the
+// overview, a quarter the resolution with all its levels. Derivatives are
+// taken before any branch.
+vec4 imagery(vec2 xz)
+{
+    vec2 uv = (xz - u_img_map.xy) * u_img_map.z;
+    vec2 duvx = dFdx(uv), duvy = dFdy(uv);
+    vec4 ov = textureGrad(u_img_ov, uv, duvx, duvy);
+    float n = u_img_map.w;
+    if (n > 0.0) {
+        float C = u_img_tile.x, B = u_img_tile.y, L = C + 2.0 * B;
+        vec2 t = uv * n * C; // texels over the whole image
+        vec2 dx = duvx * n * C, dy = duvy * n * C;
+        float lod = 0.5 * log2(max(max(dot(dx, dx), dot(dy, dy)), 1e-12));
+        if (lod < 2.0) {
+            vec2 ti = clamp(floor(t / C), vec2(0.0), vec2(n - 1.0));
+            vec2 local = (t - ti * C + B) / L;
+            vec4 fine = textureGrad(u_img_tiles, vec3(local, ti.y * n + ti.x), dx / L, dy / L);
+            ov = mix(fine, ov, smoothstep(1.5, 2.0, lod));
+        }
+    }
+    bool inside = all(greaterThanEqual(uv, vec2(0.0))) && all(lessThanEqual(uv, vec2(1.0)));
+    return inside ? ov : vec4(0.0);
+}
+
 void main()
 {
     // Below a water plane in its reflection pass. Only that variant may
@@ -124,7 +155,13 @@ void main()
     vec2 uv = v_world.xz / max(fx_map.x, 1e-6);
     if (FX_HAS_COLORMAP)
         albedo = texture(u_colormap, uv).rgb;
-    if (FX_ENABLED != 0) {
+    float photo = 0.0; // how much of the colour is draped imagery
+    if (FX_HAS_IMAGERY) {
+        vec4 img = imagery(v_world.xz);
+        photo = img.a;
+        albedo = mix(albedo, img.rgb, photo);
+    }
+    if (FX_ENABLED != 0 && photo < 1.0) {
         if (fx_on(FX_DETAIL))
             albedo = splat(albedo, 1.0 - n.y, dist);
         if (fx_on(FX_BILLBOARDS) && FX_HAS_COVER) {
@@ -141,6 +178,14 @@ void main()
     } else {
         float lambert = max(dot(n, u_sun_dir), 0.0);
         c = albedo * (u_ambient + (1.0 - u_ambient) * lambert * vec3(1.0, 0.97, 0.90));
+    }
+    // A photo carries its own light: relight it relative to flat ground, so
+    // the relief still reads but a level field keeps the photo's colour.
+    if (photo > 0.0) {
+        float flat_light = u_ambient + (1.0 - u_ambient) * max(u_sun_dir.y, 0.0);
+        float lambert = max(dot(n, u_sun_dir), 0.0);
+        float rel = (u_ambient + (1.0 - u_ambient) * lambert) / max(flat_light, 0.05);
+        c = mix(c, albedo * mix(1.0, rel, 0.6), photo);
     }
     if (u_wire != 0)
         c = mix(c, vec3(0.05, 0.05, 0.05), 0.7);

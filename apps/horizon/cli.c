@@ -117,6 +117,9 @@ void cli_usage_terrain(void)
             "                          DEM's place, else temperate), temperate, arid, steppe, tropical, polar\n"
             "  --latitude DEG          where a DEM without a georeference lies (snow and tree lines; default 45)\n"
             "  --colormap FILE.png     ground colours from an image over the whole map\n"
+            "  --imagery FILE          drape an orthophoto (any GDAL raster: GeoTIFF, PNG/JPEG + world\n"
+            "                          file, VRT) by its georeference\n"
+            "  --imagery-max N         imagery texels per side over the whole map at most (8192)\n"
             "  --textures DIR          PNGs replacing the procedural textures: grass, rock, snow,\n"
             "                          sand (.png, square, power of two) and conifer, broadleaf,\n"
             "                          rain, snowflake (.png, with alpha); missing ones stay procedural\n");
@@ -501,6 +504,13 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
         } else if (!strcmp(a, "--colormap")) {
             NEEDV();
             o->colormap = v;
+        } else if (!strcmp(a, "--imagery")) {
+            NEEDV();
+            o->imagery = v;
+        } else if (!strcmp(a, "--imagery-max")) {
+            NEEDV();
+            if (!cli_parse_u32(v, 64, HZ_IMAGERY_MAX_SIDE, &o->imagery_max))
+                return bad(cmd, a, v, "texels per side in [64, 32768]");
         } else if (!strcmp(a, "--textures")) {
             NEEDV();
             o->textures = v;
@@ -539,6 +549,7 @@ size_t cli_opts_inputs(const cli_opts *o, cli_file *ins, size_t n, size_t cap)
 {
     const cli_file all[] = {{o->terrain.dem_path, "--dem", CLI_FILE},
                             {o->colormap, "--colormap", CLI_FILE},
+                            {o->imagery, "--imagery", CLI_FILE},
                             {o->forest_file, "--forest-file", CLI_FILE},
                             {o->forest_trees, "--forest-trees", CLI_LIST},
                             {o->textures, "--textures", CLI_TEXTURES}};

@@ -50,6 +50,8 @@ typedef struct cli_opts {
     float fog;            /* per metre; 0 default (3 / view distance), < 0 off */
     float trees;          /* trees per hectare inside forests; 0 default, < 0 none */
     const char *colormap; /* PNG over the whole terrain */
+    const char *imagery;  /* --imagery: any GDAL raster, draped by its georeference */
+    uint32_t imagery_max; /* --imagery-max: texels per side at most (0: 8192) */
     const char *textures; /* directory of PNGs replacing the procedural detail textures / sprites */
     /* ground climate (issue 15) */
     hz_climate_kind climate; /* 0 auto: from the georeference's lon/lat, else temperate */
@@ -77,7 +79,16 @@ typedef struct app_fx {
     hz_index_list refl;   /* this frame's reflection selection */
     hz_climate climate;   /* what the ground, trees and water follow */
     bool climate_known;   /* from the georeference (else a default or --climate/--latitude) */
+    /* --imagery as draped: texels per side, tiles per side, the image's own
+     * metres per pixel, the fraction of the map it covers, load ms */
+    uint32_t imagery_side, imagery_tiles;
+    double imagery_native_m, imagery_coverage, imagery_ms;
 } app_fx;
+/* Loads o->imagery onto the georeference g of a square grid of `samples`
+ * at `spacing` metres and hands it to r; records its figures in a. 0, or 1
+ * after printing the error. */
+int app_load_imagery(app_fx *a, const cli_opts *o, const hz_georef *g, uint32_t samples, double spacing,
+                     hz_renderer *r, const char *cmd);
 
 /* Builds and uploads what o's effects need. 0, or 1 after printing the error. */
 int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer *r, const char *cmd);

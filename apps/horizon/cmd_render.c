@@ -276,6 +276,17 @@ int cmd_render(int argc, char **argv)
         jx_set(j, "out", jx_str(out));
         jx_set(j, "effects", jx_str(fxs));
         jx_set(j, "fx_setup_ms", jx_fix(afx.setup_ms, 1));
+        if (o.imagery) {
+            json_t *im = json_object();
+            jx_set(im, "file", jx_str(o.imagery));
+            jx_set(im, "texels_per_side", jx_int(afx.imagery_side));
+            jx_set(im, "tiles_per_side", jx_int(afx.imagery_tiles));
+            jx_set(im, "metres_per_texel", jx_fix((double)hz_terrain_extent(t) / (afx.imagery_side ? (double)afx.imagery_side : 1.0), 3));
+            jx_set(im, "image_metres_per_pixel", jx_fix(afx.imagery_native_m, 3));
+            jx_set(im, "coverage", jx_fix(afx.imagery_coverage, 4));
+            jx_set(im, "load_ms", jx_fix(afx.imagery_ms, 1));
+            jx_set(j, "imagery", im);
+        }
         jx_set(j, "lightmap_ms", jx_fix(afx.lightmap_ms, 1));
         jx_set(j, "trees", jx_int((long long)afx.trees));
         jx_set(j, "billboards", jx_int(ds.billboards));

@@ -135,6 +135,35 @@ static int load_colormap(const char *path, hz_renderer *r, const char *cmd, cons
 }
 
 /* DIR/grass.png ... replace the procedural textures; at least one must be there. */
+int app_load_imagery(app_fx *a, const cli_opts *o, const hz_georef *g, uint32_t samples, double spacing,
+                     hz_renderer *r, const char *cmd)
+{
+    const double t0 = hz_time_ms();
+    hz_imagery_desc d = {.path = o->imagery, .target = g, .samples = samples, .spacing = spacing,
+                         .max_side = o->imagery_max, .max_bytes = o->terrain.max_memory,
+                         .progress = o->quiet ? NULL : hz_progress_stderr};
+    hz_imagery im;
+    hz_err err = {0};
+    if (hz_imagery_load(&d, &im, &err) != HZ_OK) {
+        fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
+        return 1;
+    }
+    if (im.note[0] && !o->quiet)
+        fprintf(stderr, "horizon %s: imagery: %s\n", cmd, im.note);
+    hz_result res = hz_renderer_set_imagery(r, &im, &err);
+    a->imagery_side = im.side;
+    a->imagery_tiles = im.tiles;
+    a->imagery_native_m = im.native_m;
+    a->imagery_coverage = im.coverage;
+    hz_imagery_free(&im);
+    if (res != HZ_OK) {
+        fprintf(stderr, "horizon %s: imagery '%s': %s\n", cmd, o->imagery, err.msg);
+        return 1;
+    }
+    a->imagery_ms = hz_time_ms() - t0;
+    return 0;
+}
+
 static int load_textures(const char *dir, hz_renderer *r, const char *cmd, uint64_t budget)
 {
     static const char *const ground[HZ_GROUND_COUNT] = {"grass", "rock", "snow", "sand"};
@@ -315,6 +344,8 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
         }
     }
     if (o->colormap && load_colormap(o->colormap, r, cmd, t, o->terrain.max_memory))
+        return 1;
+    if (o->imagery && app_load_imagery(a, o, t->georef, t->hm.size, t->spacing, r, cmd))
         return 1;
     if (o->textures && load_textures(o->textures, r, cmd, o->terrain.max_memory))
         return 1;

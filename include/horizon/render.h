@@ -8,6 +8,7 @@
 #include "horizon/climate.h"
 #include "horizon/fx.h"
 #include "horizon/heightmap.h"
+#include "horizon/imagery.h"
 #include "horizon/lod.h"
 
 #ifdef __cplusplus
@@ -198,6 +199,12 @@ hz_result hz_renderer_set_detail_texture(hz_renderer *r, hz_ground ground, const
 /* A colour map for the whole terrain (RGB8, w x h, top row = north edge z = 0,
  * covering the heightmap) instead of the height/slope classes; NULL removes it. */
 hz_result hz_renderer_set_colormap(hz_renderer *r, const uint8_t *rgb, uint32_t w, uint32_t h, hz_err *err);
+
+/* Drapes imagery (hz_imagery_load) over the terrain by its georeference:
+ * mip-mapped tiles near the camera, the overview far away; where the image
+ * has no data the ground keeps its own colours. Copied to the GPU: im may be
+ * freed after. NULL removes it. Errors when the GPU cannot hold it. */
+hz_result hz_renderer_set_imagery(hz_renderer *r, const hz_imagery *im, hz_err *err);
 
 /* HZ_FX_BILLBOARDS: forest cover (R8 side x side over the map, 255 = forest,
  * hz_forest_cover_map) darkens the ground under the trees so forests read at

@@ -97,6 +97,10 @@ void fx_ground_bind(hz_renderer *r)
     glBindTexture(GL_TEXTURE_2D, r->colormap_tex);
     glActiveTexture(GL_TEXTURE0 + FX_UNIT_COVER);
     glBindTexture(GL_TEXTURE_2D, r->cover_tex);
+    glActiveTexture(GL_TEXTURE0 + FX_UNIT_IMG_OV);
+    glBindTexture(GL_TEXTURE_2D, r->img_ov_tex);
+    glActiveTexture(GL_TEXTURE0 + FX_UNIT_IMG_TILES);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, r->img_tiles_tex);
     glActiveTexture(GL_TEXTURE0);
 }
 
@@ -106,6 +110,10 @@ void fx_ground_destroy(hz_renderer *r)
     glDeleteTextures(1, &r->detail_tex);
     glDeleteTextures(1, &r->colormap_tex);
     glDeleteTextures(1, &r->cover_tex);
+    glDeleteTextures(1, &r->img_ov_tex);
+    glDeleteTextures(1, &r->img_tiles_tex);
+    r->img_ov_tex = r->img_tiles_tex = 0;
+    r->has_imagery = false;
     r->lightmap_tex = r->detail_tex = r->colormap_tex = r->cover_tex = 0;
     r->has_lightmap = r->has_colormap = r->has_cover = r->detail_ready = false;
     free(r->detail_cpu);
@@ -235,6 +243,58 @@ hz_result hz_renderer_set_colormap(hz_renderer *r, const uint8_t *rgb, uint32_t 
     hz_result res = upload_2d(&r->colormap_tex, GL_RGB8, GL_RGB, rgb, w, h, r->max_tex, err, "colour map");
     r->has_colormap = res == HZ_OK;
     return res;
+}
+
+hz_result hz_renderer_set_imagery(hz_renderer *r, const hz_imagery *im, hz_err *err)
+{
+    HZ_ASSERT(r);
+    hz_result ctx = fx_check_context(r, err, "hz_renderer_set_imagery");
+    if (ctx != HZ_OK)
+        return ctx;
+    r->has_imagery = false;
+    if (!im)
+        return HZ_OK;
+    if (!im->overview_rgba || !im->overview_side || !(im->extent > 0) || (im->tiles && !im->tile_rgba))
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: empty imagery");
+    hz_result res = upload_2d(&r->img_ov_tex, GL_RGBA8, GL_RGBA, im->overview_rgba, im->overview_side,
+                              im->overview_side, r->max_tex, err, "imagery overview");
+    if (res != HZ_OK)
+        return res;
+    glDeleteTextures(1, &r->img_tiles_tex);
+    r->img_tiles_tex = 0;
+    if (im->tiles) {
+        const GLsizei L = (GLsizei)(im->tile + 2 * im->border), layers = (GLsizei)(im->tiles * im->tiles);
+        GLint max_layers = 0;
+        glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &max_layers);
+        if (layers > max_layers || (r->max_tex > 0 && L > r->max_tex))
+            return hz_err_set(err, HZ_ERR_VALUE,
+                              "renderer: imagery of %u tiles exceeds the GPU's %d texture layers (lower --imagery-max)",
+                              (unsigned)layers, max_layers);
+        /* Mip levels 0..2 only: the border holds 4 texels, 1 at level 2;
+         * the shader takes the overview beyond. */
+        glGenTextures(1, &r->img_tiles_tex);
+        glBindTexture(GL_TEXTURE_2D_ARRAY, r->img_tiles_tex);
+        glTexStorage3D(GL_TEXTURE_2D_ARRAY, 3, GL_RGBA8, L, L, layers);
+        glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+        glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+        glTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, 0, L, L, layers, GL_RGBA, GL_UNSIGNED_BYTE, im->tile_rgba);
+        glGenerateMipmap(GL_TEXTURE_2D_ARRAY);
+        glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAX_LEVEL, 2);
+        set_filtering(GL_TEXTURE_2D_ARRAY, true, GL_CLAMP_TO_EDGE);
+        glBindTexture(GL_TEXTURE_2D_ARRAY, 0);
+        res = hz_gl_check(err, "imagery tiles");
+        if (res != HZ_OK)
+            return res;
+    }
+    /* uv = (world.xz - origin) * 1 / extent; w: tiles per side */
+    r->img_map[0] = (float)im->origin_x;
+    r->img_map[1] = (float)im->origin_z;
+    r->img_map[2] = (float)(1.0 / im->extent);
+    r->img_map[3] = (float)im->tiles;
+    r->img_tile[0] = (float)im->tile;
+    r->img_tile[1] = (float)im->border;
+    r->has_imagery = true;
+    return HZ_OK;
 }
 
 hz_result hz_renderer_set_forest_cover(hz_renderer *r, const uint8_t *cover, uint32_t side, hz_err *err)

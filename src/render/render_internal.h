@@ -29,6 +29,8 @@ _Static_assert(offsetof(fx_common_ubo, bits) == 12 * 16, "FxCommon.fx_bits offse
 #define FX_UNIT_BB 8
 #define FX_UNIT_NORMALS 10  /* per-sample normals */
 #define FX_UNIT_TILES 11    /* cdlod height tiles (texture array) */
+#define FX_UNIT_IMG_OV 12   /* imagery overview */
+#define FX_UNIT_IMG_TILES 13 /* imagery tiles (texture array) */
 #define FX_MAX_REFLECTIONS 4
 
 /* What one scene pass sees: the main view or a mirrored reflection view. */
@@ -65,6 +67,7 @@ typedef struct fx_frame {
 #define FX_VARIANT_PATCH (1u << 18) /* terrain drawn as cdlod patches */
 #define FX_VARIANT_CLIP (1u << 19)  /* a reflection pass: discard below the water plane */
 #define FX_VARIANT_MASK (1u << 20)  /* cdlod patches over samples without data: discard there */
+#define FX_VARIANT_IMAGERY (1u << 21) /* draped imagery */
 #define FX_MAX_LOCS 24
 #define FX_MAX_VARIANTS 40 /* the --effect-costs run uses about 16 terrain variants */
 
@@ -91,7 +94,7 @@ void prog_cache_clear(prog_cache *c);
 /* Uniform location slots per family. */
 enum { TL_SIZE, TL_SPACING, TL_HSCALE, TL_HOFFSET, TL_VIEWPROJ, TL_SUN, TL_HORIZON, TL_EYE, TL_FOG, TL_AMBIENT,
        TL_HRANGE, TL_WIRE, TL_MORPH_SCALE, TL_MORPH_START, TL_NORMAL_TEX, TL_NRM_SCALE, TL_MAP, TL_TILE, TL_TOP,
-       TL_BASE, TL_CLIMATE, TL_STREAM };
+       TL_BASE, TL_CLIMATE, TL_STREAM, TL_IMG_MAP, TL_IMG_TILE };
 enum { BL_VIEWPROJ, BL_CAM_RIGHT, BL_CAM_UP, BL_PX_PER_M, BL_BLEND, BL_FIRST, BL_FACING };
 enum { WL_RECT, WL_LEVEL, WL_VIEWPROJ, WL_HAS_REFLECTION, WL_VIEWPORT, WL_SIZE, WL_SPACING, WL_HSCALE, WL_HOFFSET,
        WL_DEEP, WL_CLARITY, WL_WAVES, WL_REFLECTIVITY };
@@ -167,6 +170,9 @@ struct hz_renderer {
     /* ground */
     GLuint lightmap_tex, detail_tex, colormap_tex, cover_tex, dummy_tex, dummy_array;
     bool has_lightmap, has_colormap, has_cover, detail_ready;
+    GLuint img_ov_tex, img_tiles_tex; /* draped imagery (0: none) */
+    float img_map[4], img_tile[2];    /* u_img_map, u_img_tile */
+    bool has_imagery;
     uint8_t *detail_cpu;            /* the packed detail texture (R grass, G rock, B snow, A sand) */
     vec3 lightmap_sun;
     float lm_xform[2];

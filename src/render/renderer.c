@@ -41,7 +41,7 @@ static const char *const terrain_names[] = {
     "u_size",    "u_spacing", "u_hscale", "u_hoffset",     "u_viewproj",    "u_sun_dir",    "u_sky_horizon",
     "u_eye",     "u_fog_density", "u_ambient", "u_hrange", "u_wire",        "u_morph_scale", "u_morph_start",
     "u_normal_tex", "u_nrm_scale", "u_map",   "u_tile",     "u_top",         "u_base",       "u_climate",
-    "u_stream", NULL};
+    "u_stream", "u_img_map", "u_img_tile", NULL};
 
 hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_err *err)
 {
@@ -51,6 +51,8 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
         key |= FX_VARIANT_COLORMAP;
     if (r->has_cover && (f->bits & HZ_FX_BILLBOARDS))
         key |= FX_VARIANT_COVER;
+    if (r->has_imagery)
+        key |= FX_VARIANT_IMAGERY;
     r->terrain_cur = prog_cache_get(&r->terrain, key, hz_shader_terrain_vs, hz_shader_terrain_fs, "terrain", 2,
                                     terrain_names, err);
     if (!r->terrain_cur)
@@ -596,6 +598,8 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
         glUniform4f(tl[TL_CLIMATE], r->climate.snow_line * r->zscale, r->climate.tree_line * r->zscale,
                     r->climate.aridity, r->zscale);
         glUniform1i(tl[TL_WIRE], 0);
+        glUniform4fv(tl[TL_IMG_MAP], 1, r->img_map);
+        glUniform2fv(tl[TL_IMG_TILE], 1, r->img_tile);
         /* cdlod geomorphing (patches, main view only); reflections are unmorphed. */
         glUniform1f(tl[TL_MORPH_SCALE], patches ? sp->morph_scale : 0.0f);
         glUniform1f(tl[TL_MORPH_START], sp->morph_start);
