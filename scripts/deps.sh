@@ -13,6 +13,7 @@ PKGS=(
   libjansson-dev       # JSON written by the commands
   parallel             # make test: pyramid import jobs run side by side
   libgdal-dev          # DEM reading (GeoTIFF, SRTM, ENVI, ASCII grid, VRT), mosaics, reprojection (PROJ)
+  gdal-bin             # tests make georeferenced rasters (gdal_translate, gdalwarp, gdaltransform)
   libcmocka-dev        # unit tests
   python3              # CLI tests check JSON output
   libglfw3-dev libglx-mesa0   # horizon view: GLFW window, GLX on Mesa llvmpipe

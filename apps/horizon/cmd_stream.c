@@ -15,6 +15,7 @@
 #include "horizon/pyramid.h"
 #include "horizon/safety.h"
 #include "horizon/stream.h"
+#include "horizon/imagery.h"
 
 static void progress_line(void *user, const char *what, uint64_t done, uint64_t total)
 {
@@ -287,6 +288,8 @@ typedef struct sopts {
     float camera[5];
     uint32_t width, height, frames;
     hz_pyr_remote remote; /* --terrain http(s)://: --disk-cache, --http-* */
+    const char *imagery;  /* --imagery: draped by its georeference */
+    uint32_t imagery_max; /* --imagery-max (0: 8192) */
 } sopts;
 
 static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
@@ -302,6 +305,7 @@ static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         {"disk-cache", required_argument, 0, 1001}, {"disk-cache-mb", required_argument, 0, 1002},
         {"http-timeout", required_argument, 0, 1003}, {"http-retries", required_argument, 0, 1004},
         {"http-connections", required_argument, 0, 1005},
+        {"imagery", required_argument, 0, 1101}, {"imagery-max", required_argument, 0, 1102},
         {0, 0, 0, 0}};
     *o = (sopts){.cache_mb = 256, .tau = 1.0, .width = 1280, .height = 720, .frames = 120};
     optind = 2;
@@ -334,6 +338,11 @@ static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
             if (!num("--http-connections", optarg, 1, 16, &v)) return 2;
             o->remote.connections = (uint32_t)v;
             break;
+        case 1101: o->imagery = optarg; break;
+        case 1102:
+            if (!num("--imagery-max", optarg, 64, HZ_IMAGERY_MAX_SIDE, &v)) return 2;
+            o->imagery_max = (uint32_t)v;
+            break;
         case 'l':
             if (strcmp(optarg, "cdlod")) {
                 fprintf(stderr, "horizon %s: a streamed --terrain is drawn with --lod cdlod only\n", cmd);
@@ -359,7 +368,7 @@ static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         default:
             fprintf(stderr, "horizon %s --terrain: options are --terrain --cache-mb --out --camera --pixel-error "
                             "--width --height --path --frames --json --quiet --disk-cache --disk-cache-mb "
-                            "--http-timeout --http-retries --http-connections\n", cmd);
+                            "--http-timeout --http-retries --http-connections --imagery --imagery-max\n", cmd);
             return 2;
         }
     }
@@ -390,6 +399,38 @@ static void sctx_free(sctx *c)
     hz_stream_destroy(c->s);
 }
 
+/* --imagery over the pyramid's footprint, placed through its georeference. */
+static int stream_imagery(sctx *c, const sopts *o, const char *cmd)
+{
+    const hz_pyr_info *in = hz_stream_info(c->s);
+    hz_err err = {0};
+    hz_georef *g = NULL;
+    if (in->wkt && in->wkt[0]) {
+        g = hz_georef_create(in->wkt, in->geotransform, in->size, in->size, &err);
+        if (!g) {
+            fprintf(stderr, "horizon %s: %s: %s\n", cmd, o->terrain, err.msg);
+            return 1;
+        }
+    }
+    hz_imagery_desc d = {.path = o->imagery, .target = g, .samples = in->size, .spacing = in->spacing,
+                         .max_side = o->imagery_max, .max_bytes = hz_mem_budget_default(),
+                         .progress = o->quiet ? NULL : hz_progress_stderr};
+    hz_imagery im;
+    hz_result res = hz_imagery_load(&d, &im, &err);
+    hz_georef_destroy(g);
+    if (res == HZ_OK) {
+        if (im.note[0] && !o->quiet)
+            fprintf(stderr, "horizon %s: imagery: %s\n", cmd, im.note);
+        res = hz_renderer_set_imagery(c->r, &im, &err);
+        hz_imagery_free(&im);
+    }
+    if (res != HZ_OK) {
+        fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
+        return 1;
+    }
+    return 0;
+}
+
 static int sctx_open(sctx *c, const sopts *o, const char *cmd)
 {
     hz_err err = {0};
@@ -410,6 +451,10 @@ static int sctx_open(sctx *c, const sopts *o, const char *cmd)
         return 1;
     }
     c->lp = (hz_lod_params){.mode = HZ_LOD_CDLOD, .pixel_error = (float)o->tau, .viewport_height = o->height};
+    if (o->imagery && stream_imagery(c, o, cmd)) {
+        sctx_free(c);
+        return 1;
+    }
     return 0;
 }
 
