@@ -6,6 +6,8 @@
 // computes the same on the CPU.
 layout(location = 0) in uvec4 a_patch; // x0, z0 (samples), layer | shift << 16,
                                        // ox | oz << 12 | tstep << 24 | coarse << 28
+layout(location = 1) in uvec2 a_slide; // streamed tiles sliding in: the least morph (0..255) of this
+                                       // level's vertices inside | W << 8 | E << 16 | N << 24; S
 uniform usampler2DArray u_tiles; // RGBA16UI: h16, morph q (65535 never), target2 lo, target2 hi
 uniform int u_size;              // P: grid cells per side of a patch
 uniform float u_spacing;         // metres between samples
@@ -84,8 +86,18 @@ bool tile_texel(int i, int j, ivec2 org, int shift, int layer, out uvec4 t)
 // (one sample around it), which both tiles of an edge share.
 float stream_h(int i, int j, ivec2 org, int shift, int layer)
 {
-    ivec2 l = (ivec2(i, j) - org) >> shift;
+    ivec2 l = clamp((ivec2(i, j) - org) >> shift, ivec2(-1), ivec2(u_tile + 1));
     return u_hoffset + u_hscale * float(texelFetch(u_tiles, ivec3(l + 1, layer), 0).r);
+}
+
+// The normal of the next coarser level at sample (i, j) of the patch's tile
+// (central differences two steps wide).
+vec3 coarse_normal(int i, int j, ivec2 org, int shift, int layer)
+{
+    int st2 = 2 << shift;
+    float hw = stream_h(i - st2, j, org, shift, layer), he = stream_h(i + st2, j, org, shift, layer);
+    float hn = stream_h(i, j - st2, org, shift, layer), hs = stream_h(i, j + st2, org, shift, layer);
+    return normalize(vec3(-(he - hw) / (2.0 * float(st2) * u_spacing), 1.0, -(hs - hn) / (2.0 * float(st2) * u_spacing)));
 }
 
 void main()
@@ -108,13 +120,32 @@ void main()
     float h = u_hoffset + u_hscale * float(t.r);
     vec3 p = vec3(float(i) * u_spacing, h, float(j) * u_spacing);
     ivec2 org = ivec2(a_patch.xy) - (ivec2(ox, oz) << shift);
+    float nm = float(a_slide.x & 255u) / 255.0; // how far the normal leans to the parent level's
+    bool odd = ((u | w) & 1) == 1;
+    ivec2 a = ivec2(i, j), b = ivec2(i, j); // an odd vertex: the two it collapses between
     if (u_morph_scale > 0.0) {
         float m = morph_factor(t, p);
+        // A tile that just arrived slides in: the vertices this level adds
+        // (odd u or w) start at their parent's shape. Along an edge the value
+        // both patches of this level share, so the edge never opens.
+        if (((u | w) & 1) == 1 && (a_slide.x | a_slide.y) != 0u) {
+            uint s = a_slide.x & 255u;
+            if (u == 0)
+                s = (a_slide.x >> 8) & 255u;
+            else if (u == u_size)
+                s = (a_slide.x >> 16) & 255u;
+            else if (w == 0)
+                s = a_slide.x >> 24;
+            else if (w == u_size)
+                s = a_slide.y & 255u;
+            m = max(m, float(s) / 255.0);
+        }
+        if (odd)
+            nm = m;
         if (m > 0.0) {
             // Toward the midpoint of the two neighbours it collapses between,
             // each as drawn (morphed one level itself).
             int bi = low_bit(i), bj = low_bit(j);
-            ivec2 a, b;
             if (bi == bj) {
                 int s = bi;
                 bool main_diag = ((((i - s) / (2 * s)) + ((j - s) / (2 * s))) & 1) == 0;
@@ -147,6 +178,11 @@ void main()
         float hn = stream_h(i, j - st, org, shift, layer), hs = stream_h(i, j + st, org, shift, layer);
         v_normal = normalize(vec3(-(he - hw) / (2.0 * float(st) * u_spacing), 1.0,
                                   -(hs - hn) / (2.0 * float(st) * u_spacing)));
+        if (nm > 0.0) { // morphing or sliding in: toward the parent level's normal, as it draws it
+            vec3 n2 = odd ? normalize(coarse_normal(a.x, a.y, org, shift, layer) + coarse_normal(b.x, b.y, org, shift, layer))
+                          : coarse_normal(i, j, org, shift, layer);
+            v_normal = normalize(mix(v_normal, n2, nm));
+        }
     } else {
         v_normal = vec3(0.0, 1.0, 0.0); // the fragment shader takes normals from the normal map
     }

@@ -442,7 +442,9 @@ static int sctx_open(sctx *c, const sopts *o, const char *cmd)
     if (c->r)
         c->s = hz_stream_create(&(hz_stream_desc){.path = o->terrain,
                                                   .cache_bytes = (uint64_t)(o->cache_mb * 1048576.0),
-                                                  .remote = o->remote, .max_slots = hz_gl_query_max_tile_layers()},
+                                                  .remote = o->remote, .max_slots = hz_gl_query_max_tile_layers(),
+                                                  /* one still image: every tile as it is, no slide-in */
+                                                  .slide_seconds = strcmp(cmd, "render") ? 0.0f : -1.0f},
                                 &err);
     if (!c->r || !c->s || hz_renderer_set_stream(c->r, hz_stream_info(c->s), hz_stream_slots(c->s), hz_stream_texels(c->s),
                                         &err) != HZ_OK) {
@@ -776,7 +778,9 @@ int stream_bench(int argc, char **argv)
     const float dur = hz_path_duration(&path);
     for (uint32_t f = 0; f < F; f++) {
         hz_camera cam = default_camera(hz_stream_info(c.s), o.width, o.height);
-        hz_path_sample(&path, F > 1 ? dur * (float)f / (float)(F - 1) : 0.0f, &cam);
+        const float tpath = F > 1 ? dur * (float)f / (float)(F - 1) : 0.0f;
+        hz_path_sample(&path, tpath, &cam);
+        hz_stream_set_clock(c.s, tpath); /* arriving tiles slide in on the flight's clock */
         cam.aspect = (float)o.width / (float)o.height;
         hz_stream_wrap_camera(c.s, &cam); /* re-centred: precision never degrades */
         const double t0 = hz_time_ms();

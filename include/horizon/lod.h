@@ -157,6 +157,12 @@ typedef struct hz_patch {
                           distance to within 1/32 of a doubling, at most 3 %) */
     uint32_t layer1;   /* streamed terrains: 1 + the tile slot holding the node; 0 otherwise */
     uint16_t ox, oz;   /* streamed terrains: the node's corner inside its tile (tile texels) */
+    /* Streamed terrains, a tile that just arrived slides in: the least morph
+     * (0..255 = 0..1) of the vertices this level adds (odd ones), inside the
+     * patch and along each edge (dir as coarse; two patches of one level
+     * sharing an edge agree on it). 0 = the distance alone decides. */
+    uint8_t slide;
+    uint8_t slide_edge[4];
 } hz_patch;
 
 typedef struct hz_patch_list {

@@ -26,6 +26,8 @@ typedef struct hz_stream_desc {
                                0 -> no limit but the 16-bit layer index */
     hz_pyr_remote remote;   /* path is an http(s) URL: how to read it (see horizon/pyramid.h) */
     uint32_t loaders;       /* loader threads; 0 -> 1 for a file, remote.connections (8) for a URL */
+    float slide_seconds;    /* a tile that arrives slides in over this long (its nodes start at their
+                               parent's shape and morph to their own): 0 -> 0.5 s, < 0 -> off (pops) */
 } hz_stream_desc;
 
 typedef struct hz_stream_stats {
@@ -53,6 +55,11 @@ uint32_t hz_stream_texels(const hz_stream *s); /* T + 3 */
  * patch's layer1 - 1 is its tile's slot) and asks for the tiles it lacks. */
 hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_params *params, hz_patch_list *out,
                            hz_lod_stats *stats);
+
+/* The clock the slide-in of arriving tiles follows, in seconds (e.g. the
+ * flight's time, so a replay draws the same frames). Without a call, the
+ * monotonic clock. */
+void hz_stream_set_clock(hz_stream *s, double seconds);
 
 /* Hands out a decoded tile waiting for upload: its slot and its texels
  * ((T+3)^2 x 4 uint16, see hz_stream_texels: h16, morph range, morph target low 16 bits, target

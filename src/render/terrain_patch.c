@@ -12,6 +12,8 @@
 #include "horizon/lod.h"
 #include "horizon/pyramid.h"
 
+#define INST_WORDS 6 /* per patch: a_patch (4 words), a_slide (2) */
+
 /* Tile texel: h16, morph q, morph target (sum of two h16, 17 bits) low, and
  * its high bit plus a no-data flag. */
 enum { TEXEL_CH = 4 };
@@ -69,8 +71,12 @@ static hz_result patch_grid(hz_renderer *r, uint32_t P, hz_err *err)
         glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)((size_t)P * P * 6 * sizeof *idx), idx, GL_STATIC_DRAW);
         glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
         glEnableVertexAttribArray(0);
-        glVertexAttribIPointer(0, 4, GL_UNSIGNED_INT, 4 * sizeof(uint32_t), (const void *)0);
+        glVertexAttribIPointer(0, 4, GL_UNSIGNED_INT, INST_WORDS * sizeof(uint32_t), (const void *)0);
         glVertexAttribDivisor(0, 1);
+        glEnableVertexAttribArray(1);
+        glVertexAttribIPointer(1, 2, GL_UNSIGNED_INT, INST_WORDS * sizeof(uint32_t),
+                               (const void *)(4 * sizeof(uint32_t)));
+        glVertexAttribDivisor(1, 1);
         glBindVertexArray(0);
         glBindBuffer(GL_ARRAY_BUFFER, 0);
         free(idx);
@@ -169,7 +175,7 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, hz_err
 {
     if (!r->tiles_tex)
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: cdlod patches to draw before hz_renderer_set_cdlod");
-    const size_t bytes = (size_t)count * 4 * sizeof(uint32_t);
+    const size_t bytes = (size_t)count * INST_WORDS * sizeof(uint32_t);
     if (bytes > r->inst_scratch_cap) {
         uint32_t *s = realloc(r->inst_scratch, bytes);
         if (!s)
@@ -190,11 +196,15 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, hz_err
             x0 + span > hi || z0 + span > hi)
             return hz_err_set(err, HZ_ERR_VALUE, "renderer: streamed patch %u (%u, %u, shift %u, slot %u) is invalid",
                               k, q->x0, q->z0, q->shift, q->layer1);
-        uint32_t *o = r->inst_scratch + 4 * (size_t)k;
+        uint32_t *o = r->inst_scratch + INST_WORDS * (size_t)k;
         o[0] = q->x0;
         o[1] = q->z0;
         o[2] = (q->layer1 - 1) | ((uint32_t)q->shift << 16);
         o[3] = q->ox | ((uint32_t)q->oz << 12) | ((uint32_t)q->coarse << 28);
+        /* slide-in: the least morph inside, then along W E N S */
+        o[4] = q->slide | ((uint32_t)q->slide_edge[0] << 8) | ((uint32_t)q->slide_edge[1] << 16) |
+               ((uint32_t)q->slide_edge[2] << 24);
+        o[5] = q->slide_edge[3];
     }
     for (uint32_t k = 0; !r->streamed && k < count; k++) {
         const hz_patch *q = &p[k];
@@ -206,11 +216,12 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, hz_err
         const uint32_t m = ((n - 1) >> l) / T;
         const uint32_t gi = q->x0 >> l, gj = q->z0 >> l;
         const uint32_t tx = gi / T, tz = gj / T;
-        uint32_t *o = r->inst_scratch + 4 * (size_t)k;
+        uint32_t *o = r->inst_scratch + INST_WORDS * (size_t)k;
         o[0] = q->x0;
         o[1] = q->z0;
         o[2] = ((uint32_t)r->tile_base[l] + tz * m + tx) | ((uint32_t)q->shift << 16);
         o[3] = (gi - tx * T) | ((gj - tz * T) << 12) | (ts << 24) | ((uint32_t)q->coarse << 28);
+        o[4] = o[5] = 0; /* in memory: no tile arrives late */
     }
     glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
     if (bytes > r->inst_cap || bytes < r->inst_cap / 4) {

@@ -21,6 +21,7 @@
 
 #include "horizon/stream.h"
 
+#include <math.h>
 #include <pthread.h>
 #include <stdio.h>
 
@@ -45,6 +46,8 @@ typedef struct slot {
     uint16_t *h;          /* (c+1)^2 heights (height queries) */
     float prio;
     bool queued;
+    double born;          /* clock of the first selection that could use it (NAN: not yet) */
+    bool warm;            /* loaded at creation: there from the first frame, never slides */
 } slot;
 
 typedef struct req {
@@ -81,6 +84,8 @@ struct hz_stream {
     uint32_t side[HZ_PYR_MAX_LEVELS]; /* nodes per side per shift */
     uint32_t node_k[HZ_PYR_MAX_LEVELS]; /* nodes per tile side per level */
     slot *memo[HZ_PYR_MAX_LEVELS];      /* last slot found per level (node_slot) */
+    double slide;         /* seconds a tile takes to slide in; 0: off */
+    double clock, now;    /* hz_stream_set_clock (NAN: monotonic); this selection's */
 };
 
 /* ---- tile keys ---- */
@@ -392,7 +397,7 @@ hz_stream *hz_stream_create(const hz_stream_desc *d, hz_err *err)
                     break;
                 slot *q = &s->slots[k];
                 *q = (slot){.level = l, .tx = tx, .tz = tz, .state = SLOT_LOADING,
-                            .k = hz_pyr_level_cells(&s->info, l) / s->info.patch_cells};
+                            .k = hz_pyr_level_cells(&s->info, l) / s->info.patch_cells, .warm = true};
                 for (uint32_t L = 0; L < HZ_PYR_MAX_LEVELS; L++)
                     q->anc[L] = -1;
                 if (l + 1 < s->info.levels) {
@@ -407,6 +412,8 @@ hz_stream *hz_stream_create(const hz_stream_desc *d, hz_err *err)
                 load_one(s, k);
             }
     }
+    s->slide = d->slide_seconds < 0 ? 0.0 : (d->slide_seconds > 0 ? d->slide_seconds : 0.5);
+    s->clock = NAN;
     s->sync = d->synchronous;
     if (!s->sync) {
         uint32_t nl = d->loaders;
@@ -808,6 +815,52 @@ static void issue_requests(hz_stream *s)
     }
 }
 
+/* The least morph of a slot's new vertices now (0..255): 255 when it just
+ * arrived, 0 once it has slid in. */
+static uint8_t slide_of(hz_stream *s, slot *q)
+{
+    if (s->slide <= 0)
+        return 0;
+    if (isnan(q->born))
+        q->born = s->now;
+    const double f = 1.0 - (s->now - q->born) / s->slide;
+    return f <= 0 ? 0 : (f >= 1 ? 255 : (uint8_t)lrint(255.0 * f));
+}
+
+/* The least morph along the edge dir of leaf (sh, ix, iz): shared with a
+ * leaf of the same level across it (both take the larger), none toward a
+ * finer neighbour (its vertices there are its coarse ones, unmorphed), its
+ * own otherwise (a coarser neighbour stitches that edge away, or nothing is
+ * drawn there). */
+static uint8_t slide_edge(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, int dir, uint8_t own)
+{
+    if (neighbour(s, sh, ix, iz, dir) != NB_EXISTS)
+        return own;
+    const int64_t side = s->side[sh];
+    int64_t nx = ix, nz = iz;
+    switch (dir) {
+    case DIR_W: nx--; break;
+    case DIR_E: nx++; break;
+    case DIR_N: nz--; break;
+    default: nz++; break;
+    }
+    if (s->info.wrap)
+        nx = (nx + side) % side, nz = (nz + side) % side;
+    if (nx < 0 || nz < 0 || nx >= side || nz >= side)
+        return own;
+    size_t li;
+    slot *q = node_slot(s, sh, (uint32_t)nx, (uint32_t)nz, &li);
+    if (!q)
+        return own;
+    const uint8_t f = q->flags[li] & ST_MASK;
+    if (f == ST_SPLIT)
+        return 0;
+    if (f != ST_LEAF)
+        return own;
+    const uint8_t other = slide_of(s, q);
+    return other > own ? other : own;
+}
+
 static hz_result emit(sel *c, hz_patch_list *out)
 {
     hz_stream *s = c->s;
@@ -836,6 +889,10 @@ static hz_result emit(sel *c, hz_patch_list *out)
                 .z0 = (uint32_t)(int32_t)(((int64_t)iz * P << sh) + img[1] * per), .shift = (uint8_t)sh, .coarse = coarse,
                 .level = (uint16_t)(top - sh), .dist = box_distance((const vec3 *)box, c->cam->pos),
                 .layer1 = (uint32_t)(q - s->slots) + 1, .ox = (uint16_t)(lx * P), .oz = (uint16_t)(lz * P)};
+            hz_patch *pt = &out->data[out->count - 1];
+            pt->slide = slide_of(s, q);
+            for (int dir = 0; dir < 4; dir++)
+                pt->slide_edge[dir] = slide_edge(s, sh, ix, iz, dir, pt->slide);
             c->st->triangles += hz__patch_triangles(P, coarse);
             c->st->leaves++;
             if (top - sh > c->st->max_level)
@@ -853,6 +910,7 @@ hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_para
     hz_lod_stats st = {0};
     s->frame++;
     s->nreq = 0;
+    s->now = isnan(s->clock) ? hz_time_ms() / 1000.0 : s->clock;
     memset(s->memo, 0, sizeof s->memo);
     out->count = 0;
     const hz_pyr_info *in = &s->info;
@@ -910,6 +968,11 @@ hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_para
     return r;
 }
 
+void hz_stream_set_clock(hz_stream *s, double seconds)
+{
+    s->clock = seconds;
+}
+
 bool hz_stream_next_upload(hz_stream *s, uint32_t *slot_out, const uint16_t **texels)
 {
     bool got = false;
@@ -932,6 +995,7 @@ void hz_stream_uploaded(hz_stream *s, uint32_t k)
         free(s->slots[k].texels);
         s->slots[k].texels = NULL;
         s->slots[k].state = SLOT_RESIDENT;
+        s->slots[k].born = s->slots[k].warm ? -1e300 : NAN; /* NAN: set by the first selection that sees it */
         s->st.loaded++;
     }
     pthread_mutex_unlock(&s->lock);

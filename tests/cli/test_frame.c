@@ -10,10 +10,13 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "horizon/metrics.h"
 #include "horizon/path.h"
+#include "horizon/pyramid.h"
 #include "horizon/render.h"
+#include "horizon/stream.h"
 #include "horizon/terrain.h"
 
 enum { W = 480, H = 270 };
@@ -315,6 +318,123 @@ static void test_default_camera_frames_the_summit(void **state)
     hz_terrain_destroy(t);
 }
 
+/* Uploads every decoded tile waiting. */
+static void upload_ready(hz_stream *s, hz_renderer *r)
+{
+    uint32_t slot;
+    const uint16_t *tex;
+    hz_err err = {0};
+    while (hz_stream_next_upload(s, &slot, &tex)) {
+        assert_int_equal(hz_renderer_stream_upload(r, slot, tex, &err), HZ_OK);
+        hz_stream_uploaded(s, slot);
+    }
+}
+
+/* Selects at the stream's clock t and draws; returns the patches with a
+ * tile that just arrived (slide 255). */
+static uint32_t stream_frame(hz_stream *s, hz_renderer *r, const hz_camera *cam, double t, uint8_t *sky,
+                             uint8_t *rgb, uint32_t *sliding)
+{
+    hz_patch_list pl = {0};
+    hz_lod_stats st;
+    hz_err err = {0};
+    hz_stream_set_clock(s, t);
+    assert_int_equal(hz_stream_select(s, cam, &(hz_lod_params){.mode = HZ_LOD_CDLOD, .pixel_error = 1.0f,
+                                                               .viewport_height = H},
+                                      &pl, &st),
+                     HZ_OK);
+    uint32_t fresh = 0, part = 0;
+    for (size_t k = 0; k < pl.count; k++) {
+        fresh += pl.data[k].slide == 255;
+        part += pl.data[k].slide > 0;
+    }
+    hz_scene_params sp = {.patches = pl.data, .patch_count = (uint32_t)pl.count, .morph_scale = st.morph_scale,
+                          .morph_start = st.morph_start};
+    assert_int_equal(hz_renderer_draw(r, cam, &sp, NULL, 0, NULL, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_sky_mask(r, sky, &err), HZ_OK);
+    if (rgb)
+        assert_int_equal(hz_renderer_read_rgb(r, rgb, &err), HZ_OK);
+    free(pl.data);
+    if (sliding)
+        *sliding = part;
+    return fresh;
+}
+
+/* Mean absolute difference of two RGB frames, 0..255. */
+static double rgb_diff(const uint8_t *a, const uint8_t *b)
+{
+    double s = 0;
+    for (size_t k = 0; k < (size_t)W * H * 3; k++)
+        s += abs((int)a[k] - (int)b[k]);
+    return s / ((double)W * H * 3);
+}
+
+/* A streamed tile that arrives slides in instead of popping: the first
+ * frame that draws it looks (nearly) like the frame before, and once it
+ * has slid in, like the finer level. */
+static void test_stream_tiles_slide_in(void **state)
+{
+    ctx *c = *state;
+    (void)c;
+    hz_err err = {0};
+    char hzp[512];
+    snprintf(hzp, sizeof hzp, "%s/slide.hzp", HZ_TEST_TMP);
+    hz_pyr_import d = {.out = hzp, .generate = true,
+                       .gen = {.kind = HZ_GEN_PERLIN, .size = 2049, .seed = 5, .amplitude = 1500.0f},
+                       .spacing = 10.0, .tile_cells = 64};
+    hz_pyr_import_stats ist;
+    assert_int_equal(hz_pyramid_import(&d, &ist, &err), HZ_OK);
+    hz_stream *s = hz_stream_create(&(hz_stream_desc){.path = hzp, .cache_bytes = 256u << 20, .synchronous = true,
+                                                      .slide_seconds = 0.5f},
+                                    &err);
+    assert_non_null(s);
+    hz_renderer *r = hz_renderer_create(&(hz_renderer_desc){.width = W, .height = H}, &err);
+    assert_non_null(r);
+    assert_int_equal(hz_renderer_set_stream(r, hz_stream_info(s), hz_stream_slots(s), hz_stream_texels(s), &err),
+                     HZ_OK);
+    upload_ready(s, r);
+    const float x = 3000.0f, z = 3000.0f;
+    const float g = hz_stream_height_at(s, x, z);
+    assert_true(isfinite(g));
+    hz_camera cam = {.pos = {x, g + 150.0f, z}, .yaw = 135.0f, .pitch = -6.0f, .fov_y = 60.0f,
+                     .aspect = (float)W / (float)H, .znear = 1.0f, .zfar = 40000.0f};
+    uint8_t *sky = malloc(W * H), *a = malloc(W * H * 3), *b = malloc(W * H * 3), *m = malloc(W * H * 3);
+    double t = 0.0, pop_slide = 0.0, pop_full = 0.0;
+    uint32_t arrivals = 0, mid_sliding = 0;
+    stream_frame(s, r, &cam, t, sky, a, NULL); /* the coarse levels; asks for the next */
+    for (int round = 0; round < 4; round++) {
+        upload_ready(s, r); /* a level of tiles arrives */
+        t += 10.0;
+        const uint32_t fresh = stream_frame(s, r, &cam, t, sky, b, NULL);
+        arrivals += fresh;
+        uint32_t part = 0;
+        stream_frame(s, r, &cam, t + 0.25, sky, m, &part);
+        mid_sliding += part;
+        if (round == 0)
+            hz_image_write_png(HZ_TEST_TMP "/frame_stream_sliding.png", m, W, H, NULL);
+        uint8_t *settled = malloc(W * H * 3);
+        stream_frame(s, r, &cam, t + 1.0, sky, settled, NULL);
+        const double d_slide = rgb_diff(a, b), d_full = rgb_diff(a, settled);
+        fprintf(stderr, "round %d: %u patches arrived; image change at arrival %.4f, once slid in %.4f (of 255)\n",
+                round, fresh, d_slide, d_full);
+        pop_slide += d_slide;
+        pop_full += d_full;
+        memcpy(a, settled, W * H * 3);
+        free(settled);
+    }
+    assert_true(arrivals > 0);
+    assert_true(mid_sliding > 0);            /* half way, patches are part morphed */
+    assert_true(pop_full > 0.05);            /* the finer levels change the image */
+    assert_true(pop_slide * 10 < pop_full);  /* but not at once: they slide in */
+    free(sky);
+    free(a);
+    free(b);
+    free(m);
+    hz_renderer_destroy(r);
+    hz_stream_destroy(s);
+    remove(hzp);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -323,6 +443,7 @@ int main(void)
         cmocka_unit_test(test_modes_close_to_reference),
         cmocka_unit_test(test_gpu_morph_matches_cpu),
         cmocka_unit_test(test_default_camera_frames_the_summit),
+        cmocka_unit_test(test_stream_tiles_slide_in),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

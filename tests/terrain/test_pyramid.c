@@ -677,6 +677,96 @@ static void test_wrap_seamless(void **state)
     unlink(whzp);
 }
 
+/* Tiles that arrive slide in (their nodes start at the parent's shape), and
+ * the shader's crack-freeness rests on what the selection hands it: two
+ * leaves of one level sharing an edge agree on its slide value, an edge
+ * toward a finer leaf has none, a tile starts at 255 and reaches 0 after
+ * slide_seconds of the stream's clock. */
+static void test_slide_in_edges_agree(void **state)
+{
+    (void)state;
+    hz_err err = {0};
+    hz_stream *s = hz_stream_create(&(hz_stream_desc){.path = hzp, .cache_bytes = 64u << 20, .synchronous = true,
+                                                      .slide_seconds = 0.5f},
+                                    &err);
+    assert_non_null(s);
+    const hz_pyr_info *in = hz_stream_info(s);
+    const uint32_t P = in->patch_cells;
+    hz_patch_list pl = {0};
+    uint32_t sliding = 0, fresh = 0, shared = 0, toward_finer = 0;
+    for (uint32_t f = 0; f < 90; f++) {
+        const float u = (float)f / 89.0f;
+        hz_camera cam = {.pos = {30.0f * (50.0f + 550.0f * u), 2400.0f - 1000.0f * u, 30.0f * (60.0f + 380.0f * u)},
+                         .yaw = 120.0f + 90.0f * u, .pitch = -25.0f, .fov_y = 60.0f, .aspect = 16.0f / 9.0f,
+                         .znear = 1.0f, .zfar = 60000.0f};
+        const double clock = f / 30.0; /* 30 frames per second */
+        hz_stream_set_clock(s, clock);
+        hz_lod_stats st;
+        assert_int_equal(hz_stream_select(s, &cam, &(hz_lod_params){.mode = HZ_LOD_CDLOD, .pixel_error = 0.5f}, &pl,
+                                          &st),
+                         HZ_OK);
+        uint32_t slot;
+        const uint16_t *tex;
+        for (int k = 0; k < 3 && hz_stream_next_upload(s, &slot, &tex); k++)
+            hz_stream_uploaded(s, slot);
+        for (size_t a = 0; a < pl.count; a++) {
+            const hz_patch *p = &pl.data[a];
+            sliding += p->slide > 0 && p->slide < 255;
+            fresh += p->slide == 255;
+            for (size_t b = 0; b < pl.count; b++) {
+                const hz_patch *q = &pl.data[b];
+                const int64_t sp = (int64_t)P << p->shift, sq = (int64_t)P << q->shift;
+                const int64_t px = p->x0, pz = p->z0, qx = q->x0, qz = q->z0;
+                /* q across p's east edge (dir 1), or p's south edge (dir 3) */
+                for (int dir = 1; dir <= 3; dir += 2) {
+                    const bool touches = dir == 1 ? (qx == px + sp && qz < pz + sp && qz + sq > pz)
+                                                  : (qz == pz + sp && qx < px + sp && qx + sq > px);
+                    if (!touches)
+                        continue;
+                    if (q->shift == p->shift) { /* same level: both sides agree */
+                        assert_int_equal(p->slide_edge[dir], q->slide_edge[dir - 1]);
+                        shared += p->slide_edge[dir] > 0;
+                    } else if (q->shift < p->shift) { /* q finer: p's edge does not slide */
+                        assert_int_equal(p->slide_edge[dir], 0);
+                        toward_finer++;
+                    } else { /* p finer */
+                        assert_int_equal(q->slide_edge[dir - 1], 0);
+                        toward_finer++;
+                    }
+                }
+            }
+        }
+    }
+    /* the flight really saw tiles arrive and slide, and shared sliding edges */
+    assert_true(fresh > 0);
+    assert_true(sliding > 0);
+    assert_true(shared > 0);
+    assert_true(toward_finer > 0);
+    /* standing still for longer than the slide: everything has slid in */
+    hz_camera cam = {.pos = {30.0f * 600.0f, 1400.0f, 30.0f * 440.0f}, .yaw = 210.0f, .pitch = -25.0f, .fov_y = 60.0f,
+                     .aspect = 16.0f / 9.0f, .znear = 1.0f, .zfar = 60000.0f};
+    for (int k = 0; k < 3; k++) {
+        hz_stream_set_clock(s, 100.0 + k);
+        assert_int_equal(hz_stream_select(s, &cam, &(hz_lod_params){.mode = HZ_LOD_CDLOD, .pixel_error = 0.5f}, &pl,
+                                          NULL),
+                         HZ_OK);
+        uint32_t slot;
+        const uint16_t *tex;
+        while (hz_stream_next_upload(s, &slot, &tex))
+            hz_stream_uploaded(s, slot);
+    }
+    hz_stream_set_clock(s, 110.0);
+    assert_int_equal(
+        hz_stream_select(s, &cam, &(hz_lod_params){.mode = HZ_LOD_CDLOD, .pixel_error = 0.5f}, &pl, NULL), HZ_OK);
+    for (size_t a = 0; a < pl.count; a++) {
+        assert_int_equal(pl.data[a].slide, 0);
+        for (int d = 0; d < 4; d++)
+            assert_int_equal(pl.data[a].slide_edge[d], 0);
+    }
+    free(pl.data);
+    hz_stream_destroy(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -687,6 +777,7 @@ int main(void)
         cmocka_unit_test(test_lossy_within_max_error),
         cmocka_unit_test(test_texels_agree_across_tiles),
         cmocka_unit_test(test_wrap_seamless),
+        cmocka_unit_test(test_slide_in_edges_agree),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }
