@@ -239,6 +239,7 @@ int cmd_import(int argc, char **argv);
 int pyramid_info(const char *path, bool verify, json_t *arr);
 int stream_render(int argc, char **argv);
 int stream_bench(int argc, char **argv);
+int stream_view(int argc, char **argv);  /* view --terrain (view_stream.c) */
 /* True when argv (from first) holds --terrain: the command streams a pyramid. */
 bool cli_wants_stream(int argc, char **argv, int first);
 

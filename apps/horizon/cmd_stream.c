@@ -1,6 +1,6 @@
 /* horizon import (DEM or Perlin -> .hzp pyramid), and render / bench /
  * info over a streamed pyramid (--terrain NAME.hzp). */
-#include "cli.h"
+#include "stream_cli.h"
 
 #include <getopt.h>
 #include <jansson.h>
@@ -281,18 +281,8 @@ int pyramid_info(const char *path, bool verify, json_t *arr)
 
 /* ---- streamed render and bench ---- */
 
-typedef struct sopts {
-    const char *terrain, *out, *path, *json_out;
-    double cache_mb, tau;
-    bool have_camera, json, quiet;
-    float camera[5];
-    uint32_t width, height, frames;
-    hz_pyr_remote remote; /* --terrain http(s)://: --disk-cache, --http-* */
-    const char *imagery;  /* --imagery: draped by its georeference */
-    uint32_t imagery_max; /* --imagery-max (0: 8192) */
-} sopts;
 
-static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
+int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
 {
     static const struct option opts[] = {
         {"terrain", required_argument, 0, 'T'}, {"cache-mb", required_argument, 0, 'm'},
@@ -306,8 +296,12 @@ static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         {"http-timeout", required_argument, 0, 1003}, {"http-retries", required_argument, 0, 1004},
         {"http-connections", required_argument, 0, 1005},
         {"imagery", required_argument, 0, 1101}, {"imagery-max", required_argument, 0, 1102},
+        /* view */
+        {"script", required_argument, 0, 1201}, {"screenshot", required_argument, 0, 1202},
+        {"speed", required_argument, 0, 1203},  {"dt", required_argument, 0, 1204},
+        {"no-vsync", no_argument, 0, 1205},     {"no-hud", no_argument, 0, 1206},
         {0, 0, 0, 0}};
-    *o = (sopts){.cache_mb = 256, .tau = 1.0, .width = 1280, .height = 720, .frames = 120};
+    *o = (sopts){.cache_mb = 256, .tau = 1.0, .width = 1280, .height = 720, .frames = strcmp(cmd, "view") ? 120 : 0};
     optind = 2;
     int ch;
     double v;
@@ -339,6 +333,19 @@ static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
             o->remote.connections = (uint32_t)v;
             break;
         case 1101: o->imagery = optarg; break;
+        case 1201: case 1202: case 1203: case 1204: case 1205: case 1206:
+            if (strcmp(cmd, "view")) {
+                static const char *const names[] = {"script", "screenshot", "speed", "dt", "no-vsync", "no-hud"};
+                fprintf(stderr, "horizon %s: --%s is an option of horizon view\n", cmd, names[ch - 1201]);
+                return 2;
+            }
+            if (ch == 1201) o->script = optarg;
+            else if (ch == 1202) o->screenshot = optarg;
+            else if (ch == 1203) { if (!num("--speed", optarg, 0.01, 1e6, &o->speed)) return 2; }
+            else if (ch == 1204) { if (!num("--dt", optarg, 0.0001, 1.0, &o->dt)) return 2; }
+            else if (ch == 1205) o->no_vsync = true;
+            else o->no_hud = true;
+            break;
         case 1102:
             if (!num("--imagery-max", optarg, 64, HZ_IMAGERY_MAX_SIDE, &v)) return 2;
             o->imagery_max = (uint32_t)v;
@@ -368,7 +375,8 @@ static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         default:
             fprintf(stderr, "horizon %s --terrain: options are --terrain --cache-mb --out --camera --pixel-error "
                             "--width --height --path --frames --json --quiet --disk-cache --disk-cache-mb "
-                            "--http-timeout --http-retries --http-connections --imagery --imagery-max\n", cmd);
+                            "--http-timeout --http-retries --http-connections --imagery --imagery-max; view also --speed --dt "
+                            "--script --screenshot --no-vsync --no-hud\n", cmd);
             return 2;
         }
     }
@@ -383,15 +391,8 @@ static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
     return 0;
 }
 
-typedef struct sctx {
-    hz_stream *s;
-    hz_gl *gl;
-    hz_renderer *r;
-    hz_patch_list pl;
-    hz_lod_params lp;
-} sctx;
 
-static void sctx_free(sctx *c)
+void sctx_free(sctx *c)
 {
     free(c->pl.data);
     hz_renderer_destroy(c->r);
@@ -431,13 +432,15 @@ static int stream_imagery(sctx *c, const sopts *o, const char *cmd)
     return 0;
 }
 
-static int sctx_open(sctx *c, const sopts *o, const char *cmd)
+int sctx_open(sctx *c, const sopts *o, const char *cmd)
 {
     hz_err err = {0};
     memset(c, 0, sizeof *c);
     /* the GL context first: the cache holds no more tiles than an array texture has layers */
-    c->gl = hz_gl_create_headless(&err);
-    if (c->gl)
+    const bool windowed = !strcmp(cmd, "view");
+    if (!windowed)
+        c->gl = hz_gl_create_headless(&err);
+    if (c->gl || windowed)
         c->r = hz_renderer_create(&(hz_renderer_desc){.width = o->width, .height = o->height}, &err);
     if (c->r)
         c->s = hz_stream_create(&(hz_stream_desc){.path = o->terrain,
@@ -487,7 +490,7 @@ static json_t *transfer_json(const sctx *c, const char *cmd, double ms)
 }
 
 /* Uploads what the loader finished. */
-static int upload_ready(sctx *c, uint32_t *n)
+int upload_ready(sctx *c, uint32_t *n)
 {
     uint32_t slot;
     const uint16_t *tex;
@@ -504,7 +507,7 @@ static int upload_ready(sctx *c, uint32_t *n)
     return 0;
 }
 
-static hz_camera default_camera(const hz_pyr_info *in, uint32_t w, uint32_t h)
+hz_camera default_camera(const hz_pyr_info *in, uint32_t w, uint32_t h)
 {
     const float ex = (float)((in->data_w - 1) * in->spacing), ez = (float)((in->data_h - 1) * in->spacing);
     const float hmax = (float)(in->h_offset + in->h_scale * in->h_max);

@@ -39,8 +39,11 @@ int main(int argc, char **argv)
         return cmd_import(argc, argv);
     if (!strcmp(argv[1], "city"))
         return cmd_city(argc, argv);
-    if ((!strcmp(argv[1], "render") || !strcmp(argv[1], "bench")) && cli_wants_stream(argc, argv, 2))
-        return !strcmp(argv[1], "render") ? stream_render(argc, argv) : stream_bench(argc, argv);
+    if ((!strcmp(argv[1], "render") || !strcmp(argv[1], "bench") || !strcmp(argv[1], "view")) &&
+        cli_wants_stream(argc, argv, 2))
+        return !strcmp(argv[1], "render") ? stream_render(argc, argv)
+               : !strcmp(argv[1], "bench") ? stream_bench(argc, argv)
+                                           : stream_view(argc, argv);
     static const struct {
         const char *name;
         int (*fn)(int, char **);

@@ -1,0 +1,47 @@
+/* The streamed terrain's command line (--terrain NAME.hzp), shared by
+ * render and bench (cmd_stream.c) and view (view_stream.c): options, the
+ * stream + renderer pair, and the upload of decoded tiles. */
+#ifndef HZ_STREAM_CLI_H
+#define HZ_STREAM_CLI_H
+
+#include "cli.h"
+
+#include "horizon/stream.h"
+
+typedef struct sopts {
+    const char *terrain, *out, *path, *json_out;
+    double cache_mb, tau;
+    bool have_camera, json, quiet;
+    float camera[5];
+    uint32_t width, height, frames;
+    hz_pyr_remote remote; /* --terrain http(s)://: --disk-cache, --http-* */
+    const char *imagery;  /* --imagery: draped by its georeference */
+    uint32_t imagery_max; /* --imagery-max (0: 8192) */
+    /* view only */
+    const char *script, *screenshot;
+    double speed, dt;     /* m/s (0: map side / 200); fixed seconds per frame (0: real time) */
+    bool no_vsync, no_hud;
+} sopts;
+
+typedef struct sctx {
+    hz_stream *s;
+    hz_gl *gl;            /* the headless context (NULL for view: its window's is current) */
+    hz_renderer *r;
+    hz_patch_list pl;
+    hz_lod_params lp;
+} sctx;
+
+/* Parses argv[2..] for cmd ("render", "bench", "view"). 0, or 2 after a message. */
+int parse_stream(int argc, char **argv, sopts *o, const char *cmd);
+/* Opens the stream and its renderer (and a headless GL context unless cmd
+ * is "view"). 0, or 1 after a message. */
+int sctx_open(sctx *c, const sopts *o, const char *cmd);
+void sctx_free(sctx *c);
+/* Uploads the decoded tiles waiting; *n gets their count. 0, or 1 after a message. */
+int upload_ready(sctx *c, uint32_t *n);
+/* A first view over the pyramid's data. */
+hz_camera default_camera(const hz_pyr_info *in, uint32_t w, uint32_t h);
+
+int stream_view(int argc, char **argv);
+
+#endif
