@@ -82,10 +82,13 @@ struct hz_stream {
     hz_stream_stats st;
     char warning[640];
     uint32_t side[HZ_PYR_MAX_LEVELS]; /* nodes per side per shift */
-    uint32_t node_k[HZ_PYR_MAX_LEVELS]; /* nodes per tile side per level */
+    uint32_t node_k[HZ_PYR_MAX_LEVELS]; /* nodes per tile side per level (a power of two) */
+    uint32_t node_k_log2[HZ_PYR_MAX_LEVELS];
     slot *memo[HZ_PYR_MAX_LEVELS];      /* last slot found per level (node_slot) */
     double slide;         /* seconds a tile takes to slide in; 0: off */
     double clock, now;    /* hz_stream_set_clock (NAN: monotonic); this selection's */
+    uint32_t unborn;      /* resident slots no selection has seen yet (they will slide) */
+    double newest;        /* the latest born: nothing slides once now >= newest + slide */
 };
 
 /* ---- tile keys ---- */
@@ -382,6 +385,7 @@ hz_stream *hz_stream_create(const hz_stream_desc *d, hz_err *err)
     for (uint32_t l = 0; l < s->info.levels; l++) {
         s->side[l] = (s->info.size - 1) / (s->info.patch_cells << l);
         s->node_k[l] = hz_pyr_level_cells(&s->info, l) / s->info.patch_cells;
+        s->node_k_log2[l] = log2u(s->node_k[l]);
     }
     hash_rebuild(s);
     /* Warm start: the coarsest levels (at most 4 tiles each) load now, so the
@@ -501,8 +505,8 @@ static inline uint32_t tile_of(const hz_stream *s, uint32_t sh, uint32_t i, uint
  * lookups mostly hit the same tile: the last slot per level is tried first. */
 static slot *node_slot(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, size_t *li)
 {
-    const uint32_t k = s->node_k[sh];
-    const uint32_t tx = ix / k, tz = iz / k;
+    const uint32_t k = s->node_k[sh], kl = s->node_k_log2[sh];
+    const uint32_t tx = ix >> kl, tz = iz >> kl;
     slot *q = s->memo[sh];
     if (!q || q->tx != tx || q->tz != tz || q->level != sh || q->state != SLOT_RESIDENT) {
         const int32_t f = find_slot(s, sh, tx, tz);
@@ -512,7 +516,7 @@ static slot *node_slot(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, size
         s->memo[sh] = q;
         q->used = s->frame;
     }
-    *li = (size_t)(iz - tz * k) * k + (ix - tx * k);
+    *li = ((size_t)(iz & (k - 1)) << kl) + (ix & (k - 1));
     return q;
 }
 
@@ -587,53 +591,75 @@ static hz_result lv_add(hz_stream *s, uint32_t sh, uint32_t x, uint32_t z)
     return HZ_OK;
 }
 
-/* Same-level neighbour of (sh, ix, iz) across dir (NB_*), as hz__neighbour. */
-static uint8_t neighbour(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, int dir)
+/* The four same-level neighbours of (sh, ix, iz) (NB_*, as hz__neighbour,
+ * by dir): its parent is looked up once. */
+static void neighbours(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, uint8_t nb[4])
 {
     const uint32_t side = s->side[sh], top = s->info.levels - 1;
-    if (sh == top) /* the root: the map's edge, or, repeating, its own copy (always split) */
-        return s->info.wrap ? NB_EXISTS : NB_DONTCARE;
-    if (!s->info.wrap) {
-        switch (dir) {
-        case DIR_W: if (ix == 0) return NB_DONTCARE; break;
-        case DIR_E: if (ix + 1 == side) return NB_DONTCARE; break;
-        case DIR_N: if (iz == 0) return NB_DONTCARE; break;
-        default:    if (iz + 1 == side) return NB_DONTCARE; break;
-        }
+    if (sh == top) { /* the root: the map's edge, or, repeating, its own copy (always split) */
+        for (int d = 0; d < 4; d++)
+            nb[d] = s->info.wrap ? NB_EXISTS : NB_DONTCARE;
+        return;
     }
     const uint32_t px = ix / 2, pz = iz / 2;
-    bool sibling;
-    uint32_t qx = px, qz = pz;
-    switch (dir) {
-    case DIR_W: sibling = ix & 1; qx = px - 1; break;
-    case DIR_E: sibling = !(ix & 1); qx = px + 1; break;
-    case DIR_N: sibling = iz & 1; qz = pz - 1; break;
-    default:    sibling = !(iz & 1); qz = pz + 1; break;
-    }
-    if (sibling)
-        return NB_EXISTS;
     const uint32_t pside = s->side[sh + 1]; /* across the seam of a repeating terrain */
-    qx = (qx + pside) % pside, qz = (qz + pside) % pside;
-    size_t pl, ql;
-    slot *ps = node_slot(s, sh + 1, px, pz, &pl);
-    if (!ps || (ps->flags[pl] & (1u << (DC_SHIFT + dir))))
-        return NB_DONTCARE;
-    slot *qs = node_slot(s, sh + 1, qx, qz, &ql);
-    if (!qs)
-        return NB_DONTCARE;
-    const uint8_t qf = qs->flags[ql] & ST_MASK;
-    return qf == ST_SPLIT ? NB_EXISTS : (qf == ST_CULLED ? NB_DONTCARE : NB_ABSENT);
+    size_t pl;
+    slot *ps = NULL;
+    bool looked = false;
+    for (int dir = 0; dir < 4; dir++) {
+        if (!s->info.wrap) {
+            const bool edge = dir == DIR_W ? ix == 0 : dir == DIR_E ? ix + 1 == side : dir == DIR_N ? iz == 0
+                                                                                                  : iz + 1 == side;
+            if (edge) {
+                nb[dir] = NB_DONTCARE;
+                continue;
+            }
+        }
+        bool sibling;
+        uint32_t qx = px, qz = pz;
+        switch (dir) {
+        case DIR_W: sibling = ix & 1; qx = px - 1; break;
+        case DIR_E: sibling = !(ix & 1); qx = px + 1; break;
+        case DIR_N: sibling = iz & 1; qz = pz - 1; break;
+        default:    sibling = !(iz & 1); qz = pz + 1; break;
+        }
+        if (sibling) {
+            nb[dir] = NB_EXISTS;
+            continue;
+        }
+        if (!looked) {
+            ps = node_slot(s, sh + 1, px, pz, &pl);
+            looked = true;
+        }
+        if (!ps || (ps->flags[pl] & (1u << (DC_SHIFT + dir)))) {
+            nb[dir] = NB_DONTCARE;
+            continue;
+        }
+        qx = (qx + pside) % pside, qz = (qz + pside) % pside;
+        size_t ql;
+        slot *qs = node_slot(s, sh + 1, qx, qz, &ql);
+        if (!qs) {
+            nb[dir] = NB_DONTCARE;
+            continue;
+        }
+        const uint8_t qf = qs->flags[ql] & ST_MASK;
+        nb[dir] = qf == ST_SPLIT ? NB_EXISTS : (qf == ST_CULLED ? NB_DONTCARE : NB_ABSENT);
+    }
 }
 
-static hz_result classify(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool *culled)
+/* Marks node (sh, ix, iz) culled or a leaf; its slot, index and box go to
+ * qo, lio and box. */
+static hz_result classify_at(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool *culled, slot **qo, size_t *lio,
+                             vec3 box[2])
 {
-    size_t li;
+    size_t li = 0;
     slot *q = node_slot(c->s, sh, ix, iz, &li);
     *culled = false;
+    *qo = q;
+    *lio = li;
     if (!q) /* cannot happen: a node is only pushed when its tile is resident */
         return HZ_ERR_VALUE;
     c->st->nodes_visited++;
-    vec3 box[2];
     node_box(c, q, li, sh, ix, iz, box);
     /* On a repeating terrain a node of half a period or more has no one
      * copy nearest the eye: it is never culled, and always split. */
@@ -648,16 +674,29 @@ static hz_result classify(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool *c
     return HZ_OK;
 }
 
-/* Can node (sh, ix, iz), a leaf, split with every forced split it needs? */
-static bool can_split(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, uint32_t depth)
+static hz_result classify(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool *culled)
+{
+    slot *q;
+    size_t li;
+    vec3 box[2];
+    return classify_at(c, sh, ix, iz, culled, &q, &li, box);
+}
+
+/* Can node (sh, ix, iz), a leaf, split with every forced split it needs?
+ * nb (may be NULL) receives its four neighbours when it can. */
+static bool can_split(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, uint32_t depth, uint8_t *nb)
 {
     if (sh == 0 || depth > HZ_PYR_MAX_LEVELS)
         return false;
     size_t li;
     if (!node_slot(s, sh - 1, 2 * ix, 2 * iz, &li))
         return false;
+    uint8_t own[4];
+    if (!nb)
+        nb = own;
+    neighbours(s, sh, ix, iz, nb);
     for (int dir = 0; dir < 4; dir++) {
-        if (neighbour(s, sh, ix, iz, dir) != NB_ABSENT)
+        if (nb[dir] != NB_ABSENT)
             continue;
         uint32_t qx = ix / 2, qz = iz / 2;
         const uint32_t pside = s->side[sh + 1];
@@ -667,18 +706,24 @@ static bool can_split(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, uint3
         case DIR_N: qz = (qz + pside - 1) % pside; break;
         default: qz = (qz + 1) % pside; break;
         }
-        if (!can_split(s, sh + 1, qx, qz, depth + 1))
+        if (!can_split(s, sh + 1, qx, qz, depth + 1, NULL))
             return false;
     }
     return true;
 }
 
-static hz_result split_node(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool forced)
+/* Splits (sh, ix, iz) and, first, the coarser neighbours it needs split.
+ * known: its four neighbours as can_split found them, or NULL. */
+static hz_result split_node(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool forced, const uint8_t *known)
 {
     hz_stream *s = c->s;
-    uint8_t f = ST_SPLIT;
+    uint8_t f = ST_SPLIT, all[4];
+    if (!known) {
+        neighbours(s, sh, ix, iz, all);
+        known = all;
+    }
     for (int dir = 0; dir < 4; dir++) {
-        const uint8_t nb = neighbour(s, sh, ix, iz, dir);
+        const uint8_t nb = known[dir];
         if (nb == NB_ABSENT) {
             uint32_t qx = ix / 2, qz = iz / 2;
             const uint32_t pside = s->side[sh + 1];
@@ -688,7 +733,7 @@ static hz_result split_node(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool 
             case DIR_N: qz = (qz + pside - 1) % pside; break;
             default: qz = (qz + 1) % pside; break;
             }
-            hz_result r = split_node(c, sh + 1, qx, qz, true);
+            hz_result r = split_node(c, sh + 1, qx, qz, true, NULL);
             if (r != HZ_OK)
                 return r;
         } else if (nb == NB_DONTCARE) {
@@ -718,6 +763,8 @@ static hz_result split_node(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool 
 
 static void release(hz_stream *s, slot *q)
 {
+    if (q->state == SLOT_RESIDENT && isnan(q->born) && s->unborn)
+        s->unborn--; /* evicted before any selection saw it */
     if (q->level + 1 < s->info.levels && q->anc[q->level + 1] >= 0) {
         slot *p = &s->slots[q->anc[q->level + 1]];
         if (p->children > 0)
@@ -821,8 +868,12 @@ static uint8_t slide_of(hz_stream *s, slot *q)
 {
     if (s->slide <= 0)
         return 0;
-    if (isnan(q->born))
+    if (isnan(q->born)) {
         q->born = s->now;
+        s->newest = s->now;
+        if (s->unborn)
+            s->unborn--;
+    }
     const double f = 1.0 - (s->now - q->born) / s->slide;
     return f <= 0 ? 0 : (f >= 1 ? 255 : (uint8_t)lrint(255.0 * f));
 }
@@ -832,9 +883,9 @@ static uint8_t slide_of(hz_stream *s, slot *q)
  * finer neighbour (its vertices there are its coarse ones, unmorphed), its
  * own otherwise (a coarser neighbour stitches that edge away, or nothing is
  * drawn there). */
-static uint8_t slide_edge(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, int dir, uint8_t own)
+static uint8_t slide_edge(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, int dir, uint8_t nb, uint8_t own)
 {
-    if (neighbour(s, sh, ix, iz, dir) != NB_EXISTS)
+    if (nb != NB_EXISTS)
         return own;
     const int64_t side = s->side[sh];
     int64_t nx = ix, nz = iz;
@@ -865,6 +916,8 @@ static hz_result emit(sel *c, hz_patch_list *out)
 {
     hz_stream *s = c->s;
     const uint32_t P = s->info.patch_cells, top = s->info.levels - 1;
+    /* a tile not seen yet, or one seen less than slide seconds ago */
+    const bool sliding = s->slide > 0 && (s->unborn > 0 || s->now < s->newest + s->slide);
     out->count = 0;
     for (uint32_t sh = top + 1; sh-- > 0;) {
         if (list_reserve((void **)&out->data, &out->cap, out->count + s->lv_n[sh], sizeof *out->data) != HZ_OK)
@@ -875,9 +928,10 @@ static hz_result emit(sel *c, hz_patch_list *out)
             slot *q = node_slot(s, sh, ix, iz, &li);
             if (!q || (q->flags[li] & ST_MASK) != ST_LEAF)
                 continue;
-            uint8_t coarse = 0;
+            uint8_t coarse = 0, nb[4];
+            neighbours(s, sh, ix, iz, nb);
             for (int dir = 0; dir < 4; dir++)
-                if (neighbour(s, sh, ix, iz, dir) == NB_ABSENT)
+                if (nb[dir] == NB_ABSENT)
                     coarse |= (uint8_t)(1u << dir);
             vec3 box[2];
             int img[2];
@@ -889,10 +943,12 @@ static hz_result emit(sel *c, hz_patch_list *out)
                 .z0 = (uint32_t)(int32_t)(((int64_t)iz * P << sh) + img[1] * per), .shift = (uint8_t)sh, .coarse = coarse,
                 .level = (uint16_t)(top - sh), .dist = box_distance((const vec3 *)box, c->cam->pos),
                 .layer1 = (uint32_t)(q - s->slots) + 1, .ox = (uint16_t)(lx * P), .oz = (uint16_t)(lz * P)};
-            hz_patch *pt = &out->data[out->count - 1];
-            pt->slide = slide_of(s, q);
-            for (int dir = 0; dir < 4; dir++)
-                pt->slide_edge[dir] = slide_edge(s, sh, ix, iz, dir, pt->slide);
+            if (sliding) {
+                hz_patch *pt = &out->data[out->count - 1];
+                pt->slide = slide_of(s, q);
+                for (int dir = 0; dir < 4; dir++)
+                    pt->slide_edge[dir] = slide_edge(s, sh, ix, iz, dir, nb[dir], pt->slide);
+            }
             c->st->triangles += hz__patch_triangles(P, coarse);
             c->st->leaves++;
             if (top - sh > c->st->max_level)
@@ -936,12 +992,11 @@ hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_para
             for (size_t k = 0; r == HZ_OK && k < s->lv_n[sh]; k++) {
                 const uint32_t ix = s->lv[sh][k].x, iz = s->lv[sh][k].z;
                 bool culled;
-                r = classify(&c, sh, ix, iz, &culled);
+                slot *q;
+                vec3 box[2];
+                r = classify_at(&c, sh, ix, iz, &culled, &q, &li, box);
                 if (r != HZ_OK || culled || sh == 0)
                     continue;
-                slot *q = node_slot(s, sh, ix, iz, &li);
-                vec3 box[2];
-                node_box(&c, q, li, sh, ix, iz, box);
                 const float range =
                     c.lambda * (float)q->nd[(li / q->k + 1) * (q->k + 2) + li % q->k + 1] * c.hsw;
                 const float d2 = box_distance2((const vec3 *)box, cam->pos);
@@ -951,8 +1006,9 @@ hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_para
                 }
                 const bool whole = in->wrap && sh + 1 >= top;
                 if (d2 < range * range || whole) {
-                    if (can_split(s, sh, ix, iz, 0))
-                        r = split_node(&c, sh, ix, iz, false);
+                    uint8_t nb[4];
+                    if (can_split(s, sh, ix, iz, 0, nb))
+                        r = split_node(&c, sh, ix, iz, false, nb);
                     else
                         s->st.late++;
                 }
@@ -996,6 +1052,7 @@ void hz_stream_uploaded(hz_stream *s, uint32_t k)
         s->slots[k].texels = NULL;
         s->slots[k].state = SLOT_RESIDENT;
         s->slots[k].born = s->slots[k].warm ? -1e300 : NAN; /* NAN: set by the first selection that sees it */
+        s->unborn += !s->slots[k].warm;
         s->st.loaded++;
     }
     pthread_mutex_unlock(&s->lock);
