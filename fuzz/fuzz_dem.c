@@ -42,7 +42,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     hz_dem_info info;
     /* r16/r32 sometimes with an explicit size from the second byte. */
     uint32_t w = size > 2 && (data[1] & 1) ? data[1] / 2u + 1u : 0;
-    hz_result r = hz_dem_load(&(hz_dem_desc){.path = path, .width = w}, &g, &info, &err);
+    /* A budget under libFuzzer's -malloc_limit_mb (1024): a file claiming
+     * more must be refused, not allocated. */
+    hz_result r = hz_dem_load(&(hz_dem_desc){.path = path, .width = w, .max_memory = (uint64_t)256 << 20}, &g, &info,
+                              &err);
     if (r == HZ_OK) {
         size_t n = (size_t)g.width * g.height, nan = 0;
         for (size_t k = 0; k < n; k++) {

@@ -4,6 +4,8 @@
  * CRS with square cells (GDALWarp). The georeference goes to hz_georef. */
 #include "io_internal.h"
 
+#include "horizon/safety.h"
+
 #include <cpl_conv.h>
 #include <cpl_error.h>
 #include <cpl_string.h>
@@ -321,6 +323,13 @@ static GDALDatasetH warp(const hz_dem_desc *d, GDALDatasetH src, const hz_georef
     uint32_t w, h;
     hz_georef_size(g, &w, &h);
     double ow = (double)w * sx / s, oh = (double)h * sy / s;
+    char what[96];
+    snprintf(what, sizeof what, "the reprojected DEM (about %.0fx%.0f samples)", ow, oh);
+    if (!strcmp(format, "MEM") && ow <= HZ_IO_MAX_SIDE && oh <= HZ_IO_MAX_SIDE &&
+        hz_mem_check((uint64_t)(ow + 2) * (uint64_t)(oh + 2) * sizeof(float), d->max_memory, what, err) != HZ_OK) {
+        CPLFree(wkt);
+        return NULL;
+    }
     if (ow > HZ_IO_MAX_SIDE || oh > HZ_IO_MAX_SIDE) {
         CPLFree(wkt);
         hz_err_set(err, HZ_ERR_VALUE,
@@ -355,7 +364,7 @@ static GDALDatasetH warp(const hz_dem_desc *d, GDALDatasetH src, const hz_georef
 
 /* Reads band 1 into g with nodata as NaN and scale/offset applied. */
 static hz_result read_band(GDALDatasetH ds, const char *label, hz_grid *g, uint64_t *voids, hz_io_progress *prog,
-                           hz_err *err)
+                           uint64_t budget, hz_err *err)
 {
     int w = GDALGetRasterXSize(ds), h = GDALGetRasterYSize(ds);
     if (GDALGetRasterCount(ds) < 1)
@@ -364,7 +373,14 @@ static hz_result read_band(GDALDatasetH ds, const char *label, hz_grid *g, uint6
         return hz_err_set(err, HZ_ERR_VALUE,
                           "'%s' is %dx%d samples; sides must be 2..%u (pass a coarser --spacing)", label, w, h,
                           HZ_IO_MAX_SIDE);
-    hz_result r = hz_grid_alloc(g, (uint32_t)w, (uint32_t)h, err);
+    /* The size is the file's word (a 46-byte header may claim 12288 x 65293):
+     * within the memory budget before allocating. */
+    char what[600];
+    snprintf(what, sizeof what, "'%s' (%dx%d samples)", label, w, h);
+    hz_result r = hz_mem_check((uint64_t)w * (uint64_t)h * sizeof(float), budget, what, err);
+    if (r != HZ_OK)
+        return r;
+    r = hz_grid_alloc(g, (uint32_t)w, (uint32_t)h, err);
     if (r != HZ_OK)
         return r;
     GDALRasterBandH b = GDALGetRasterBand(ds, 1);
@@ -491,9 +507,9 @@ hz_result hz_io_gdal_load(const hz_dem_desc *d, hz_grid *out, hz_dem_info *info,
         hz_georef_destroy(g);
         g = georef_of(warped);
         info->reprojected = true;
-        r = read_band(warped, label, out, &info->voids, &prog, err);
+        r = read_band(warped, label, out, &info->voids, &prog, d->max_memory, err);
     } else {
-        r = read_band(src, label, out, &info->voids, &prog, err);
+        r = read_band(src, label, out, &info->voids, &prog, d->max_memory, err);
         info->file_voids = info->voids;
     }
     if (r != HZ_OK)

@@ -178,6 +178,28 @@ static void test_gunzip_budget(void **state)
     hz_grid_free(&g);
 }
 
+/* Found by fuzz_dem in an hour's campaign: 45 bytes that GDAL reads as an
+ * NGS geoid grid of 12288 x 65293 floats (3.2 GB). The GDAL path checks the
+ * budget before allocating, as the others do. */
+static void test_gdal_header_budget(void **state)
+{
+    (void)state;
+    static const uint8_t geoid[] = {0x89, 0x50, 0x4e, 0x7f, 0xff, 0xff, 0xff, 0x44, 0x41, 0x4c, 0x5f, 0x57, 0x28, 0x4d, 0x54,
+                                    0x53, 0x7f, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xd6, 0xff, 0xff,
+                                    0xff, 0xff, 0x0d, 0xff, 0x00, 0x00, 0x00, 0x30, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x10};
+    assert_true(fx_write(fx_tmp("geoid.bin"), geoid, sizeof geoid));
+    hz_grid g;
+    hz_err err = {0};
+    const double t0 = hz_time_ms();
+    assert_int_equal(hz_dem_load(&(hz_dem_desc){.path = fx_tmp("geoid.bin"), .max_memory = (uint64_t)256 << 20}, &g,
+                                 NULL, &err),
+                     HZ_ERR_MEMORY);
+    assert_true(hz_time_ms() - t0 < 5000.0);
+    assert_null(g.z);
+    assert_non_null(strstr(err.msg, "--max-memory"));
+    assert_non_null(strstr(err.msg, "12288x65293"));
+}
+
 static void write_text(const char *path, const char *s)
 {
     assert_true(fx_write(path, s, strlen(s)));
@@ -298,7 +320,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_size_parse),      cmocka_unit_test(test_mem_check),
         cmocka_unit_test(test_fit_side),        cmocka_unit_test(test_wide_file_refused),
-        cmocka_unit_test(test_gunzip_budget),   cmocka_unit_test(test_same_file),
+        cmocka_unit_test(test_gunzip_budget),   cmocka_unit_test(test_gdal_header_budget),   cmocka_unit_test(test_same_file),
         cmocka_unit_test(test_outfile),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
