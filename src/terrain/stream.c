@@ -75,7 +75,9 @@ struct hz_stream {
     /* per frame */
     req *reqs;
     size_t nreq, req_cap;
-    struct { uint32_t x, z; } *lv[HZ_PYR_MAX_LEVELS];
+    /* this selection's nodes per shift; once classified, their slot (-1: not
+     * yet), index in it, distance to the eye and image (wrap) */
+    struct lv_node { uint32_t x, z; int32_t slot; uint32_t li; float dist; int8_t img[2]; } *lv[HZ_PYR_MAX_LEVELS];
     size_t lv_n[HZ_PYR_MAX_LEVELS], lv_cap[HZ_PYR_MAX_LEVELS];
     hz_patch *tmp;
     size_t tmp_cap;
@@ -576,17 +578,12 @@ static void node_box_img(const sel *c, const slot *q, size_t li, uint32_t sh, ui
         img[0] = w[0], img[1] = w[1];
 }
 
-static void node_box(const sel *c, const slot *q, size_t li, uint32_t sh, uint32_t ix, uint32_t iz, vec3 box[2])
-{
-    node_box_img(c, q, li, sh, ix, iz, box, NULL);
-}
 
 static hz_result lv_add(hz_stream *s, uint32_t sh, uint32_t x, uint32_t z)
 {
     if (list_reserve((void **)&s->lv[sh], &s->lv_cap[sh], s->lv_n[sh] + 1, sizeof *s->lv[sh]) != HZ_OK)
         return HZ_ERR_MEMORY;
-    s->lv[sh][s->lv_n[sh]].x = x;
-    s->lv[sh][s->lv_n[sh]].z = z;
+    s->lv[sh][s->lv_n[sh]] = (struct lv_node){.x = x, .z = z, .slot = -1};
     s->lv_n[sh]++;
     return HZ_OK;
 }
@@ -650,7 +647,7 @@ static void neighbours(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, uint
 /* Marks node (sh, ix, iz) culled or a leaf; its slot, index and box go to
  * qo, lio and box. */
 static hz_result classify_at(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool *culled, slot **qo, size_t *lio,
-                             vec3 box[2])
+                             vec3 box[2], int img[2])
 {
     size_t li = 0;
     slot *q = node_slot(c->s, sh, ix, iz, &li);
@@ -660,7 +657,7 @@ static hz_result classify_at(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool
     if (!q) /* cannot happen: a node is only pushed when its tile is resident */
         return HZ_ERR_VALUE;
     c->st->nodes_visited++;
-    node_box(c, q, li, sh, ix, iz, box);
+    node_box_img(c, q, li, sh, ix, iz, box, img);
     /* On a repeating terrain a node of half a period or more has no one
      * copy nearest the eye: it is never culled, and always split. */
     const bool whole = c->s->info.wrap && sh + 1 >= c->s->info.levels - 1;
@@ -674,12 +671,15 @@ static hz_result classify_at(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool
     return HZ_OK;
 }
 
-static hz_result classify(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool *culled)
+
+/* Remembers a classified node's slot, index, distance and image in its
+ * entry of the level list (emit reads them back). */
+static void lv_note(sel *c, struct lv_node *e, const slot *q, size_t li, const vec3 box[2], const int img[2])
 {
-    slot *q;
-    size_t li;
-    vec3 box[2];
-    return classify_at(c, sh, ix, iz, culled, &q, &li, box);
+    e->slot = (int32_t)(q - c->s->slots);
+    e->li = (uint32_t)li;
+    e->dist = box_distance(box, c->cam->pos);
+    e->img[0] = (int8_t)img[0], e->img[1] = (int8_t)img[1];
 }
 
 /* Can node (sh, ix, iz), a leaf, split with every forced split it needs?
@@ -749,14 +749,19 @@ static hz_result split_node(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool 
         c->st->forced++;
     for (uint32_t k = 0; k < 4; k++) {
         const uint32_t cx = 2 * ix + (k & 1), cz = 2 * iz + (k >> 1);
-        if (sh - 1 > c->cur) {
-            bool culled;
-            hz_result r = classify(c, sh - 1, cx, cz, &culled);
-            if (r != HZ_OK)
-                return r;
-        }
         if (lv_add(s, sh - 1, cx, cz) != HZ_OK)
             return HZ_ERR_MEMORY;
+        if (sh - 1 > c->cur) {
+            bool culled;
+            slot *cq;
+            size_t cl;
+            vec3 cb[2];
+            int ci[2];
+            hz_result r = classify_at(c, sh - 1, cx, cz, &culled, &cq, &cl, cb, ci);
+            if (r != HZ_OK)
+                return r;
+            lv_note(c, &s->lv[sh - 1][s->lv_n[sh - 1] - 1], cq, cl, (const vec3 *)cb, ci);
+        }
     }
     return HZ_OK;
 }
@@ -923,25 +928,26 @@ static hz_result emit(sel *c, hz_patch_list *out)
         if (list_reserve((void **)&out->data, &out->cap, out->count + s->lv_n[sh], sizeof *out->data) != HZ_OK)
             return HZ_ERR_MEMORY;
         for (size_t k = 0; k < s->lv_n[sh]; k++) {
-            const uint32_t ix = s->lv[sh][k].x, iz = s->lv[sh][k].z;
-            size_t li;
-            slot *q = node_slot(s, sh, ix, iz, &li);
-            if (!q || (q->flags[li] & ST_MASK) != ST_LEAF)
+            const struct lv_node *e = &s->lv[sh][k];
+            const uint32_t ix = e->x, iz = e->z;
+            if (e->slot < 0)
+                continue; /* never classified: not drawn */
+            slot *q = &s->slots[e->slot];
+            const size_t li = e->li;
+            if ((q->flags[li] & ST_MASK) != ST_LEAF)
                 continue;
             uint8_t coarse = 0, nb[4];
             neighbours(s, sh, ix, iz, nb);
             for (int dir = 0; dir < 4; dir++)
                 if (nb[dir] == NB_ABSENT)
                     coarse |= (uint8_t)(1u << dir);
-            vec3 box[2];
-            int img[2];
-            node_box_img(c, q, li, sh, ix, iz, box, img);
+            const int img[2] = {e->img[0], e->img[1]};
             const uint32_t lx = ix % q->k, lz = iz % q->k;
             const int64_t per = (int64_t)s->info.size - 1;
             out->data[out->count++] = (hz_patch){
                 .x0 = (uint32_t)(int32_t)(((int64_t)ix * P << sh) + img[0] * per),
                 .z0 = (uint32_t)(int32_t)(((int64_t)iz * P << sh) + img[1] * per), .shift = (uint8_t)sh, .coarse = coarse,
-                .level = (uint16_t)(top - sh), .dist = box_distance((const vec3 *)box, c->cam->pos),
+                .level = (uint16_t)(top - sh), .dist = e->dist,
                 .layer1 = (uint32_t)(q - s->slots) + 1, .ox = (uint16_t)(lx * P), .oz = (uint16_t)(lz * P)};
             if (sliding) {
                 hz_patch *pt = &out->data[out->count - 1];
@@ -994,20 +1000,27 @@ hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_para
                 bool culled;
                 slot *q;
                 vec3 box[2];
-                r = classify_at(&c, sh, ix, iz, &culled, &q, &li, box);
+                int img[2];
+                r = classify_at(&c, sh, ix, iz, &culled, &q, &li, box, img);
+                if (r == HZ_OK && q)
+                    lv_note(&c, &s->lv[sh][k], q, li, (const vec3 *)box, img);
                 if (r != HZ_OK || culled || sh == 0)
                     continue;
                 const float range =
                     c.lambda * (float)q->nd[(li / q->k + 1) * (q->k + 2) + li % q->k + 1] * c.hsw;
                 const float d2 = box_distance2((const vec3 *)box, cam->pos);
-                if (d2 < PREFETCH * PREFETCH * range * range) {
+                const bool whole = in->wrap && sh + 1 >= top;
+                const bool near = d2 < PREFETCH * PREFETCH * range * range;
+                size_t cl;
+                /* the children's tile (most often the memo's) */
+                const bool child = (near || whole) && node_slot(s, sh - 1, 2 * ix, 2 * iz, &cl);
+                if (near && !child) {
                     const float d = sqrtf(d2);
                     want_tile(s, sh - 1, 2 * ix, 2 * iz, range / (d + 1e-3f));
                 }
-                const bool whole = in->wrap && sh + 1 >= top;
                 if (d2 < range * range || whole) {
                     uint8_t nb[4];
-                    if (can_split(s, sh, ix, iz, 0, nb))
+                    if (child && can_split(s, sh, ix, iz, 0, nb))
                         r = split_node(&c, sh, ix, iz, false, nb);
                     else
                         s->st.late++;
