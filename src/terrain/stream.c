@@ -689,7 +689,8 @@ static bool can_split(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, uint3
     if (sh == 0 || depth > HZ_PYR_MAX_LEVELS)
         return false;
     size_t li;
-    if (!node_slot(s, sh - 1, 2 * ix, 2 * iz, &li))
+    /* depth 0: the caller found the children's tile resident */
+    if (depth > 0 && !node_slot(s, sh - 1, 2 * ix, 2 * iz, &li))
         return false;
     uint8_t own[4];
     if (!nb)
@@ -942,7 +943,7 @@ static hz_result emit(sel *c, hz_patch_list *out)
                 if (nb[dir] == NB_ABSENT)
                     coarse |= (uint8_t)(1u << dir);
             const int img[2] = {e->img[0], e->img[1]};
-            const uint32_t lx = ix % q->k, lz = iz % q->k;
+            const uint32_t lx = ix & (q->k - 1), lz = iz & (q->k - 1); /* k: a power of two */
             const int64_t per = (int64_t)s->info.size - 1;
             out->data[out->count++] = (hz_patch){
                 .x0 = (uint32_t)(int32_t)(((int64_t)ix * P << sh) + img[0] * per),
@@ -1007,7 +1008,8 @@ hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_para
                 if (r != HZ_OK || culled || sh == 0)
                     continue;
                 const float range =
-                    c.lambda * (float)q->nd[(li / q->k + 1) * (q->k + 2) + li % q->k + 1] * c.hsw;
+                    c.lambda * (float)q->nd[((li >> s->node_k_log2[sh]) + 1) * (q->k + 2) + (li & (q->k - 1)) + 1] *
+                    c.hsw;
                 const float d2 = box_distance2((const vec3 *)box, cam->pos);
                 const bool whole = in->wrap && sh + 1 >= top;
                 const bool near = d2 < PREFETCH * PREFETCH * range * range;
