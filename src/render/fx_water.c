@@ -13,6 +13,8 @@
  * hz_camera_mirror_y) or, without one, the main selection. */
 #include "render_internal.h"
 
+#include "gl_util.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -237,6 +239,7 @@ void fx_water_draw(hz_renderer *r, const fx_frame *f, const fx_view *v)
     const GLint *u = r->water_cur->loc;
     glUseProgram(r->water_cur->prog);
     glUniformMatrix4fv(u[WL_VIEWPROJ], 1, GL_FALSE, (const float *)v->viewproj);
+    hz_gl_set_curvature(r->water_cur->prog, &v->cam);
     glUniform2f(u[WL_VIEWPORT], (float)v->w, (float)v->h);
     glUniform1i(u[WL_SIZE], (GLint)r->size);
     glUniform1f(u[WL_SPACING], r->spacing);

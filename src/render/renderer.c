@@ -586,6 +586,7 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
         glUniform1f(tl[TL_HSCALE], r->hscale);
         glUniform1f(tl[TL_HOFFSET], r->hoffset);
         glUniformMatrix4fv(tl[TL_VIEWPROJ], 1, GL_FALSE, (const float *)v->viewproj);
+        hz_gl_set_curvature(tp->prog, &v->cam);
         glUniform3fv(tl[TL_SUN], 1, sp->sun_dir);
         glUniform3fv(tl[TL_HORIZON], 1, sp->sky_color);
         glUniform3fv(tl[TL_EYE], 1, v->eye);
