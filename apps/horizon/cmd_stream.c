@@ -287,6 +287,7 @@ typedef struct sopts {
     float camera[5];
     uint32_t width, height, frames;
     hz_pyr_remote remote; /* --terrain http(s)://: --disk-cache, --http-* */
+    curv_opts curv;       /* --curvature (curv_cli.c); resolved by stream_curvature */
 } sopts;
 
 static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
@@ -302,6 +303,7 @@ static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         {"disk-cache", required_argument, 0, 1001}, {"disk-cache-mb", required_argument, 0, 1002},
         {"http-timeout", required_argument, 0, 1003}, {"http-retries", required_argument, 0, 1004},
         {"http-connections", required_argument, 0, 1005},
+        {"curvature", required_argument, 0, 1006},
         {0, 0, 0, 0}};
     *o = (sopts){.cache_mb = 256, .tau = 1.0, .width = 1280, .height = 720, .frames = 120};
     optind = 2;
@@ -334,6 +336,13 @@ static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
             if (!num("--http-connections", optarg, 1, 16, &v)) return 2;
             o->remote.connections = (uint32_t)v;
             break;
+        case 1006:
+            if (!curv_cli_parse(optarg, &o->curv.mode)) {
+                fprintf(stderr, "horizon %s: invalid value '%s' for --curvature: expected on, off or auto\n", cmd,
+                        optarg);
+                return 2;
+            }
+            break;
         case 'l':
             if (strcmp(optarg, "cdlod")) {
                 fprintf(stderr, "horizon %s: a streamed --terrain is drawn with --lod cdlod only\n", cmd);
@@ -359,7 +368,7 @@ static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         default:
             fprintf(stderr, "horizon %s --terrain: options are --terrain --cache-mb --out --camera --pixel-error "
                             "--width --height --path --frames --json --quiet --disk-cache --disk-cache-mb "
-                            "--http-timeout --http-retries --http-connections\n", cmd);
+                            "--http-timeout --http-retries --http-connections --curvature\n", cmd);
             return 2;
         }
     }
@@ -457,6 +466,17 @@ static int upload_ready(sctx *c, uint32_t *n)
     return 0;
 }
 
+/* Resolves --curvature for the pyramid: its side, and the WGS84 radius at
+ * its centre when it is georeferenced. */
+static void stream_curvature(sopts *o, const hz_pyr_info *in)
+{
+    hz_georef *g = in->wkt && in->wkt[0] ? hz_georef_create(in->wkt, in->geotransform, in->data_w, in->data_h, NULL)
+                                         : NULL;
+    const float ext = (float)((in->data_w > in->data_h ? in->data_w - 1 : in->data_h - 1) * in->spacing);
+    curv_cli_resolve(&o->curv, ext, g, 0.5 * (in->data_w - 1) * in->spacing, 0.5 * (in->data_h - 1) * in->spacing);
+    hz_georef_destroy(g);
+}
+
 static hz_camera default_camera(const hz_pyr_info *in, uint32_t w, uint32_t h)
 {
     const float ex = (float)((in->data_w - 1) * in->spacing), ez = (float)((in->data_h - 1) * in->spacing);
@@ -487,7 +507,9 @@ int stream_render(int argc, char **argv)
     if (sctx_open(&c, &o, "render"))
         return 1;
     const hz_pyr_info *in = hz_stream_info(c.s);
+    stream_curvature(&o, in);
     hz_camera cam = default_camera(in, o.width, o.height);
+    cam.earth_radius = o.curv.radius;
     if (o.have_camera) {
         cam.pos[0] = o.camera[0], cam.pos[1] = o.camera[1], cam.pos[2] = o.camera[2];
         cam.yaw = o.camera[3], cam.pitch = o.camera[4];
@@ -552,6 +574,7 @@ int stream_render(int argc, char **argv)
         json_object_set_new(j, "out", jx_str(out));
         json_object_set_new(j, "lod_mode", jx_str("cdlod"));
         json_object_set_new(j, "pixel_error", jx_dbl(o.tau));
+        curv_cli_json(j, &o.curv);
         json_object_set_new(j, "camera", json_pack("[f,f,f,f,f]", (double)cam.pos[0], (double)cam.pos[1],
                                                    (double)cam.pos[2], (double)cam.yaw, (double)cam.pitch));
         json_object_set_new(j, "triangles", json_integer(st.triangles));
@@ -718,6 +741,7 @@ int stream_bench(int argc, char **argv)
         hz_path_free(&path);
         return 1;
     }
+    stream_curvature(&o, hz_stream_info(c.s));
     const uint32_t F = o.frames;
     double *frame = calloc(F, sizeof *frame), *lod = calloc(F, sizeof *lod), *tris = calloc(F, sizeof *tris);
     json_t *frames = json_array();
@@ -731,6 +755,7 @@ int stream_bench(int argc, char **argv)
     const float dur = hz_path_duration(&path);
     for (uint32_t f = 0; f < F; f++) {
         hz_camera cam = default_camera(hz_stream_info(c.s), o.width, o.height);
+        cam.earth_radius = o.curv.radius;
         hz_path_sample(&path, F > 1 ? dur * (float)f / (float)(F - 1) : 0.0f, &cam);
         cam.aspect = (float)o.width / (float)o.height;
         hz_stream_wrap_camera(c.s, &cam); /* re-centred: precision never degrades */
@@ -772,6 +797,7 @@ int stream_bench(int argc, char **argv)
     json_object_set_new(j, "path", jx_str(path.name[0] ? path.name : "flyover"));
     json_object_set_new(j, "frames", json_integer(F));
     json_object_set_new(j, "pixel_error", jx_dbl(o.tau));
+    curv_cli_json(j, &o.curv);
     json_object_set_new(j, "cache_mb_limit", jx_dbl(o.cache_mb));
     json_object_set_new(j, "frame_ms_median", jx_dbl(med_frame));
     json_object_set_new(j, "frame_ms_p99", jx_dbl(p99));
