@@ -40,7 +40,7 @@ typedef enum hz_curvature_mode {
 
 /* How far below the flat world a point at horizontal offset (dx, dz) metres
  * from the eye is drawn on a sphere of radius metres: (dx^2 + dz^2) / (2 radius),
- * the parabolic approximation of the sphere (within 1e-4 relative up to 500 km).
+ * the parabolic approximation of the sphere (within 0.2 % of its sagitta up to 500 km).
  * 0 when radius is 0 (flat), negative for a negative radius (mirrored). The one formula the CPU uses (the GLSL twin is
  * shaders/curvature.glsl). */
 static inline float hz_curvature_drop(float radius, float dx, float dz)
@@ -63,7 +63,7 @@ void hz_camera_curve_box(const hz_camera *cam, float box[2][3]);
  * (0 -> HZ_EARTH_RADIUS). */
 float hz_curvature_radius(hz_curvature_mode mode, float extent, float radius);
 /* The Gaussian radius of curvature sqrt(M N) of the WGS84 ellipsoid at
- * latitude lat_deg (degrees), metres: 6 335 439 at the equator, 6 399 594 at the poles. */
+ * latitude lat_deg (degrees), metres: 6 356 752 at the equator, 6 399 594 at the poles. */
 double hz_wgs84_radius(double lat_deg);
 
 /* Unit view direction. */
