@@ -58,6 +58,10 @@ static inline float hz_camera_drop(const hz_camera *cam, float x, float z)
  * point); a negative radius raises it the same way. Nothing when
  * cam->earth_radius is 0. O(1). */
 void hz_camera_curve_box(const hz_camera *cam, float box[2][3]);
+/* The same for a sphere (world centre c, radius r): c moves down by its drop
+ * and the radius grows by how much the drop varies over the sphere, so the
+ * result holds the sphere's curved image. Nothing on a flat world. */
+void hz_camera_curve_sphere(const hz_camera *cam, float c[3], float *r);
 /* The radius --curvature uses for a terrain of side `extent` metres: 0 (flat)
  * for off, or for auto at or below HZ_CURVATURE_AUTO_EXTENT; else radius
  * (0 -> HZ_EARTH_RADIUS). */

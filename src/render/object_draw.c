@@ -354,7 +354,7 @@ hz_result hz_scene_gpu_draw(hz_scene_gpu *g, const hz_scene *s, const hz_pass_in
     } else {
         hz_camera_frustum(pass->cam, planes);
     }
-    uint32_t n = hz_scene_cull(s, planes, g->vis, g->scratch_cap, &cs);
+    uint32_t n = hz_scene_cull_curved(s, pass->cam, planes, g->vis, g->scratch_cap, &cs);
     st.objects = cs.objects;
     st.after_frustum = n;
     st.nodes_tested = cs.nodes_tested;

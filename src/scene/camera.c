@@ -151,6 +151,18 @@ void hz_camera_curve_box(const hz_camera *cam, float box[2][3])
     box[1][1] -= far > near ? near : far;
 }
 
+void hz_camera_curve_sphere(const hz_camera *cam, float c[3], float *r)
+{
+    const float R = cam->earth_radius;
+    if (R == 0.0f)
+        return;
+    const float dx = c[0] - cam->pos[0], dz = c[2] - cam->pos[2], d = sqrtf(dx * dx + dz * dz);
+    const float drop = hz_curvature_drop(R, dx, dz);
+    /* d^2 / 2R over [d - r, d + r]: it varies by at most (2 d r + r^2) / 2|R|. */
+    c[1] -= drop;
+    *r += (2.0f * d * *r + *r * *r) / (2.0f * fabsf(R));
+}
+
 float hz_curvature_radius(hz_curvature_mode mode, float extent, float radius)
 {
     if (mode == HZ_CURVATURE_OFF || (mode == HZ_CURVATURE_AUTO && !(extent > HZ_CURVATURE_AUTO_EXTENT)))
