@@ -194,10 +194,49 @@ static void test_far_terrain_sinks(void **state)
     assert_true(sky[0] > sky[1] + W * 4); /* the far edge (785 m lower) sinks by several rows */
 }
 
+/* A sea over the whole map (the water effect): drawn curved, it stays at its
+ * level minus the drop everywhere (the plane is a grid that bends; four
+ * dropped corners would sink its middle by kilometres). */
+static void test_water_follows_the_sphere(void **state)
+{
+    fixture *fx = *state;
+    hz_err err = {0};
+    const float e = hz_terrain_extent(fx->t);
+    const float level = fx->t->max_h * fx->t->zscale + 50.0f; /* over every hill */
+    const hz_water_plane sea = {.height = level};
+    assert_int_equal(hz_renderer_set_water(fx->r, &sea, 1, NULL, 0, &err), HZ_OK);
+    hz_camera cam = {.pos = {0.5f * e, level + 400, 0.9f * e}, .yaw = 0, .pitch = -4, .fov_y = 40,
+                     .aspect = (float)W / (float)H, .znear = 1, .zfar = 200000, .earth_radius = 6371008.8f};
+    hz_scene_params sp = {.fog_density = -1, .effects = HZ_FX_WATER};
+    if (hz_renderer_draw(fx->r, &cam, &sp, fx->full.data, (uint32_t)fx->full.count, NULL, &err) != HZ_OK)
+        fail_msg("draw: %s", err.msg);
+    assert_int_equal(hz_renderer_read_depth(fx->r, fx->depth, &err), HZ_OK);
+    uint32_t n = 0;
+    double worst = 0;
+    for (uint32_t py = 2; py < H; py += 4)
+        for (uint32_t px = 2; px < W; px += 4) {
+            float q[3];
+            if (!unproject(fx, &cam, px, py, q))
+                continue;
+            const float dx = q[0] - cam.pos[0], dz = q[2] - cam.pos[2];
+            const float d = sqrtf(dx * dx + dz * dz);
+            /* The grid's cells stay within ~1e-4 rad of the sphere. */
+            const float off = fabsf(q[1] - (level - hz_camera_drop(&cam, q[0], q[2])));
+            worst = fmax(worst, off / fmax(d, 1.0));
+            if (off > 0.5f + 2e-4f * d)
+                fail_msg("pixel %u,%u: water %.1f m off its curved level at %.0f m", px, py, (double)off, (double)d);
+            n++;
+        }
+    printf("water: %u pixels on the curved sea level (worst %.2g rad)\n", n, worst);
+    assert_true(n > 1500);
+    assert_int_equal(hz_renderer_set_water(fx->r, NULL, 0, NULL, 0, &err), HZ_OK);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {cmocka_unit_test(test_pick_matches_depth_full_mesh),
                                        cmocka_unit_test(test_pick_matches_depth_patches),
-                                       cmocka_unit_test(test_far_terrain_sinks)};
+                                       cmocka_unit_test(test_far_terrain_sinks),
+                                       cmocka_unit_test(test_water_follows_the_sphere)};
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "horizon/metrics.h"
 #include "horizon/pick.h"
 #include "horizon/terrain.h"
 
@@ -227,6 +228,39 @@ static void test_cull_curved(void **state)
     hz_terrain_destroy(t);
 }
 
+/* The metrics count the samples in view where they are drawn: with the
+ * curved selection, every sample in the curved view is covered (a flat
+ * frustum test would count the near ground the curvature took out of view
+ * as uncovered), and the far ground the curvature sank is not counted. */
+static void test_metrics_curved(void **state)
+{
+    (void)state;
+    hz_terrain *t = wide_terrain();
+    hz_index_list out = {0};
+    hz_float_buf buf = {0};
+    for (int k = 1; k <= 2; k++) {
+        hz_camera cam = cull_camera(t, k);
+        hz_lod_params p = {.mode = HZ_LOD_QUADTREE, .pixel_error = 2, .viewport_height = 720};
+        assert_int_equal(hz_lod_select(t->lod, &cam, &p, &out, NULL, NULL, NULL), HZ_OK);
+        hz_px_error e, flat_e;
+        assert_int_equal(hz_metrics_px_error(&t->hm, t->spacing, t->zscale, out.data, out.count, &cam, 720, &buf, &e),
+                         HZ_OK);
+        hz_camera flat = cam;
+        flat.earth_radius = 0;
+        assert_int_equal(
+            hz_metrics_px_error(&t->hm, t->spacing, t->zscale, out.data, out.count, &flat, 720, &buf, &flat_e),
+            HZ_OK);
+        printf("camera %d: curved metrics %llu samples, %llu uncovered; flat frustum: %llu samples, %llu uncovered\n",
+               k, (unsigned long long)e.samples, (unsigned long long)e.uncovered,
+               (unsigned long long)flat_e.samples, (unsigned long long)flat_e.uncovered);
+        assert_true(e.uncovered == 0);
+        assert_true(flat_e.uncovered > 0);
+    }
+    free(out.data);
+    hz_float_buf_free(&buf);
+    hz_terrain_destroy(t);
+}
+
 /* ---- picking ------------------------------------------------------------- */
 
 /* Brute force: the first point along the ray, 1 m steps, below the curved
@@ -289,6 +323,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {cmocka_unit_test(test_drop_formula), cmocka_unit_test(test_curve_box),
                                        cmocka_unit_test(test_radius_auto), cmocka_unit_test(test_cull_curved),
+                                       cmocka_unit_test(test_metrics_curved),
                                        cmocka_unit_test(test_pick_curved)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
