@@ -1,4 +1,5 @@
 #version 330 core
+#include "curvature.glsl"
 // Bark and crown hulls: a mesh with positions and normals, one tree per draw.
 layout(location = 0) in vec3 a_pos;
 layout(location = 1) in vec3 a_normal;
@@ -15,5 +16,5 @@ void main()
     v_local = a_pos;
     v_normal = normalize(mat3(u_model) * a_normal);
     gl_ClipDistance[0] = dot(u_clip_plane, w);
-    gl_Position = u_viewproj * w;
+    gl_Position = u_viewproj * hz_curve(w);
 }

@@ -1,4 +1,5 @@
 #version 330 core
+#include "curvature.glsl"
 // Billboards (R3), pulled from a texture buffer: billboard b = u_first +
 // gl_VertexID / 6 is three texels (pos.xyz, width), (axis.xyz, height),
 // (rgba tint); gl_VertexID % 6 picks a corner of its two triangles. (One
@@ -66,5 +67,5 @@ void main()
         v_light = textureLod(u_lightmap, fx_lightmap_uv(pos.xz), 0.0).r; // the ground's light at the foot
     else
         v_light = Ie + (1.0 - Ie) * clamp(fx_sun.y * 1.5, 0.0, 1.0) * 0.85;
-    gl_Position = u_viewproj * vec4(p, 1.0);
+    gl_Position = u_viewproj * vec4(hz_curve(p), 1.0);
 }

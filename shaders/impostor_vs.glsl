@@ -1,4 +1,5 @@
 #version 330 core
+#include "curvature.glsl"
 // Far trees: one draw, 6 vertices per tree of the frame's list (nearest
 // first, so the early depth test spares hidden ones); a tree short of the
 // impostor distance band is collapsed outside the clip volume. The quad faces the eye at the tree's
@@ -72,5 +73,5 @@ void main()
     v_lod = clamp(int(floor(log2(max(float(u_tile_px) / max(px, 1e-3), 1.0)) + 0.5)), 0, u_max_lod);
     v_size = vec2(u_views * (u_tile_px >> v_lod));
     gl_ClipDistance[0] = dot(u_clip_plane, vec4(w, 1.0));
-    gl_Position = u_viewproj * vec4(w, 1.0);
+    gl_Position = u_viewproj * vec4(hz_curve(w), 1.0);
 }

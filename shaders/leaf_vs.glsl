@@ -1,4 +1,5 @@
 #version 330 core
+#include "curvature.glsl"
 // Forest leaves: vertex-less. The model's leaves are stored interleaved by
 // rank (every node's kept leaves lie in one prefix); a static quad index
 // buffer gives 4 vertices per leaf (gl_VertexID / 4 = leaf). A leaf beyond
@@ -53,5 +54,5 @@ void main()
     // Tint per leaf (its position in the model, so that simplification keeps it).
     v_tint = fract(sin(dot(t0.xyz, vec3(12.9898, 78.233, 37.719))) * 43758.5453);
     gl_ClipDistance[0] = dot(u_clip_plane, w);
-    gl_Position = u_viewproj * w;
+    gl_Position = u_viewproj * hz_curve(w);
 }

@@ -1,4 +1,5 @@
 #version 450 core
+#include "curvature.glsl"
 // Scene objects (buildings, models): merged static vertices, one world
 // matrix per instance (per-instance attributes; baseInstance picks them).
 layout(location = 0) in vec3 a_pos;
@@ -15,5 +16,5 @@ void main()
     v_world = w.xyz;
     v_normal = mat3(a_world) * a_normal;
     gl_ClipDistance[0] = dot(u_clip_plane, w);
-    gl_Position = u_viewproj * w;
+    gl_Position = u_viewproj * hz_curve(w);
 }

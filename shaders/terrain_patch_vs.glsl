@@ -1,4 +1,5 @@
 #version 330 core
+#include "curvature.glsl"
 // cdlod patches: one static grid of (P+1)^2 vertices (gl_VertexID = w (P+1) + u)
 // drawn once per selected node (instanced). Heights, morph ranges and morph
 // targets come from a texture array of tiles (one pyramid level per tile set),
@@ -51,7 +52,7 @@ float morph_factor(uvec4 t, vec3 p)
     float R = u_morph_scale * float(t.g);
     if (R <= 0.0)
         return 1.0;
-    return clamp((distance(p, u_eye) - u_morph_start * R) / ((1.0 - u_morph_start) * R), 0.0, 1.0);
+    return clamp((distance(hz_curve(p), u_eye) - u_morph_start * R) / ((1.0 - u_morph_start) * R), 0.0, 1.0);
 }
 
 float target_of(uvec4 t)
@@ -188,5 +189,5 @@ void main()
     }
     v_valid = (t.a & 2u) != 0u ? 0.0 : 1.0;
     v_world = p;
-    gl_Position = u_viewproj * vec4(p, 1.0);
+    gl_Position = u_viewproj * vec4(hz_curve(p), 1.0);
 }

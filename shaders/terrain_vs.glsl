@@ -1,4 +1,5 @@
 #version 330 core
+#include "curvature.glsl"
 // Vertex-less terrain for the index-list LOD modes (cdlod draws patches:
 // terrain_patch_vs.glsl): gl_VertexID is the sample index into the row-major
 // grid (index = j * size + i); the height comes from an R16 texture buffer.
@@ -35,5 +36,5 @@ void main()
 
     v_valid = 1.0;
     v_world = vec3(float(i) * u_spacing, y, float(j) * u_spacing);
-    gl_Position = u_viewproj * vec4(v_world, 1.0);
+    gl_Position = u_viewproj * vec4(hz_curve(v_world), 1.0);
 }

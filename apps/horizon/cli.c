@@ -92,6 +92,9 @@ void cli_usage_terrain(void)
             "  --fov DEG               vertical field of view (default 60)\n"
             "  --far M                 view distance in metres (default 1.5 x map side)\n"
             "  --near M                near clip plane in metres (default 0.25)\n"
+            "  --curvature on|off|auto Earth curvature: the ground drops d^2/2R with the distance d\n"
+            "                          (default auto: on for terrains wider than 50 km; R of the WGS84\n"
+            "                          ellipsoid at a georeferenced DEM's centre, else 6371008.8 m)\n"
             "  --width W --height H    image size (default 1280x720)\n"
             "effects:\n"
             "  --effects LIST          sky, flare, shadows, detail, billboards, fog, water, weather,\n"
@@ -501,6 +504,10 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             if (!cli_parse_float(v, -90, 90, &o->latitude))
                 return bad(cmd, a, v, "degrees in [-90, 90]");
             o->have_latitude = true;
+        } else if (!strcmp(a, "--curvature")) {
+            NEEDV();
+            if (!curv_cli_parse(v, &o->curv.mode))
+                return bad(cmd, a, v, "on, off or auto");
         } else if (!strcmp(a, "--colormap")) {
             NEEDV();
             o->colormap = v;
@@ -807,5 +814,16 @@ hz_camera cli_camera(const cli_opts *o, const hz_terrain *t)
     }
     if (o->near > 0)
         c.znear = o->near;
+    c.earth_radius = o->curv.radius;
     return c;
+}
+
+void cli_curvature(cli_opts *o, const hz_terrain *t)
+{
+    const double cx = ((double)t->data_x + 0.5 * (double)(t->data_w ? t->data_w - 1 : 0)) * t->spacing;
+    const double cz = ((double)t->data_y + 0.5 * (double)(t->data_h ? t->data_h - 1 : 0)) * t->spacing;
+    /* The data's longer side (a padded map's padding is not terrain). */
+    const uint32_t dw = t->data_w ? t->data_w : t->hm.size, dh = t->data_h ? t->data_h : t->hm.size;
+    const float ext = (float)((dw > dh ? dw : dh) - 1) * t->spacing;
+    curv_cli_resolve(&o->curv, ext, t->georef, cx, cz);
 }

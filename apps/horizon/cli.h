@@ -8,6 +8,7 @@
 #include "horizon/forest_render.h"
 #include "json_out.h"
 #include "city_cli.h"
+#include "curv_cli.h"
 
 #define CLI_MAX_DEMS 4096
 
@@ -58,6 +59,7 @@ typedef struct cli_opts {
     bool have_latitude;
     float latitude;          /* --latitude: where a DEM without a georeference lies */
     city_opts city;       /* --city, --pick, --cull, --draw (city_cli.c) */
+    curv_opts curv;       /* --curvature (curv_cli.c); resolved by cli_curvature */
 } cli_opts;
 
 /* Effect resources of a terrain for a renderer: light map for the sun,
@@ -178,6 +180,9 @@ void cli_lod_frame_free(cli_lod_frame *f);
 float cli_pixel_error(const hz_lod_params *p);
 /* The camera: --camera or the terrain's default, with --fov/--far applied. */
 hz_camera cli_camera(const cli_opts *o, const hz_terrain *t);
+/* Resolves --curvature for the loaded terrain (o->curv.radius, which
+ * cli_camera and cli_forest_camera give their cameras). Call after loading. */
+void cli_curvature(cli_opts *o, const hz_terrain *t);
 
 /* A forest on the terrain, ready to draw through the renderer's hook. */
 typedef struct cli_forest {

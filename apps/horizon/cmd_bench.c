@@ -226,6 +226,7 @@ static int effect_costs(const cli_opts *o, hz_terrain *t, hz_renderer *ren, app_
     jx_set(jroot, "size", jx_int(t->hm.size));
     jx_set(jroot, "path", jx_str(path->name));
     jx_set(jroot, "frames", jx_int(frames));
+    curv_cli_json(jroot, &o->curv);
     jx_set(jroot, "width", jx_int(o->width));
     jx_set(jroot, "height", jx_int(o->height));
     jx_set(jroot, "gl", jx_str(gl_desc));
@@ -677,7 +678,9 @@ static void print_table(const bench *b, const hz_lod_params *lod, const summary 
         printf(" (tuned for p99 <= %g px)", tuned_for);
     if (b->tune_sil > 0)
         printf(" (tuned for median silhouette <= %g)", b->tune_sil);
-    printf("\n%-18s %12s %12s %12s\n", "", "median", "p95", "max");
+    printf("\n");
+    curv_cli_print(&b->o.curv);
+    printf("%-18s %12s %12s %12s\n", "", "median", "p95", "max");
     const size_t ncols = b->reference ? NCOLS : NCOLS_NOREF;
     for (size_t c = 0; c < ncols; c++)
         printf("%-18s %12.4g %12.4g %12.4g\n", COLS[c].name, s->v[c][0], s->v[c][1], s->v[c][2]);
@@ -693,6 +696,7 @@ static json_t *bench_json(const bench *b, const hz_lod_params *lod, const frame_
     hz_fx_format(b->o.effects, fxs, sizeof fxs);
     json_t *j = json_object();
     jx_set(j, "frames", jx_int(b->frames));
+    curv_cli_json(j, &b->o.curv);
     jx_set(j, "terrain", jx_str(b->t->source));
     jx_set(j, "size", jx_int(b->t->hm.size));
     jx_set(j, "spacing", jx_num(b->t->spacing));
@@ -1047,6 +1051,7 @@ int cmd_bench(int argc, char **argv)
         hz_terrain_destroy(b.t);
         return 1;
     }
+    cli_curvature(&b.o, b.t);
     for (int m = 0; m < nmodes; m++)
         if (hz_lod_prepare(b.t->lod, modes[m]) != HZ_OK) {
             fprintf(stderr, "horizon bench: out of memory preparing the %s LOD data\n", hz_lod_mode_name(modes[m]));

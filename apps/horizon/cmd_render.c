@@ -121,6 +121,7 @@ int cmd_render(int argc, char **argv)
         hz_terrain_destroy(t);
         return 1;
     }
+    cli_curvature(&o, t);
     hz_camera cam = o.forest_n && !o.have_camera ? cli_forest_camera(&o, t) : cli_camera(&o, t);
     if (ca)
         cam = city_app_camera(ca, &o, t);
@@ -255,6 +256,7 @@ int cmd_render(int argc, char **argv)
                                       jx_fix(cam.yaw, 4), jx_fix(cam.pitch, 4)));
         jx_set(j, "fov", jx_num(cam.fov_y));
         jx_set(j, "far", jx_fix(cam.zfar, 1));
+        curv_cli_json(j, &o.curv);
         jx_set(j, "width", jx_int(o.width));
         jx_set(j, "height", jx_int(o.height));
         jx_set(j, "triangles", jx_int(st.triangles));
@@ -343,6 +345,7 @@ int cmd_render(int argc, char **argv)
                    (double)(o.lod.c > 0 ? o.lod.c : 25), (double)(o.lod.c2 > 0 ? o.lod.c2 : 2.5f),
                    o.lod.criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped");
         printf("triangles     %u\n", st.triangles);
+        curv_cli_print(&o.curv);
         printf("nodes         %u visited, %u culled, %u drawn\n", st.nodes_visited, st.nodes_culled, st.leaves);
         printf("LOD           %.3f ms (median of %u; first %.3f ms)\n", lod_med, o.repeat, lod_first);
         printf("draw          %.1f ms (median of 3; first %.1f ms) on %s\n", draw_med, draw_first,

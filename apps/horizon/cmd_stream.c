@@ -300,6 +300,7 @@ int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         {"script", required_argument, 0, 1201}, {"screenshot", required_argument, 0, 1202},
         {"speed", required_argument, 0, 1203},  {"dt", required_argument, 0, 1204},
         {"no-vsync", no_argument, 0, 1205},     {"no-hud", no_argument, 0, 1206},
+        {"curvature", required_argument, 0, 1006},
         {0, 0, 0, 0}};
     *o = (sopts){.cache_mb = 256, .tau = 1.0, .width = 1280, .height = 720, .frames = strcmp(cmd, "view") ? 120 : 0};
     optind = 2;
@@ -350,6 +351,13 @@ int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
             if (!num("--imagery-max", optarg, 64, HZ_IMAGERY_MAX_SIDE, &v)) return 2;
             o->imagery_max = (uint32_t)v;
             break;
+        case 1006:
+            if (!curv_cli_parse(optarg, &o->curv.mode)) {
+                fprintf(stderr, "horizon %s: invalid value '%s' for --curvature: expected on, off or auto\n", cmd,
+                        optarg);
+                return 2;
+            }
+            break;
         case 'l':
             if (strcmp(optarg, "cdlod")) {
                 fprintf(stderr, "horizon %s: a streamed --terrain is drawn with --lod cdlod only\n", cmd);
@@ -375,8 +383,8 @@ int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         default:
             fprintf(stderr, "horizon %s --terrain: options are --terrain --cache-mb --out --camera --pixel-error "
                             "--width --height --path --frames --json --quiet --disk-cache --disk-cache-mb "
-                            "--http-timeout --http-retries --http-connections --imagery --imagery-max; view also --speed --dt "
-                            "--script --screenshot --no-vsync --no-hud\n", cmd);
+                            "--http-timeout --http-retries --http-connections --curvature --imagery --imagery-max; view "
+                            "also --speed --dt --script --screenshot --no-vsync --no-hud\n", cmd);
             return 2;
         }
     }
@@ -507,6 +515,17 @@ int upload_ready(sctx *c, uint32_t *n)
     return 0;
 }
 
+/* Resolves --curvature for the pyramid: its side, and the WGS84 radius at
+ * its centre when it is georeferenced. */
+void stream_curvature(sopts *o, const hz_pyr_info *in)
+{
+    hz_georef *g = in->wkt && in->wkt[0] ? hz_georef_create(in->wkt, in->geotransform, in->data_w, in->data_h, NULL)
+                                         : NULL;
+    const float ext = (float)((in->data_w > in->data_h ? in->data_w - 1 : in->data_h - 1) * in->spacing);
+    curv_cli_resolve(&o->curv, ext, g, 0.5 * (in->data_w - 1) * in->spacing, 0.5 * (in->data_h - 1) * in->spacing);
+    hz_georef_destroy(g);
+}
+
 hz_camera default_camera(const hz_pyr_info *in, uint32_t w, uint32_t h)
 {
     const float ex = (float)((in->data_w - 1) * in->spacing), ez = (float)((in->data_h - 1) * in->spacing);
@@ -537,7 +556,9 @@ int stream_render(int argc, char **argv)
     if (sctx_open(&c, &o, "render"))
         return 1;
     const hz_pyr_info *in = hz_stream_info(c.s);
+    stream_curvature(&o, in);
     hz_camera cam = default_camera(in, o.width, o.height);
+    cam.earth_radius = o.curv.radius;
     if (o.have_camera) {
         cam.pos[0] = o.camera[0], cam.pos[1] = o.camera[1], cam.pos[2] = o.camera[2];
         cam.yaw = o.camera[3], cam.pitch = o.camera[4];
@@ -602,6 +623,7 @@ int stream_render(int argc, char **argv)
         json_object_set_new(j, "out", jx_str(out));
         json_object_set_new(j, "lod_mode", jx_str("cdlod"));
         json_object_set_new(j, "pixel_error", jx_dbl(o.tau));
+        curv_cli_json(j, &o.curv);
         json_object_set_new(j, "camera", json_pack("[f,f,f,f,f]", (double)cam.pos[0], (double)cam.pos[1],
                                                    (double)cam.pos[2], (double)cam.yaw, (double)cam.pitch));
         json_object_set_new(j, "triangles", json_integer(st.triangles));
@@ -768,6 +790,7 @@ int stream_bench(int argc, char **argv)
         hz_path_free(&path);
         return 1;
     }
+    stream_curvature(&o, hz_stream_info(c.s));
     const uint32_t F = o.frames;
     double *frame = calloc(F, sizeof *frame), *lod = calloc(F, sizeof *lod), *tris = calloc(F, sizeof *tris);
     json_t *frames = json_array();
@@ -782,6 +805,7 @@ int stream_bench(int argc, char **argv)
     for (uint32_t f = 0; f < F; f++) {
         hz_camera cam = default_camera(hz_stream_info(c.s), o.width, o.height);
         const float tpath = F > 1 ? dur * (float)f / (float)(F - 1) : 0.0f;
+        cam.earth_radius = o.curv.radius;
         hz_path_sample(&path, tpath, &cam);
         hz_stream_set_clock(c.s, tpath); /* arriving tiles slide in on the flight's clock */
         cam.aspect = (float)o.width / (float)o.height;
@@ -824,6 +848,7 @@ int stream_bench(int argc, char **argv)
     json_object_set_new(j, "path", jx_str(path.name[0] ? path.name : "flyover"));
     json_object_set_new(j, "frames", json_integer(F));
     json_object_set_new(j, "pixel_error", jx_dbl(o.tau));
+    curv_cli_json(j, &o.curv);
     json_object_set_new(j, "cache_mb_limit", jx_dbl(o.cache_mb));
     json_object_set_new(j, "frame_ms_median", jx_dbl(med_frame));
     json_object_set_new(j, "frame_ms_p99", jx_dbl(p99));

@@ -1049,6 +1049,7 @@ static void print_json(view *v)
     jx_set(j, "camera", json_pack("[ooooo]", jx_fix(c->pos[0], 3), jx_fix(c->pos[1], 3), jx_fix(c->pos[2], 3),
                                   jx_fix(c->yaw, 3), jx_fix(c->pitch, 3)));
     jx_set(j, "ground", jx_fix(hz_flycam_ground(&v->fc), 3));
+    curv_cli_json(j, &v->o.curv);
     jx_set(j, "speed", jx_num(v->fc.speed));
     jx_set(j, "eye_height", jx_num(v->fc.eye_height));
     jx_set(j, "wireframe", jx_bool(v->wire));
@@ -1213,6 +1214,7 @@ int cmd_view(int argc, char **argv)
         fprintf(stderr, "horizon view: %s\n", v->err.msg);
         goto out;
     }
+    cli_curvature(&v->o, v->t);
     if (v->t->note[0] && !v->o.quiet)
         fprintf(stderr, "horizon view: %s\n", v->t->note);
     if (v->t->voids_filled && !v->o.quiet)

@@ -466,6 +466,7 @@ hz_camera cli_forest_camera(const cli_opts *o, const hz_terrain *t)
         c.fov_y = o->fov;
     if (o->far > 0)
         c.zfar = o->far;
+    c.earth_radius = o->curv.radius;
     return c;
 }
 

@@ -17,6 +17,7 @@ typedef struct sopts {
     hz_pyr_remote remote; /* --terrain http(s)://: --disk-cache, --http-* */
     const char *imagery;  /* --imagery: draped by its georeference */
     uint32_t imagery_max; /* --imagery-max (0: 8192) */
+    curv_opts curv;       /* --curvature (curv_cli.c); resolved by stream_curvature */
     /* view only */
     const char *script, *screenshot;
     double speed, dt;     /* m/s (0: map side / 200); fixed seconds per frame (0: real time) */
@@ -39,6 +40,9 @@ int sctx_open(sctx *c, const sopts *o, const char *cmd);
 void sctx_free(sctx *c);
 /* Uploads the decoded tiles waiting; *n gets their count. 0, or 1 after a message. */
 int upload_ready(sctx *c, uint32_t *n);
+/* Resolves --curvature for the pyramid: its side, and the WGS84 radius at
+ * its centre when it is georeferenced. */
+void stream_curvature(sopts *o, const hz_pyr_info *in);
 /* A first view over the pyramid's data. */
 hz_camera default_camera(const hz_pyr_info *in, uint32_t w, uint32_t h);
 

@@ -20,7 +20,55 @@ typedef struct hz_camera {
     float aspect;    /* width / height; 0 -> 16/9 */
     float znear;     /* metres; 0 -> 1 */
     float zfar;      /* metres, also the view distance for culling; 0 -> 100000 */
+    float earth_radius; /* metres; 0 -> a flat world. > 0: Earth curvature, every world
+                           point is drawn lowered by hz_curvature_drop (d^2 / 2R, d its
+                           horizontal distance from the eye): shaders, LOD bounds, culling,
+                           picking and metrics all take it from here. < 0: the world bends
+                           up, as a camera mirrored at a water plane sees it (hz_camera_mirror_y) */
 } hz_camera;
+
+/* Mean Earth radius (IUGG R1), metres. */
+#define HZ_EARTH_RADIUS 6371008.8
+/* --curvature auto: on when the terrain's side exceeds this, metres. */
+#define HZ_CURVATURE_AUTO_EXTENT 50000.0f
+
+typedef enum hz_curvature_mode {
+    HZ_CURVATURE_AUTO = 0, /* on above HZ_CURVATURE_AUTO_EXTENT */
+    HZ_CURVATURE_ON,
+    HZ_CURVATURE_OFF
+} hz_curvature_mode;
+
+/* How far below the flat world a point at horizontal offset (dx, dz) metres
+ * from the eye is drawn on a sphere of radius metres: (dx^2 + dz^2) / (2 radius),
+ * the parabolic approximation of the sphere (within 0.2 % of its sagitta up to 500 km).
+ * 0 when radius is 0 (flat), negative for a negative radius (mirrored). The one formula the CPU uses (the GLSL twin is
+ * shaders/curvature.glsl). */
+static inline float hz_curvature_drop(float radius, float dx, float dz)
+{
+    return radius != 0.0f ? (dx * dx + dz * dz) / (2.0f * radius) : 0.0f;
+}
+/* hz_curvature_drop of world point (x, z) seen from cam's eye. */
+static inline float hz_camera_drop(const hz_camera *cam, float x, float z)
+{
+    return hz_curvature_drop(cam->earth_radius, x - cam->pos[0], z - cam->pos[2]);
+}
+/* Lowers a world box (box[0] min, box[1] max corner) so that it holds the
+ * curved image of everything inside it: min y by the largest drop over its
+ * xz rectangle (the farthest corner), max y by the smallest (the nearest
+ * point); a negative radius raises it the same way. Nothing when
+ * cam->earth_radius is 0. O(1). */
+void hz_camera_curve_box(const hz_camera *cam, float box[2][3]);
+/* The same for a sphere (world centre c, radius r): c moves down by its drop
+ * and the radius grows by how much the drop varies over the sphere, so the
+ * result holds the sphere's curved image. Nothing on a flat world. */
+void hz_camera_curve_sphere(const hz_camera *cam, float c[3], float *r);
+/* The radius --curvature uses for a terrain of side `extent` metres: 0 (flat)
+ * for off, or for auto at or below HZ_CURVATURE_AUTO_EXTENT; else radius
+ * (0 -> HZ_EARTH_RADIUS). */
+float hz_curvature_radius(hz_curvature_mode mode, float extent, float radius);
+/* The Gaussian radius of curvature sqrt(M N) of the WGS84 ellipsoid at
+ * latitude lat_deg (degrees), metres: 6 356 752 at the equator, 6 399 594 at the poles. */
+double hz_wgs84_radius(double lat_deg);
 
 /* Unit view direction. */
 void hz_camera_forward(const hz_camera *c, vec3 dest);
@@ -38,7 +86,7 @@ void hz_camera_viewproj(const hz_camera *c, mat4 dest);
 void hz_camera_frustum(const hz_camera *c, vec4 planes[6]);
 
 /* The camera mirrored at the horizontal plane y = plane_y (eye height
- * reflected, pitch negated): it sees exactly what a water plane reflects, for
+ * reflected, pitch negated, earth_radius negated): it sees exactly what a water plane reflects, for
  * LOD selection and culling of the reflection pass. */
 void hz_camera_mirror_y(const hz_camera *c, float plane_y, hz_camera *dest);
 

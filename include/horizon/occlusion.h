@@ -25,6 +25,8 @@ typedef struct hz_occlusion {
     uint64_t triangles;   /* rasterised (after near-plane rejection) */
     uint64_t cells_written;
     double raster_ms;
+    hz_camera cam;        /* of hz_occlusion_begin: its Earth curvature lowers occluders and
+                             boxes as the shaders draw them */
 } hz_occlusion;
 
 /* Allocates a w x h buffer (0 -> 256 x 144; w at most 1024); false on out of memory. */

@@ -167,6 +167,13 @@ hz_result hz_renderer_read_rgb(hz_renderer *r, uint8_t *rgb, hz_err *err);
  * or the flare). Internal FBO only (fails with to_default_framebuffer). */
 hz_result hz_renderer_read_sky_mask(hz_renderer *r, uint8_t *mask, hz_err *err);
 
+/* Reads the last frame's depth buffer, top row first, width*height floats:
+ * window depth, reverse-Z (near 1, far and sky 0). With glClipControl (GL
+ * 4.5) it is NDC z of hz_camera_proj_reverse_z, which unprojects it to the
+ * world point drawn (lowered by the Earth curvature, when the camera has one);
+ * on the GL 3.3 fallback it is (NDC z + 1) / 2. Internal FBO only. */
+hz_result hz_renderer_read_depth(hz_renderer *r, float *depth, hz_err *err);
+
 
 /* ---- effect resources (used with the matching HZ_FX_* bit) -------------- */
 

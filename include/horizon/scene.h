@@ -12,6 +12,7 @@
 #define HORIZON_SCENE_H
 
 #include <cglm/cglm.h>
+#include "horizon/camera.h"
 #include "horizon/core.h"
 
 #ifdef __cplusplus
@@ -157,6 +158,11 @@ int hz_box_vs_planes(const hz_box *b, const vec4 *planes, uint32_t plane_count);
  * how many there are (may exceed cap: then only cap were written). After
  * hz_scene_update. stats may be NULL. */
 uint32_t hz_scene_cull(const hz_scene *s, const vec4 planes[6], uint32_t *out, uint32_t cap, hz_cull_stats *stats);
+/* hz_scene_cull for the objects as cam draws them: with cam->earth_radius,
+ * every box is first lowered by the Earth curvature (hz_camera_curve_box);
+ * planes are cam's frustum (or any planes the caller wants). */
+uint32_t hz_scene_cull_curved(const hz_scene *s, const hz_camera *cam, const vec4 planes[6], uint32_t *out,
+                              uint32_t cap, hz_cull_stats *stats);
 
 /* ---- render queue (G5) ------------------------------------------------------ */
 

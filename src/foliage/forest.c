@@ -503,7 +503,7 @@ static float band_fade(const float band[2], float d)
  * and uniform scale keep angles; distances scale). Only nodes whose kept
  * count changes are written; their range goes to dr->dirty_lo/hi. */
 static void tree_nodes(hz_forest *f, uint32_t k, const hz_forest_params *P, const vec4 planes[6], const float *eye,
-                       double now_s, bool fresh, hz_forest_draw *dr, hz_forest_frame *fr)
+                       float drop, float spread, double now_s, bool fresh, hz_forest_draw *dr, hz_forest_frame *fr)
 {
     const hz_forest_tree *tr = &f->trees[k];
     const hz_tree *t = f->models[tr->model];
@@ -520,7 +520,9 @@ static void tree_nodes(hz_forest *f, uint32_t k, const hz_forest_params *P, cons
         mp[p][0] = s * (cy * w[0] - sy * w[2]);
         mp[p][1] = s * w[1];
         mp[p][2] = s * (sy * w[0] + cy * w[2]);
-        mp[p][3] = w[0] * tr->pos[0] + w[1] * tr->pos[1] + w[2] * tr->pos[2] + w[3];
+        /* Earth curvature: the tree drawn `drop` lower, give or take `spread`
+         * over its crown (the planes widened by it). */
+        mp[p][3] = w[0] * tr->pos[0] + w[1] * (tr->pos[1] - drop) + w[2] * tr->pos[2] + w[3] + fabsf(w[1]) * spread;
     }
     const uint32_t sb = f->state_base[k];
     const float ld0 = mi->ld0;
@@ -681,7 +683,11 @@ hz_result hz_forest_update(hz_forest *f, const hz_camera *cam, const hz_forest_p
         float m[16], c[3];
         hz_forest_tree_matrix(f, k, m);
         xform_point(m, t->bound_center, c);
-        if (!sphere_visible((const vec4 *)planes, c, t->bound_radius * tr->scale))
+        /* Earth curvature: the tree is drawn `drop` lower. */
+        const float drop = hz_camera_drop(cam, c[0], c[2]);
+        float cc[3] = {c[0], c[1], c[2]}, rad = t->bound_radius * tr->scale;
+        hz_camera_curve_sphere(cam, cc, &rad);
+        if (!sphere_visible((const vec4 *)planes, cc, rad))
             continue;
         float dist = v3_dist(c, eye);
         if (dist > fr->max_dist)
@@ -722,7 +728,8 @@ hz_result hz_forest_update(hz_forest *f, const hz_camera *cam, const hz_forest_p
         }
         fr->triangles_drawn += t->bark_level_end[dr->bark_levels - 1] / 3;
         bool fresh = f->detailed_at[k] + 1 != serial;
-        tree_nodes(f, k, &P, (const vec4 *)planes, eye, now_s, fresh, dr, fr);
+        tree_nodes(f, k, &P, (const vec4 *)planes, eye, drop, rad - t->bound_radius * tr->scale, now_s, fresh, dr,
+                   fr);
         f->detailed_at[k] = serial;
         leaves += f->kept_total[k];
     }

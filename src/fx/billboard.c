@@ -45,6 +45,7 @@ size_t hz_billboards_cull(const hz_billboard *in, size_t n, const hz_camera *cam
         vec3 c;
         float r;
         bb_sphere(&in[i], c, &r);
+        hz_camera_curve_sphere(cam, c, &r); /* drawn lower with Earth curvature */
         if (!sphere_visible((const vec4 *)planes, cam->pos, max_dist, c, r))
             continue;
         if (k < cap)
@@ -246,14 +247,17 @@ size_t hz_bb_field_cull(const hz_bb_field *f, const hz_camera *cam, float max_di
             const cell *c = &f->cells[(size_t)cz * f->nx + (size_t)cx];
             if (!c->count)
                 continue;
-            /* Box against the frustum (the corner farthest along each normal). */
+            /* Box (as drawn: lowered by the Earth curvature) against the
+             * frustum (the corner farthest along each normal). */
+            float cb[2][3] = {{c->lo[0], c->lo[1], c->lo[2]}, {c->hi[0], c->hi[1], c->hi[2]}};
+            hz_camera_curve_box(cam, cb);
             bool out_box = false, inside = true;
             for (int p = 0; p < 6 && !out_box; p++) {
                 float pv = planes[p][3], nv = planes[p][3];
                 for (int a = 0; a < 3; a++) {
                     float nrm = planes[p][a];
-                    pv += nrm * (nrm >= 0 ? c->hi[a] : c->lo[a]);
-                    nv += nrm * (nrm >= 0 ? c->lo[a] : c->hi[a]);
+                    pv += nrm * (nrm >= 0 ? cb[1][a] : cb[0][a]);
+                    nv += nrm * (nrm >= 0 ? cb[0][a] : cb[1][a]);
                 }
                 out_box = pv < 0;
                 inside &= nv >= 0;

@@ -211,8 +211,9 @@ static void nearest_view(const float dm[3], int *ia, int *ie)
     *ie = e < 0 ? 0 : e >= IMP_EL ? IMP_EL - 1 : e;
 }
 
-static void common_uniforms(const prog_u *u, const hz_pass_info *pass)
+static void common_uniforms(GLuint prog, const prog_u *u, const hz_pass_info *pass)
 {
+    hz_gl_set_curvature(prog, pass->cam);
     glUniformMatrix4fv(u->viewproj, 1, GL_FALSE, (const float *)pass->viewproj);
     bool clip = pass->clip_plane[0] != 0 || pass->clip_plane[1] != 0 || pass->clip_plane[2] != 0 ||
                 pass->clip_plane[3] != 0;
@@ -600,7 +601,7 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
     /* Leaves: two-sided, one prefix draw per tree. */
     glDisable(GL_CULL_FACE);
     glUseProgram(g->leaf_prog);
-    common_uniforms(&g->lu, pass);
+    common_uniforms(g->leaf_prog, &g->lu, pass);
     glActiveTexture(GL_TEXTURE1);
     glBindTexture(GL_TEXTURE_BUFFER, g->kept_tex);
     glUniform1i(g->lu.kept, 1);
@@ -642,7 +643,7 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
     glCullFace(GL_BACK);
     glFrontFace(pass->pass == HZ_PASS_REFLECTION ? GL_CW : GL_CCW);
     glUseProgram(g->bark_prog);
-    common_uniforms(&g->bu, pass);
+    common_uniforms(g->bark_prog, &g->bu, pass);
     bind_atlas(&g->bu);
     for (int hull = 0; hull < 2; hull++) {
         glUniform1i(g->bu.hull, hull);
@@ -705,7 +706,7 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
     if (fr->impostors && fr->impostor_count && fr->impostor_count <= g->tree_count) {
         glDisable(GL_CULL_FACE);
         glUseProgram(g->imp_prog);
-        common_uniforms(&g->iu, pass);
+        common_uniforms(g->imp_prog, &g->iu, pass);
         bind_atlas(&g->iu);
         glActiveTexture(GL_TEXTURE0);
         glBindTexture(GL_TEXTURE_BUFFER, g->tree_tex);

@@ -5,6 +5,8 @@
  * call per batch. */
 #include "render_internal.h"
 
+#include "gl_util.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -209,6 +211,7 @@ static void begin(hz_renderer *r, const fx_view *v, bool blend)
     const GLint *bl = r->bb_cur->loc;
     glUseProgram(r->bb_cur->prog);
     glUniformMatrix4fv(bl[BL_VIEWPROJ], 1, GL_FALSE, (const float *)v->viewproj);
+    hz_gl_set_curvature(r->bb_cur->prog, &v->cam);
     /* The camera's axes in world space: the rows of the view rotation. */
     glUniform3f(bl[BL_CAM_RIGHT], v->view[0][0], v->view[1][0], v->view[2][0]);
     glUniform3f(bl[BL_CAM_UP], v->view[0][1], v->view[1][1], v->view[2][1]);

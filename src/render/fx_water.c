@@ -13,17 +13,23 @@
  * hz_camera_mirror_y) or, without one, the main selection. */
 #include "render_internal.h"
 
+#include "gl_util.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "hz_shaders.h"
 
+/* Cells per side of a water plane drawn with Earth curvature (fx_water_vs.glsl):
+ * quadratic spacing keeps each flat cell within ~1e-4 rad of the sphere. */
+enum { WATER_GRID = 64 };
+
 hz_result fx_water_ensure(hz_renderer *r, const fx_frame *f, hz_err *err)
 {
     static const char *const names[] = {"u_rect",    "u_level",   "u_viewproj", "u_has_reflection", "u_viewport",
                                         "u_size",    "u_spacing", "u_hscale",   "u_hoffset",        "u_deep",
-                                        "u_clarity", "u_waves",   "u_reflectivity", NULL};
+                                        "u_clarity", "u_waves",   "u_reflectivity", "u_grid", NULL};
     r->water_cur = prog_cache_get(&r->water, f->bits & (HZ_FX_SKY | HZ_FX_FOG), hz_shader_fx_water_vs,
                                   hz_shader_fx_water_fs, "fx_water", 3, names, err);
     return r->water_cur ? HZ_OK : HZ_ERR_GL;
@@ -105,10 +111,13 @@ static void plane_rect(const hz_renderer *r, const hz_water_plane *p, float zfar
     }
 }
 
-static bool rect_visible(const vec4 planes[6], const float rc[4], float y)
+/* The rectangle at height y as cam draws it (lowered by the Earth curvature). */
+static bool rect_visible(const vec4 planes[6], const hz_camera *cam, const float rc[4], float y)
 {
+    float box[2][3] = {{rc[0], y, rc[1]}, {rc[2], y, rc[3]}};
+    hz_camera_curve_box(cam, box);
     for (int p = 0; p < 6; p++) {
-        float best = planes[p][3] + planes[p][1] * y;
+        float best = planes[p][3] + planes[p][1] * box[planes[p][1] >= 0][1];
         best += planes[p][0] * (planes[p][0] >= 0 ? rc[2] : rc[0]);
         best += planes[p][2] * (planes[p][2] >= 0 ? rc[3] : rc[1]);
         if (best < 0)
@@ -125,7 +134,7 @@ static bool plane_visible(const hz_renderer *r, const fx_frame *f, const fx_view
     plane_rect(r, p, f->zfar, rc);
     vec4 planes[6];
     hz_camera_frustum(&v->cam, planes);
-    return rect_visible((const vec4 *)planes, rc, p->height);
+    return rect_visible((const vec4 *)planes, &v->cam, rc, p->height);
 }
 
 uint32_t fx_water_visible(const hz_renderer *r, const fx_frame *f, const fx_view *v, float *levels)
@@ -237,6 +246,7 @@ void fx_water_draw(hz_renderer *r, const fx_frame *f, const fx_view *v)
     const GLint *u = r->water_cur->loc;
     glUseProgram(r->water_cur->prog);
     glUniformMatrix4fv(u[WL_VIEWPROJ], 1, GL_FALSE, (const float *)v->viewproj);
+    hz_gl_set_curvature(r->water_cur->prog, &v->cam);
     glUniform2f(u[WL_VIEWPORT], (float)v->w, (float)v->h);
     glUniform1i(u[WL_SIZE], (GLint)r->size);
     glUniform1f(u[WL_SPACING], r->spacing);
@@ -277,7 +287,15 @@ void fx_water_draw(hz_renderer *r, const fx_frame *f, const fx_view *v)
             plane_rect(r, p, f->zfar, rc);
             glUniform4fv(u[WL_RECT], 1, rc);
             glUniform1f(u[WL_LEVEL], p->height);
-            glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
+            if (v->cam.earth_radius != 0.0f) {
+                /* Earth curvature: the plane as a grid that can bend (a quad's
+                 * four corners dropped 100 km would sink its middle too). */
+                glUniform1i(u[WL_GRID], WATER_GRID);
+                glDrawArrays(GL_TRIANGLES, 0, 6 * WATER_GRID * WATER_GRID);
+            } else {
+                glUniform1i(u[WL_GRID], 0);
+                glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
+            }
         }
     }
     glBindTexture(GL_TEXTURE_2D, 0);

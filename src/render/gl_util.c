@@ -117,6 +117,15 @@ GLuint hz_gl_link(GLuint vs, GLuint fs, const char *name, hz_err *err)
     return p;
 }
 
+void hz_gl_set_curvature(GLuint prog, const hz_camera *cam)
+{
+    const GLint loc = glGetUniformLocation(prog, "hz_curv");
+    if (loc < 0)
+        return;
+    const float R = cam->earth_radius;
+    glProgramUniform3f(prog, loc, cam->pos[0], cam->pos[2], R != 0.0f ? 0.5f / R : 0.0f);
+}
+
 GLuint hz_gl_program(const char *vs_src, const char *fs_src, const char *name, hz_err *err)
 {
     char vn[64], fn[64];

@@ -4,6 +4,7 @@
 
 #include <epoxy/gl.h>
 
+#include "horizon/camera.h"
 #include "horizon/core.h"
 
 /* Compiles one shader from count source parts (lens as glShaderSource; NULL
@@ -16,6 +17,10 @@ GLuint hz_gl_link(GLuint vs, GLuint fs, const char *name, hz_err *err);
 /* Compiles and links a vertex + fragment program; 0 + err (quoting the GL
  * log) on failure. name is used in messages ("leaf" -> leaf_vs.glsl). */
 GLuint hz_gl_program(const char *vs_src, const char *fs_src, const char *name, hz_err *err);
+/* Sets the Earth curvature uniform hz_curv (shaders/curvature.glsl) of prog
+ * for cam: its eye and earth_radius (0: flat; negative: a mirrored pass).
+ * Programs without it are left alone. Call wherever u_viewproj is set. */
+void hz_gl_set_curvature(GLuint prog, const hz_camera *cam);
 /* HZ_OK, or HZ_ERR_GL naming `what` and the GL error. Clears the error flag. */
 hz_result hz_gl_check(hz_err *err, const char *what);
 

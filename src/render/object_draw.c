@@ -205,6 +205,7 @@ static hz_result submit(hz_scene_gpu *g, const hz_scene *s, const hz_pass_info *
     st->state_changes += 2;
     stream(GL_ARRAY_BUFFER, g->inst_buf, &g->inst_cap, g->mats, (size_t)n * 64);
     glUniformMatrix4fv(g->u_viewproj, 1, GL_FALSE, (const float *)pass->viewproj);
+    hz_gl_set_curvature(g->prog, pass->cam);
     glUniform4fv(g->u_clip, 1, pass->clip_plane);
     glUniform3fv(g->u_sun, 1, pass->sun_dir);
     glUniform3fv(g->u_sky, 1, pass->sky_color);
@@ -285,6 +286,7 @@ static uint32_t gpu_query(hz_scene_gpu *g, const hz_scene *s, const hz_pass_info
     glUseProgram(g->box_prog);
     glBindVertexArray(g->box_vao);
     glUniformMatrix4fv(g->ub_viewproj, 1, GL_FALSE, (const float *)pass->viewproj);
+    hz_gl_set_curvature(g->box_prog, pass->cam);
     glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
     glDepthMask(GL_FALSE);
     glDepthFunc(GL_GEQUAL);
@@ -352,7 +354,7 @@ hz_result hz_scene_gpu_draw(hz_scene_gpu *g, const hz_scene *s, const hz_pass_in
     } else {
         hz_camera_frustum(pass->cam, planes);
     }
-    uint32_t n = hz_scene_cull(s, planes, g->vis, g->scratch_cap, &cs);
+    uint32_t n = hz_scene_cull_curved(s, pass->cam, planes, g->vis, g->scratch_cap, &cs);
     st.objects = cs.objects;
     st.after_frustum = n;
     st.nodes_tested = cs.nodes_tested;

@@ -588,6 +588,7 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
         glUniform1f(tl[TL_HSCALE], r->hscale);
         glUniform1f(tl[TL_HOFFSET], r->hoffset);
         glUniformMatrix4fv(tl[TL_VIEWPROJ], 1, GL_FALSE, (const float *)v->viewproj);
+        hz_gl_set_curvature(tp->prog, &v->cam);
         glUniform3fv(tl[TL_SUN], 1, sp->sun_dir);
         glUniform3fv(tl[TL_HORIZON], 1, sp->sky_color);
         glUniform3fv(tl[TL_EYE], 1, v->eye);
@@ -970,6 +971,33 @@ hz_result hz_renderer_read_rgb(hz_renderer *r, uint8_t *rgb, hz_err *err)
     return HZ_OK;
 }
 
+/* The scene's depth, bottom row first (GL order). */
+static hz_result read_depth_rows(hz_renderer *r, float *depth, hz_err *err)
+{
+    hz_gl_drain();
+    bind_read(r);
+    /* The depth is where the scene was drawn: the chain's scene target or the
+     * output framebuffer. */
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, r->depth_fbo ? r->depth_fbo : r->fbo);
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glReadPixels(0, 0, (GLsizei)r->width, (GLsizei)r->height, GL_DEPTH_COMPONENT, GL_FLOAT, depth);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+    return hz_gl_check(err, "glReadPixels(DEPTH)");
+}
+
+hz_result hz_renderer_read_depth(hz_renderer *r, float *depth, hz_err *err)
+{
+    HZ_ASSERT(r && depth);
+    if (r->to_default)
+        return hz_err_set(err, HZ_ERR_UNSUPPORTED, "renderer: reading the depth needs the internal framebuffer");
+    hz_result res = fx_check_context(r, err, "hz_renderer_read_depth");
+    if (res == HZ_OK)
+        res = read_depth_rows(r, depth, err);
+    if (res == HZ_OK && !flip_rows((uint8_t *)depth, (size_t)r->width * sizeof *depth, r->height))
+        res = hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
+    return res;
+}
+
 hz_result hz_renderer_read_sky_mask(hz_renderer *r, uint8_t *mask, hz_err *err)
 {
     HZ_ASSERT(r && mask);
@@ -982,15 +1010,7 @@ hz_result hz_renderer_read_sky_mask(hz_renderer *r, uint8_t *mask, hz_err *err)
     float *depth = malloc(n * sizeof *depth);
     if (!depth)
         return hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
-    hz_gl_drain();
-    bind_read(r);
-    /* The depth is where the scene was drawn: the chain's scene target or the
-     * output framebuffer. */
-    glBindFramebuffer(GL_READ_FRAMEBUFFER, r->depth_fbo ? r->depth_fbo : r->fbo);
-    glPixelStorei(GL_PACK_ALIGNMENT, 4);
-    glReadPixels(0, 0, (GLsizei)r->width, (GLsizei)r->height, GL_DEPTH_COMPONENT, GL_FLOAT, depth);
-    glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
-    hz_result res = hz_gl_check(err, "glReadPixels(DEPTH)");
+    hz_result res = read_depth_rows(r, depth, err);
     if (res == HZ_OK) {
         /* Depth is cleared to 0 (reverse-Z far); terrain, objects, tree
          * billboards and water planes write it (not the sky, not particles). */

@@ -130,5 +130,49 @@ void hz_camera_mirror_y(const hz_camera *c, float plane_y, hz_camera *dest)
     hz_camera m = *c;
     m.pos[1] = 2.0f * plane_y - c->pos[1];
     m.pitch = -c->pitch;
+    /* The mirrored camera sees the mirrored world: its ground bends up. */
+    m.earth_radius = -c->earth_radius;
     *dest = m;
+}
+
+void hz_camera_curve_box(const hz_camera *cam, float box[2][3])
+{
+    const float R = cam->earth_radius;
+    if (R == 0.0f)
+        return;
+    const float ex = cam->pos[0], ez = cam->pos[2];
+    /* Nearest point of the rectangle (clamped eye) and farthest corner. */
+    const float nx = ex < box[0][0] ? box[0][0] : (ex > box[1][0] ? box[1][0] : ex);
+    const float nz = ez < box[0][2] ? box[0][2] : (ez > box[1][2] ? box[1][2] : ez);
+    const float fx = fabsf(box[0][0] - ex) > fabsf(box[1][0] - ex) ? box[0][0] : box[1][0];
+    const float fz = fabsf(box[0][2] - ez) > fabsf(box[1][2] - ez) ? box[0][2] : box[1][2];
+    const float far = hz_curvature_drop(R, fx - ex, fz - ez), near = hz_curvature_drop(R, nx - ex, nz - ez);
+    box[0][1] -= far > near ? far : near; /* R < 0 (mirrored): the near point drops most */
+    box[1][1] -= far > near ? near : far;
+}
+
+void hz_camera_curve_sphere(const hz_camera *cam, float c[3], float *r)
+{
+    const float R = cam->earth_radius;
+    if (R == 0.0f)
+        return;
+    const float dx = c[0] - cam->pos[0], dz = c[2] - cam->pos[2], d = sqrtf(dx * dx + dz * dz);
+    const float drop = hz_curvature_drop(R, dx, dz);
+    /* d^2 / 2R over [d - r, d + r]: it varies by at most (2 d r + r^2) / 2|R|. */
+    c[1] -= drop;
+    *r += (2.0f * d * *r + *r * *r) / (2.0f * fabsf(R));
+}
+
+float hz_curvature_radius(hz_curvature_mode mode, float extent, float radius)
+{
+    if (mode == HZ_CURVATURE_OFF || (mode == HZ_CURVATURE_AUTO && !(extent > HZ_CURVATURE_AUTO_EXTENT)))
+        return 0.0f;
+    return radius > 0.0f ? radius : (float)HZ_EARTH_RADIUS;
+}
+
+double hz_wgs84_radius(double lat_deg)
+{
+    const double a = 6378137.0, e2 = 6.69437999014e-3;
+    const double s = sin(lat_deg * 3.14159265358979323846 / 180.0);
+    return a * sqrt(1.0 - e2) / (1.0 - e2 * s * s);
 }

@@ -22,6 +22,7 @@ void hz_occlusion_begin(hz_occlusion *o, const hz_camera *cam)
 {
     hz_camera_view(cam, o->view);
     hz_camera_proj(cam, o->proj);
+    o->cam = *cam;
     o->znear = cam->znear > 0 ? cam->znear : 1.0f;
     for (size_t k = 0; k < (size_t)o->w * o->h; k++)
         o->depth[k] = INFINITY;
@@ -121,15 +122,28 @@ static void rasterize_n(hz_occlusion *o, const float *v, size_t count, const mat
 {
     double t0 = hz_time_ms();
     mat4 mv;
-    if (model)
+    const bool curved = o->cam.earth_radius != 0.0f;
+    if (model && !curved)
         glm_mat4_mul(o->view, (vec4 *)model, mv);
     else
         glm_mat4_copy(o->view, mv);
     for (size_t t = 0; t < count; t++) {
         float s[4][2], d[4];
         bool ok = true;
-        for (int k = 0; k < n && ok; k++)
-            ok = project(o, mv, v + (size_t)(3 * n) * t + 3 * k, s[k], &d[k]);
+        for (int k = 0; k < n && ok; k++) {
+            const float *p = v + (size_t)(3 * n) * t + 3 * k;
+            float w[3] = {p[0], p[1], p[2]};
+            if (curved) {
+                /* World, then lowered by the Earth curvature, as the vertex shaders do. */
+                if (model) {
+                    vec4 q;
+                    glm_mat4_mulv((vec4 *)model, (vec4){p[0], p[1], p[2], 1}, q);
+                    w[0] = q[0], w[1] = q[1], w[2] = q[2];
+                }
+                w[1] -= hz_camera_drop(&o->cam, w[0], w[2]);
+            }
+            ok = project(o, mv, w, s[k], &d[k]);
+        }
         if (!ok)
             continue;
         float dmax = d[0];
@@ -162,9 +176,11 @@ bool hz_occlusion_box_hidden(const hz_occlusion *o, const hz_box *b)
 {
     if (hz_box_is_empty(b))
         return false;
+    float cb[2][3] = {{b->min[0], b->min[1], b->min[2]}, {b->max[0], b->max[1], b->max[2]}};
+    hz_camera_curve_box(&o->cam, cb); /* holds the object as drawn */
     float x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY, near = INFINITY;
     for (int k = 0; k < 8; k++) {
-        float p[3] = {k & 1 ? b->max[0] : b->min[0], k & 2 ? b->max[1] : b->min[1], k & 4 ? b->max[2] : b->min[2]};
+        float p[3] = {cb[k & 1 ? 1 : 0][0], cb[k & 2 ? 1 : 0][1], cb[k & 4 ? 1 : 0][2]};
         float s[2], d;
         if (!project(o, o->view, p, s, &d))
             return false; /* reaches the eye's side of the near plane */

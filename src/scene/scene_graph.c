@@ -526,7 +526,26 @@ int hz_box_vs_planes(const hz_box *b, const vec4 *planes, uint32_t plane_count)
     return res;
 }
 
+/* A box against the planes as cam draws it (cam NULL or flat: as it is). */
+static int drawn_box_vs_planes(const hz_box *b, const hz_camera *cam, const vec4 *planes)
+{
+    if (!cam || cam->earth_radius == 0.0f || hz_box_is_empty(b))
+        return hz_box_vs_planes(b, planes, 6);
+    hz_box c = *b;
+    float box[2][3] = {{c.min[0], c.min[1], c.min[2]}, {c.max[0], c.max[1], c.max[2]}};
+    hz_camera_curve_box(cam, box);
+    c.min[1] = box[0][1];
+    c.max[1] = box[1][1];
+    return hz_box_vs_planes(&c, planes, 6);
+}
+
 uint32_t hz_scene_cull(const hz_scene *s, const vec4 planes[6], uint32_t *out, uint32_t cap, hz_cull_stats *stats)
+{
+    return hz_scene_cull_curved(s, NULL, planes, out, cap, stats);
+}
+
+uint32_t hz_scene_cull_curved(const hz_scene *s, const hz_camera *cam, const vec4 planes[6], uint32_t *out,
+                              uint32_t cap, hz_cull_stats *stats)
 {
     hz_cull_stats st = {0};
     uint32_t n_out = 0;
@@ -539,7 +558,7 @@ uint32_t hz_scene_cull(const hz_scene *s, const vec4 planes[6], uint32_t *out, u
         bool take = n->mesh != HZ_MESH_NONE;
         if (!inside_root) {
             st.nodes_tested++;
-            int r = hz_box_vs_planes(&n->sub, planes, 6);
+            int r = drawn_box_vs_planes(&n->sub, cam, planes);
             if (r < 0) {
                 st.subtrees_culled++;
                 descend = take = false;
@@ -549,7 +568,7 @@ uint32_t hz_scene_cull(const hz_scene *s, const vec4 planes[6], uint32_t *out, u
                     inside_root = id;
             } else if (take && n->first_child) {
                 st.nodes_tested++;
-                take = hz_box_vs_planes(&n->own, planes, 6) >= 0;
+                take = drawn_box_vs_planes(&n->own, cam, planes) >= 0;
             }
         }
         if (take) {

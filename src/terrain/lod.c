@@ -241,7 +241,7 @@ bool hz_lod_node_box(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t half, v
     uint32_t l;
     if (!lookup(lod, x, z, half, &i, &l))
         return false;
-    box_of(lod, i, x, z, half, box);
+    box_flat(lod, i, x, z, half, box);
     return true;
 }
 
@@ -271,6 +271,7 @@ hz_result hz_lod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_params *
         leaves->count = 0;
     if (culled)
         culled->count = 0;
+    lod->curv = *cam;
     hz_result r;
     switch (p.mode) {
     case HZ_LOD_QUADTREE: r = hz__lod_select_quadtree(lod, cam, &p, out, leaves, culled, &st); break;

@@ -245,8 +245,9 @@ float hz_lod_morph_factor(hz_lod *lod, const hz_camera *cam, const hz_lod_stats 
     if (R <= 0.0f)
         return 1.0f;
     const float dx = (float)i * lod->spacing - cam->pos[0];
-    const float dy = hworld(lod, i, j) - cam->pos[1];
     const float dz = (float)j * lod->spacing - cam->pos[2];
+    /* To the point as drawn (lowered by the Earth curvature), as the shader does. */
+    const float dy = hworld(lod, i, j) - hz_curvature_drop(cam->earth_radius, dx, dz) - cam->pos[1];
     const float d = sqrtf(dx * dx + dy * dy + dz * dz);
     const float a = stats->morph_start;
     const float m = (d - a * R) / ((1.0f - a) * R);
@@ -370,6 +371,7 @@ static hz_result cdlod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_pa
     const float hsw = lod->hm->scale * lod->zscale; /* metres per h16 step */
     float a = p->morph_start > 0.0f ? p->morph_start : 1.0f / CD_GROW;
     a = a < 1.0f / CD_GROW ? 1.0f / CD_GROW : (a > 0.95f ? 0.95f : a);
+    lod->curv = *cam; /* box_of lowers the boxes for Earth curvature */
     cd_ctx c = {.lod = lod, .margin = frustum_margin(cam), .no_cull = p->no_cull, .culled = culled, .st = st};
     hz_camera_frustum(cam, c.planes);
     st->morph_scale = lambda * hsw;

@@ -339,7 +339,8 @@ static hz_result bidir_repair(free_ctx *c, float m_dist)
             const int facing = side ^ 1; /* W<->E, N<->S */
             if (side_depth(lod, l, (uint32_t)nx, (uint32_t)nz, facing) < l + 2)
                 continue;
-            const float dx = (float)x * sp - ex, dy = hworld(lod, x, z) - ey, dz = (float)z * sp - ez;
+            const float dx = (float)x * sp - ex, dz = (float)z * sp - ez;
+            const float dy = hworld(lod, x, z) - hz_curvature_drop(lod->curv.earth_radius, dx, dz) - ey;
             const float dist = sqrtf(dx * dx + dy * dy + dz * dz);
             if (dist > m_dist || (lod->flags[idx] & FL_FROZEN)) {
                 /* Coarsen the fine side: the neighbour's two children on the

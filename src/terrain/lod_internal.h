@@ -71,6 +71,10 @@ struct hz_lod {
 
     /* roam, built on first use. */
     roam_state *roam;
+
+    /* The camera of the selection under way (hz_lod_select*): its eye and
+     * earth_radius lower the node boxes (box_of) for Earth curvature. */
+    hz_camera curv;
 };
 
 /* max without libm's NaN handling (fmaxf is a call without -ffast-math);
@@ -121,7 +125,8 @@ static inline float hworld(const hz_lod *lod, uint32_t x, uint32_t z)
     return (lod->hm->offset + lod->hm->scale * (float)h16(lod, x, z)) * lod->zscale;
 }
 
-static inline void box_of(const hz_lod *lod, size_t i, uint32_t x, uint32_t z, uint32_t s, vec3 box[2])
+/* The node's box on the flat world. */
+static inline void box_flat(const hz_lod *lod, size_t i, uint32_t x, uint32_t z, uint32_t s, vec3 box[2])
 {
     const hz_heightmap *hm = lod->hm;
     box[0][0] = (float)(x - s) * lod->spacing;
@@ -130,6 +135,14 @@ static inline void box_of(const hz_lod *lod, size_t i, uint32_t x, uint32_t z, u
     box[1][2] = (float)(z + s) * lod->spacing;
     box[0][1] = (hm->offset + hm->scale * lod->mn[i]) * lod->zscale;
     box[1][1] = (hm->offset + hm->scale * lod->mx[i]) * lod->zscale;
+}
+
+/* The node's box as drawn for the selection's camera: lowered by the Earth
+ * curvature's drop over it (nothing on a flat world). */
+static inline void box_of(const hz_lod *lod, size_t i, uint32_t x, uint32_t z, uint32_t s, vec3 box[2])
+{
+    box_flat(lod, i, x, z, s, box);
+    hz_camera_curve_box(&lod->curv, box);
 }
 
 /* Box outside the frustum? p-vertex test against each plane (conservative:
@@ -211,6 +224,7 @@ static inline hz_result lv_push(hz_lod *lod, uint32_t l, uint32_t x, uint32_t z)
  * not) or, with a pixel error, the projected d2 error. */
 typedef struct split_rule {
     float ex, ey, ez;  /* eye */
+    float R;           /* earth radius, 0 = flat */
     float C, C2;
     bool unclamped;
     float k_over_tau;  /* > 0: pixel mode */
@@ -218,7 +232,7 @@ typedef struct split_rule {
 
 static inline split_rule split_rule_make(const hz_camera *cam, const hz_lod_params *p)
 {
-    split_rule r = {.ex = cam->pos[0], .ey = cam->pos[1], .ez = cam->pos[2]};
+    split_rule r = {.ex = cam->pos[0], .ey = cam->pos[1], .ez = cam->pos[2], .R = cam->earth_radius};
     r.C = p->c > 0 ? p->c : 25.0f;
     r.C2 = p->c2 > 0 ? p->c2 : 2.5f;
     r.unclamped = p->criterion == HZ_LOD_UNCLAMPED;
@@ -244,8 +258,8 @@ static inline bool split_rule_test(const hz_lod *lod, const split_rule *r, uint3
 {
     const float sp = lod->spacing;
     const float cx = (float)x * sp - r->ex;
-    const float cy = hworld(lod, x, z) - r->ey;
     const float cz = (float)z * sp - r->ez;
+    const float cy = hworld(lod, x, z) - hz_curvature_drop(r->R, cx, cz) - r->ey; /* as drawn */
     const float dist = sqrtf(cx * cx + cy * cy + cz * cz);
     const float d = 2.0f * (float)s * sp;
     if (r->k_over_tau > 0)

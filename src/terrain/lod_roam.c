@@ -306,12 +306,21 @@ typedef struct frame_ctx {
     vec3 eye;
 } frame_ctx;
 
+/* The wedgie box as drawn: lowered by the Earth curvature (lod->curv). */
+static void drawn_box(const hz_lod *lod, const rtri *T, vec3 box[2])
+{
+    memcpy(box, T->box, sizeof T->box);
+    hz_camera_curve_box(&lod->curv, box);
+}
+
 static float priority(const frame_ctx *c, rtri *T, bool *outside)
 {
-    *outside = !c->no_cull && box_outside((const vec3 *)T->box, (const vec4 *)c->planes, c->margin);
+    vec3 box[2];
+    drawn_box(c->lod, T, box);
+    *outside = !c->no_cull && box_outside((const vec3 *)box, (const vec4 *)c->planes, c->margin);
     if (*outside || T->err_m <= 0.0f)
         return 0.0f;
-    const float d = box_distance((const vec3 *)T->box, c->eye);
+    const float d = box_distance((const vec3 *)box, c->eye);
     return T->err_m * c->k / fmaxf(d, 1e-3f);
 }
 
@@ -488,7 +497,9 @@ hz_result hz__lod_select_roam(hz_lod *lod, const hz_camera *cam, const hz_lod_pa
             continue;
         st->nodes_visited++;
         if (!p->no_cull) {
-            if (box_outside((const vec3 *)T->box, (const vec4 *)c.planes, c.margin)) {
+            vec3 box[2];
+            drawn_box(lod, T, box);
+            if (box_outside((const vec3 *)box, (const vec4 *)c.planes, c.margin)) {
                 st->nodes_culled++;
                 continue;
             }

@@ -87,14 +87,17 @@ hz_result hz_metrics_px_error_ex(const hz_heightmap *hm, float spacing, float zs
         for (uint32_t x = 0; x < n; x++) {
             const double true_h = hz_heightmap_get(hm, x, z);
             const double wx = (double)x * spacing, wz = (double)z * spacing, wy = true_h * zscale;
-            if (!in_frustum((const vec4 *)planes, wx, wy, wz))
+            /* Where the sample is drawn: lowered by the Earth curvature (the
+             * LOD surface and the true one drop alike, so dh is unchanged). */
+            const double wy_drawn = wy - hz_camera_drop(cam, (float)wx, (float)wz);
+            if (!in_frustum((const vec4 *)planes, wx, wy_drawn, wz))
                 continue;
             const float lod_h = scratch->surface[(size_t)z * n + x];
             if (isnan(lod_h)) {
                 out->uncovered++; /* a hole, or a culled node whose samples are in the frustum */
                 continue;
             }
-            const double dx = wx - cam->pos[0], dy = wy - cam->pos[1], dz = wz - cam->pos[2];
+            const double dx = wx - cam->pos[0], dy = wy_drawn - cam->pos[1], dz = wz - cam->pos[2];
             const double dist = sqrt(dx * dx + dy * dy + dz * dz);
             const double dh = fabs((double)lod_h - wy);
             const double px = dist > 1e-6 ? dh * k / dist : (dh > 0 ? INFINITY : 0);
@@ -211,7 +214,8 @@ void hz_metrics_surface_change(const hz_heightmap *hm, float spacing, float zsca
             if (isnan(prev[i]) || isnan(cur[i]))
                 continue;
             const double wx = (double)x * spacing, wz = (double)z * spacing,
-                         wy = (double)hz_heightmap_get(hm, x, z) * zscale;
+                         wy = (double)hz_heightmap_get(hm, x, z) * zscale -
+                              hz_camera_drop(cam, (float)wx, (float)wz); /* as drawn */
             if (!in_frustum((const vec4 *)planes, wx, wy, wz))
                 continue;
             const double dx = wx - cam->pos[0], dy = wy - cam->pos[1], dz = wz - cam->pos[2];

@@ -576,6 +576,7 @@ static void node_box_img(const sel *c, const slot *q, size_t li, uint32_t sh, ui
     }
     if (img)
         img[0] = w[0], img[1] = w[1];
+    hz_camera_curve_box(c->cam, box); /* as drawn: lowered by the Earth curvature */
 }
 
 

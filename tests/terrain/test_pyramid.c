@@ -18,6 +18,7 @@
 #include "horizon/grid.h"
 #include "horizon/heightmap.h"
 #include <ogr_srs_api.h>
+#include "horizon/metrics.h"
 #include "horizon/pyramid.h"
 #include "horizon/stream.h"
 #include "mesh_check.h"
@@ -422,6 +423,77 @@ static void test_texels_agree_across_tiles(void **state)
     hz_stream_destroy(s);
 }
 
+/* Earth curvature on the streamed path: with every tile loaded, the patches
+ * of a curved camera cover every sample whose curved position is in view. A
+ * low telephoto whose top plane is level: hills just above the eye, outside
+ * a flat view, sink into it (node boxes that were not lowered would be culled). */
+static void test_stream_curved_culling(void **state)
+{
+    (void)state;
+    hz_err err = {0};
+    hz_stream *s = hz_stream_create(&(hz_stream_desc){.path = hzp, .cache_bytes = 1ull << 30, .synchronous = true},
+                                    &err);
+    assert_non_null(s);
+    const hz_pyr_info *in = hz_stream_info(s);
+    hz_heightmap hm;
+    full_heightmap(&hm);
+    hz_patch_list pl = {0};
+    hz_index_list il = {0};
+    float *surf = malloc(sizeof(float) * 1025 * 1025);
+    uint64_t sunk_in = 0, checked = 0;
+    for (int k = 0; k < 24; k++) {
+        hz_camera cam = {.pos = {30.0f * 2, 150.0f + 60.0f * (float)k, 30.0f * (60.0f + 17.0f * (float)k)},
+                         .yaw = 90.0f, .pitch = -2.0f, .fov_y = 4.0f, .aspect = 16.0f / 9.0f, .znear = 1.0f,
+                         .zfar = 60000.0f, .earth_radius = 6371008.8f};
+        /* Select until every wanted tile is resident. */
+        for (int round = 0; round < 64; round++) {
+            assert_int_equal(hz_stream_select(s, &cam, &(hz_lod_params){.mode = HZ_LOD_CDLOD, .pixel_error = 1}, &pl,
+                                              NULL),
+                             HZ_OK);
+            uint32_t slot, n = 0;
+            const uint16_t *tex;
+            while (hz_stream_next_upload(s, &slot, &tex)) {
+                hz_stream_uploaded(s, slot);
+                n++;
+            }
+            if (!n && round > 0)
+                break;
+        }
+        il.count = 0;
+        assert_int_equal(hz_patches_to_indices(in->size, in->patch_cells, pl.data, pl.count, &il), HZ_OK);
+        assert_int_equal(hz_metrics_surface(&hm, 1.0f, il.data, il.count, NULL, NULL, surf), HZ_OK);
+        vec4 planes[6];
+        hz_camera_frustum(&cam, planes);
+        for (uint32_t j = 0; j < H; j++)
+            for (uint32_t i = 0; i < W; i++) {
+                if (value_at(i, j) == -32768)
+                    continue;
+                const float x = 30.0f * (float)i, z = 30.0f * (float)j, y = (float)value_at(i, j);
+                const float p[3] = {x, y - hz_camera_drop(&cam, x, z), z};
+                float inside = INFINITY, flat_inside = INFINITY;
+                for (int q = 0; q < 6; q++) {
+                    inside = fminf(inside, planes[q][0] * p[0] + planes[q][1] * p[1] + planes[q][2] * p[2] + planes[q][3]);
+                    flat_inside = fminf(flat_inside, planes[q][0] * x + planes[q][1] * y + planes[q][2] * z + planes[q][3]);
+                }
+                if (inside <= 0.5f)
+                    continue;
+                checked++;
+                sunk_in += flat_inside < 0;
+                if (isnan(surf[(size_t)j * 1025 + i]))
+                    fail_msg("camera %d: sample (%u, %u) is drawn %.2f m inside the view but no patch covers it", k, i,
+                             j, (double)inside);
+            }
+    }
+    printf("curved stream: %llu samples in view covered, %llu of them outside a flat view\n",
+           (unsigned long long)checked, (unsigned long long)sunk_in);
+    assert_true(checked > 1000 && sunk_in > 100);
+    free(surf);
+    free(pl.data);
+    free(il.data);
+    hz_heightmap_destroy(&hm);
+    hz_stream_destroy(s);
+}
+
 /* ---- --wrap ---- */
 
 typedef struct vkey {
@@ -778,6 +850,7 @@ int main(void)
         cmocka_unit_test(test_texels_agree_across_tiles),
         cmocka_unit_test(test_wrap_seamless),
         cmocka_unit_test(test_slide_in_edges_agree),
+        cmocka_unit_test(test_stream_curved_culling),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }
