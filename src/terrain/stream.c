@@ -28,6 +28,9 @@
 #define PREFETCH 1.5f
 #define MAX_INFLIGHT 16u
 #define MAX_LOADERS 16u
+/* a leaf flag (bit 6; bits 0-1 are ST_*, 2-5 the don't-care edges): the LOD
+ * wanted this node split, and a tile it needs was not resident */
+#define ST_LATE 0x40u
 
 enum { SLOT_FREE = 0, SLOT_LOADING, SLOT_READY, SLOT_RESIDENT, SLOT_FAILED };
 
@@ -641,14 +644,20 @@ static hz_result classify(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool *c
     return HZ_OK;
 }
 
-/* Can node (sh, ix, iz), a leaf, split with every forced split it needs? */
-static bool can_split(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, uint32_t depth)
+/* Can node (sh, ix, iz), a leaf, split with every forced split it needs?
+ * Asks for every tile missing for that (at priority prio): the tile of a
+ * forced split is not always one its own node prefetches (a flat neighbour
+ * has a short range), and without asking the node would stay coarser. */
+static bool can_split(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, uint32_t depth, float prio)
 {
     if (sh == 0 || depth > HZ_PYR_MAX_LEVELS)
         return false;
     size_t li;
-    if (!node_slot(s, sh - 1, 2 * ix, 2 * iz, &li))
-        return false;
+    bool ok = true;
+    if (!node_slot(s, sh - 1, 2 * ix, 2 * iz, &li)) {
+        want_tile(s, sh - 1, 2 * ix, 2 * iz, prio);
+        ok = false;
+    }
     for (int dir = 0; dir < 4; dir++) {
         if (neighbour(s, sh, ix, iz, dir) != NB_ABSENT)
             continue;
@@ -660,10 +669,10 @@ static bool can_split(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, uint3
         case DIR_N: qz = (qz + pside - 1) % pside; break;
         default: qz = (qz + 1) % pside; break;
         }
-        if (!can_split(s, sh + 1, qx, qz, depth + 1))
-            return false;
+        if (!can_split(s, sh + 1, qx, qz, depth + 1, prio))
+            ok = false;
     }
-    return true;
+    return ok;
 }
 
 static hz_result split_node(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool forced)
@@ -838,6 +847,9 @@ static hz_result emit(sel *c, hz_patch_list *out)
                 .layer1 = (uint32_t)(q - s->slots) + 1, .ox = (uint16_t)(lx * P), .oz = (uint16_t)(lz * P)};
             c->st->triangles += hz__patch_triangles(P, coarse);
             c->st->leaves++;
+            s->st.drawn++;
+            if (q->flags[li] & ST_LATE)
+                s->st.late++;
             if (top - sh > c->st->max_level)
                 c->st->max_level = top - sh;
         }
@@ -893,10 +905,10 @@ hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_para
                 }
                 const bool whole = in->wrap && sh + 1 >= top;
                 if (d2 < range * range || whole) {
-                    if (can_split(s, sh, ix, iz, 0))
+                    if (can_split(s, sh, ix, iz, 0, range / (sqrtf(d2) + 1e-3f)))
                         r = split_node(&c, sh, ix, iz, false);
                     else
-                        s->st.late++;
+                        q->flags[li] |= ST_LATE; /* counted in emit if it stays a leaf */
                 }
             }
         }
