@@ -18,23 +18,6 @@
 #include "horizon/safety.h"
 #include "horizon/stream.h"
 
-static void progress_line(void *user, const char *what, uint64_t done, uint64_t total)
-{
-    const bool quiet = user && *(const bool *)user;
-    if (quiet || total == 0)
-        return;
-    static int last = -1;
-    const int pct = (int)(100.0 * (double)done / (double)total);
-    if (pct == last && done != total)
-        return;
-    last = done == total ? -1 : pct;
-    if (isatty(2))
-        fprintf(stderr, "\r%s: %3d%% (%llu/%llu)%s", what, pct, (unsigned long long)done, (unsigned long long)total,
-                done == total ? "\n" : "");
-    else if (pct % 10 == 0 || done == total)
-        fprintf(stderr, "%s: %d%% (%llu/%llu)\n", what, pct, (unsigned long long)done, (unsigned long long)total);
-}
-
 static bool num(const char *opt, const char *s, double lo, double hi, double *out)
 {
     char *end;
@@ -158,8 +141,7 @@ int cmd_import(int argc, char **argv)
             fprintf(stderr, "horizon import: --out '%s' is the input '%s'; refusing to overwrite it\n", d.out, ins[k]);
             return 2;
         }
-    d.progress = progress_line;
-    d.progress_user = &quiet;
+    d.progress = quiet ? NULL : hz_progress_stderr; /* a bar in a terminal, else periodic lines */
     hz_pyr_import_stats st = {0};
     hz_err err = {0};
     if (jobs) {
