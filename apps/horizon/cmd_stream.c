@@ -197,7 +197,7 @@ int pyramid_info(const char *path, bool verify, json_t *arr)
     uint64_t bad = 0;
     hz_result vr = HZ_OK;
     if (verify)
-        vr = hz_pyramid_verify(p, &bad, NULL, NULL, &err);
+        vr = hz_pyramid_verify(p, &bad, hz_progress_stderr, NULL, &err); /* long over http: progress */
     hz_georef *g = NULL;
     double corners[4][2] = {{0}};
     bool has_geo = false;
@@ -298,6 +298,7 @@ static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
     optind = 2;
     int ch;
     double v;
+    bool fps_given = false;
     while ((ch = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         switch (ch) {
         case 'T': o->terrain = optarg; break;
@@ -330,7 +331,11 @@ static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
             o->remote.connections = (uint32_t)v;
             break;
         case 1006: o->realtime = true; break;
-        case 1007: if (!num("--fps", optarg, 1, 1000, &v)) return 2; o->fps = v; break;
+        case 1007:
+            if (!num("--fps", optarg, 1, 1000, &v)) return 2;
+            o->fps = v;
+            fps_given = true;
+            break;
         case 1008: o->deterministic = true; break;
         case 'l':
             if (strcmp(optarg, "cdlod")) {
@@ -361,6 +366,11 @@ static int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
                             "--deterministic\n", cmd);
             return 2;
         }
+    }
+    if (fps_given && !o->realtime) {
+        fprintf(stderr, "horizon %s: --fps paces a --realtime flight (a streamed bench without --realtime draws "
+                        "--frames frames as fast as it can)\n", cmd);
+        return 2;
     }
     if (o->realtime && o->deterministic) {
         fprintf(stderr, "horizon %s: --realtime and --deterministic exclude each other (a deterministic flight "
