@@ -787,18 +787,22 @@ int stream_bench(int argc, char **argv)
     if (!frame || !lod || !tris || (o.deterministic && !rgb))
         goto done;
     int64_t last_slot = -1;
+    double pace0 = fly0;
     for (uint32_t f = 0; f < F; f++) {
         float t = F > 1 ? dur * (float)f / (float)(F - 1) : 0.0f;
         if (o.realtime) {
-            /* the next slot not yet past: wait for it, or skip the missed ones */
-            const double now = (hz_time_ms() - fly0) / 1000.0;
+            /* the next slot not yet past: wait for it, or skip the missed ones
+             * (slot 0 is the first frame's start) */
+            if (f == 0)
+                pace0 = hz_time_ms();
+            const double now = (hz_time_ms() - pace0) / 1000.0;
             int64_t slot = (int64_t)ceil(now * o.fps - 1e-6);
             slot = slot > last_slot ? slot : last_slot + 1;
             if ((double)slot > (double)dur * o.fps + 1e-6 || (o.frames_given && slot >= (int64_t)o.frames))
                 break;
             dropped += (uint64_t)(slot - last_slot - 1);
             last_slot = slot;
-            const double wait_ms = fly0 + 1000.0 * (double)slot / o.fps - hz_time_ms();
+            const double wait_ms = pace0 + 1000.0 * (double)slot / o.fps - hz_time_ms();
             if (wait_ms > 0)
                 sleep_ms(wait_ms);
             t = (float)((double)slot / o.fps);
