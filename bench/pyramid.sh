@@ -36,6 +36,12 @@ if [ -d "$DATA/srtm_sierra_coast" ]; then
   "$HZ" info "$P/sierra.hzp" --json > "$P/sierra_info.json"
   "$HZ" render --terrain "$P/sierra.hzp" --camera 540000,4200,400000,60,-6 --out "$OUT/sierra_streamed.png" --json > "$P/sierra_render.json"
 fi
+# The same mosaic imported as 1, 2 and 4 parallel jobs (GNU parallel, --tiles / --finish), 3 runs each
+# (IMPORT_JOBS=0 skips it: about 10 min on 2 idle cores).
+if [ "${IMPORT_JOBS:-1}" = 1 ] && [ -d "$DATA/srtm_sierra_coast" ] && command -v parallel >/dev/null; then
+  echo "== pyramid: srtm_sierra_coast as 1, 2, 4 parallel jobs" >&2
+  bash bench/import_jobs.sh "$HZ" "$DATA/srtm_sierra_coast" "$P"
+fi
 if [ "${BIG:-0}" = 1 ]; then
   echo "== pyramid: import 65537^2 perlin (long)" >&2
   tv "$P/g64k_import" "$HZ" import --generate perlin --size 65537 --seed 1 --out "$P/g64k.hzp" --quiet --json > "$P/g64k_import.json"

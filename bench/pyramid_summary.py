@@ -51,3 +51,20 @@ if si and sn:
     print(f"| srtm_sierra_coast (24 tiles) | {d['width']}×{d['height']} samples at {d['spacing']:.1f} m, {d['crs']}, "
           f"{corners}; nodata {100*d['nodata_fraction']:.1f} %; import {si['ms']/1000:.0f} s, "
           f"{si['bytes']/1e6:.0f} MB ({d['bytes_per_sample']:.2f} bytes/sample of data), lossless |")
+ij = load("import_jobs")
+if ij:
+    import statistics
+    runs = ij["runs"]
+    print(f"\n### Import of {ij['source']} in parallel jobs ({ij['jobs']} jobs, --tiles A-A / --finish; "
+          f"{ij['cores']} cores, shared with other work; medians of {len(runs) // 4 or 1} runs)\n")
+    print("| import | wall time s (median) | runs s |")
+    print("|---|---|---|")
+    one = [r["s"] for r in runs if r["mode"] == "one run"]
+    if one:
+        print(f"| one run (`--threads {runs[0].get('threads', '')}`) | {statistics.median(one):.1f} | "
+              f"{', '.join(f'{v:.1f}' for v in one)} |")
+    for par in (1, 2, 4):
+        v = [r["s"] for r in runs if r["mode"] == "parallel" and r["parallel"] == par]
+        if v:
+            print(f"| GNU parallel -j {par}, `--threads 1` per job, + `--finish` | {statistics.median(v):.1f} | "
+                  f"{', '.join(f'{x:.1f}' for x in v)} |")

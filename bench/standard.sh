@@ -115,13 +115,15 @@ echo "== forest ($fr frames)" >&2
 "$HZ" bench --quiet --generate perlin --size 4097 --seed 1 --forest 1660 --frames "$fr" --json "$OUT/forest.json" >/dev/null
 
 # Pyramids over HTTP (issue 17): nginx on loopback and a proxy adding 50 ms per
-# request; tiles/s, MB/s and the flyover -> out/bench/http.json. HTTP=0 skips it.
+# request; tiles/s, MB/s, the flyover paced and unpaced, frames identical -> out/bench/http.json
+# and http.md. HTTP=0 skips it.
 [ "${HTTP:-1}" = 0 ] || python3 bench/http_bench.py "$HZ" "$OUT"
 # City models and scene objects (issue 13): bench/city.sh writes city_*.json and city.md.
 bash bench/city.sh "$HZ" "$DATA" "$OUT" >/dev/null
 
 python3 bench/summary.py "$OUT" > "$OUT/summary.md"
 cat "$OUT/city.md" >> "$OUT/summary.md"
+[ ! -f "$OUT/http.md" ] || cat "$OUT/http.md" >> "$OUT/summary.md"
 # Terrain pyramids: import and streaming figures (PYRAMID=0 skips them, BIG=1 adds 65537^2).
 if [ "${PYRAMID:-1}" = 1 ]; then
   bash bench/pyramid.sh "$HZ" "$DATA" "$PT" >/dev/null

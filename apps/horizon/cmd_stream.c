@@ -2,12 +2,14 @@
  * info over a streamed pyramid (--terrain NAME.hzp). */
 #include "stream_cli.h"
 
+#include <errno.h>
 #include <getopt.h>
 #include <jansson.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "horizon/gl_limits.h"
@@ -16,23 +18,6 @@
 #include "horizon/safety.h"
 #include "horizon/stream.h"
 #include "horizon/imagery.h"
-
-static void progress_line(void *user, const char *what, uint64_t done, uint64_t total)
-{
-    const bool quiet = user && *(const bool *)user;
-    if (quiet || total == 0)
-        return;
-    static int last = -1;
-    const int pct = (int)(100.0 * (double)done / (double)total);
-    if (pct == last && done != total)
-        return;
-    last = done == total ? -1 : pct;
-    if (isatty(2))
-        fprintf(stderr, "\r%s: %3d%% (%llu/%llu)%s", what, pct, (unsigned long long)done, (unsigned long long)total,
-                done == total ? "\n" : "");
-    else if (pct % 10 == 0 || done == total)
-        fprintf(stderr, "%s: %d%% (%llu/%llu)\n", what, pct, (unsigned long long)done, (unsigned long long)total);
-}
 
 static bool num(const char *opt, const char *s, double lo, double hi, double *out)
 {
@@ -157,8 +142,7 @@ int cmd_import(int argc, char **argv)
             fprintf(stderr, "horizon import: --out '%s' is the input '%s'; refusing to overwrite it\n", d.out, ins[k]);
             return 2;
         }
-    d.progress = progress_line;
-    d.progress_user = &quiet;
+    d.progress = quiet ? NULL : hz_progress_stderr; /* a bar in a terminal, else periodic lines */
     hz_pyr_import_stats st = {0};
     hz_err err = {0};
     if (jobs) {
@@ -214,7 +198,7 @@ int pyramid_info(const char *path, bool verify, json_t *arr)
     uint64_t bad = 0;
     hz_result vr = HZ_OK;
     if (verify)
-        vr = hz_pyramid_verify(p, &bad, NULL, NULL, &err);
+        vr = hz_pyramid_verify(p, &bad, hz_progress_stderr, NULL, &err); /* long over http: progress */
     hz_georef *g = NULL;
     double corners[4][2] = {{0}};
     bool has_geo = false;
@@ -300,12 +284,17 @@ int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         {"script", required_argument, 0, 1201}, {"screenshot", required_argument, 0, 1202},
         {"speed", required_argument, 0, 1203},  {"dt", required_argument, 0, 1204},
         {"no-vsync", no_argument, 0, 1205},     {"no-hud", no_argument, 0, 1206},
-        {"curvature", required_argument, 0, 1006},
+        {"curvature", required_argument, 0, 1010},
+        /* bench pacing */
+        {"realtime", no_argument, 0, 1006}, {"fps", required_argument, 0, 1007},
+        {"deterministic", no_argument, 0, 1008},
         {0, 0, 0, 0}};
-    *o = (sopts){.cache_mb = 256, .tau = 1.0, .width = 1280, .height = 720, .frames = strcmp(cmd, "view") ? 120 : 0};
+    *o = (sopts){.cache_mb = 256, .tau = 1.0, .width = 1280, .height = 720, .frames = strcmp(cmd, "view") ? 120 : 0,
+                 .fps = 30};
     optind = 2;
     int ch;
     double v;
+    bool fps_given = false;
     while ((ch = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         switch (ch) {
         case 'T': o->terrain = optarg; break;
@@ -314,7 +303,11 @@ int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         case 'e': if (!num("--pixel-error", optarg, 0.05, 100, &v)) return 2; o->tau = v; break;
         case 'w': if (!num("--width", optarg, 16, 8192, &v)) return 2; o->width = (uint32_t)v; break;
         case 'H': if (!num("--height", optarg, 16, 8192, &v)) return 2; o->height = (uint32_t)v; break;
-        case 'f': if (!num("--frames", optarg, 1, 100000, &v)) return 2; o->frames = (uint32_t)v; break;
+        case 'f':
+            if (!num("--frames", optarg, 1, 100000, &v)) return 2;
+            o->frames = (uint32_t)v;
+            o->frames_given = true;
+            break;
         case 'p': o->path = optarg; break;
         case 'J': o->json = true; break;
         case 'q': o->quiet = true; break;
@@ -351,13 +344,20 @@ int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
             if (!num("--imagery-max", optarg, 64, HZ_IMAGERY_MAX_SIDE, &v)) return 2;
             o->imagery_max = (uint32_t)v;
             break;
-        case 1006:
+        case 1010:
             if (!curv_cli_parse(optarg, &o->curv.mode)) {
                 fprintf(stderr, "horizon %s: invalid value '%s' for --curvature: expected on, off or auto\n", cmd,
                         optarg);
                 return 2;
             }
             break;
+        case 1006: o->realtime = true; break;
+        case 1007:
+            if (!num("--fps", optarg, 1, 1000, &v)) return 2;
+            o->fps = v;
+            fps_given = true;
+            break;
+        case 1008: o->deterministic = true; break;
         case 'l':
             if (strcmp(optarg, "cdlod")) {
                 fprintf(stderr, "horizon %s: a streamed --terrain is drawn with --lod cdlod only\n", cmd);
@@ -383,10 +383,25 @@ int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         default:
             fprintf(stderr, "horizon %s --terrain: options are --terrain --cache-mb --out --camera --pixel-error "
                             "--width --height --path --frames --json --quiet --disk-cache --disk-cache-mb "
-                            "--http-timeout --http-retries --http-connections --curvature --imagery --imagery-max; view "
-                            "also --speed --dt --script --screenshot --no-vsync --no-hud\n", cmd);
+                            "--http-timeout --http-retries --http-connections --curvature --imagery --imagery-max; bench "
+                            "also --realtime --fps --deterministic; view also --speed --dt --script --screenshot "
+                            "--no-vsync --no-hud\n", cmd);
             return 2;
         }
+    }
+    if (fps_given && !o->realtime) {
+        fprintf(stderr, "horizon %s: --fps paces a --realtime flight (a streamed bench without --realtime draws "
+                        "--frames frames as fast as it can)\n", cmd);
+        return 2;
+    }
+    if (o->realtime && o->deterministic) {
+        fprintf(stderr, "horizon %s: --realtime and --deterministic exclude each other (a deterministic flight "
+                        "waits for its tiles)\n", cmd);
+        return 2;
+    }
+    if ((o->realtime || o->deterministic) && strcmp(cmd, "bench")) {
+        fprintf(stderr, "horizon %s: --realtime and --deterministic are bench options\n", cmd);
+        return 2;
     }
     if (optind < argc) {
         fprintf(stderr, "horizon %s: unexpected argument '%s'\n", cmd, argv[optind]);
@@ -454,8 +469,10 @@ int sctx_open(sctx *c, const sopts *o, const char *cmd)
         c->s = hz_stream_create(&(hz_stream_desc){.path = o->terrain,
                                                   .cache_bytes = (uint64_t)(o->cache_mb * 1048576.0),
                                                   .remote = o->remote, .max_slots = hz_gl_query_max_tile_layers(),
-                                                  /* one still image: every tile as it is, no slide-in */
-                                                  .slide_seconds = strcmp(cmd, "render") ? 0.0f : -1.0f},
+                                                  /* one still image, or a deterministic flight (every
+                                                   * tile loaded before its frame): tiles as they are */
+                                                  .slide_seconds = !strcmp(cmd, "render") || o->deterministic ? -1.0f
+                                                                                                               : 0.0f},
                                 &err);
     if (!c->r || !c->s || hz_renderer_set_stream(c->r, hz_stream_info(c->s), hz_stream_slots(c->s), hz_stream_texels(c->s),
                                         &err) != HZ_OK) {
@@ -526,6 +543,45 @@ void stream_curvature(sopts *o, const hz_pyr_info *in)
     hz_georef_destroy(g);
 }
 
+/* Selects and loads until the selection asks for nothing more: every tile
+ * the view wants (and prefetches) is resident. Adds the rounds and the tiles
+ * loaded; sums the requests of the rounds into *requested when given. */
+static int load_all(sctx *c, const hz_camera *cam, uint32_t *rounds, uint32_t *loads, uint64_t *requested)
+{
+    for (uint32_t k = 0; k < 400; k++, (*rounds)++) {
+        hz_lod_stats st;
+        if (hz_stream_select(c->s, cam, &c->lp, &c->pl, &st) != HZ_OK)
+            return 1;
+        hz_stream_wait(c->s);
+        uint32_t n;
+        if (upload_ready(c, &n))
+            return 1;
+        *loads += n;
+        hz_stream_stats ss = hz_stream_take_stats(c->s);
+        if (requested)
+            *requested += ss.requested;
+        if (n == 0 && ss.pending == 0 && ss.requested == 0)
+            break;
+    }
+    return 0;
+}
+
+static void sleep_ms(double ms)
+{
+    struct timespec ts = {.tv_sec = (time_t)(ms / 1000.0), .tv_nsec = (long)(fmod(ms, 1000.0) * 1e6)};
+    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {
+    }
+}
+
+/* FNV-1a, 64 bits: a frame's fingerprint (frames compared across runs). */
+static uint64_t fnv64(const uint8_t *p, size_t n)
+{
+    uint64_t h = 0xcbf29ce484222325ULL;
+    for (size_t k = 0; k < n; k++)
+        h = (h ^ p[k]) * 0x100000001b3ULL;
+    return h;
+}
+
 hz_camera default_camera(const hz_pyr_info *in, uint32_t w, uint32_t h)
 {
     const float ex = (float)((in->data_w - 1) * in->spacing), ez = (float)((in->data_h - 1) * in->spacing);
@@ -572,22 +628,10 @@ int stream_render(int argc, char **argv)
     hz_lod_stats st = {0};
     uint32_t rounds = 0, loads = 0;
     const double t0 = hz_time_ms();
-    for (; rounds < 400; rounds++) {
-        if (hz_stream_select(c.s, &cam, &c.lp, &c.pl, &st) != HZ_OK) {
-            fprintf(stderr, "horizon render: out of memory in the selection\n");
-            sctx_free(&c);
-            return 1;
-        }
-        hz_stream_wait(c.s);
-        uint32_t n;
-        if (upload_ready(&c, &n)) {
-            sctx_free(&c);
-            return 1;
-        }
-        loads += n;
-        hz_stream_stats ss = hz_stream_take_stats(c.s);
-        if (n == 0 && ss.pending == 0 && ss.requested == 0)
-            break;
+    if (load_all(&c, &cam, &rounds, &loads, NULL)) {
+        fprintf(stderr, "horizon render: out of memory in the selection\n");
+        sctx_free(&c);
+        return 1;
     }
     const double load_ms = hz_time_ms() - t0;
     hz_stream_select(c.s, &cam, &c.lp, &c.pl, &st);
@@ -791,29 +835,69 @@ int stream_bench(int argc, char **argv)
         return 1;
     }
     stream_curvature(&o, hz_stream_info(c.s));
-    const uint32_t F = o.frames;
+    const float dur = hz_path_duration(&path);
+    /* Frames: unpaced, --frames spread over the path, drawn as fast as they
+     * can be (throughput). --realtime: frame slots every 1/fps s of wall
+     * time, the camera at the slot's path time; a frame ahead of its slot
+     * waits, one that overran skips the slots it missed (the camera follows
+     * the wall clock, as a viewer's does). The flight is the whole path, or
+     * its first --frames slots. */
+    uint32_t F = o.frames;
+    if (o.realtime) {
+        const double slots = floor((double)dur * o.fps) + 1.0;
+        F = o.frames_given && o.frames < slots ? o.frames : (uint32_t)fmin(slots, 1e7);
+    }
     double *frame = calloc(F, sizeof *frame), *lod = calloc(F, sizeof *lod), *tris = calloc(F, sizeof *tris);
+    uint8_t *rgb = o.deterministic ? malloc((size_t)o.width * o.height * 3) : NULL;
     json_t *frames = json_array();
-    uint64_t late_frames = 0, requested = 0, loaded = 0, evicted = 0;
+    uint64_t late_frames = 0, requested = 0, loaded = 0, evicted = 0, late_nodes = 0, drawn_nodes = 0;
+    uint64_t dropped = 0, flight_hash = 0xcbf29ce484222325ULL;
     double worst = 0, cache_max = 0;
-    uint32_t failed = 0;
+    uint32_t failed = 0, drawn = 0;
     const double fly0 = hz_time_ms();
     rc = 1;
-    if (!frame || !lod || !tris)
+    if (!frame || !lod || !tris || (o.deterministic && !rgb))
         goto done;
-    const float dur = hz_path_duration(&path);
+    int64_t last_slot = -1;
+    double pace0 = fly0;
     for (uint32_t f = 0; f < F; f++) {
+        float t = F > 1 ? dur * (float)f / (float)(F - 1) : 0.0f;
+        if (o.realtime) {
+            /* the next slot not yet past: wait for it, or skip the missed ones
+             * (slot 0 is the first frame's start) */
+            if (f == 0)
+                pace0 = hz_time_ms();
+            const double now = (hz_time_ms() - pace0) / 1000.0;
+            int64_t slot = (int64_t)ceil(now * o.fps - 1e-6);
+            slot = slot > last_slot ? slot : last_slot + 1;
+            if ((double)slot > (double)dur * o.fps + 1e-6 || (o.frames_given && slot >= (int64_t)o.frames))
+                break;
+            dropped += (uint64_t)(slot - last_slot - 1);
+            last_slot = slot;
+            const double wait_ms = pace0 + 1000.0 * (double)slot / o.fps - hz_time_ms();
+            if (wait_ms > 0)
+                sleep_ms(wait_ms);
+            t = (float)((double)slot / o.fps);
+        }
         hz_camera cam = default_camera(hz_stream_info(c.s), o.width, o.height);
-        const float tpath = F > 1 ? dur * (float)f / (float)(F - 1) : 0.0f;
         cam.earth_radius = o.curv.radius;
-        hz_path_sample(&path, tpath, &cam);
-        hz_stream_set_clock(c.s, tpath); /* arriving tiles slide in on the flight's clock */
+        hz_path_sample(&path, t, &cam);
+        hz_stream_set_clock(c.s, t); /* arriving tiles slide in on the flight's clock */
         cam.aspect = (float)o.width / (float)o.height;
         hz_stream_wrap_camera(c.s, &cam); /* re-centred: precision never degrades */
         const double t0 = hz_time_ms();
         hz_lod_stats st = {0};
-        /* what arrived since the last frame first, then the selection over it */
         uint32_t n;
+        uint64_t req_wait = 0;
+        if (o.deterministic) {
+            /* every tile this view wants is resident before it is drawn */
+            uint32_t rounds = 0;
+            n = 0;
+            if (load_all(&c, &cam, &rounds, &n, &req_wait))
+                goto done;
+            loaded += n;
+        }
+        /* what arrived since the last frame first, then the selection over it */
         if (upload_ready(&c, &n))
             goto done;
         if (hz_stream_select(c.s, &cam, &c.lp, &c.pl, &st) != HZ_OK)
@@ -827,19 +911,39 @@ int stream_bench(int argc, char **argv)
         }
         hz_stream_stats ss = hz_stream_take_stats(c.s);
         frame[f] = hz_time_ms() - t0;
+        char hex[17] = "";
+        if (o.deterministic) {
+            if (hz_renderer_read_rgb(c.r, rgb, &err) != HZ_OK) {
+                fprintf(stderr, "horizon bench: %s\n", err.msg);
+                goto done;
+            }
+            const uint64_t h = fnv64(rgb, (size_t)o.width * o.height * 3);
+            snprintf(hex, sizeof hex, "%016llx", (unsigned long long)h);
+            flight_hash = (flight_hash ^ h) * 0x100000001b3ULL;
+        }
         lod[f] = st.ms;
         tris[f] = st.triangles;
+        drawn = f + 1;
         worst = frame[f] > worst ? frame[f] : worst;
         late_frames += ss.late > 0;
+        late_nodes += ss.late;
+        drawn_nodes += ss.drawn;
         failed = ss.failed > failed ? ss.failed : failed;
-        requested += ss.requested, loaded += ss.loaded, evicted += ss.evicted;
+        requested += ss.requested + req_wait, loaded += ss.loaded, evicted += ss.evicted;
         cache_max = fmax(cache_max, (double)ss.cache_bytes / 1048576.0);
-        json_array_append_new(frames, json_pack("{s:i,s:f,s:f,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:f}", "frame", (int)f,
-                                                "ms", frame[f], "lod_ms", st.ms, "triangles", (int)st.triangles,
-                                                "nodes", (int)c.pl.count, "requested", (int)ss.requested, "loaded",
-                                                (int)ss.loaded, "evicted", (int)ss.evicted, "resident",
-                                                (int)ss.resident, "late_nodes", (int)ss.late, "cache_mb",
-                                                (double)ss.cache_bytes / 1048576.0));
+        json_t *pf = json_pack("{s:i,s:f,s:f,s:f,s:i,s:i,s:i,s:i,s:i,s:i,s:i,s:f}", "frame", (int)f, "t", (double)t,
+                               "ms", frame[f], "lod_ms", st.ms, "triangles", (int)st.triangles, "nodes",
+                               (int)c.pl.count, "requested", (int)(ss.requested + req_wait), "loaded",
+                               (int)ss.loaded, "evicted", (int)ss.evicted, "resident", (int)ss.resident,
+                               "late_nodes", (int)ss.late, "cache_mb", (double)ss.cache_bytes / 1048576.0);
+        if (o.deterministic)
+            json_object_set_new(pf, "hash", json_string(hex));
+        json_array_append_new(frames, pf);
+    }
+    F = drawn;
+    if (F == 0) {
+        fprintf(stderr, "horizon bench: no frame was drawn\n");
+        goto done;
     }
     const double med_frame = pct(frame, F, 0.5), p99 = pct(frame, F, 0.99), med_lod = pct(lod, F, 0.5);
     const double med_tris = pct(tris, F, 0.5);
@@ -860,6 +964,21 @@ int stream_bench(int argc, char **argv)
     json_object_set_new(j, "tiles_evicted", json_integer((json_int_t)evicted));
     json_object_set_new(j, "cache_mb_max", jx_dbl(cache_max));
     json_object_set_new(j, "late_frame_fraction", jx_dbl((double)late_frames / F));
+    json_object_set_new(j, "late_tile_fraction", jx_dbl(drawn_nodes ? (double)late_nodes / (double)drawn_nodes : 0));
+    json_object_set_new(j, "late_nodes", json_integer((json_int_t)late_nodes));
+    json_object_set_new(j, "nodes_drawn", json_integer((json_int_t)drawn_nodes));
+    json_object_set_new(j, "pacing", jx_str(o.realtime ? "realtime" : o.deterministic ? "deterministic" : "unpaced"));
+    json_object_set_new(j, "path_seconds", jx_dbl(dur));
+    json_object_set_new(j, "flight_seconds", jx_dbl((hz_time_ms() - fly0) / 1000.0));
+    if (o.realtime) {
+        json_object_set_new(j, "fps", jx_dbl(o.fps));
+        json_object_set_new(j, "frames_dropped", json_integer((json_int_t)dropped));
+    }
+    if (o.deterministic) {
+        char hex[17];
+        snprintf(hex, sizeof hex, "%016llx", (unsigned long long)flight_hash);
+        json_object_set_new(j, "flight_hash", json_string(hex));
+    }
     json_object_set_new(j, "tiles_failed", jx_int((long long)failed));
     json_t *http = transfer_json(&c, "bench", hz_time_ms() - fly0);
     if (http)
@@ -874,9 +993,11 @@ int stream_bench(int argc, char **argv)
     } else {
         if (!o.quiet)
             printf("%s: %u frames, median %.1f ms (p99 %.1f, worst %.1f), lod %.2f ms, %.0f triangles, tiles %llu "
-                   "loaded / %llu evicted, cache <= %.0f MB, late frames %.1f %%, peak RSS %.0f MB\n",
+                   "loaded / %llu evicted, cache <= %.0f MB, late frames %.1f %%, late tiles %.2f %%, peak RSS "
+                   "%.0f MB\n",
                    o.terrain, F, med_frame, p99, worst, med_lod, med_tris, (unsigned long long)loaded,
                    (unsigned long long)evicted, cache_max, 100.0 * (double)late_frames / F,
+                   drawn_nodes ? 100.0 * (double)late_nodes / (double)drawn_nodes : 0.0,
                    (double)hz_peak_rss_bytes() / 1048576.0);
         json_decref(j);
     }
@@ -885,6 +1006,7 @@ int stream_bench(int argc, char **argv)
     rc = 0;
 done:
     json_decref(frames);
+    free(rgb);
     free(frame);
     free(lod);
     free(tris);

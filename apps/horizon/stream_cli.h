@@ -18,6 +18,10 @@ typedef struct sopts {
     const char *imagery;  /* --imagery: draped by its georeference */
     uint32_t imagery_max; /* --imagery-max (0: 8192) */
     curv_opts curv;       /* --curvature (curv_cli.c); resolved by stream_curvature */
+    /* bench: --realtime paces the flight at --fps (a viewer's flight);
+     * --deterministic waits for the tiles of every frame and hashes it */
+    bool realtime, deterministic, frames_given;
+    double fps;
     /* view only */
     const char *script, *screenshot;
     double speed, dt;     /* m/s (0: map side / 200); fixed seconds per frame (0: real time) */

@@ -6,6 +6,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <stdbool.h>
+#include <stdio.h>
 
 #ifdef __cplusplus
 extern "C" {
@@ -40,9 +41,29 @@ const char *hz_result_name(hz_result r);
  * Called at most ~100 times per job. user is the desc's progress_user. */
 typedef void (*hz_progress_fn)(void *user, const char *label, uint64_t done, uint64_t total);
 
-/* A ready-made progress callback that draws a bar on stderr when stderr is a tty
- * (or when user != NULL, forced); finishes the line when done == total. */
+/* A ready-made progress callback for long work. When stderr is a terminal:
+ * a bar redrawn in place, the line finished when done == total. Otherwise
+ * (logs, CI, pipes): plain lines "horizon: LABEL: P% (done/total)", none for
+ * work shorter than 2 s, then one every 10 % or every 10 s, whichever comes
+ * first, and one at the end (hz_progress_line). user: NULL (one shared state
+ * for the process's stderr, thread-safe), or a hz_progress_lines of the
+ * caller's. A caller's --quiet passes no callback at all. */
 void hz_progress_stderr(void *user, const char *label, uint64_t done, uint64_t total);
+
+/* The state of the plain progress lines of one task (zero it to start). */
+typedef struct hz_progress_lines {
+    char label[64];      /* the task being reported */
+    uint64_t last_done;  /* done at the last call (done going back starts a new task) */
+    double start_ms;     /* when the task was first reported */
+    double line_ms;      /* when the last line was printed; 0: none yet */
+    int line_pct;        /* percentage on the last line */
+    bool finished;       /* its 100 % line is out */
+} hz_progress_lines;
+
+/* The line rule of hz_progress_stderr, on a clock of the caller's (ms):
+ * prints to f at most one line and says whether it did. */
+bool hz_progress_line(hz_progress_lines *st, FILE *f, const char *label, uint64_t done, uint64_t total,
+                      double now_ms);
 
 /* Monotonic wall clock in milliseconds. */
 double hz_time_ms(void);

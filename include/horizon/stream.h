@@ -36,7 +36,10 @@ typedef struct hz_stream_stats {
     uint32_t evicted;       /* this frame */
     uint32_t resident;      /* tiles in the cache now */
     uint32_t pending;       /* requests waiting or loading */
-    uint32_t late;          /* nodes drawn coarser than wanted because a tile was missing */
+    uint32_t drawn;         /* nodes drawn (leaves of the selections) */
+    uint32_t late;          /* of those, nodes drawn coarser than the LOD wanted (their distance is
+                               within their split range) because a tile the split needs (their
+                               children's, or one a forced split needs) was not resident */
     uint32_t failed;        /* tiles that could not be read (corrupt), drawn coarser */
     uint64_t cache_bytes;   /* texels resident */
 } hz_stream_stats;

@@ -694,6 +694,8 @@ static hz_result write_part(build *b, uint32_t a, uint32_t z, hz_err *err)
     uint16_t hmin = 65535, hmax = 0;
     double max_err = 0;
     hz_result r = HZ_OK;
+    if (b->d->progress)
+        b->d->progress(b->d->progress_user, "import: jobs", 0, z - a + 1);
     for (uint32_t job = a; job <= z && r == HZ_OK; job++) {
         job_out o;
         r = run_job(b, job, &o, err);
@@ -1051,6 +1053,8 @@ hz_result hz_pyramid_import(const hz_pyr_import *d, hz_pyr_import_stats *stats, 
     if (r == HZ_OK && d->finish) {
         r = read_parts(&b, jobs, err);
     } else {
+        if (r == HZ_OK && d->progress) /* the start: a long first job is timed from here */
+            d->progress(d->progress_user, "import", 0, jobs);
         for (uint32_t job = 0; r == HZ_OK && job < jobs; job++) {
             job_out o;
             r = run_job(&b, job, &o, err);

@@ -29,6 +29,9 @@
 #define PREFETCH 1.5f
 #define MAX_INFLIGHT 16u
 #define MAX_LOADERS 16u
+/* a leaf flag (bit 6; bits 0-1 are ST_*, 2-5 the don't-care edges): the LOD
+ * wanted this node split, and a tile it needs was not resident */
+#define ST_LATE 0x40u
 
 enum { SLOT_FREE = 0, SLOT_LOADING, SLOT_READY, SLOT_RESIDENT, SLOT_FAILED };
 
@@ -684,15 +687,22 @@ static void lv_note(sel *c, struct lv_node *e, const slot *q, size_t li, const v
 }
 
 /* Can node (sh, ix, iz), a leaf, split with every forced split it needs?
- * nb (may be NULL) receives its four neighbours when it can. */
-static bool can_split(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, uint32_t depth, uint8_t *nb)
+ * Asks for every tile missing for that (at priority prio): the tile of a
+ * forced split is not always one its own node prefetches (a flat neighbour
+ * has a short range), and without asking the node would stay coarser.
+ * child: at depth 0, whether the caller found the children's tile resident.
+ * nb (may be NULL) receives the node's four neighbours. */
+static bool can_split(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, uint32_t depth, float prio, bool child,
+                      uint8_t *nb)
 {
     if (sh == 0 || depth > HZ_PYR_MAX_LEVELS)
         return false;
     size_t li;
-    /* depth 0: the caller found the children's tile resident */
-    if (depth > 0 && !node_slot(s, sh - 1, 2 * ix, 2 * iz, &li))
-        return false;
+    bool ok = true;
+    if (depth == 0 ? !child : !node_slot(s, sh - 1, 2 * ix, 2 * iz, &li)) {
+        want_tile(s, sh - 1, 2 * ix, 2 * iz, prio);
+        ok = false;
+    }
     uint8_t own[4];
     if (!nb)
         nb = own;
@@ -708,10 +718,10 @@ static bool can_split(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, uint3
         case DIR_N: qz = (qz + pside - 1) % pside; break;
         default: qz = (qz + 1) % pside; break;
         }
-        if (!can_split(s, sh + 1, qx, qz, depth + 1, NULL))
-            return false;
+        if (!can_split(s, sh + 1, qx, qz, depth + 1, prio, false, NULL))
+            ok = false;
     }
-    return true;
+    return ok;
 }
 
 /* Splits (sh, ix, iz) and, first, the coarser neighbours it needs split.
@@ -959,6 +969,9 @@ static hz_result emit(sel *c, hz_patch_list *out)
             }
             c->st->triangles += hz__patch_triangles(P, coarse);
             c->st->leaves++;
+            s->st.drawn++;
+            if (q->flags[li] & ST_LATE)
+                s->st.late++;
             if (top - sh > c->st->max_level)
                 c->st->max_level = top - sh;
         }
@@ -1023,10 +1036,10 @@ hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_para
                 }
                 if (d2 < range * range || whole) {
                     uint8_t nb[4];
-                    if (child && can_split(s, sh, ix, iz, 0, nb))
+                    if (can_split(s, sh, ix, iz, 0, range / (sqrtf(d2) + 1e-3f), child, nb))
                         r = split_node(&c, sh, ix, iz, false, nb);
                     else
-                        s->st.late++;
+                        q->flags[li] |= ST_LATE; /* counted in emit if it stays a leaf */
                 }
             }
         }

@@ -5,7 +5,9 @@ pid and logs in TMPDIR; no root paths) and a faulty proxy in front of it.
 
 - render over http is byte-identical to the local-file render (two cameras);
   nginx's log shows the reads shared a few kept-alive connections;
-- a short bench flies over http; info --verify checks every tile over http;
+- a short bench flies over http; a --deterministic flight over http has every
+  frame identical to the local-file flight (per-frame image hashes); info
+  --verify checks every tile over http;
 - disk cache: a second run fetches only the header; with nginx stopped it
   still renders identically (offline); a damaged entry is refused and
   fetched again; --disk-cache-mb bounds the folder (least recently used out);
@@ -163,10 +165,36 @@ try:
     rc, j, err, dt = run_json(["bench", "--terrain", ng.url, "--frames", "40", "--width", "320", "--height", "180"],
                               "http bench")
     if j:
+        pf = j["per_frame"]
+        ln, nd = sum(f["late_nodes"] for f in pf), sum(f["nodes"] for f in pf)
+        check(j["late_nodes"] == ln and j["nodes_drawn"] == nd and abs(j["late_tile_fraction"] - ln / nd) < 1e-12 and
+              abs(j["late_frame_fraction"] - sum(f["late_nodes"] > 0 for f in pf) / len(pf)) < 1e-12,
+              "late_tile_fraction = late nodes / nodes drawn over the flight (%d / %d)" % (ln, nd))
         check(j["tiles_loaded"] > 0 and j["tiles_failed"] == 0 and j["http"]["failures"] == 0 and
               j["http"]["requests"] > j["tiles_loaded"],
               "http bench: %d frames, %d tiles loaded over %d requests, worst frame %.1f ms" %
               (j["frames"], j["tiles_loaded"], j["http"]["requests"], j["frame_ms_worst"]))
+    # every frame of a flight over http is the local-file flight's: --deterministic waits for the
+    # tiles each frame wants, and hashes each image
+    fl = {}
+    for label, src in (("local", HZP), ("http", ng.url)):
+        rc, j, err, dt = run_json(["bench", "--terrain", src, "--frames", "40", "--width", "320", "--height", "180",
+                                   "--deterministic"], "deterministic bench (%s)" % label)
+        if j:
+            fl[label] = j
+            check(j["pacing"] == "deterministic" and j["late_tile_fraction"] == 0 and len(j["per_frame"]) == 40 and
+                  all(len(f["hash"]) == 16 for f in j["per_frame"]),
+                  "deterministic flight (%s): 40 frame hashes, no tile late (%.1f s)" % (label, dt))
+    if len(fl) == 2:
+        hl = [f["hash"] for f in fl["local"]["per_frame"]]
+        hh = [f["hash"] for f in fl["http"]["per_frame"]]
+        diff = [k for k in range(len(hl)) if k >= len(hh) or hl[k] != hh[k]]
+        check(not diff and fl["local"]["flight_hash"] == fl["http"]["flight_hash"],
+              "every frame of the flight over http is identical to the local-file flight (%d frames%s)" %
+              (len(hl), ", differ at %s" % diff[:8] if diff else ""))
+        check(len(set(hl)) >= 30, "the frames differ from each other (%d distinct of %d): the camera flew" %
+              (len(set(hl)), len(hl)))
+        check(fl["http"]["http"]["bytes"] > 0, "the http flight fetched %d bytes" % fl["http"]["http"]["bytes"])
     rc, out, err, _ = run(["info", ng.url, "--verify"])
     check(rc == 0 and "every tile checks" in out, "info URL --verify reads and checks every tile over http")
 

@@ -62,6 +62,31 @@ assert d["tiles_loaded"] > 0 and "late_frame_fraction" in d and d["frame_ms_wors
 assert max(x["resident"] for x in f) <= 8 * 8, "more tiles than the cache holds"
 PY
 
+# A viewer's flight: --realtime paces frames at --fps on the wall clock. A 3 s path at 10 fps
+# takes 3 s (not less: frames ahead of their slot wait), shows the camera at slot times
+# (multiples of 0.1 s, rising), and every slot is a frame or a dropped one.
+printf 't,x,y,z,yaw,pitch\n0,2000,1500,2000,135,-10\n3,6000,1500,6000,135,-10\n' > "$TMP/p3.csv"
+$HZ bench --terrain "$P" --path "$TMP/p3.csv" --realtime --fps 10 --width 320 --height 180 --json > "$TMP/rt.json" \
+  && python3 - "$TMP/rt.json" <<'PY' && ok "bench --realtime: paced at 10 fps on the wall clock" || bad "bench --realtime"
+import json, sys
+d = json.load(open(sys.argv[1]))
+f = d["per_frame"]
+ts = [x["t"] for x in f]
+print("realtime: %d frames, %d dropped, %.2f s" % (d["frames"], d["frames_dropped"], d["flight_seconds"]))
+assert d["pacing"] == "realtime" and d["fps"] == 10 and d["path_seconds"] == 3
+assert 2.95 <= d["flight_seconds"] < 6.0, d["flight_seconds"]
+assert d["frames"] + d["frames_dropped"] == 31, (d["frames"], d["frames_dropped"])
+assert all(abs(t * 10 - round(t * 10)) < 1e-4 for t in ts) and ts == sorted(set(ts)) and ts[0] == 0 and ts[-1] <= 3
+assert d["nodes_drawn"] == sum(x["nodes"] for x in f) and d["late_nodes"] == sum(x["late_nodes"] for x in f)
+PY
+# unpaced, the same path flies as fast as frames draw
+$HZ bench --terrain "$P" --path "$TMP/p3.csv" --frames 10 --width 320 --height 180 --json > "$TMP/up.json" &&
+  [ "$(json "$TMP/up.json" "int(d['pacing'] == 'unpaced' and d['frames'] == 10 and d['flight_seconds'] < 2.5)")" = 1 ] &&
+  ok "bench unpaced: 10 frames of the 3 s path in under 2.5 s" || bad "bench unpaced"
+expect_fail "--fps without --realtime" "paces a --realtime" $HZ bench --terrain "$P" --fps 30
+expect_fail "--realtime with --deterministic" "exclude each other" $HZ bench --terrain "$P" --realtime --deterministic
+expect_fail "--deterministic outside bench" "bench options" $HZ render --terrain "$P" --deterministic
+
 # --wrap: an endless map, flown east across two and a half periods.
 W="$TMP/wrap.hzp"
 $HZ import --generate perlin --size 1025 --seed 3 --wrap --out "$W" --quiet && ok "import --wrap" || bad "import --wrap"

@@ -254,6 +254,92 @@ static void test_stream_crack_free_while_tiles_missing(void **state)
     hz_stream_destroy(s);
 }
 
+/* The late count (hz_stream_stats.late: nodes drawn coarser than the LOD
+ * wanted because a tile was missing), on a case where the answer is known.
+ * 1025^2 in 64-cell tiles: levels 0..3 have 16^2, 8^2, 4^2, 2^2 tiles, the
+ * levels above one; the cache starts with levels 3 and up. Frame A: a node of shift 3 that wants to
+ * split cannot (its level-2 tile is missing), so it is late, and nothing else
+ * is (shifts 4 and up split over resident tiles). Then level 2 alone is made
+ * resident; in frame B a shift-3 node splits exactly when it wants to (level
+ * 2 is resident, and no shift-2 node can split and force one: level 1 is
+ * missing). So late(A) = A's shift-3 leaves that B splits. Once everything
+ * is resident nothing is late. */
+static void test_stream_late_count(void **state)
+{
+    (void)state;
+    hz_err err = {0};
+    hz_stream *s = hz_stream_create(&(hz_stream_desc){.path = hzp, .synchronous = true}, &err);
+    assert_non_null(s);
+    const hz_pyr_info *in = hz_stream_info(s);
+    assert_int_equal(hz_pyr_level_tiles(in, 2), 4); /* levels 3 and up (2 x 2 tiles or fewer) load at creation */
+    assert_int_equal(hz_pyr_level_tiles(in, 3), 2);
+    const hz_camera cam = {.pos = {30.0f * 300.0f, 1900.0f, 30.0f * 420.0f}, .yaw = 60.0f, .pitch = -20.0f,
+                           .fov_y = 60.0f, .aspect = 16.0f / 9.0f, .znear = 1.0f, .zfar = 60000.0f};
+    const hz_lod_params lp = {.mode = HZ_LOD_CDLOD, .pixel_error = 1.0f, .viewport_height = 720};
+    hz_patch_list pl = {0};
+    hz_lod_stats st;
+    uint32_t slot, lv, tx, tz, up = 0;
+    const uint16_t *tex;
+    while (hz_stream_next_upload(s, &slot, &tex)) { /* the tiles loaded at creation */
+        hz_stream_tile_key(s, slot, &lv, &tx, &tz);
+        assert_true(lv >= 3);
+        hz_stream_uploaded(s, slot);
+    }
+    hz_stream_take_stats(s);
+    /* frame A: levels 3 and up */
+    assert_int_equal(hz_stream_select(s, &cam, &lp, &pl, &st), HZ_OK);
+    hz_stream_stats a = hz_stream_take_stats(s);
+    assert_int_equal(a.drawn, pl.count);
+    for (size_t k = 0; k < pl.count; k++)
+        assert_true(pl.data[k].shift >= 3);
+    const uint32_t G3 = in->patch_cells << 3; /* a shift-3 node's side, samples */
+    uint32_t a3[256], na3 = 0;
+    for (size_t k = 0; k < pl.count; k++)
+        if (pl.data[k].shift == 3 && na3 < 256)
+            a3[na3++] = (pl.data[k].z0 / G3) * 1024u + pl.data[k].x0 / G3;
+    assert_true(na3 > 0 && na3 < 256);
+    /* level 2 only becomes resident */
+    while (hz_stream_next_upload(s, &slot, &tex)) {
+        hz_stream_tile_key(s, slot, &lv, &tx, &tz);
+        assert_int_equal(lv, 2); /* frame A asked for level-2 tiles only */
+        hz_stream_uploaded(s, slot);
+        up++;
+    }
+    assert_true(up > 0);
+    hz_stream_take_stats(s);
+    /* frame B: levels 2 and up */
+    assert_int_equal(hz_stream_select(s, &cam, &lp, &pl, &st), HZ_OK);
+    hz_stream_stats b = hz_stream_take_stats(s);
+    assert_int_equal(b.drawn, pl.count);
+    /* A's shift-3 leaves that B splits (no longer drawn at shift 3; the
+     * same camera culls the same nodes) */
+    uint32_t np = 0;
+    for (uint32_t i = 0; i < na3; i++) {
+        bool leaf = false;
+        for (size_t k = 0; k < pl.count && !leaf; k++)
+            leaf = pl.data[k].shift == 3 && a3[i] == (pl.data[k].z0 / G3) * 1024u + pl.data[k].x0 / G3;
+        np += !leaf;
+    }
+    printf("late: frame A %u of %u nodes; frame B splits %u shift-3 nodes, %u of %u late\n", a.late, a.drawn, np,
+           b.late, b.drawn);
+    assert_true(a.late > 0 && a.late < a.drawn);
+    assert_int_equal(a.late, np);
+    /* everything resident: nothing late */
+    for (int f = 0; f < 40; f++) {
+        while (hz_stream_next_upload(s, &slot, &tex))
+            hz_stream_uploaded(s, slot);
+        assert_int_equal(hz_stream_select(s, &cam, &lp, &pl, &st), HZ_OK);
+    }
+    hz_stream_stats z = hz_stream_take_stats(s);
+    hz_stream_select(s, &cam, &lp, &pl, &st);
+    z = hz_stream_take_stats(s);
+    assert_int_equal(z.requested, 0);
+    assert_int_equal(z.late, 0);
+    assert_int_equal(z.drawn, pl.count);
+    free(pl.data);
+    hz_stream_destroy(s);
+}
+
 /* Float input with --max-error stays within it, sample for sample. */
 static void test_lossy_within_max_error(void **state)
 {
@@ -845,6 +931,7 @@ int main(void)
         cmocka_unit_test(test_round_trip_exact),
         cmocka_unit_test(test_corrupt_and_truncated),
         cmocka_unit_test(test_stream_crack_free_while_tiles_missing),
+        cmocka_unit_test(test_stream_late_count),
         cmocka_unit_test(test_jobs_byte_identical),
         cmocka_unit_test(test_lossy_within_max_error),
         cmocka_unit_test(test_texels_agree_across_tiles),
