@@ -80,9 +80,13 @@ float fx_fog_depth(vec3 e, vec3 p)
     if (fx_on(FX_FOG) && fx_fog.y > 0.0) {
         float H = fx_fog.w;
         float ye = max((e.y - fx_fog.z) / H, -30.0);
-        float dy = d.y / H;
-        float k = abs(dy) > 1e-3 ? (1.0 - exp(-dy)) / dy : 1.0 - 0.5 * dy;
-        tau += fx_fog.y * L * exp(-ye) * k;
+        float yp = max((p.y - fx_fog.z) / H, -30.0);
+        float dy = yp - ye;
+        // (exp(-ye) - exp(-yp)) / dy, not exp(-ye) (1 - exp(-dy)) / dy: an
+        // eye far above the fog (ye ~ 100) would overflow exp(-dy) to inf and
+        // multiply it by 0, a NaN that drew the terrain black.
+        float k = abs(dy) > 1e-3 ? (exp(-ye) - exp(-yp)) / dy : exp(-ye) * (1.0 - 0.5 * dy);
+        tau += fx_fog.y * L * k;
     }
     return tau;
 }

@@ -186,6 +186,15 @@ if os.path.exists(S46):
 else:
     bad("missing " + S46)
 
+# A camera far above the height fog (30 km up) with every effect on: the
+# terrain is hazy, never black (the height-fog integral overflowed to NaN).
+j, err = render_json(["--generate", "perlin", "--size", "1025", "--camera", "5120,30000,-2000,180,-55",
+                      "--out", tmp("high.png")])
+px = pngstat.pixels(tmp("high.png"), 0.7, 1.0) if j else []
+dark = sum(1 for r, g, b in px if r + g + b < 60)
+check(j and j["terrain_in_view"] and px and dark < 0.01 * len(px),
+      "a view from 30 km with effects shows terrain, not black (%d dark of %d)" % (dark, len(px)), j or err)
+
 # ---------------------------------------------------------------------------
 # 4. JSON written by a JSON library: every command's JSON parses strictly
 #    (no duplicate keys, no NaN), whatever the file names.
