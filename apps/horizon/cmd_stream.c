@@ -868,7 +868,7 @@ int stream_bench(int argc, char **argv)
             if (f == 0)
                 pace0 = hz_time_ms();
             const double now = (hz_time_ms() - pace0) / 1000.0;
-            int64_t slot = (int64_t)ceil(now * o.fps - 1e-6);
+            int64_t slot = f == 0 ? 0 : (int64_t)ceil(now * o.fps - 1e-3);
             slot = slot > last_slot ? slot : last_slot + 1;
             if ((double)slot > (double)dur * o.fps + 1e-6 || (o.frames_given && slot >= (int64_t)o.frames))
                 break;
