@@ -345,8 +345,7 @@ int stream_view(int argc, char **argv)
         jx_set(j, "worst_frame_ms", jx_fix(v.worst_ms, 2));
         jx_set(j, "screenshots", jx_int(v.shots));
         jx_set(j, "gl", jx_str(hz_window_describe(v.win)));
-        jx_print(j, stdout);
-        json_decref(j);
+        jx_print(j, stdout); /* releases j */
     }
     rc = 0;
 out:
