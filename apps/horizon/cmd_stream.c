@@ -597,6 +597,22 @@ hz_camera default_camera(const hz_pyr_info *in, uint32_t w, uint32_t h)
     return c;
 }
 
+hz_camera stream_camera(sopts *o, const hz_pyr_info *in, uint32_t w, uint32_t h)
+{
+    stream_curvature(o, in);
+    hz_camera cam = default_camera(in, w, h);
+    cam.earth_radius = o->curv.radius;
+    if (o->have_camera) {
+        cam.pos[0] = o->camera[0], cam.pos[1] = o->camera[1], cam.pos[2] = o->camera[2];
+        cam.yaw = o->camera[3], cam.pitch = o->camera[4];
+        /* the far plane follows the camera's height */
+        const float hmin = (float)(in->h_offset + in->h_scale * in->h_min);
+        const float ext = (float)((in->data_w > in->data_h ? in->data_w : in->data_h) * in->spacing);
+        cam.zfar = 1.5f * ext + fmaxf(0.0f, cam.pos[1] - hmin);
+    }
+    return cam;
+}
+
 int stream_render(int argc, char **argv)
 {
     sopts o;
@@ -611,18 +627,7 @@ int stream_render(int argc, char **argv)
     sctx c;
     if (sctx_open(&c, &o, "render"))
         return 1;
-    const hz_pyr_info *in = hz_stream_info(c.s);
-    stream_curvature(&o, in);
-    hz_camera cam = default_camera(in, o.width, o.height);
-    cam.earth_radius = o.curv.radius;
-    if (o.have_camera) {
-        cam.pos[0] = o.camera[0], cam.pos[1] = o.camera[1], cam.pos[2] = o.camera[2];
-        cam.yaw = o.camera[3], cam.pitch = o.camera[4];
-        /* the far plane follows the camera's height */
-        const float hmin = (float)(in->h_offset + in->h_scale * in->h_min);
-        const float ext = (float)((in->data_w > in->data_h ? in->data_w : in->data_h) * in->spacing);
-        cam.zfar = 1.5f * ext + fmaxf(0.0f, cam.pos[1] - hmin);
-    }
+    hz_camera cam = stream_camera(&o, hz_stream_info(c.s), o.width, o.height);
     hz_stream_wrap_camera(c.s, &cam);
     /* One image: load until the selection asks for nothing more. */
     hz_lod_stats st = {0};

@@ -302,17 +302,7 @@ int stream_view(int argc, char **argv)
     }
     v.c.lp.viewport_height = v.height;
     const hz_pyr_info *in = hz_stream_info(v.c.s);
-    stream_curvature(&v.o, in);
-    hz_camera cam = default_camera(in, v.width, v.height);
-    if (v.o.have_camera) {
-        for (int k = 0; k < 3; k++)
-            cam.pos[k] = v.o.camera[k];
-        cam.yaw = v.o.camera[3], cam.pitch = v.o.camera[4];
-        const float hmin = (float)(in->h_offset + in->h_scale * in->h_min);
-        const float ext = (float)((in->data_w > in->data_h ? in->data_w : in->data_h) * in->spacing);
-        cam.zfar = 1.5f * ext + fmaxf(0.0f, cam.pos[1] - hmin);
-    }
-    cam.earth_radius = v.o.curv.radius;
+    hz_camera cam = stream_camera(&v.o, in, v.width, v.height);
     const double side = (double)(in->data_w > in->data_h ? in->data_w : in->data_h) * in->spacing;
     hz_flycam_init(&v.fc, &(hz_flycam_desc){.start = cam, .speed = (float)(v.o.speed > 0 ? v.o.speed : side / 200.0),
                                             .height = ground, .height_user = v.c.s});
