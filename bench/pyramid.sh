@@ -28,6 +28,12 @@ if [ -f "$PT/fractal4097.png" ]; then
   tv "$P/f4097_fly" "$HZ" bench --terrain "$P/f4097.hzp" --path "$PT/flight120.csv" --frames 120 --cache-mb 512 --json > "$P/f4097_fly.json"
   tv "$P/f4097_mem" "$HZ" bench --dem "$PT/fractal4097.png" --spacing 10 --zscale 0.03 --path "$PT/flight120.csv" --fps 30 \
      --frames 120 --lod cdlod --pixel-error 1 --effects none --reference off --metrics off --quiet --json "$P/f4097_mem.json" > /dev/null
+  # the selection alone, CPU time, both ways over the same cameras
+  SEL="$(dirname "$HZ")/../../bench/stream_select"
+  if [ -x "$SEL" ]; then
+    "$SEL" --pyramid "$P/f4097.hzp" --dem "$PT/fractal4097.png" --spacing 10 --zscale 0.03 \
+       --path "$PT/flight120.csv" > "$P/f4097_select.json"
+  fi
 fi
 # The 24-tile SRTM mosaic with its ocean gaps.
 if [ -d "$DATA/srtm_sierra_coast" ]; then

@@ -43,6 +43,12 @@ if fs and fm:
           f"frame {fm['frame_ms_median']:.1f} ms, peak RSS {rss('f4097_mem'):.0f} MB |")
     print(f"| streamed / in memory | triangles {fs['triangles_median']/fm['triangles_median']:.2f}×, "
           f"LOD {fs['lod_ms_median']/max(fm['lod_ms_median'],1e-9):.2f}× |")
+ss = load("f4097_select")
+if ss:
+    print(f"| peers' 4097² map: selection CPU time, same cameras (bench/stream_select, best of {ss['runs']}) | "
+          f"streamed {ss['stream_ms']:.3f} ms vs in memory {ss['memory_ms']:.3f} ms per frame = {ss['ratio']:.2f}× "
+          f"(goal ≤ 1.2×), {ss['stream_triangles']:.0f} vs {ss['memory_triangles']:.0f} triangles, "
+          f"{ss['stream_nodes']:.0f} vs {ss['memory_nodes']:.0f} nodes |")
 si, sn = load("sierra_import"), load("sierra_info")
 if si and sn:
     d = sn[0]

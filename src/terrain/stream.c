@@ -79,8 +79,8 @@ struct hz_stream {
     req *reqs;
     size_t nreq, req_cap;
     /* this selection's nodes per shift; once classified, their slot (-1: not
-     * yet), index in it, distance to the eye and image (wrap) */
-    struct lv_node { uint32_t x, z; int32_t slot; uint32_t li; float dist; int8_t img[2]; } *lv[HZ_PYR_MAX_LEVELS];
+     * yet), index in it, squared distance to the eye and image (wrap) */
+    struct lv_node { uint32_t x, z; int32_t slot; uint32_t li; float d2; int8_t img[2]; } *lv[HZ_PYR_MAX_LEVELS];
     size_t lv_n[HZ_PYR_MAX_LEVELS], lv_cap[HZ_PYR_MAX_LEVELS];
     hz_patch *tmp;
     size_t tmp_cap;
@@ -92,7 +92,6 @@ struct hz_stream {
     slot *memo[HZ_PYR_MAX_LEVELS];      /* last slot found per level (node_slot) */
     double slide;         /* seconds a tile takes to slide in; 0: off */
     double clock, now;    /* hz_stream_set_clock (NAN: monotonic); this selection's */
-    uint32_t unborn;      /* resident slots no selection has seen yet (they will slide) */
     double newest;        /* the latest born: nothing slides once now >= newest + slide */
 };
 
@@ -506,20 +505,29 @@ static inline uint32_t tile_of(const hz_stream *s, uint32_t sh, uint32_t i, uint
     return i / k;
 }
 
+/* node_slot's miss: the hash lookup, remembered in the level's memo. */
+static __attribute__((noinline)) slot *node_slot_find(hz_stream *s, uint32_t sh, uint32_t tx, uint32_t tz)
+{
+    const int32_t f = find_slot(s, sh, tx, tz);
+    if (f < 0 || s->slots[f].state != SLOT_RESIDENT)
+        return NULL;
+    slot *q = &s->slots[f];
+    s->memo[sh] = q;
+    q->used = s->frame;
+    return q;
+}
+
 /* The resident slot of node (sh, ix, iz)'s tile, or NULL. Consecutive
  * lookups mostly hit the same tile: the last slot per level is tried first. */
-static slot *node_slot(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, size_t *li)
+static inline slot *node_slot(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, size_t *li)
 {
     const uint32_t k = s->node_k[sh], kl = s->node_k_log2[sh];
     const uint32_t tx = ix >> kl, tz = iz >> kl;
     slot *q = s->memo[sh];
-    if (!q || q->tx != tx || q->tz != tz || q->level != sh || q->state != SLOT_RESIDENT) {
-        const int32_t f = find_slot(s, sh, tx, tz);
-        if (f < 0 || s->slots[f].state != SLOT_RESIDENT)
+    if (__builtin_expect(!q || q->tx != tx || q->tz != tz || q->level != sh || q->state != SLOT_RESIDENT, 0)) {
+        q = node_slot_find(s, sh, tx, tz);
+        if (!q)
             return NULL;
-        q = &s->slots[f];
-        s->memo[sh] = q;
-        q->used = s->frame;
     }
     *li = ((size_t)(iz & (k - 1)) << kl) + (ix & (k - 1));
     return q;
@@ -676,13 +684,13 @@ static hz_result classify_at(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool
 }
 
 
-/* Remembers a classified node's slot, index, distance and image in its
+/* Remembers a classified node's slot, index, squared distance and image in its
  * entry of the level list (emit reads them back). */
 static void lv_note(sel *c, struct lv_node *e, const slot *q, size_t li, const vec3 box[2], const int img[2])
 {
     e->slot = (int32_t)(q - c->s->slots);
     e->li = (uint32_t)li;
-    e->dist = box_distance(box, c->cam->pos);
+    e->d2 = box_distance2(box, c->cam->pos);
     e->img[0] = (int8_t)img[0], e->img[1] = (int8_t)img[1];
 }
 
@@ -780,8 +788,6 @@ static hz_result split_node(sel *c, uint32_t sh, uint32_t ix, uint32_t iz, bool 
 
 static void release(hz_stream *s, slot *q)
 {
-    if (q->state == SLOT_RESIDENT && isnan(q->born) && s->unborn)
-        s->unborn--; /* evicted before any selection saw it */
     if (q->level + 1 < s->info.levels && q->anc[q->level + 1] >= 0) {
         slot *p = &s->slots[q->anc[q->level + 1]];
         if (p->children > 0)
@@ -888,8 +894,6 @@ static uint8_t slide_of(hz_stream *s, slot *q)
     if (isnan(q->born)) {
         q->born = s->now;
         s->newest = s->now;
-        if (s->unborn)
-            s->unborn--;
     }
     const double f = 1.0 - (s->now - q->born) / s->slide;
     return f <= 0 ? 0 : (f >= 1 ? 255 : (uint8_t)lrint(255.0 * f));
@@ -933,8 +937,18 @@ static hz_result emit(sel *c, hz_patch_list *out)
 {
     hz_stream *s = c->s;
     const uint32_t P = s->info.patch_cells, top = s->info.levels - 1;
-    /* a tile not seen yet, or one seen less than slide seconds ago */
-    const bool sliding = s->slide > 0 && (s->unborn > 0 || s->now < s->newest + s->slide);
+    /* A tile is born the first time one of its nodes is drawn. Once every
+     * drawn tile is older than slide seconds nothing slides, and emit skips
+     * the per-leaf slide values (most frames). */
+    if (s->slide > 0)
+        for (uint32_t sh = 0; sh <= top; sh++)
+            for (size_t k = 0; k < s->lv_n[sh]; k++) {
+                const struct lv_node *e = &s->lv[sh][k];
+                slot *q = e->slot >= 0 ? &s->slots[e->slot] : NULL;
+                if (q && isnan(q->born) && (q->flags[e->li] & ST_MASK) == ST_LEAF)
+                    slide_of(s, q);
+            }
+    const bool sliding = s->slide > 0 && s->now < s->newest + s->slide;
     out->count = 0;
     for (uint32_t sh = top + 1; sh-- > 0;) {
         if (list_reserve((void **)&out->data, &out->cap, out->count + s->lv_n[sh], sizeof *out->data) != HZ_OK)
@@ -959,7 +973,7 @@ static hz_result emit(sel *c, hz_patch_list *out)
             out->data[out->count++] = (hz_patch){
                 .x0 = (uint32_t)(int32_t)(((int64_t)ix * P << sh) + img[0] * per),
                 .z0 = (uint32_t)(int32_t)(((int64_t)iz * P << sh) + img[1] * per), .shift = (uint8_t)sh, .coarse = coarse,
-                .level = (uint16_t)(top - sh), .dist = e->dist,
+                .level = (uint16_t)(top - sh), .dist = sqrtf(e->d2),
                 .layer1 = (uint32_t)(q - s->slots) + 1, .ox = (uint16_t)(lx * P), .oz = (uint16_t)(lz * P)};
             if (sliding) {
                 hz_patch *pt = &out->data[out->count - 1];
@@ -1021,10 +1035,10 @@ hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_para
                     lv_note(&c, &s->lv[sh][k], q, li, (const vec3 *)box, img);
                 if (r != HZ_OK || culled || sh == 0)
                     continue;
+                const float d2 = s->lv[sh][k].d2;
                 const float range =
                     c.lambda * (float)q->nd[((li >> s->node_k_log2[sh]) + 1) * (q->k + 2) + (li & (q->k - 1)) + 1] *
                     c.hsw;
-                const float d2 = box_distance2((const vec3 *)box, cam->pos);
                 const bool whole = in->wrap && sh + 1 >= top;
                 const bool near = d2 < PREFETCH * PREFETCH * range * range;
                 size_t cl;
@@ -1081,7 +1095,6 @@ void hz_stream_uploaded(hz_stream *s, uint32_t k)
         s->slots[k].texels = NULL;
         s->slots[k].state = SLOT_RESIDENT;
         s->slots[k].born = s->slots[k].warm ? -1e300 : NAN; /* NAN: set by the first selection that sees it */
-        s->unborn += !s->slots[k].warm;
         s->st.loaded++;
     }
     pthread_mutex_unlock(&s->lock);
