@@ -172,6 +172,7 @@ int cmd_import(int argc, char **argv)
         json_object_set_new(o, "bytes", json_integer((json_int_t)st.bytes));
         json_object_set_new(o, "bytes_per_sample", jx_dbl(bps));
         json_object_set_new(o, "max_error_m", jx_dbl(st.max_error));
+        json_object_set_new(o, "finish_mb", jx_dbl((double)st.finish_bytes / 1e6));
         json_object_set_new(o, "ms", jx_dbl(st.ms));
         json_object_set_new(o, "peak_rss_mb", jx_dbl((double)hz_peak_rss_bytes() / 1048576.0));
         print_json(o);

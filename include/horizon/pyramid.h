@@ -143,6 +143,8 @@ typedef struct hz_pyr_import_stats {
     uint64_t bytes;
     double ms;
     double max_error;       /* measured quantisation error, metres */
+    uint64_t finish_bytes;  /* what the finish holds for the levels above the jobs': the level-J
+                               heights over the data's bounding box and the level-J node bounds */
 } hz_pyr_import_stats;
 
 /* Jobs an import of d splits into (independent: each reads its own window

@@ -51,10 +51,13 @@ typedef struct build {
     uint32_t S, J, jobs_side, threads;
     bool wrap;             /* the terrain repeats: jobs work in coordinates shifted by ext = N - 1 */
     uint32_t ext, n_ext;   /* that shift (0 without wrap); the bound for hz__morph_neighbours */
-    /* the finish's level-J grid over the whole map */
+    /* the finish's level-J grid over the data's bounding box (gj_w x gj_h
+     * samples; beyond it, to the padded square's edge, all is no data: the
+     * sentinel at gj_w * gj_h) */
     uint16_t *gj;
     uint8_t *gjv;
-    uint32_t gj_n;
+    uint32_t gj_w, gj_h;
+    uint64_t finish_bytes; /* the grid and nJ */
     narr nJ;               /* shift-J node bounds over the whole map */
     /* figures */
     uint64_t nodata;
@@ -98,7 +101,9 @@ static inline size_t narr_at(const narr *a, uint32_t x, uint32_t z)
 }
 
 /* A grid of heights (and validity) at spacing 2^lv over level-0 samples
- * [ox, ox + (n-1) 2^lv] x [oz, ...]. */
+ * [ox, ox + (n-1) 2^lv] x [oz, ...]. A sample outside it reads entry
+ * nx * nz, which the owner sets to (fill, no data): the finish's grid covers
+ * only the data's bounding box of the padded square. */
 typedef struct grid16 {
     const uint16_t *h;
     const uint8_t *v;
@@ -107,7 +112,20 @@ typedef struct grid16 {
 
 static inline size_t g_at(const grid16 *g, uint32_t X, uint32_t Z)
 {
-    return (size_t)((Z - g->oz) >> g->lv) * g->nx + ((X - g->ox) >> g->lv);
+    const uint32_t a = (X - g->ox) >> g->lv, c = (Z - g->oz) >> g->lv;
+    if (__builtin_expect(a >= g->nx || c >= g->nz, 0))
+        return (size_t)g->nx * g->nz;
+    return (size_t)c * g->nx + a;
+}
+
+/* Stores level-J sample (row, col) of the whole map in the finish's grid;
+ * outside the data's box it is no data already. */
+static inline void gj_put(build *b, uint64_t row, uint64_t col, uint16_t h, uint8_t v)
+{
+    if (row < b->gj_h && col < b->gj_w) {
+        b->gj[row * b->gj_w + col] = h;
+        b->gjv[row * b->gj_w + col] = v;
+    }
 }
 
 /* Bounds of shift s nodes in a from the shift s-1 bounds in c and the heights
@@ -490,8 +508,8 @@ static hz_result run_job(build *b, uint32_t job, job_out *o, hz_err *err)
     const uint32_t RX1 = b->wrap ? XE + S + halo : (X0 + S + halo <= N - 1 ? X0 + S + halo : N - 1);
     const uint32_t RZ1 = b->wrap ? ZE + S + halo : (Z0 + S + halo <= N - 1 ? Z0 + S + halo : N - 1);
     const uint32_t RW = RX1 - RX0 + 1, RH = RZ1 - RZ0 + 1;
-    uint16_t *q = malloc((size_t)RW * RH * sizeof *q);
-    uint8_t *v = malloc((size_t)RW * RH);
+    uint16_t *q = malloc(((size_t)RW * RH + 1) * sizeof *q); /* + g_at's outside entry */
+    uint8_t *v = malloc((size_t)RW * RH + 1);
     narr nodes[HZ_PYR_MAX_LEVELS] = {0};
     hz_result r = HZ_OK;
     if (!q || !v) {
@@ -501,6 +519,7 @@ static hz_result run_job(build *b, uint32_t job, job_out *o, hz_err *err)
     r = read_rect(b, RX0, RZ0, RW, RH, q, v, &o->max_err, err);
     if (r != HZ_OK)
         goto done;
+    q[(size_t)RW * RH] = b->fill, v[(size_t)RW * RH] = 0;
     /* figures over the job's own square (each sample once) */
     o->hmin = 65535, o->hmax = 0;
     for (uint32_t Z = Z0; Z <= Z0 + S; Z++) {
@@ -586,11 +605,9 @@ static void gather(build *b, const job_out *o, uint32_t job)
     const uint32_t jx = job % b->jobs_side, jz = job / b->jobs_side, P = b->info.patch_cells;
     const uint32_t nJ = (b->S >> b->J) + 1, kJ = b->S / (P << b->J);
     for (uint32_t bz = 0; bz < nJ; bz++)
-        for (uint32_t a = 0; a < nJ; a++) {
-            const size_t dst = (size_t)(jz * (nJ - 1) + bz) * b->gj_n + jx * (nJ - 1) + a;
-            b->gj[dst] = o->hJ[(size_t)bz * nJ + a];
-            b->gjv[dst] = o->vJ[(size_t)bz * nJ + a];
-        }
+        for (uint32_t a = 0; a < nJ; a++)
+            gj_put(b, (uint64_t)jz * (nJ - 1) + bz, (uint64_t)jx * (nJ - 1) + a, o->hJ[(size_t)bz * nJ + a],
+                   o->vJ[(size_t)bz * nJ + a]);
     for (uint32_t zi = 0; zi < kJ; zi++)
         for (uint32_t xi = 0; xi < kJ; xi++) {
             const size_t dst = narr_at(&b->nJ, jx * kJ + xi, jz * kJ + zi), src = (size_t)zi * kJ + xi;
@@ -611,7 +628,7 @@ static hz_result finish_levels(build *b, hz_err *err)
     const uint32_t P = in->patch_cells, N = in->size, top = in->levels - 1;
     narr nodes[HZ_PYR_MAX_LEVELS] = {0};
     nodes[b->J] = b->nJ;
-    grid16 g = {.h = b->gj, .v = b->gjv, .ox = 0, .oz = 0, .nx = b->gj_n, .nz = b->gj_n, .lv = b->J};
+    grid16 g = {.h = b->gj, .v = b->gjv, .ox = 0, .oz = 0, .nx = b->gj_w, .nz = b->gj_h, .lv = b->J};
     hz_result r = HZ_OK;
     for (uint32_t s = b->J + 1; s <= top && r == HZ_OK; s++) {
         const uint32_t side = (N - 1) / (P << s);
@@ -855,11 +872,9 @@ static hz_result read_parts(build *b, uint32_t jobs, hz_err *err)
                     if (r == HZ_OK) {
                         const uint32_t c = pt.cells, nn = c + 1;
                         for (uint32_t bz = 0; bz < nn; bz++)
-                            for (uint32_t a = 0; a < nn; a++) {
-                                const size_t dst = (size_t)(tz * c + bz) * b->gj_n + tx * c + a;
-                                b->gj[dst] = pt.h[(size_t)bz * nn + a];
-                                b->gjv[dst] = pt.valid ? pt.valid[(size_t)bz * nn + a] : 1;
-                            }
+                            for (uint32_t a = 0; a < nn; a++)
+                                gj_put(b, (uint64_t)tz * c + bz, (uint64_t)tx * c + a, pt.h[(size_t)bz * nn + a],
+                                       pt.valid ? pt.valid[(size_t)bz * nn + a] : 1);
                         for (uint32_t zi = 0; zi < kJ; zi++)
                             for (uint32_t xi = 0; xi < kJ; xi++) {
                                 const size_t dst = narr_at(&b->nJ, tx * kJ + xi, tz * kJ + zi);
@@ -1035,18 +1050,26 @@ hz_result hz_pyramid_import(const hz_pyr_import *d, hz_pyr_import_stats *stats, 
         goto done;
     }
     /* the whole pyramid, or the finish of the parts */
+    /* the level-J grid over the data's box: beyond it (the padding of a
+     * narrow map to its square) every sample is no data */
     const uint64_t gj_n = ((uint64_t)(in->size - 1) >> b.J) + 1;
+    const uint64_t gj_w = b.wrap || !b.W ? gj_n : (((uint64_t)b.W - 1) >> b.J) + 1;
+    const uint64_t gj_h = b.wrap || !b.H ? gj_n : (((uint64_t)b.H - 1) >> b.J) + 1;
     const uint32_t sideJ = r == HZ_OK ? (in->size - 1) / (in->patch_cells << b.J) : 0;
-    const uint64_t need = gj_n * gj_n * 3 + (uint64_t)sideJ * sideJ * 6 * 2;
+    const uint64_t need = (gj_w * gj_h + 1) * 3 + (uint64_t)sideJ * sideJ * 6 * 2;
     if (r == HZ_OK && need > hz_mem_budget_default())
         r = hz_err_set(err, HZ_ERR_MEMORY, "import: the finish of a %ux%u map needs %.0f MB, more than the memory "
                                            "budget", in->size, in->size, (double)need / 1e6);
     if (r == HZ_OK) {
-        b.gj_n = (uint32_t)gj_n;
-        b.gj = malloc(gj_n * gj_n * sizeof *b.gj);
-        b.gjv = malloc(gj_n * gj_n);
+        b.gj_w = (uint32_t)(gj_w < gj_n ? gj_w : gj_n), b.gj_h = (uint32_t)(gj_h < gj_n ? gj_h : gj_n);
+        const size_t cells = (size_t)b.gj_w * b.gj_h;
+        b.gj = malloc((cells + 1) * sizeof *b.gj);
+        b.gjv = malloc(cells + 1);
         if (!b.gj || !b.gjv || !narr_alloc(&b.nJ, 0, 0, sideJ, sideJ))
             r = hz_err_set(err, HZ_ERR_MEMORY, "import: out of memory");
+        else
+            b.gj[cells] = b.fill, b.gjv[cells] = 0;
+        b.finish_bytes = (cells + 1) * 3 + (uint64_t)sideJ * sideJ * 6;
     }
     if (r == HZ_OK)
         r = hz_pyr_writer_open(d->out, in, &b.w, err);
@@ -1084,7 +1107,8 @@ hz_result hz_pyramid_import(const hz_pyr_import *d, hz_pyr_import_stats *stats, 
     }
 done:
     if (r == HZ_OK && stats) {
-        *stats = (hz_pyr_import_stats){.samples = (uint64_t)in->size * in->size, .max_error = b.max_err};
+        *stats = (hz_pyr_import_stats){.samples = (uint64_t)in->size * in->size, .max_error = b.max_err,
+                                       .finish_bytes = b.finish_bytes};
         hz_pyramid *p = NULL;
         hz_err e2 = {0};
         if (!d->tiles && hz_pyramid_open(d->out, &p, &e2) == HZ_OK) {

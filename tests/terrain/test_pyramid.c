@@ -74,12 +74,14 @@ static int setup(void **state)
     return 0;
 }
 
-static void test_round_trip_exact(void **state)
+/* Every sample of every level of pyramid path (the tif imported) equals the
+ * source, or is no data where the source has none or the padding is; so is
+ * every apron sample. */
+static void check_exact(const char *path)
 {
-    (void)state;
     hz_pyramid *p;
     hz_err err = {0};
-    assert_int_equal(hz_pyramid_open(hzp, &p, &err), HZ_OK);
+    assert_int_equal(hz_pyramid_open(path, &p, &err), HZ_OK);
     const hz_pyr_info *in = hz_pyramid_info(p);
     assert_int_equal(in->data_w, W);
     assert_int_equal(in->data_h, H);
@@ -132,6 +134,91 @@ static void test_round_trip_exact(void **state)
     }
     assert_true(checked > (uint64_t)W * H);
     hz_pyramid_close(p);
+}
+
+static void test_round_trip_exact(void **state)
+{
+    (void)state;
+    check_exact(hzp);
+}
+
+/* With 16-cell tiles a job covers 256 cells and the finish builds levels 5
+ * and up from the jobs' level-4 samples. It holds them over the data's box
+ * only (700x500 of the padded 1025^2: 44x32 of 65x65 samples), and the
+ * levels it builds are as exact as the jobs'. */
+static void test_finish_holds_the_data_box(void **state)
+{
+    (void)state;
+    char out[600];
+    snprintf(out, sizeof out, "%s/pyr_box.hzp", HZ_TEST_TMP);
+    const char *ins[] = {tif};
+    hz_pyr_import d = {.out = out, .inputs = ins, .input_count = 1, .tile_cells = 16, .threads = 2};
+    hz_pyr_import_stats st;
+    hz_err err = {0};
+    assert_int_equal(hz_pyramid_import(&d, &st, &err), HZ_OK);
+    hz_pyramid *p;
+    assert_int_equal(hz_pyramid_open(out, &p, &err), HZ_OK);
+    assert_int_equal(hz_pyramid_info(p)->levels, 8); /* 0..4 by the jobs, 5..7 by the finish */
+    hz_pyramid_close(p);
+    const uint64_t nodes = (1024 / (8 << 4)) * (1024 / (8 << 4)) * 6; /* level-4 node bounds, 8-cell patches */
+    assert_true(st.finish_bytes <= (44 * 32 + 1) * 3 + nodes);
+    assert_true(st.finish_bytes < (65 * 65 * 3 + nodes) / 2);
+    check_exact(out);
+    /* The same samples as a full 1025^2 raster (the padding as explicit
+     * nodata: the finish's box is then the whole square) give the same tiles
+     * at every level, LOD bounds and aprons included. */
+    char full[600], fullp[600];
+    snprintf(full, sizeof full, "%s/pyr_box_full.tif", HZ_TEST_TMP);
+    snprintf(fullp, sizeof fullp, "%s/pyr_box_full.hzp", HZ_TEST_TMP);
+    GDALDatasetH ds = GDALCreate(GDALGetDriverByName("GTiff"), full, 1025, 1025, 1, GDT_Int16, NULL);
+    assert_non_null(ds);
+    GDALSetGeoTransform(ds, (double *)GT);
+    GDALSetProjection(ds, "EPSG:32633");
+    GDALRasterBandH band = GDALGetRasterBand(ds, 1);
+    GDALSetRasterNoDataValue(band, -32768);
+    int16_t row[1025];
+    for (uint32_t j = 0; j < 1025; j++) {
+        for (uint32_t i = 0; i < 1025; i++)
+            row[i] = i < W && j < H ? value_at(i, j) : -32768;
+        assert_int_equal(GDALRasterIO(band, GF_Write, 0, (int)j, 1025, 1, row, 1025, 1, GDT_Int16, 0, 0), CE_None);
+    }
+    GDALClose(ds);
+    const char *fins[] = {full};
+    hz_pyr_import_stats fst;
+    hz_pyr_import fd = {.out = fullp, .inputs = fins, .input_count = 1, .tile_cells = 16, .threads = 2};
+    assert_int_equal(hz_pyramid_import(&fd, &fst, &err), HZ_OK);
+    assert_true(fst.finish_bytes >= 65 * 65 * 3 + nodes);
+    hz_pyramid *pa, *pb;
+    assert_int_equal(hz_pyramid_open(out, &pa, &err), HZ_OK);
+    assert_int_equal(hz_pyramid_open(fullp, &pb, &err), HZ_OK);
+    const hz_pyr_info *in = hz_pyramid_info(pa);
+    assert_true(in->h_scale == hz_pyramid_info(pb)->h_scale && in->h_offset == hz_pyramid_info(pb)->h_offset);
+    uint32_t compared = 0;
+    for (uint32_t l = 0; l < in->levels; l++)
+        for (uint32_t tz = 0; tz < hz_pyr_level_tiles(in, l); tz++)
+            for (uint32_t tx = 0; tx < hz_pyr_level_tiles(in, l); tx++) {
+                hz_pyr_tile ta, tb;
+                assert_int_equal(hz_pyramid_read_tile(pa, l, tx, tz, &ta, &err), HZ_OK);
+                assert_int_equal(hz_pyramid_read_tile(pb, l, tx, tz, &tb, &err), HZ_OK);
+                const size_t n = (size_t)(ta.cells + 1) * (ta.cells + 1), k = ta.nodes;
+                assert_memory_equal(ta.h, tb.h, n * sizeof *ta.h);
+                assert_memory_equal(ta.apron, tb.apron, (4 * (size_t)ta.cells + 8) * sizeof *ta.apron);
+                assert_true((ta.valid == NULL) == (tb.valid == NULL));
+                if (ta.valid)
+                    assert_memory_equal(ta.valid, tb.valid, n);
+                assert_memory_equal(ta.node_delta, tb.node_delta, (k + 2) * (k + 2) * sizeof *ta.node_delta);
+                assert_memory_equal(ta.node_min, tb.node_min, k * k * sizeof *ta.node_min);
+                assert_memory_equal(ta.node_max, tb.node_max, k * k * sizeof *ta.node_max);
+                compared += l > 4;
+                hz_pyr_tile_free(&ta);
+                hz_pyr_tile_free(&tb);
+            }
+    assert_int_equal(compared, 2 * 2 + 1 + 1); /* levels 5, 6 and 7 */
+    hz_pyramid_close(pa);
+    hz_pyramid_close(pb);
+    unlink(full);
+    unlink(fullp);
+    unlink(out);
 }
 
 static void copy_file(const char *from, const char *to)
@@ -929,6 +1016,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_round_trip_exact),
+        cmocka_unit_test(test_finish_holds_the_data_box),
         cmocka_unit_test(test_corrupt_and_truncated),
         cmocka_unit_test(test_stream_crack_free_while_tiles_missing),
         cmocka_unit_test(test_stream_late_count),
