@@ -508,21 +508,28 @@ static hz_result run_job(build *b, uint32_t job, job_out *o, hz_err *err)
     const uint32_t RX1 = b->wrap ? XE + S + halo : (X0 + S + halo <= N - 1 ? X0 + S + halo : N - 1);
     const uint32_t RZ1 = b->wrap ? ZE + S + halo : (Z0 + S + halo <= N - 1 ? Z0 + S + halo : N - 1);
     const uint32_t RW = RX1 - RX0 + 1, RH = RZ1 - RZ0 + 1;
-    uint16_t *q = malloc(((size_t)RW * RH + 1) * sizeof *q); /* + g_at's outside entry */
-    uint8_t *v = malloc((size_t)RW * RH + 1);
+    /* A window wholly in the padding of a narrow map (most jobs of a UTM zone
+     * strip) has no sample: its grid is empty (every read is g_at's outside
+     * entry, no data) and its node bounds are known, so it reads nothing and
+     * holds no window. Its tiles are the same as when computed. */
+    const bool empty = !b->wrap && (RX0 >= b->W || RZ0 >= b->H);
+    const size_t cells = empty ? 0 : (size_t)RW * RH;
+    uint16_t *q = malloc((cells + 1) * sizeof *q); /* + g_at's outside entry */
+    uint8_t *v = malloc(cells + 1);
     narr nodes[HZ_PYR_MAX_LEVELS] = {0};
     hz_result r = HZ_OK;
     if (!q || !v) {
         r = hz_err_set(err, HZ_ERR_MEMORY, "import: out of memory for a %ux%u job window", RW, RH);
         goto done;
     }
-    r = read_rect(b, RX0, RZ0, RW, RH, q, v, &o->max_err, err);
+    if (!empty)
+        r = read_rect(b, RX0, RZ0, RW, RH, q, v, &o->max_err, err);
     if (r != HZ_OK)
         goto done;
-    q[(size_t)RW * RH] = b->fill, v[(size_t)RW * RH] = 0;
+    q[cells] = b->fill, v[cells] = 0;
     /* figures over the job's own square (each sample once) */
     o->hmin = 65535, o->hmax = 0;
-    for (uint32_t Z = Z0; Z <= Z0 + S; Z++) {
+    for (uint32_t Z = Z0; !empty && Z <= Z0 + S; Z++) {
         if (Z == Z0 + S && Z != N - 1)
             break;
         for (uint32_t X = X0; X <= X0 + S; X++) {
@@ -537,14 +544,17 @@ static hz_result run_job(build *b, uint32_t job, job_out *o, hz_err *err)
             o->hmax = q[k] > o->hmax ? q[k] : o->hmax;
         }
     }
-    grid16 g0 = {.h = q, .v = v, .ox = RX0, .oz = RZ0, .nx = RW, .nz = RH, .lv = 0};
+    grid16 g0 = {.h = q, .v = v, .ox = RX0, .oz = RZ0, .nx = empty ? 0 : RW, .nz = empty ? 0 : RH, .lv = 0};
     for (uint32_t s = 0; s <= J; s++) {
         const uint32_t G = P << s;
         if (!narr_alloc(&nodes[s], RX0 / G, RZ0 / G, (RW - 1) / G, (RH - 1) / G)) {
             r = hz_err_set(err, HZ_ERR_MEMORY, "import: out of memory");
             goto done;
         }
-        if (s == 0)
+        if (empty) /* what bounds_leaf and bounds_up give with no valid sample */
+            for (size_t k = 0; k < (size_t)nodes[s].w * nodes[s].h; k++)
+                nodes[s].d[k] = 0, nodes[s].mn[k] = nodes[s].mx[k] = b->fill;
+        else if (s == 0)
             bounds_leaf(b, &g0, &nodes[0]);
         else
             bounds_up(b, &g0, &nodes[s - 1], &nodes[s], s);
