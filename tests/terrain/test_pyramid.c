@@ -142,58 +142,49 @@ static void test_round_trip_exact(void **state)
     check_exact(hzp);
 }
 
-/* With 16-cell tiles a job covers 256 cells and the finish builds levels 5
- * and up from the jobs' level-4 samples. It holds them over the data's box
- * only (700x500 of the padded 1025^2: 44x32 of 65x65 samples), and the
- * levels it builds are as exact as the jobs'. */
-static void test_finish_holds_the_data_box(void **state)
+/* A w x h int16 raster of value_at inside keep_w x keep_h, nodata outside. */
+static void write_tif(const char *path, uint32_t w, uint32_t h, uint32_t keep_w, uint32_t keep_h)
 {
-    (void)state;
-    char out[600];
-    snprintf(out, sizeof out, "%s/pyr_box.hzp", HZ_TEST_TMP);
-    const char *ins[] = {tif};
-    hz_pyr_import d = {.out = out, .inputs = ins, .input_count = 1, .tile_cells = 16, .threads = 2};
-    hz_pyr_import_stats st;
-    hz_err err = {0};
-    assert_int_equal(hz_pyramid_import(&d, &st, &err), HZ_OK);
-    hz_pyramid *p;
-    assert_int_equal(hz_pyramid_open(out, &p, &err), HZ_OK);
-    assert_int_equal(hz_pyramid_info(p)->levels, 8); /* 0..4 by the jobs, 5..7 by the finish */
-    hz_pyramid_close(p);
-    const uint64_t nodes = (1024 / (8 << 4)) * (1024 / (8 << 4)) * 6; /* level-4 node bounds, 8-cell patches */
-    assert_true(st.finish_bytes <= (44 * 32 + 1) * 3 + nodes);
-    assert_true(st.finish_bytes < (65 * 65 * 3 + nodes) / 2);
-    check_exact(out);
-    /* The same samples as a full 1025^2 raster (the padding as explicit
-     * nodata: the finish's box is then the whole square) give the same tiles
-     * at every level, LOD bounds and aprons included. */
-    char full[600], fullp[600];
-    snprintf(full, sizeof full, "%s/pyr_box_full.tif", HZ_TEST_TMP);
-    snprintf(fullp, sizeof fullp, "%s/pyr_box_full.hzp", HZ_TEST_TMP);
-    GDALDatasetH ds = GDALCreate(GDALGetDriverByName("GTiff"), full, 1025, 1025, 1, GDT_Int16, NULL);
+    GDALDatasetH ds = GDALCreate(GDALGetDriverByName("GTiff"), path, (int)w, (int)h, 1, GDT_Int16, NULL);
     assert_non_null(ds);
     GDALSetGeoTransform(ds, (double *)GT);
     GDALSetProjection(ds, "EPSG:32633");
     GDALRasterBandH band = GDALGetRasterBand(ds, 1);
     GDALSetRasterNoDataValue(band, -32768);
-    int16_t row[1025];
-    for (uint32_t j = 0; j < 1025; j++) {
-        for (uint32_t i = 0; i < 1025; i++)
-            row[i] = i < W && j < H ? value_at(i, j) : -32768;
-        assert_int_equal(GDALRasterIO(band, GF_Write, 0, (int)j, 1025, 1, row, 1025, 1, GDT_Int16, 0, 0), CE_None);
+    int16_t *row = malloc(w * sizeof *row);
+    for (uint32_t j = 0; j < h; j++) {
+        for (uint32_t i = 0; i < w; i++)
+            row[i] = i < keep_w && j < keep_h ? value_at(i, j) : -32768;
+        assert_int_equal(GDALRasterIO(band, GF_Write, 0, (int)j, (int)w, 1, row, (int)w, 1, GDT_Int16, 0, 0), CE_None);
     }
+    free(row);
     GDALClose(ds);
-    const char *fins[] = {full};
-    hz_pyr_import_stats fst;
-    hz_pyr_import fd = {.out = fullp, .inputs = fins, .input_count = 1, .tile_cells = 16, .threads = 2};
-    assert_int_equal(hz_pyramid_import(&fd, &fst, &err), HZ_OK);
-    assert_true(fst.finish_bytes >= 65 * 65 * 3 + nodes);
+}
+
+/* Imports in with 16-cell tiles (a job covers 256 cells; the finish builds
+ * levels 5 and up from the jobs' level-4 samples) into out. */
+static hz_pyr_import_stats import16(const char *in, const char *out)
+{
+    const char *ins[] = {in};
+    hz_pyr_import d = {.out = out, .inputs = ins, .input_count = 1, .tile_cells = 16, .threads = 2};
+    hz_pyr_import_stats st;
+    hz_err err = {0};
+    assert_int_equal(hz_pyramid_import(&d, &st, &err), HZ_OK);
+    return st;
+}
+
+/* Every tile of a and b decodes to the same samples, validity, apron and LOD
+ * bounds; returns how many tiles above level 4 were compared. */
+static uint32_t same_tiles(const char *a, const char *b)
+{
     hz_pyramid *pa, *pb;
-    assert_int_equal(hz_pyramid_open(out, &pa, &err), HZ_OK);
-    assert_int_equal(hz_pyramid_open(fullp, &pb, &err), HZ_OK);
+    hz_err err = {0};
+    assert_int_equal(hz_pyramid_open(a, &pa, &err), HZ_OK);
+    assert_int_equal(hz_pyramid_open(b, &pb, &err), HZ_OK);
     const hz_pyr_info *in = hz_pyramid_info(pa);
+    assert_int_equal(in->levels, hz_pyramid_info(pb)->levels);
     assert_true(in->h_scale == hz_pyramid_info(pb)->h_scale && in->h_offset == hz_pyramid_info(pb)->h_offset);
-    uint32_t compared = 0;
+    uint32_t above = 0;
     for (uint32_t l = 0; l < in->levels; l++)
         for (uint32_t tz = 0; tz < hz_pyr_level_tiles(in, l); tz++)
             for (uint32_t tx = 0; tx < hz_pyr_level_tiles(in, l); tx++) {
@@ -209,15 +200,47 @@ static void test_finish_holds_the_data_box(void **state)
                 assert_memory_equal(ta.node_delta, tb.node_delta, (k + 2) * (k + 2) * sizeof *ta.node_delta);
                 assert_memory_equal(ta.node_min, tb.node_min, k * k * sizeof *ta.node_min);
                 assert_memory_equal(ta.node_max, tb.node_max, k * k * sizeof *ta.node_max);
-                compared += l > 4;
+                above += l > 4;
                 hz_pyr_tile_free(&ta);
                 hz_pyr_tile_free(&tb);
             }
-    assert_int_equal(compared, 2 * 2 + 1 + 1); /* levels 5, 6 and 7 */
     hz_pyramid_close(pa);
     hz_pyramid_close(pb);
+    return above;
+}
+
+/* A map narrower than its square: the finish holds the jobs' level-4 samples
+ * over the data's box only (700x500 of the padded 1025^2: 44x32 of 65x65),
+ * and jobs wholly in the padding (a 1025x100 strip: 12 of 16) read nothing.
+ * Both give the same tiles, at every level, LOD bounds and aprons included,
+ * as the same samples in a full 1025^2 raster with the padding as explicit
+ * nodata (whose box is the whole square and whose jobs all read). */
+static void test_finish_holds_the_data_box(void **state)
+{
+    (void)state;
+    char out[600], full[600], fullp[600], strip[600];
+    snprintf(out, sizeof out, "%s/pyr_box.hzp", HZ_TEST_TMP);
+    snprintf(full, sizeof full, "%s/pyr_box_full.tif", HZ_TEST_TMP);
+    snprintf(fullp, sizeof fullp, "%s/pyr_box_full.hzp", HZ_TEST_TMP);
+    snprintf(strip, sizeof strip, "%s/pyr_box_strip.tif", HZ_TEST_TMP);
+    const hz_pyr_import_stats st = import16(tif, out);
+    const uint64_t nodes = (1024 / (8 << 4)) * (1024 / (8 << 4)) * 6; /* level-4 node bounds, 8-cell patches */
+    assert_true(st.finish_bytes <= (44 * 32 + 1) * 3 + nodes);
+    assert_true(st.finish_bytes < (65 * 65 * 3 + nodes) / 2);
+    check_exact(out);
+    write_tif(full, 1025, 1025, W, H);
+    const hz_pyr_import_stats fst = import16(full, fullp);
+    assert_true(fst.finish_bytes >= 65 * 65 * 3 + nodes);
+    assert_int_equal(same_tiles(out, fullp), 2 * 2 + 1 + 1); /* levels 5, 6 and 7 */
+    /* the strip */
+    write_tif(strip, 1025, 100, 1025, 100);
+    import16(strip, out);
+    write_tif(full, 1025, 1025, 1025, 100);
+    import16(full, fullp);
+    assert_int_equal(same_tiles(out, fullp), 2 * 2 + 1 + 1);
     unlink(full);
     unlink(fullp);
+    unlink(strip);
     unlink(out);
 }
 
