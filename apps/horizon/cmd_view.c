@@ -18,6 +18,7 @@
 #include "horizon/gl_limits.h"
 #include "horizon/safety.h"
 #include "horizon/window.h"
+#include "view_common.h"
 #include "view_input.h"
 
 #define MAX_BOXES 30000u /* node boxes drawn per frame (leaves and culled) */
@@ -311,22 +312,15 @@ static void set_walk(view *v, bool walk)
 
 static bool write_shot(view *v, const char *file)
 {
-    size_t n = (size_t)v->width * v->height * 3;
-    uint8_t *rgb = malloc(n);
     hz_err err = {0};
-    hz_outfile of = {0};
-    bool ok = rgb && hz_renderer_read_rgb(v->ren, rgb, &err) == HZ_OK && hz_outfile_begin(&of, file, &err) == HZ_OK &&
-              hz_image_write_png(of.tmp, rgb, v->width, v->height, &err) == HZ_OK &&
-              hz_outfile_commit(&of, &err) == HZ_OK;
-    hz_outfile_discard(&of);
-    free(rgb);
+    const bool ok = view_write_png(v->ren, v->width, v->height, file, &err);
     if (ok) {
         v->shots++;
         if (!v->o.quiet)
             fprintf(stderr, "horizon view: wrote %s (%ux%u)\n", file, v->width, v->height);
         set_message(v, 3.0, "saved %s", file);
     } else {
-        fprintf(stderr, "horizon view: screenshot %s failed: %s\n", file, err.msg[0] ? err.msg : "out of memory");
+        fprintf(stderr, "horizon view: screenshot %s failed: %s\n", file, err.msg);
         set_message(v, 5.0, "screenshot failed: %s", err.msg);
     }
     return ok;
@@ -526,37 +520,19 @@ static bool handle_press(view *v, int key)
 /* Applies this frame's script events. Returns false on a quit event. */
 static bool run_script(view *v, bool *shot_after, const char **shot_file)
 {
-    bool go = true;
-    while (v->sc.next < v->sc.count && v->sc.ev[v->sc.next].frame <= v->frame) {
-        script_event *e = &v->sc.ev[v->sc.next++];
-        switch (e->kind) {
-        case EV_KEY: hz_window_inject_key(v->win, e->code, e->down); break;
-        case EV_BUTTON: hz_window_inject_mouse_button(v->win, e->code, e->down); break;
-        case EV_MOUSE: hz_window_inject_mouse_move(v->win, e->v[0], e->v[1]); break;
-        case EV_LOOK:
-            v->look_yaw += e->v[0];
-            v->look_pitch += e->v[1];
-            break;
-        case EV_SCROLL: hz_window_inject_scroll(v->win, e->v[0]); break;
-        case EV_RESIZE: hz_window_set_size(v->win, (uint32_t)e->v[0], (uint32_t)e->v[1]); break;
-        case EV_CAMERA:
-            v->fc.cam.pos[0] = e->v[0];
-            v->fc.cam.pos[1] = e->v[1];
-            v->fc.cam.pos[2] = e->v[2];
-            v->fc.cam.yaw = e->v[3];
-            v->fc.cam.pitch = e->v[4];
-            hz_flycam_set_mode(&v->fc, v->fc.mode); /* re-applies the ground clamp */
-            v->path_active = false;
-            v->cut = true;
-            break;
-        case EV_SCREENSHOT:
-            *shot_after = true;
-            *shot_file = e->file;
-            break;
-        case EV_QUIT: go = false; break;
-        }
+    view_script_out o = {0};
+    view_script_step(&v->sc, v->frame, v->win, &v->fc, &o);
+    v->look_yaw += o.look_yaw;
+    v->look_pitch += o.look_pitch;
+    if (o.camera_set) {
+        v->path_active = false;
+        v->cut = true;
     }
-    return go;
+    if (o.shot) {
+        *shot_after = true;
+        *shot_file = o.shot;
+    }
+    return !o.quit;
 }
 
 /* The seed's fan view: every LOD triangle is (centre, rim, rim) of its leaf's
@@ -861,25 +837,7 @@ static bool frame(view *v, bool *render_failed)
         if (v->path_t >= (double)hz_path_duration(&v->path))
             v->path_active = false;
     } else {
-        hz_window *w = v->win;
-        hz_flycam_input fi = {0};
-#define K(c) (hz_window_key_down(w, HZ_KEY_A + ((c) - 'A')) ? 1.0f : 0.0f)
-        fi.forward = K('W') - K('S');
-        fi.right = K('D') - K('A');
-        fi.up = K('E') - K('Q') + (hz_window_key_down(w, HZ_KEY_PAGE_UP) ? 1.0f : 0.0f) -
-                (hz_window_key_down(w, HZ_KEY_PAGE_DOWN) ? 1.0f : 0.0f);
-#undef K
-        fi.fast = hz_window_key_down(w, HZ_KEY_LEFT_SHIFT) || hz_window_key_down(w, HZ_KEY_RIGHT_SHIFT);
-        fi.slow = hz_window_key_down(w, HZ_KEY_LEFT_CONTROL) || hz_window_key_down(w, HZ_KEY_RIGHT_CONTROL);
-        float turn = (hz_window_key_down(w, HZ_KEY_RIGHT) ? 1.0f : 0.0f) - (hz_window_key_down(w, HZ_KEY_LEFT) ? 1.0f : 0.0f);
-        float tilt = (hz_window_key_down(w, HZ_KEY_UP) ? 1.0f : 0.0f) - (hz_window_key_down(w, HZ_KEY_DOWN) ? 1.0f : 0.0f);
-        fi.yaw_deg = 90.0f * turn * dt + v->look_yaw;
-        fi.pitch_deg = 60.0f * tilt * dt + v->look_pitch;
-        if (hz_window_mouse_captured(w) || hz_window_mouse_down(w, HZ_MOUSE_LEFT) ||
-            hz_window_mouse_down(w, HZ_MOUSE_RIGHT)) {
-            fi.yaw_deg += in.mouse_dx * v->vo.mouse_sens;
-            fi.pitch_deg -= in.mouse_dy * v->vo.mouse_sens;
-        }
+        const hz_flycam_input fi = view_flycam_input(v->win, &in, dt, v->look_yaw, v->look_pitch, v->vo.mouse_sens);
         hz_flycam_update(&v->fc, &fi, dt);
     }
     v->look_yaw = v->look_pitch = 0.0f;

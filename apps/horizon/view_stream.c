@@ -16,6 +16,7 @@
 #include "horizon/safety.h"
 #include "horizon/window.h"
 #include "json_out.h"
+#include "view_common.h"
 #include "view_input.h"
 
 typedef struct sview {
@@ -51,20 +52,12 @@ static float ground(void *user, float x, float z)
 
 static bool write_shot(sview *v, const char *file)
 {
-    const size_t n = (size_t)v->width * v->height * 3;
-    uint8_t *rgb = malloc(n);
     hz_err err = {0};
-    hz_outfile of = {0};
-    const bool ok = rgb && hz_renderer_read_rgb(v->c.r, rgb, &err) == HZ_OK &&
-                    hz_outfile_begin(&of, file, &err) == HZ_OK &&
-                    hz_image_write_png(of.tmp, rgb, v->width, v->height, &err) == HZ_OK &&
-                    hz_outfile_commit(&of, &err) == HZ_OK;
-    hz_outfile_discard(&of);
-    free(rgb);
+    const bool ok = view_write_png(v->c.r, v->width, v->height, file, &err);
     if (ok && !v->o.quiet)
         fprintf(stderr, "horizon view: wrote %s (%ux%u)\n", file, v->width, v->height);
     if (!ok)
-        fprintf(stderr, "horizon view: screenshot %s failed: %s\n", file, err.msg[0] ? err.msg : "out of memory");
+        fprintf(stderr, "horizon view: screenshot %s failed: %s\n", file, err.msg);
     snprintf(v->message, sizeof v->message, ok ? "saved %s" : "screenshot %s failed", file);
     v->message_until = hz_time_ms() + 3000.0;
     v->shots += ok;
@@ -73,32 +66,14 @@ static bool write_shot(sview *v, const char *file)
 
 static bool run_script(sview *v, const char **shot)
 {
-    bool go = true;
-    while (v->sc.next < v->sc.count && v->sc.ev[v->sc.next].frame <= v->frame) {
-        script_event *e = &v->sc.ev[v->sc.next++];
-        switch (e->kind) {
-        case EV_KEY: hz_window_inject_key(v->win, e->code, e->down); break;
-        case EV_BUTTON: hz_window_inject_mouse_button(v->win, e->code, e->down); break;
-        case EV_MOUSE: hz_window_inject_mouse_move(v->win, e->v[0], e->v[1]); break;
-        case EV_LOOK:
-            v->look_yaw += e->v[0];
-            v->look_pitch += e->v[1];
-            break;
-        case EV_SCROLL: hz_window_inject_scroll(v->win, e->v[0]); break;
-        case EV_RESIZE: hz_window_set_size(v->win, (uint32_t)e->v[0], (uint32_t)e->v[1]); break;
-        case EV_CAMERA:
-            for (int k = 0; k < 3; k++)
-                v->fc.cam.pos[k] = e->v[k];
-            v->fc.cam.yaw = e->v[3];
-            v->fc.cam.pitch = e->v[4];
-            hz_flycam_set_mode(&v->fc, v->fc.mode); /* the ground clamp */
-            v->path_active = false;
-            break;
-        case EV_SCREENSHOT: *shot = e->file; break;
-        case EV_QUIT: go = false; break;
-        }
-    }
-    return go;
+    view_script_out o = {0};
+    view_script_step(&v->sc, v->frame, v->win, &v->fc, &o);
+    v->look_yaw += o.look_yaw;
+    v->look_pitch += o.look_pitch;
+    if (o.camera_set)
+        v->path_active = false;
+    *shot = o.shot;
+    return !o.quit;
 }
 
 static void hud(sview *v)
@@ -180,26 +155,7 @@ static bool frame(sview *v, bool *failed)
         hz_path_sample(&v->path, (float)v->path_t, &v->fc.cam);
         v->path_active = v->path_t < (double)hz_path_duration(&v->path);
     } else {
-        hz_window *w = v->win;
-        hz_flycam_input fi = {0};
-#define K(c) (hz_window_key_down(w, HZ_KEY_A + ((c) - 'A')) ? 1.0f : 0.0f)
-        fi.forward = K('W') - K('S');
-        fi.right = K('D') - K('A');
-        fi.up = K('E') - K('Q');
-#undef K
-        fi.fast = hz_window_key_down(w, HZ_KEY_LEFT_SHIFT) || hz_window_key_down(w, HZ_KEY_RIGHT_SHIFT);
-        fi.slow = hz_window_key_down(w, HZ_KEY_LEFT_CONTROL) || hz_window_key_down(w, HZ_KEY_RIGHT_CONTROL);
-        const float turn = (hz_window_key_down(w, HZ_KEY_RIGHT) ? 1.0f : 0.0f) -
-                           (hz_window_key_down(w, HZ_KEY_LEFT) ? 1.0f : 0.0f);
-        const float tilt = (hz_window_key_down(w, HZ_KEY_UP) ? 1.0f : 0.0f) -
-                           (hz_window_key_down(w, HZ_KEY_DOWN) ? 1.0f : 0.0f);
-        fi.yaw_deg = 90.0f * turn * dt + v->look_yaw;
-        fi.pitch_deg = 60.0f * tilt * dt + v->look_pitch;
-        if (hz_window_mouse_captured(w) || hz_window_mouse_down(w, HZ_MOUSE_LEFT) ||
-            hz_window_mouse_down(w, HZ_MOUSE_RIGHT)) {
-            fi.yaw_deg += in.mouse_dx * 0.15f;
-            fi.pitch_deg -= in.mouse_dy * 0.15f;
-        }
+        const hz_flycam_input fi = view_flycam_input(v->win, &in, dt, v->look_yaw, v->look_pitch, 0.15f);
         hz_flycam_update(&v->fc, &fi, dt);
     }
     v->look_yaw = v->look_pitch = 0.0f;
