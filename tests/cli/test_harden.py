@@ -12,20 +12,8 @@ import gzip, os, re, resource, shutil, struct, subprocess, sys, time, zlib
 HZ, TMP = sys.argv[1], sys.argv[2]
 os.makedirs(TMP, exist_ok=True)
 NOPE = os.path.join(TMP, "nonexistent", "none.png")  # fails fast after parsing
-fails, passes = 0, 0
-
-
-def ok(msg):
-    global passes
-    passes += 1
-    print("ok   " + msg)
-
-
-def bad(msg):
-    global fails
-    fails += 1
-    print("FAIL " + msg)
-
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from clitest import ok, bad, check, run_hz, finish  # noqa: E402,F401
 
 def run(args, timeout=120):
     p = subprocess.run([HZ] + args, capture_output=True, timeout=timeout)
@@ -280,5 +268,4 @@ with open(tmp("hull1e30.hzt"), "wb") as f:
 rc, err, _ = run(["tree", "--in", tmp("hull1e30.hzt"), "--no-rank", "--no-hull"])
 (ok if rc == 1 and "hull vertex 0" in err else bad)("hull vertex at 1e30 refused: %s" % err.strip())
 
-print("test_harden: %d passed, %d failed" % (passes, fails))
-sys.exit(1 if fails else 0)
+finish("test_harden")

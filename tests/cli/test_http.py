@@ -22,30 +22,11 @@ import json, os, shutil, struct, subprocess, sys, time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from http_fixtures import NGINX, Nginx, Proxy  # noqa: E402
+from clitest import ok, bad, check, run_hz, finish  # noqa: E402,F401
 
 HZ, TMP = sys.argv[1], os.path.abspath(sys.argv[2])
 shutil.rmtree(TMP, ignore_errors=True)
 os.makedirs(TMP)
-fails, passes = 0, 0
-
-
-def ok(msg):
-    global passes
-    passes += 1
-    print("ok   " + msg, flush=True)
-
-
-def bad(msg):
-    global fails
-    fails += 1
-    print("FAIL " + msg, flush=True)
-
-
-def check(cond, msg):
-    (ok if cond else bad)(msg)
-    return cond
-
-
 def tmp(*names):
     return os.path.join(TMP, *names)
 
@@ -323,5 +304,4 @@ try:
 finally:
     ng.stop()
 
-print("%d passed, %d failed" % (passes, fails))
-sys.exit(1 if fails else 0)
+finish()

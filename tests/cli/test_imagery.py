@@ -12,31 +12,10 @@ import json, math, os, struct, subprocess, sys, zlib
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import pngstat  # noqa: E402
+from clitest import ok, bad, check, run_hz, finish  # noqa: E402,F401
 
 HZ, DATA, TMP = sys.argv[1], sys.argv[2], sys.argv[3]
 os.makedirs(TMP, exist_ok=True)
-fails, passes = 0, 0
-
-
-def ok(msg):
-    global passes
-    passes += 1
-    print("ok   " + msg)
-
-
-def bad(msg):
-    global fails
-    fails += 1
-    print("FAIL " + msg)
-
-
-def check(cond, msg, detail=""):
-    if cond:
-        ok(msg)
-    else:
-        bad(msg + (": " + str(detail)[:600] if detail else ""))
-
-
 def tmp(name):
     return os.path.join(TMP, name)
 
@@ -50,8 +29,7 @@ def sh(args):
 
 
 def run(args, timeout=300):
-    p = subprocess.run([HZ] + args, capture_output=True, timeout=timeout)
-    return p.returncode, p.stdout.decode("utf-8", "replace"), p.stderr.decode("utf-8", "replace")
+    return run_hz(HZ, args, timeout)
 
 
 def render_json(args):
@@ -238,5 +216,4 @@ refused("--imagery-max 10", ["--dem", DEM, "--imagery", GEO, "--imagery-max", "1
 refused("a budget too small", ["--dem", DEM, "--imagery", FINE, "--imagery-max", "8192", "--max-memory", "200M"],
         "budget")
 
-print("%d passed, %d failed" % (passes, fails))
-sys.exit(1 if fails else 0)
+finish()

@@ -7,31 +7,12 @@ import json, os, subprocess, sys
 
 HZ, DATA, TMP = sys.argv[1], sys.argv[2], sys.argv[3]
 os.makedirs(TMP, exist_ok=True)
-fails, passes = 0, 0
-
-
-def ok(msg):
-    global passes
-    passes += 1
-    print("ok   " + msg)
-
-
-def bad(msg):
-    global fails
-    fails += 1
-    print("FAIL " + msg)
-
-
-def check(cond, msg, detail=""):
-    if cond:
-        ok(msg)
-    else:
-        bad(msg + (": " + str(detail) if detail else ""))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from clitest import ok, bad, check, run_hz, finish  # noqa: E402,F401
 
 
 def run(args, timeout=300):
-    p = subprocess.run([HZ] + args, capture_output=True, timeout=timeout)
-    return p.returncode, p.stdout.decode("utf-8", "replace"), p.stderr.decode("utf-8", "replace")
+    return run_hz(HZ, args, timeout)
 
 
 def tmp(name):
@@ -338,5 +319,4 @@ for name, text, want in [("nokey.conf", "lod-c = 40\n\nlod-c2 3\n", ":3: expecte
     err = p.stderr.decode("utf-8", "replace")
     check(p.returncode == 2 and (tmp(name) + want) in err, "config %s: %s" % (name, want), err.strip())
 
-print("%d passed, %d failed" % (passes, fails))
-sys.exit(1 if fails else 0)
+finish()
