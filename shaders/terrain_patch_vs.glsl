@@ -22,8 +22,16 @@ uniform int u_map;               // samples per side of the map
 uniform int u_tile;              // T: cells per tile side
 uniform int u_top;               // the coarsest tile level (one tile)
 uniform int u_base[16];          // first layer of each tile level
-uniform int u_stream;            // 1: a streamed pyramid; tiles are cache slots, neighbours come
-                                 // from the patch's own tile, normals from the heights
+// STREAM 1: a streamed pyramid; tiles are cache slots, neighbours come from
+// the patch's own tile, normals from the heights. A compile-time constant
+// (FX_VARIANT_STREAM, bit 22 of the variant), not a uniform: llvmpipe runs
+// both sides of a branch under a mask, so the streamed path's texel fetches
+// would cost every in-memory vertex too (about 20 % of the frame).
+#if (FX_VARIANT & 4194304) != 0
+const int STREAM = 1;
+#else
+const int STREAM = 0;
+#endif
 
 out vec3 v_world;
 out vec3 v_normal;
@@ -116,7 +124,7 @@ void main()
     int shift = int(a_patch.z >> 16);
     int layer = int(a_patch.z & 0xffffu);
     int ox = int(meta & 0xfffu), oz = int((meta >> 12) & 0xfffu), ts = int((meta >> 24) & 15u);
-    uvec4 t = texelFetch(u_tiles, ivec3(ox + (u << ts) + u_stream, oz + (w << ts) + u_stream, layer), 0);
+    uvec4 t = texelFetch(u_tiles, ivec3(ox + (u << ts) + STREAM, oz + (w << ts) + STREAM, layer), 0);
     int i = int(a_patch.x) + (u << shift), j = int(a_patch.y) + (w << shift);
     float h = u_hoffset + u_hscale * float(t.r);
     vec3 p = vec3(float(i) * u_spacing, h, float(j) * u_spacing);
@@ -159,7 +167,7 @@ void main()
                 a = ivec2(i, j - bj);
                 b = ivec2(i, j + bj);
             }
-            if (u_stream == 0) {
+            if (STREAM == 0) {
                 p.y = mix(h, 0.5 * (morph1(a.x, a.y) + morph1(b.x, b.y)), m);
             } else {
                 uvec4 ta, tb;
@@ -172,7 +180,7 @@ void main()
             }
         }
     }
-    if (u_stream != 0) {
+    if (STREAM != 0) {
         // No full-resolution normal map: the normal of the heights at this level.
         int st = 1 << shift;
         float hw = stream_h(i - st, j, org, shift, layer), he = stream_h(i + st, j, org, shift, layer);

@@ -68,6 +68,7 @@ typedef struct fx_frame {
 #define FX_VARIANT_CLIP (1u << 19)  /* a reflection pass: discard below the water plane */
 #define FX_VARIANT_MASK (1u << 20)  /* cdlod patches over samples without data: discard there */
 #define FX_VARIANT_IMAGERY (1u << 21) /* draped imagery */
+#define FX_VARIANT_STREAM (1u << 22)  /* cdlod patches over a streamed pyramid (terrain_patch_vs.glsl's STREAM) */
 #define FX_MAX_LOCS 24
 #define FX_MAX_VARIANTS 40 /* the --effect-costs run uses about 16 terrain variants */
 
@@ -94,7 +95,7 @@ void prog_cache_clear(prog_cache *c);
 /* Uniform location slots per family. */
 enum { TL_SIZE, TL_SPACING, TL_HSCALE, TL_HOFFSET, TL_VIEWPROJ, TL_SUN, TL_HORIZON, TL_EYE, TL_FOG, TL_AMBIENT,
        TL_HRANGE, TL_WIRE, TL_MORPH_SCALE, TL_MORPH_START, TL_NORMAL_TEX, TL_NRM_SCALE, TL_MAP, TL_TILE, TL_TOP,
-       TL_BASE, TL_CLIMATE, TL_STREAM, TL_IMG_MAP, TL_IMG_TILE };
+       TL_BASE, TL_CLIMATE, TL_IMG_MAP, TL_IMG_TILE };
 enum { BL_VIEWPROJ, BL_CAM_RIGHT, BL_CAM_UP, BL_PX_PER_M, BL_BLEND, BL_FIRST, BL_FACING };
 enum { WL_RECT, WL_LEVEL, WL_VIEWPROJ, WL_HAS_REFLECTION, WL_VIEWPORT, WL_SIZE, WL_SPACING, WL_HSCALE, WL_HOFFSET,
        WL_DEEP, WL_CLARITY, WL_WAVES, WL_REFLECTIVITY, WL_GRID };

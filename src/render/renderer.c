@@ -41,7 +41,7 @@ static const char *const terrain_names[] = {
     "u_size",    "u_spacing", "u_hscale", "u_hoffset",     "u_viewproj",    "u_sun_dir",    "u_sky_horizon",
     "u_eye",     "u_fog_density", "u_ambient", "u_hrange", "u_wire",        "u_morph_scale", "u_morph_start",
     "u_normal_tex", "u_nrm_scale", "u_map",   "u_tile",     "u_top",         "u_base",       "u_climate",
-    "u_stream", "u_img_map", "u_img_tile", NULL};
+    "u_img_map", "u_img_tile", NULL};
 
 hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_err *err)
 {
@@ -68,7 +68,8 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
     }
     r->terrain_patch_cur = NULL;
     if (patches) {
-        const uint32_t pkey = key | FX_VARIANT_PATCH | (r->tile_masked ? FX_VARIANT_MASK : 0u);
+        const uint32_t pkey = key | FX_VARIANT_PATCH | (r->tile_masked ? FX_VARIANT_MASK : 0u) |
+                              (r->streamed ? FX_VARIANT_STREAM : 0u);
         r->terrain_patch_cur = prog_cache_get(&r->terrain, pkey, hz_shader_terrain_patch_vs,
                                               hz_shader_terrain_fs, "terrain (patches)", 2, terrain_names, err);
         if (!r->terrain_patch_cur)

@@ -246,7 +246,6 @@ void patch_draw(hz_renderer *r, const GLint *loc)
     glUniform1i(loc[TL_TILE], (GLint)r->tile_cells);
     glUniform1i(loc[TL_TOP], (GLint)r->tile_top);
     glUniform1iv(loc[TL_BASE], 16, r->tile_base);
-    glUniform1i(loc[TL_STREAM], r->streamed ? 1 : 0);
     glBindVertexArray(r->patch_vao);
     glDrawElementsInstanced(GL_TRIANGLES, (GLsizei)r->patch_index_count, GL_UNSIGNED_SHORT, (const void *)0,
                             (GLsizei)r->n_inst);
