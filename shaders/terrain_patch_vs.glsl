@@ -20,6 +20,8 @@ uniform float u_morph_scale;     // metres of range per q step; 0 = no morphing
 uniform float u_morph_start;     // morphing starts at this fraction of the range
 uniform int u_map;               // samples per side of the map
 uniform int u_tile;              // T: cells per tile side
+uniform int u_tile_shift;        // log2 T (in memory T is a power of two). No integer division
+                                 // here: llvmpipe has no vector one and runs it lane by lane
 uniform int u_top;               // the coarsest tile level (one tile)
 uniform int u_base[16];          // first layer of each tile level
 // STREAM 1: a streamed pyramid; tiles are cache slots, neighbours come from
@@ -48,9 +50,9 @@ uvec4 sample_texel(int i, int j)
     int ij = i | j | (1 << 30);
     int l = min(int(log2(float(ij & -ij)) + 0.5), u_top); // findLSB is GLSL 4.00
     int gi = i >> l, gj = j >> l;
-    int m = ((u_map - 1) >> l) / u_tile; // tiles per side at level l
-    int tx = min(gi / u_tile, m - 1), tz = min(gj / u_tile, m - 1);
-    return texelFetch(u_tiles, ivec3(gi - tx * u_tile, gj - tz * u_tile, u_base[l] + tz * m + tx), 0);
+    int m = ((u_map - 1) >> l) >> u_tile_shift; // tiles per side at level l
+    int tx = min(gi >> u_tile_shift, m - 1), tz = min(gj >> u_tile_shift, m - 1);
+    return texelFetch(u_tiles, ivec3(gi - (tx << u_tile_shift), gj - (tz << u_tile_shift), u_base[l] + tz * m + tx), 0);
 }
 
 float morph_factor(uvec4 t, vec3 p)
@@ -112,7 +114,8 @@ vec3 coarse_normal(int i, int j, ivec2 org, int shift, int layer)
 void main()
 {
     int c1 = u_size + 1;
-    int u = gl_VertexID % c1, w = gl_VertexID / c1;
+    int w = int((float(gl_VertexID) + 0.5) / float(c1)); // exact: gl_VertexID < 2^20
+    int u = gl_VertexID - w * c1;
     uint meta = a_patch.w;
     uint coarse = meta >> 28;
     // Stitching: odd vertices of an edge toward a coarser neighbour collapse
@@ -157,7 +160,9 @@ void main()
             int bi = low_bit(i), bj = low_bit(j);
             if (bi == bj) {
                 int s = bi;
-                bool main_diag = ((((i - s) / (2 * s)) + ((j - s) / (2 * s))) & 1) == 0;
+                // i - s and j - s are multiples of 2s: the parities of their
+                // quotients by 2s are their bits 2s
+                bool main_diag = (((i - s) ^ (j - s)) & (2 * s)) == 0;
                 a = ivec2(i - s, main_diag ? j - s : j + s);
                 b = ivec2(i + s, main_diag ? j + s : j - s);
             } else if (bi < bj) {

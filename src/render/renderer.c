@@ -41,7 +41,7 @@ static const char *const terrain_names[] = {
     "u_size",    "u_spacing", "u_hscale", "u_hoffset",     "u_viewproj",    "u_sun_dir",    "u_sky_horizon",
     "u_eye",     "u_fog_density", "u_ambient", "u_hrange", "u_wire",        "u_morph_scale", "u_morph_start",
     "u_normal_tex", "u_nrm_scale", "u_map",   "u_tile",     "u_top",         "u_base",       "u_climate",
-    "u_img_map", "u_img_tile", NULL};
+    "u_img_map", "u_img_tile", "u_tile_shift", NULL};
 
 hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_err *err)
 {

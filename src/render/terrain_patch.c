@@ -120,6 +120,9 @@ hz_result hz_renderer_set_cdlod(hz_renderer *r, hz_lod *lod, const uint8_t *vali
             break;
         T *= 2;
     }
+    if (T & (T - 1)) /* the shader addresses tiles by shifts */
+        return hz_err_set(err, HZ_ERR_UNSUPPORTED, "renderer: cdlod tiles of %u cells (a %ux%u map is not 2^k + 1)",
+                          T, n, n);
     if (layers > (uint32_t)max_layers || T + 1 > (uint32_t)max_size || top >= 16)
         return hz_err_set(err, HZ_ERR_UNSUPPORTED,
                           "renderer: a %ux%u cdlod pyramid needs %u tile layers of %u texels "
@@ -244,6 +247,10 @@ void patch_draw(hz_renderer *r, const GLint *loc)
     glUniform1i(loc[TL_SIZE], (GLint)r->patch_cells);
     glUniform1i(loc[TL_MAP], r->streamed && r->wrap ? 0 : (GLint)r->size);
     glUniform1i(loc[TL_TILE], (GLint)r->tile_cells);
+    GLint shift = 0;
+    while ((2u << shift) <= r->tile_cells)
+        shift++;
+    glUniform1i(loc[TL_TILE_SHIFT], shift); /* in memory tile_cells is a power of two */
     glUniform1i(loc[TL_TOP], (GLint)r->tile_top);
     glUniform1iv(loc[TL_BASE], 16, r->tile_base);
     glBindVertexArray(r->patch_vao);
