@@ -342,6 +342,7 @@ static int terrain_quads(city_app *a, const hz_terrain *t)
 int city_app_place(city_app *a, const hz_terrain *t, const char *cmd)
 {
     double t0 = hz_time_ms();
+    a->lod = t->lod;
     hz_err err = {0};
     a->scene = hz_scene_create(&(hz_scene_desc){.node_capacity = (a->city ? a->city->obj_count * 2 : 0) +
                                                                  a->file_info.nodes + 64});
@@ -436,6 +437,40 @@ int city_app_gpu(city_app *a, const char *cmd)
     return 0;
 }
 
+/* The seed's occlusion culling for the terrain too: at street level the
+ * buildings hide most of it. sp's in-memory cdlod patches whose box (as
+ * drawn, morphing included: hz_lod_patch_box) is behind the occlusion
+ * buffer are dropped; the rest keep their order (nearest first). Holes
+ * appear only where nothing shows through. */
+static void hide_patches(city_app *a, hz_scene_params *sp)
+{
+    a->patches_in = a->patches_drawn = sp->patch_count;
+    if (!sp->patches || !sp->patch_count || !a->lod)
+        return;
+    if (sp->patch_count > a->patch_keep_cap) {
+        hz_patch *k = realloc(a->patch_keep, sp->patch_count * sizeof *k);
+        if (!k)
+            return; /* all drawn */
+        a->patch_keep = k;
+        a->patch_keep_cap = sp->patch_count;
+    }
+    uint32_t kept = 0;
+    for (uint32_t k = 0; k < sp->patch_count; k++) {
+        const hz_patch *p = &sp->patches[k];
+        vec3 box[2];
+        bool hidden = false;
+        if (p->layer1 == 0 && hz_lod_patch_box(a->lod, p, box)) {
+            hz_box b = {{box[0][0], box[0][1], box[0][2]}, {box[1][0], box[1][1], box[1][2]}};
+            hidden = hz_occlusion_box_hidden(&a->occ, &b);
+        }
+        if (!hidden)
+            a->patch_keep[kept++] = *p;
+    }
+    sp->patches = a->patch_keep;
+    sp->patch_count = kept;
+    a->patches_drawn = kept;
+}
+
 void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam, hz_scene_params *sp)
 {
     a->hook.gpu = a->gpu;
@@ -485,7 +520,10 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
             hz_occlusion_rasterize_quads(&a->occ, a->quads + 12 * (size_t)a->mesh_first[mesh], a->mesh_quads[mesh], m);
         }
         a->hook.opts.occlusion = &a->occ;
+        hide_patches(a, sp);
         a->occ_ms = hz_time_ms() - t0;
+    } else {
+        a->patches_in = a->patches_drawn = sp->patch_count;
     }
     a->hook.next = sp->draw_objects;
     a->hook.next_user = sp->draw_objects_user;
@@ -592,6 +630,8 @@ void city_app_print(const city_app *a, json_t *json)
         jx_set(o, "occlusion_ms", jx_fix(a->occ_ms, 3));
         jx_set(o, "draw_ms", jx_fix(s->draw_ms, 3));
         jx_set(o, "occluder_quads", jx_int((long long)a->occ.triangles));
+        jx_set(o, "terrain_patches", jx_int(a->patches_in));
+        jx_set(o, "terrain_patches_drawn", jx_int(a->patches_drawn));
         jx_set(o, "place_ms", jx_fix(a->place_ms, 1));
         jx_set(o, "meshes", jx_int(hz_scene_mesh_count(a->scene)));
         if (c) {
@@ -657,6 +697,7 @@ void city_app_destroy(city_app *a)
     hz_city_destroy(a->city);
     hz_city_destroy(a->fp);
     hz_occlusion_free(&a->occ);
+    free(a->patch_keep);
     free(a->terrain_quads);
     free(a->occ_node);
     free(a->mesh_first);
@@ -920,8 +961,8 @@ int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *
     const uint32_t frames = o->city.bench_frames ? o->city.bench_frames : 12;
     const size_t px = (size_t)o->width * o->height * 3;
     double *ms = calloc((size_t)frames * BENCH_CFGS, sizeof *ms);
-    double sum_obj[BENCH_CFGS][6] = {{0}}; /* after frustum, after occlusion, draw calls, state changes, occ ms,
-                                             query ms */
+    double sum_obj[BENCH_CFGS][8] = {{0}}; /* after frustum, after occlusion, draw calls, state changes, occ ms,
+                                             query ms, terrain patches in view, drawn */
     uint64_t diff[BENCH_CFGS] = {0}, diff_frames[BENCH_CFGS] = {0};
     uint8_t *img = malloc(px * BENCH_CFGS);
     uint32_t objects = 0;
@@ -971,6 +1012,8 @@ int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *
             sum_obj[ci][3] += s->state_changes;
             sum_obj[ci][4] += a->occ_ms;
             sum_obj[ci][5] += s->query_ms;
+            sum_obj[ci][6] += a->patches_in;
+            sum_obj[ci][7] += a->patches_drawn;
             if (hz_renderer_read_rgb(ren, img + px * ci, &err) != HZ_OK) {
                 fprintf(stderr, "horizon render: %s\n", err.msg);
                 goto out;
@@ -994,9 +1037,9 @@ int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *
                frames, objects, o->width, o->height);
     else
         printf("city bench    %s path, %u frames, %u objects, %ux%u (frame ms: median over frames, all passes + "
-               "occlusion buffer)\n%-18s %9s %9s %9s %9s %9s %9s %12s\n",
+               "occlusion buffer)\n%-18s %9s %9s %9s %9s %9s %9s %9s %12s\n",
                kind, frames, objects, o->width, o->height, "config", "frame_ms", "frustum", "occlusion", "draws",
-               "states", "occ_ms", "diff_px_max");
+               "states", "occ_ms", "terrain", "diff_px_max");
     for (uint32_t ci = 0; ci < BENCH_CFGS; ci++) {
         double *v = ms + ci * frames;
         qsort(v, frames, sizeof *v, cmp_d);
@@ -1005,15 +1048,17 @@ int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *
         if (json)
             printf("%s{\"config\":\"%s\",\"frame_ms\":%.3f,\"after_frustum\":%.1f,\"after_occlusion\":%.1f,"
                    "\"draw_calls\":%.1f,\"state_changes\":%.1f,\"occlusion_ms\":%.3f,\"query_ms\":%.3f,"
+                   "\"terrain_patches\":%.1f,\"terrain_patches_drawn\":%.1f,"
                    "\"diff_pixels_max\":%llu,\"diff_frames\":%llu}",
                    ci ? "," : "", bench_cfgs[ci].name, med, sum_obj[ci][0] / f, sum_obj[ci][1] / f,
                    sum_obj[ci][2] / f, sum_obj[ci][3] / f, sum_obj[ci][4] / f, sum_obj[ci][5] / f,
+                   sum_obj[ci][6] / f, sum_obj[ci][7] / f,
                    (unsigned long long)diff[ci],
                    (unsigned long long)diff_frames[ci]);
         else
-            printf("%-18s %9.1f %9.0f %9.0f %9.0f %9.0f %9.2f %12llu\n", bench_cfgs[ci].name, med, sum_obj[ci][0] / f,
-                   sum_obj[ci][1] / f, sum_obj[ci][2] / f, sum_obj[ci][3] / f,
-                   sum_obj[ci][4] / f + sum_obj[ci][5] / f, (unsigned long long)diff[ci]);
+            printf("%-18s %9.1f %9.0f %9.0f %9.0f %9.0f %9.2f %9.0f %12llu\n", bench_cfgs[ci].name, med,
+                   sum_obj[ci][0] / f, sum_obj[ci][1] / f, sum_obj[ci][2] / f, sum_obj[ci][3] / f,
+                   sum_obj[ci][4] / f + sum_obj[ci][5] / f, sum_obj[ci][7] / f, (unsigned long long)diff[ci]);
     }
     if (json)
         printf("]}\n");

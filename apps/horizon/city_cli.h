@@ -58,6 +58,11 @@ typedef struct city_app {
     double occ_ms;         /* last frame's occlusion buffer build */
     bool occ_built;        /* the last frame had an occlusion buffer */
     uint32_t occ_rest;     /* frames left without one (it hid too little) */
+    /* the terrain's cdlod patches behind the occluders are not drawn either */
+    const hz_lod *lod;     /* the terrain's (city_app_place) */
+    hz_patch *patch_keep;  /* this frame's visible patches (sp->patches points here) */
+    size_t patch_keep_cap;
+    uint32_t patches_in, patches_drawn; /* last frame: terrain patches in the view, drawn */
     /* GL */
     hz_scene_gpu *gpu;
     hz_scene_hook hook;
@@ -78,7 +83,8 @@ hz_camera city_app_camera(const city_app *a, const struct cli_opts *o, const hz_
 /* Uploads the scene (current GL context). 0 or 1 after printing. */
 int city_app_gpu(city_app *a, const char *cmd);
 /* Per frame: the occlusion buffer for cam (unless off) and sp's object
- * hook (chained in front of a hook sp already has). */
+ * hook (chained in front of a hook sp already has). With the buffer, the
+ * terrain's in-memory cdlod patches it hides are dropped from sp too. */
 void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam, hz_scene_params *sp);
 /* --pick: what is under pixel (x, y) of cam's image (w x h): the nearest of
  * the scene's triangles and the terrain's surface; printed as text or JSON

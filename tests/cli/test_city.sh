@@ -58,6 +58,9 @@ assert b['after_occlusion'] == b['scene_objects'] == 4688, b
 # sorted: one multi-draw per material; naive: one draw per object
 assert a['draw_calls'] <= 2 and n['draw_calls'] == n['after_occlusion'] == n['after_frustum'], (a, n)
 assert n['state_changes'] > 10 * a['state_changes'], (a, n)
+# the terrain's patches behind the buildings are not drawn either (the images below stay equal)
+assert a['terrain_patches_drawn'] < a['terrain_patches'] == b['terrain_patches'] == b['terrain_patches_drawn'], (a, b)
+print("terrain patches drawn: %d of %d" % (a['terrain_patches_drawn'], a['terrain_patches']), file=sys.stderr)
 PY
 then ok "street level: occlusion culls $(echo "$j1" | python3 -c "import json,sys;c=json.load(sys.stdin)['city'];print(c['after_frustum']-c['after_occlusion'])") objects, sorted queue 2 draws"
 else bad "street culling (exit $r1 $r2 $r3)"; fi

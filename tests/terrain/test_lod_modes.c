@@ -269,6 +269,54 @@ static void test_pixel_error_bound(void **state)
     hz_grid_free(&g);
 }
 
+/* The box occlusion culling tests a patch by (hz_lod_patch_box) holds every
+ * vertex of the patch as drawn, morphed, for any camera and bound. */
+static void test_cdlod_patch_box_holds_drawn(void **state)
+{
+    (void)state;
+    hz_grid g;
+    make_random_grid(&g, 257, 400.0f);
+    terrain t;
+    terrain_init(&t, "rough", &g, 10.0f);
+    hz_patch_list pl = {0};
+    size_t vertices = 0, moved = 0, tight = 0;
+    for (int k = 0; k < 40; k++) {
+        hz_camera cam = random_camera(&t);
+        hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = frand(0.5f, 4.0f), .viewport_height = 720,
+                           .morph_start = (k & 1) ? 0.0f : frand(0.8f, 0.95f)};
+        hz_lod_stats st;
+        assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
+        const uint32_t n = t.hm.size;
+        for (size_t q = 0; q < pl.count; q++) {
+            const hz_patch *pt = &pl.data[q];
+            vec3 box[2];
+            assert_true(hz_lod_patch_box(t.lod, pt, box));
+            const uint32_t step = 1u << pt->shift, side = hz_lod_patch_cells(t.lod) << pt->shift;
+            assert_true(box[0][0] == (float)pt->x0 * t.spacing && box[1][0] == (float)(pt->x0 + side) * t.spacing);
+            float lo = INFINITY, hi = -INFINITY;
+            for (uint32_t j = pt->z0; j <= pt->z0 + side; j += step)
+                for (uint32_t i = pt->x0; i <= pt->x0 + side; i += step) {
+                    const uint32_t idx = j * n + i;
+                    const float h = hz_lod_morph_height(t.lod, &cam, &st, idx);
+                    assert_true(h >= box[0][1] - 1e-3f && h <= box[1][1] + 1e-3f);
+                    lo = fminf(lo, h), hi = fmaxf(hi, h);
+                    vertices++;
+                    moved += fabsf(h - hz_heightmap_get(&t.hm, i, j)) > 1e-3f;
+                }
+            /* not vacuous: the box is near the drawn range for most patches */
+            tight += box[1][1] - box[0][1] <= 4.0f * (hi - lo) + 1.0f;
+        }
+        assert_true(pl.count > 0);
+    }
+    fprintf(stderr, "patch boxes: %zu vertices inside, %zu of them morphed; %zu boxes within 4x the drawn range\n",
+            vertices, moved, tight);
+    assert_true(moved > 1000);
+    assert_false(hz_lod_patch_box(t.lod, &(hz_patch){.x0 = 3, .z0 = 0, .level = 3}, (vec3[2]){{0}})); /* no node */
+    free(pl.data);
+    terrain_free(&t);
+    hz_grid_free(&g);
+}
+
 /* ---- popping ---- */
 
 /* The surface as drawn at every sample (NAN where uncovered). */
@@ -568,6 +616,7 @@ int main(void)
         cmocka_unit_test(test_mode_names),
         cmocka_unit_test(test_modes_valid_synthetic),
         cmocka_unit_test(test_modes_valid_generated_and_real),
+        cmocka_unit_test(test_cdlod_patch_box_holds_drawn),
         cmocka_unit_test(test_pixel_error_bound),
         cmocka_unit_test(test_cdlod_no_popping),
         cmocka_unit_test(test_cdlod_morph_targets),
