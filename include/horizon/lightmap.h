@@ -27,6 +27,11 @@ typedef struct hz_lightmap_desc {
     float ambient;          /* Ie in [0, 1); 0 -> 0.3 */
     uint32_t threads;       /* worker threads; 0 -> 2 (each sweep line is split in bands) */
     bool no_shadows;        /* Lambert + ambient only */
+    const float *casters;   /* optional, size * size (index = j * size + i): the top (world metres)
+                               of an object standing on sample (i, j), or -INFINITY / NAN: none.
+                               Objects cast shadows on the terrain at the map's resolution (the
+                               samples under an object, which it hides, are in its shade but for
+                               its sunward edge). NULL: none */
 } hz_lightmap_desc;
 
 typedef struct hz_lightmap_stats {

@@ -43,6 +43,7 @@ typedef struct sweep {
     vec3 s;                /* unit, toward the sun */
     float ambient;
     bool shadows;
+    const float *casters;  /* hz_lightmap_desc.casters */
     bool major_x;          /* lines are columns (i const) when the sun is mostly along x */
     int dir;               /* +1: the sun is toward increasing major coordinate */
     float r, rise;
@@ -167,6 +168,14 @@ static void *run_band(void *arg)
         }
         for (uint32_t q = qb > qa ? qb : qa; q < q1; q++)
             cur[q] = mid[q], shade[q] = 0;
+        /* Objects standing on a sample raise the shadow surface the next
+         * lines see (not the sample's own shading). */
+        if (sw->casters && sw->shadows)
+            for (uint32_t q = q0; q < q1; q++) {
+                const float top = sw->casters[sw->major_x ? (size_t)q * n + m : (size_t)m * n + q];
+                if (top > cur[q])
+                    cur[q] = top;
+            }
         /* 2. cos(r) from central differences (one-sided at the borders), the
          * seed's formula, quantised into the line's bytes. */
         for (uint32_t q = q0; q < q1; q++) {
@@ -262,6 +271,7 @@ hz_result hz_lightmap_build(const hz_lightmap_desc *d, uint8_t *out, hz_lightmap
     const float sx = sw->s[0], sy = sw->s[1], sz = sw->s[2];
     const float horiz = fmaxf(fabsf(sx), fabsf(sz));
     sw->shadows = !d->no_shadows && sy > 0.0f && horiz > 1e-6f;
+    sw->casters = d->casters;
     sw->major_x = fabsf(sx) >= fabsf(sz);
     const float smaj = sw->major_x ? sx : sz, smin = sw->major_x ? sz : sx;
     sw->dir = smaj > 0.0f ? 1 : -1;

@@ -85,6 +85,58 @@ static void test_wall_shadow_length(void **state)
     hz_heightmap_destroy(&hm);
 }
 
+static float flat(uint32_t i, uint32_t j, void *u)
+{
+    (void)i, (void)j, (void)u;
+    return 0.0f;
+}
+
+/* An object (casters) on flat ground casts the shadow a wall of its height
+ * would, and only on the ground behind it: a 3 x 3-sample block 10 m high,
+ * sun in the east 30 degrees up, spacing 1 m: samples d <= 17 m west of it
+ * are in shadow, and so are the two under it behind its sunward edge (hidden
+ * by it when drawn); its sunward samples and the ground east of it are lit,
+ * and rows beside it see nothing. Without casters all is lit. */
+static void test_casters_shadow(void **state)
+{
+    (void)state;
+    const uint32_t n = 129;
+    hz_heightmap hm;
+    make_hm(&hm, n, HZ_LAYOUT_LINEAR, flat, NULL);
+    uint8_t *lm = malloc(hz_lightmap_bound(&hm)), *bare = malloc(hz_lightmap_bound(&hm));
+    float *top = malloc((size_t)n * n * sizeof *top);
+    assert_true(lm && bare && top);
+    for (size_t k = 0; k < (size_t)n * n; k++)
+        top[k] = -INFINITY;
+    for (uint32_t j = 60; j <= 62; j++)
+        for (uint32_t i = 64; i <= 66; i++)
+            top[(size_t)j * n + i] = 10.0f;
+    top[5] = NAN; /* none */
+    for (int t = 1; t <= 2; t++) {
+        hz_lightmap_desc d = {.hm = &hm, .spacing = 1.0f, .ambient = 0.3f, .threads = (uint32_t)t};
+        hz_sun_direction(90.0f, 30.0f, d.sun_dir);
+        assert_int_equal(hz_lightmap_build(&d, bare, NULL, NULL), HZ_OK);
+        d.casters = top;
+        hz_lightmap_stats st;
+        assert_int_equal(hz_lightmap_build(&d, lm, &st, NULL), HZ_OK);
+        const uint8_t lit = q(0.5f * 0.7f + 0.3f), shade = q(0.3f);
+        for (uint32_t j = 0; j < n; j++)
+            for (uint32_t i = 0; i < n; i++) {
+                const uint8_t v = lm[(size_t)j * n + i];
+                assert_int_equal(bare[(size_t)j * n + i], lit);
+                if (j >= 60 && j <= 62 && i >= 47 && i <= 65)
+                    assert_int_equal(v, shade);
+                else
+                    assert_int_equal(v, lit);
+            }
+        assert_int_equal(st.shadowed, 3u * 19u);
+    }
+    free(lm);
+    free(bare);
+    free(top);
+    hz_heightmap_destroy(&hm);
+}
+
 static float wall_z(uint32_t i, uint32_t j, void *u)
 {
     (void)i, (void)u;
@@ -402,6 +454,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_wall_shadow_length),
         cmocka_unit_test(test_wall_north_sun),
+        cmocka_unit_test(test_casters_shadow),
         cmocka_unit_test(test_matches_ray_march),
         cmocka_unit_test(test_threads_and_layouts_identical),
         cmocka_unit_test(test_special_suns),
