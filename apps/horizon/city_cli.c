@@ -339,6 +339,39 @@ static int terrain_quads(city_app *a, const hz_terrain *t)
     return 0;
 }
 
+/* The objects as the light map's shadow casters: each object's world box
+ * stands on the terrain samples inside its footprint, at its top. Skipped
+ * (no object shadows) beyond 64 M samples, where the grid would cost more
+ * than 256 MB. */
+static void shadow_casters(city_app *a, const hz_terrain *t)
+{
+    const uint32_t n = t->hm.size;
+    if (!a->occ_nodes || (uint64_t)n * n > (64u << 20))
+        return;
+    a->casters = malloc((size_t)n * n * sizeof *a->casters);
+    if (!a->casters)
+        return;
+    for (size_t k = 0; k < (size_t)n * n; k++)
+        a->casters[k] = -INFINITY;
+    const float sp = t->spacing;
+    for (uint32_t k = 0; k < a->occ_nodes; k++) {
+        hz_box b;
+        hz_scene_node_bounds(a->scene, a->occ_node[k], &b);
+        if (!(b.max[1] > b.min[1]) || !isfinite(b.max[1]))
+            continue;
+        const float i0 = ceilf(b.min[0] / sp), i1 = floorf(b.max[0] / sp);
+        const float j0 = ceilf(b.min[2] / sp), j1 = floorf(b.max[2] / sp);
+        if (i1 < 0 || j1 < 0 || i0 > (float)(n - 1) || j0 > (float)(n - 1))
+            continue;
+        for (uint32_t j = (uint32_t)fmaxf(j0, 0); j <= (uint32_t)fminf(j1, (float)(n - 1)); j++)
+            for (uint32_t i = (uint32_t)fmaxf(i0, 0); i <= (uint32_t)fminf(i1, (float)(n - 1)); i++) {
+                float *c = &a->casters[(size_t)j * n + i];
+                a->caster_samples += *c == -INFINITY;
+                *c = fmaxf(*c, b.max[1]);
+            }
+    }
+}
+
 int city_app_place(city_app *a, const hz_terrain *t, const char *cmd)
 {
     double t0 = hz_time_ms();
@@ -400,6 +433,7 @@ int city_app_place(city_app *a, const hz_terrain *t, const char *cmd)
         if (m != HZ_MESH_NONE && a->mesh_quads[m])
             a->occ_node[a->occ_nodes++] = id;
     }
+    shadow_casters(a, t);
     a->place_ms = hz_time_ms() - t0;
     return 0;
 }
@@ -630,6 +664,7 @@ void city_app_print(const city_app *a, json_t *json)
         jx_set(o, "occlusion_ms", jx_fix(a->occ_ms, 3));
         jx_set(o, "draw_ms", jx_fix(s->draw_ms, 3));
         jx_set(o, "occluder_quads", jx_int((long long)a->occ.triangles));
+        jx_set(o, "shadow_caster_samples", jx_int((long long)a->caster_samples));
         jx_set(o, "terrain_patches", jx_int(a->patches_in));
         jx_set(o, "terrain_patches_drawn", jx_int(a->patches_drawn));
         jx_set(o, "place_ms", jx_fix(a->place_ms, 1));
@@ -698,6 +733,7 @@ void city_app_destroy(city_app *a)
     hz_city_destroy(a->fp);
     hz_occlusion_free(&a->occ);
     free(a->patch_keep);
+    free(a->casters);
     free(a->terrain_quads);
     free(a->occ_node);
     free(a->mesh_first);

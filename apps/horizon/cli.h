@@ -73,6 +73,7 @@ typedef struct app_fx {
     bool water;
     float water_level;
     uint8_t *lightmap;
+    const float *casters; /* objects casting shadows into the light map (city_app's), or NULL */
     vec3 lightmap_sun;
     double lightmap_ms;   /* last build */
     uint32_t lightmap_threads;

@@ -1205,6 +1205,7 @@ int cmd_view(int argc, char **argv)
         goto out;
     }
     draw_loading(&ld, "effects: light map, trees, water", 1, 1);
+    v->afx.casters = v->ca ? v->ca->casters : NULL;
     if (app_fx_setup(&v->afx, &v->o, v->t, v->ren, "view"))
         goto out;
     v->fx_time = v->o.time;

@@ -34,7 +34,8 @@ static int build_lightmap(app_fx *a, const hz_terrain *t, hz_renderer *r, const 
             return 1;
         }
     }
-    hz_lightmap_desc d = {.hm = &t->hm, .spacing = t->spacing, .zscale = t->zscale, .threads = 2};
+    hz_lightmap_desc d = {.hm = &t->hm, .spacing = t->spacing, .zscale = t->zscale, .threads = 2,
+                          .casters = a->casters};
     glm_vec3_copy(a->sun, d.sun_dir);
     hz_lightmap_stats st;
     if (hz_lightmap_build(&d, a->lightmap, &st, &err) != HZ_OK ||
@@ -250,7 +251,9 @@ static hz_climate app_climate(const cli_opts *o, const hz_terrain *t, bool *know
 int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer *r, const char *cmd)
 {
     double t0 = hz_time_ms();
+    const float *casters = a->casters; /* set by the caller */
     memset(a, 0, sizeof *a);
+    a->casters = casters;
     a->effects = o->effects;
     a->fx = o->fx;
     a->fog = o->fog;

@@ -25,6 +25,7 @@ import json, sys
 d = json.loads(sys.argv[1]); c = d['city']; p = d['pick']
 assert c['buildings'] == 2344 and c['file_crs'] == 'EPSG:32734', c
 assert c['clamped'] == 2344 and c['clamp_mean_m'] < 0.5, c   # its TIN shares the buildings' bases
+assert c['shadow_caster_samples'] > 2000, c  # the buildings stand on light-map samples (their shadows)
 assert d['crs'] == 'EPSG:32734', d['crs']
 assert p['hit'] and p['node'] == 'osm_328118446' and p['attributes']['osm_id'] == 328118446, p
 x, y = p['crs_xy']
