@@ -563,6 +563,7 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
     a->hook.next_user = sp->draw_objects_user;
     sp->draw_objects = hz_scene_draw_hook;
     sp->draw_objects_user = &a->hook;
+    sp->objects_first = true; /* buildings: opaque occluders (a chained hook runs with them) */
 }
 
 /* The node a user means: the nearest ancestor with a name (roofs are unnamed

@@ -116,6 +116,8 @@ typedef struct hz_scene_params {
     float morph_start;
     hz_draw_hook_fn draw_objects; /* optional: called in every scene pass after the terrain */
     void *draw_objects_user;
+    bool objects_first; /* draw_objects draws opaque occluders (buildings): call it before the
+                           terrain and the sky instead, so that what it hides costs no shading */
     /* Effects (fx.h). 0: none, the plain renderer (gradient sky, Lambert,
      * exponential fog per fog_density). */
     uint32_t effects;

@@ -549,6 +549,43 @@ static void draw_plain_sky(hz_renderer *r, const fx_frame *f, const fx_view *v)
     glDrawArrays(GL_TRIANGLES, 0, 3);
 }
 
+/* The objects hook (city, forests, user objects). */
+static void draw_objects(hz_renderer *r, const fx_frame *f, const fx_view *v)
+{
+    const hz_scene_params *sp = &f->sp;
+    const bool mirrored = v->pass == HZ_PASS_REFLECTION;
+    if (sp->draw_objects) {
+        hz_pass_info pi = {.pass = v->pass, .cam = &v->cam, .fog_density = sp->fog_density,
+                           .ambient = sp->ambient, .width = v->w, .height = v->h, .effects = f->bits,
+                           .time = f->time};
+        glm_mat4_copy((vec4 *)v->view, pi.view);
+        glm_mat4_copy((vec4 *)v->proj, pi.proj);
+        glm_mat4_copy((vec4 *)v->viewproj, pi.viewproj);
+        memcpy(pi.clip_plane, v->clip, sizeof pi.clip_plane);
+        memcpy(pi.sun_dir, sp->sun_dir, sizeof pi.sun_dir);
+        memcpy(pi.sky_color, sp->sky_color, sizeof pi.sky_color);
+        memcpy(pi.zenith_color, f->zenith, sizeof pi.zenith_color);
+        if (f->bits & HZ_FX_FOG) {
+            pi.height_fog[0] = f->fx.height_fog;
+            pi.height_fog[1] = f->ground_lo + f->fx.height_fog_base;
+            pi.height_fog[2] = f->fx.height_fog_falloff;
+            pi.fog_far[0] = 0.8f * f->zfar;
+            pi.fog_far[1] = f->zfar;
+        }
+        glEnable(GL_DEPTH_TEST);
+        glDepthFunc(GL_GREATER);
+        glDepthMask(GL_TRUE);
+        glFrontFace(mirrored ? GL_CW : GL_CCW);
+        if (mirrored)
+            glEnable(GL_CLIP_DISTANCE0);
+        glUseProgram(0);
+        glBindVertexArray(0);
+        sp->draw_objects(sp->draw_objects_user, &pi);
+        glDisable(GL_CLIP_DISTANCE0);
+        glBindVertexArray(r->vao);
+    }
+}
+
 static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v, GLuint ibo, uint32_t count)
 {
     const hz_scene_params *sp = &f->sp;
@@ -561,6 +598,12 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
      * depth is still far: no sky shading under the terrain. */
     const bool fx_sky = (f->bits & HZ_FX_SKY) != 0;
 
+    /* Objects first when they are occluders: at street level buildings hide
+     * most of the terrain and sky, whose hidden fragments the depth test
+     * then rejects before shading. */
+    if (sp->draw_objects && sp->objects_first)
+        draw_objects(r, f, v);
+    glBindVertexArray(r->vao);
     /* The main view of a cdlod frame draws patches; every other pass indices. */
     const bool patches = v->pass == HZ_PASS_MAIN && r->terrain_patch_cur && r->n_inst > 0;
     if (patches)
@@ -657,36 +700,8 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
         glActiveTexture(GL_TEXTURE0 + FX_UNIT_HEIGHTS);
         glBindTexture(GL_TEXTURE_BUFFER, 0);
     }
-    if (sp->draw_objects) {
-        hz_pass_info pi = {.pass = v->pass, .cam = &v->cam, .fog_density = sp->fog_density,
-                           .ambient = sp->ambient, .width = v->w, .height = v->h, .effects = f->bits,
-                           .time = f->time};
-        glm_mat4_copy((vec4 *)v->view, pi.view);
-        glm_mat4_copy((vec4 *)v->proj, pi.proj);
-        glm_mat4_copy((vec4 *)v->viewproj, pi.viewproj);
-        memcpy(pi.clip_plane, v->clip, sizeof pi.clip_plane);
-        memcpy(pi.sun_dir, sp->sun_dir, sizeof pi.sun_dir);
-        memcpy(pi.sky_color, sp->sky_color, sizeof pi.sky_color);
-        memcpy(pi.zenith_color, f->zenith, sizeof pi.zenith_color);
-        if (f->bits & HZ_FX_FOG) {
-            pi.height_fog[0] = f->fx.height_fog;
-            pi.height_fog[1] = f->ground_lo + f->fx.height_fog_base;
-            pi.height_fog[2] = f->fx.height_fog_falloff;
-            pi.fog_far[0] = 0.8f * f->zfar;
-            pi.fog_far[1] = f->zfar;
-        }
-        glEnable(GL_DEPTH_TEST);
-        glDepthFunc(GL_GREATER);
-        glDepthMask(GL_TRUE);
-        glFrontFace(mirrored ? GL_CW : GL_CCW);
-        if (mirrored)
-            glEnable(GL_CLIP_DISTANCE0);
-        glUseProgram(0);
-        glBindVertexArray(0);
-        sp->draw_objects(sp->draw_objects_user, &pi);
-        glDisable(GL_CLIP_DISTANCE0);
-        glBindVertexArray(r->vao);
-    }
+    if (sp->draw_objects && !sp->objects_first)
+        draw_objects(r, f, v);
     glFrontFace(GL_CCW);
 }
 
