@@ -563,7 +563,10 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
     a->hook.next_user = sp->draw_objects_user;
     sp->draw_objects = hz_scene_draw_hook;
     sp->draw_objects_user = &a->hook;
-    sp->objects_first = true; /* buildings: opaque occluders (a chained hook runs with them) */
+    /* Buildings are opaque occluders: drawn before the terrain (a chained
+     * hook runs with them), except for GPU queries, which test the boxes
+     * against the depth the terrain has already drawn. */
+    sp->objects_first = !o->city.gpu_queries;
 }
 
 /* The node a user means: the nearest ancestor with a name (roofs are unnamed
