@@ -408,6 +408,10 @@ void cli_forest_hook(cli_forest *cf, hz_scene_params *sp)
     cf->hook = (hz_forest_hook){.gpu = cf->gpu, .forest = cf->forest, .frame = &cf->frame};
     sp->draw_objects = hz_forest_draw_hook;
     sp->draw_objects_user = &cf->hook;
+    /* Trees are opaque (cut-outs, no blending) and cover much of the view
+     * from above the crowns: drawn before the terrain, they spare the
+     * terrain's shading of every pixel they hide. */
+    sp->objects_first = true;
 }
 
 void cli_forest_area(const cli_opts *o, const hz_terrain *t, float center[2], float *side)

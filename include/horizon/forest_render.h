@@ -86,6 +86,15 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
 /* Bytes of node counts the last drawn frame uploaded (only changed nodes). */
 uint64_t hz_forest_gpu_upload_bytes(const hz_forest_gpu *g);
 
+/* Leaves drawn as points: a detailed tree whose nearest leaves are at most
+ * max_px pixels long on screen (mean leaf, before enlargement) draws each
+ * leaf as one point that the fragment shader cuts to the leaf's projected
+ * outline (one vertex instead of four); nearer trees draw quads. Default
+ * 16; 0 draws every leaf as a quad. Returns the previous value. */
+float hz_forest_gpu_point_leaves(hz_forest_gpu *g, float max_px);
+/* Detailed trees the last main pass drew as points. */
+uint32_t hz_forest_gpu_point_trees(const hz_forest_gpu *g);
+
 /* Ready-made hz_draw_hook_fn: set draw_objects = hz_forest_draw_hook and
  * draw_objects_user = a hz_forest_hook. Errors land in hook->err/failed. */
 typedef struct hz_forest_hook {

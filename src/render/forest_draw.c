@@ -18,6 +18,12 @@
 #include "gl_util.h"
 #include "hz_shaders.h"
 
+/* Leaves at most this many pixels long (the tree's nearest leaves, mean
+ * size, before enlargement) are drawn as points: one vertex each instead of
+ * four, one point instead of two triangles. Larger leaves keep quads, whose
+ * depth varies across the leaf. */
+#define POINT_LEAF_PX 16.0f
+
 /* Impostor atlas: IMP_AZ azimuths x IMP_EL elevation rows (0, 25, 50, 75
  * degrees) of IMP_TILE pixels, one texture-array layer per model. */
 #define IMP_AZ 12
@@ -35,19 +41,20 @@ typedef struct model_gpu {
     GLuint quad_ibo;        /* 6 indices per leaf position: 4p + 0,1,2, 0,2,3 */
     mesh_gpu bark, hull;
     uint32_t bark_level_end[HZ_TREE_MAX_LEVELS];
+    float leaf_size;        /* median leaf length (model units): points or quads */
 } model_gpu;
 
 typedef struct prog_u {
     GLint leaves, kept, scales, kept_base, model, viewproj, clip, crown, color, sun, sky, eye, fog, ambient,
         hull, dither, albedo, normals, layer, tile, right, up, bound, trees, models, order, band, max_dist, views,
-        el_step, rects, px_scale, tile_px, max_lod, lod, size;
+        el_step, rects, px_scale, tile_px, max_lod, lod, size, viewport;
 } prog_u;
 
 struct hz_forest_gpu {
     model_gpu *m;
     uint32_t nm;
-    GLuint leaf_prog, bark_prog, imp_prog;
-    prog_u lu, bu, iu;
+    GLuint leaf_prog, point_prog, bark_prog, imp_prog;
+    prog_u lu, pu, bu, iu;
     GLuint empty_vao;
     GLuint kept_buf, kept_tex;  /* R32UI per (tree, node) */
     GLuint scale_buf, scale_tex;/* R32F per (tree, node) */
@@ -60,6 +67,8 @@ struct hz_forest_gpu {
     size_t node_total;
     uint64_t last_serial;       /* frame whose counts were uploaded last */
     uint64_t upload_bytes;      /* of the last frame */
+    float point_px;             /* hz_forest_gpu_point_leaves */
+    uint32_t point_trees;       /* of the last main pass */
 };
 
 static void get_u(GLuint p, prog_u *u)
@@ -100,6 +109,7 @@ static void get_u(GLuint p, prog_u *u)
     u->max_dist = glGetUniformLocation(p, "u_max_dist");
     u->views = glGetUniformLocation(p, "u_views");
     u->el_step = glGetUniformLocation(p, "u_el_step");
+    u->viewport = glGetUniformLocation(p, "u_viewport");
 }
 
 static void mesh_upload(mesh_gpu *g, const hz_tree_mesh *m, uint32_t count)
@@ -153,6 +163,7 @@ void hz_forest_gpu_destroy(hz_forest_gpu *g)
             mesh_free(&g->m[k].hull);
         }
         glDeleteProgram(g->leaf_prog);
+        glDeleteProgram(g->point_prog);
         glDeleteProgram(g->bark_prog);
         glDeleteProgram(g->imp_prog);
         glDeleteVertexArrays(1, &g->empty_vao);
@@ -224,6 +235,16 @@ static void common_uniforms(GLuint prog, const prog_u *u, const hz_pass_info *pa
     glUniform3fv(u->eye, 1, pass->cam->pos);
     glUniform1f(u->fog, pass->fog_density);
     glUniform1f(u->ambient, pass->ambient);
+}
+
+/* Whether a tree's leaves are drawn as points: when its nearest leaves are
+ * at most g->point_px across on screen. */
+static bool leaf_points(const hz_forest_gpu *g, const hz_forest *f, const hz_forest_draw *dr, const hz_tree *t,
+                        float focal_px)
+{
+    const hz_forest_tree *tr = &hz_forest_trees(f)[dr->tree];
+    float near = fmaxf(dr->dist - tr->scale * t->bound_radius, 0.25f);
+    return g->m[dr->model].leaf_size * tr->scale * focal_px <= g->point_px * near;
 }
 
 static void draw_leaves(const hz_forest_gpu *g, const hz_tree *t, uint32_t model, uint32_t prefix)
@@ -419,6 +440,9 @@ hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err)
     g->leaf_prog = hz_gl_program(hz_shader_leaf_vs, hz_shader_leaf_fs, "leaf", err);
     if (!g->leaf_prog)
         goto fail;
+    g->point_prog = hz_gl_program(hz_shader_leaf_point_vs, hz_shader_leaf_point_fs, "leaf_point", err);
+    if (!g->point_prog)
+        goto fail;
     g->bark_prog = hz_gl_program(hz_shader_bark_vs, hz_shader_bark_fs, "bark", err);
     if (!g->bark_prog)
         goto fail;
@@ -430,9 +454,11 @@ hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err)
     if (!bark_bake)
         goto fail;
     get_u(g->leaf_prog, &g->lu);
+    get_u(g->point_prog, &g->pu);
     get_u(g->bark_prog, &g->bu);
     get_u(g->imp_prog, &g->iu);
     glGenVertexArrays(1, &g->empty_vao);
+    g->point_px = POINT_LEAF_PX;
     /* Per (tree, node) kept counts, filled as trees become detailed. */
     const hz_forest_tree *trees = hz_forest_trees(f);
     g->tree_count = hz_forest_tree_count(f);
@@ -498,6 +524,14 @@ hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err)
                 q[(size_t)p * 6 + j] = 4 * p + qi[j];
         }
         free(node_of);
+        double size_sum = 0;
+        for (uint32_t l = 0; l < t->leaf_count; l++) {
+            const hz_tree_leaf *lf = &t->leaves[l];
+            float lu = sqrtf(lf->u[0] * lf->u[0] + lf->u[1] * lf->u[1] + lf->u[2] * lf->u[2]);
+            float lv = sqrtf(lf->v[0] * lf->v[0] + lf->v[1] * lf->v[1] + lf->v[2] * lf->v[2]);
+            size_sum += 2.0 * fmax(lu, lv);
+        }
+        m->leaf_size = t->leaf_count ? (float)(size_sum / t->leaf_count) : 0.0f;
         hz_gl_buffer_texture(&m->leaf_buf, &m->leaf_tex, GL_RGBA32F, d, (size_t)t->leaf_count * 48, GL_STATIC_DRAW);
         free(d);
         glGenBuffers(1, &m->quad_ibo);
@@ -563,6 +597,18 @@ static hz_result upload_counts(hz_forest_gpu *g, const hz_forest *f, const hz_fo
     return hz_gl_check(err, "forest count upload");
 }
 
+float hz_forest_gpu_point_leaves(hz_forest_gpu *g, float max_px)
+{
+    float old = g->point_px;
+    g->point_px = isfinite(max_px) && max_px > 0 ? max_px : 0.0f;
+    return old;
+}
+
+uint32_t hz_forest_gpu_point_trees(const hz_forest_gpu *g)
+{
+    return g->point_trees;
+}
+
 uint64_t hz_forest_gpu_upload_bytes(const hz_forest_gpu *g)
 {
     return g ? g->upload_bytes : 0;
@@ -598,36 +644,63 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
     glActiveTexture(GL_TEXTURE3);
     glBindTexture(GL_TEXTURE_2D_ARRAY, g->atlas[1]);
 
-    /* Leaves: two-sided, one prefix draw per tree. */
+    /* Leaves: two-sided, one prefix draw per tree; as quads, or as points
+     * where leaves are a few pixels across. */
     glDisable(GL_CULL_FACE);
-    glUseProgram(g->leaf_prog);
-    common_uniforms(g->leaf_prog, &g->lu, pass);
-    glActiveTexture(GL_TEXTURE1);
-    glBindTexture(GL_TEXTURE_BUFFER, g->kept_tex);
-    glUniform1i(g->lu.kept, 1);
-    glActiveTexture(GL_TEXTURE6);
-    glBindTexture(GL_TEXTURE_BUFFER, g->scale_tex);
-    glUniform1i(g->lu.scales, 6);
-    glUniform1i(g->lu.leaves, 0);
-    glActiveTexture(GL_TEXTURE0);
-    uint32_t bound_model = UINT32_MAX;
-    for (uint32_t d = 0; d < fr->draw_count; d++) {
-        const hz_forest_draw *dr = &fr->draws[d];
-        if (dr->hull || dr->prefix == 0)
-            continue;
-        const hz_tree *t = hz_forest_model(f, dr->model);
-        if (bound_model != dr->model) {
-            glBindTexture(GL_TEXTURE_BUFFER, g->m[dr->model].leaf_tex);
-            glUniform3fv(g->lu.color, 1, t->leaf_color);
-            glUniform4f(g->lu.crown, t->crown_center[0], t->crown_center[1], t->crown_center[2], t->crown_radius);
-            bound_model = dr->model;
+    const float focal_px = pass->proj[1][1] * 0.5f * (float)pass->height;
+    uint32_t point_trees = 0;
+    for (int points = 0; points < 2; points++) {
+        GLuint prog = points ? g->point_prog : g->leaf_prog;
+        const prog_u *u = points ? &g->pu : &g->lu;
+        bool any = false;
+        uint32_t bound_model = UINT32_MAX;
+        for (uint32_t d = 0; d < fr->draw_count; d++) {
+            const hz_forest_draw *dr = &fr->draws[d];
+            if (dr->hull || dr->prefix == 0)
+                continue;
+            const hz_tree *t = hz_forest_model(f, dr->model);
+            if (leaf_points(g, f, dr, t, focal_px) != (points != 0))
+                continue;
+            if (!any) {
+                any = true;
+                glUseProgram(prog);
+                common_uniforms(prog, u, pass);
+                glUniform2f(u->viewport, (float)pass->width, (float)pass->height);
+                glActiveTexture(GL_TEXTURE1);
+                glBindTexture(GL_TEXTURE_BUFFER, g->kept_tex);
+                glUniform1i(u->kept, 1);
+                glActiveTexture(GL_TEXTURE6);
+                glBindTexture(GL_TEXTURE_BUFFER, g->scale_tex);
+                glUniform1i(u->scales, 6);
+                glUniform1i(u->leaves, 0);
+                glActiveTexture(GL_TEXTURE0);
+                if (points)
+                    glEnable(GL_PROGRAM_POINT_SIZE);
+            }
+            if (bound_model != dr->model) {
+                glBindTexture(GL_TEXTURE_BUFFER, g->m[dr->model].leaf_tex);
+                glUniform3fv(u->color, 1, t->leaf_color);
+                glUniform4f(u->crown, t->crown_center[0], t->crown_center[1], t->crown_center[2], t->crown_radius);
+                bound_model = dr->model;
+            }
+            hz_forest_tree_matrix(f, dr->tree, model);
+            glUniformMatrix4fv(u->model, 1, GL_FALSE, model);
+            glUniform1i(u->kept_base, (GLint)dr->node_base);
+            glUniform2f(u->dither, dr->fade, 1.0f);
+            uint32_t n = dr->prefix < t->leaf_count ? dr->prefix : t->leaf_count;
+            if (points) {
+                point_trees++;
+                glBindVertexArray(g->empty_vao);
+                glDrawArrays(GL_POINTS, 0, (GLsizei)n);
+            } else {
+                draw_leaves(g, t, dr->model, n);
+            }
         }
-        hz_forest_tree_matrix(f, dr->tree, model);
-        glUniformMatrix4fv(g->lu.model, 1, GL_FALSE, model);
-        glUniform1i(g->lu.kept_base, (GLint)dr->node_base);
-        glUniform2f(g->lu.dither, dr->fade, 1.0f);
-        draw_leaves(g, t, dr->model, dr->prefix);
+        if (any && points)
+            glDisable(GL_PROGRAM_POINT_SIZE);
     }
+    if (pass->pass == HZ_PASS_MAIN)
+        g->point_trees = point_trees;
     glBindTexture(GL_TEXTURE_BUFFER, 0);
     glActiveTexture(GL_TEXTURE6);
     glBindTexture(GL_TEXTURE_BUFFER, 0);

@@ -288,6 +288,86 @@ static void test_forest_draw(void **state)
     hz_tree_destroy(t);
 }
 
+/* Leaves drawn as points cut to the leaf's projected outline give the picture
+ * the quads give: the same tree pixels, the same colours. The tree is far
+ * enough for its leaves to be a few pixels long. */
+static void test_point_leaves_match_quads(void **state)
+{
+    (void)state;
+    enum { W = 320, H = 240 };
+    hz_err err = {0};
+    hz_tree *t = hz_tree_grow(&(hz_tree_desc){.species = "maple", .seed = 3, .leaves = 20000}, &err);
+    assert_non_null(t);
+    assert_int_equal(hz_hull_build(t, NULL, NULL, &err), HZ_OK);
+    const hz_tree *models[1] = {t};
+    hz_forest_tree trees[1] = {{.pos = {0, 0, 0}, .scale = 1, .yaw = 0.7f}};
+    hz_forest *f = hz_forest_create(models, 1, trees, 1, &err);
+    assert_non_null(f);
+    hz_renderer *ren = hz_renderer_create(&(hz_renderer_desc){.width = W, .height = H}, &err);
+    assert_non_null(ren);
+    hz_forest_gpu *gpu = hz_forest_gpu_create(f, &err);
+    if (!gpu)
+        fail_msg("gpu: %s", err.msg);
+    /* Looking at the crown from a little above it, zoomed in: leaves up to
+     * about ten pixels long. */
+    const float *bc = t->bound_center, r = t->bound_radius;
+    hz_camera cam = {.pos = {bc[0], bc[1] + 0.4f * r, bc[2] + 1.8f * r}, .yaw = 0, .pitch = -12, .fov_y = 20,
+                     .aspect = (float)W / H, .znear = 0.3f, .zfar = 3000};
+    uint8_t *sky = malloc(W * H * 3), *quads = malloc(W * H * 3), *points = malloc(W * H * 3);
+    hz_scene_params none = {.fog_density = -1};
+    assert_int_equal(hz_renderer_draw(ren, &cam, &none, NULL, 0, NULL, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_rgb(ren, sky, &err), HZ_OK);
+    hz_forest_frame fr;
+    hz_forest_hook hook = {.gpu = gpu, .forest = f, .frame = &fr};
+    hz_scene_params sp = {.fog_density = -1, .draw_objects = hz_forest_draw_hook, .draw_objects_user = &hook};
+    /* Leaves only: every tree in the leaf state, half the leaves, enlarged. */
+    hz_forest_params fp = {.simplify = true, .fixed_rate = true, .fixed = 0.5f, .enlarge = true,
+                           .hull_dist = 1e4f, .impostor_dist = 2e4f};
+    assert_int_equal(hz_forest_update(f, &cam, &fp, 0, &fr, &err), HZ_OK);
+    assert_int_equal(fr.trees_detailed, 1);
+    uint8_t *outs[2] = {quads, points};
+    const float px[2] = {0.0f, 1e6f};
+    uint32_t drawn_as_points[2];
+    for (int k = 0; k < 2; k++) {
+        hz_forest_gpu_point_leaves(gpu, px[k]);
+        assert_int_equal(hz_renderer_draw(ren, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
+        if (hook.failed)
+            fail_msg("forest draw: %s", hook.err.msg);
+        assert_int_equal(hz_renderer_read_rgb(ren, outs[k], &err), HZ_OK);
+        drawn_as_points[k] = hz_forest_gpu_point_trees(gpu);
+    }
+    assert_int_equal(drawn_as_points[0], 0);
+    assert_int_equal(drawn_as_points[1], 1);
+    char path[512];
+    snprintf(path, sizeof path, "%s/forest_leaf_quads.png", HZ_TEST_TMP);
+    hz_image_write_png(path, quads, W, H, &err);
+    snprintf(path, sizeof path, "%s/forest_leaf_points.png", HZ_TEST_TMP);
+    hz_image_write_png(path, points, W, H, &err);
+    /* Tree pixels: differ from the empty frame. */
+    uint64_t tq = 0, tp = 0, both = 0, either = 0;
+    double colour = 0;
+    for (size_t p = 0; p < (size_t)W * H; p++) {
+        bool a = count_diff(quads + p * 3, sky + p * 3, 1) > 0, b = count_diff(points + p * 3, sky + p * 3, 1) > 0;
+        tq += a, tp += b, both += a && b, either += a || b;
+        if (a && b)
+            for (int c = 0; c < 3; c++)
+                colour += abs(quads[p * 3 + c] - points[p * 3 + c]);
+    }
+    double xor_frac = (double)(either - both) / (double)either, mean_colour = colour / (3.0 * (double)(both ? both : 1));
+    print_message("tree pixels: quads %llu, points %llu, in one only %.2f %%, mean colour difference %.2f\n",
+                  (unsigned long long)tq, (unsigned long long)tp, 100.0 * xor_frac, mean_colour);
+    assert_true(tq > (uint64_t)(W * H) / 20);
+    assert_true(xor_frac < 0.005);
+    assert_true(mean_colour < 6.0);
+    free(sky);
+    free(quads);
+    free(points);
+    hz_forest_gpu_destroy(gpu);
+    hz_renderer_destroy(ren);
+    hz_forest_destroy(f);
+    hz_tree_destroy(t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -296,6 +376,7 @@ int main(void)
         cmocka_unit_test(test_pr_hand_made),
         cmocka_unit_test(test_vmi_beats_random),
         cmocka_unit_test(test_forest_draw),
+        cmocka_unit_test(test_point_leaves_match_quads),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -1,0 +1,83 @@
+#version 330 core
+#include "curvature.glsl"
+// Forest leaves as points (the leaves of trees whose leaves are a few pixels
+// across): one vertex per leaf instead of a quad, so a leaf costs one vertex
+// and one point instead of four vertices and two triangles. The point covers
+// the leaf's projected quad; the fragment shader maps each pixel back into
+// the leaf's own (u, v) through the inverse of the quad's projected axes, so
+// the leaf keeps its orientation, foreshortening and cut-out. Same data as
+// leaf_vs.glsl: leaves interleaved by rank, a leaf beyond its node's kept
+// count collapsed, F4 enlargement per node.
+uniform samplerBuffer u_leaves;  // 3 texels per leaf: (c, node), (u, rank in node), (v, 0)
+uniform usamplerBuffer u_kept;   // kept leaves per (tree, node), persistent
+uniform samplerBuffer u_scales;  // F4 enlargement per (tree, node), persistent
+uniform int u_kept_base;         // this tree's first node in u_kept; < 0: every leaf, no enlargement
+uniform mat4 u_model, u_viewproj;
+uniform vec4 u_clip_plane;
+uniform vec4 u_crown;            // model-space crown centre, radius
+uniform vec2 u_viewport;         // pixels
+
+flat out vec3 v_world;
+flat out vec3 v_normal;
+flat out float v_ao;
+flat out float v_tint;
+flat out vec2 v_center;          // window position of the leaf centre
+flat out vec4 v_inv;             // pixels -> leaf (u, v): inverse of the projected axes
+
+void collapse()
+{
+    v_world = vec3(0.0);
+    v_normal = vec3(0.0, 1.0, 0.0);
+    v_ao = 0.0;
+    v_tint = 0.0;
+    v_center = vec2(0.0);
+    v_inv = vec4(0.0);
+    gl_ClipDistance[0] = -1.0;
+    gl_PointSize = 1.0;
+    gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
+}
+
+void main()
+{
+    int leaf = gl_VertexID;
+    vec4 t0 = texelFetch(u_leaves, leaf * 3);
+    vec4 t1 = texelFetch(u_leaves, leaf * 3 + 1);
+    float s = 1.0;
+    if (u_kept_base >= 0) {
+        float kept = float(texelFetch(u_kept, u_kept_base + int(t0.w)).r);
+        if (t1.w >= kept) {
+            collapse();
+            return;
+        }
+        s = texelFetch(u_scales, u_kept_base + int(t0.w)).r;
+    }
+    vec3 u = t1.xyz, v = texelFetch(u_leaves, leaf * 3 + 2).xyz;
+    vec4 w = u_model * vec4(t0.xyz, 1.0);
+    vec4 c = u_viewproj * hz_curve(w);
+    vec4 du = u_viewproj * vec4(mat3(u_model) * (s * u), 0.0);
+    vec4 dv = u_viewproj * vec4(mat3(u_model) * (s * v), 0.0);
+    if (c.w <= 1e-3) {
+        collapse();
+        return;
+    }
+    // Projected half axes in pixels (the projection linearised at the centre).
+    vec2 ndc = c.xy / c.w;
+    vec2 hv = 0.5 * u_viewport;
+    vec2 pu = hv * (du.xy - ndc * du.w) / c.w;
+    vec2 pv = hv * (dv.xy - ndc * dv.w) / c.w;
+    float det = pu.x * pv.y - pu.y * pv.x;
+    if (abs(det) < 1e-4) { // edge on: covers no pixel
+        collapse();
+        return;
+    }
+    v_inv = vec4(pv.y, -pu.y, -pv.x, pu.x) / det; // column-major mat2 inverse
+    vec2 ext = abs(pu) + abs(pv);
+    gl_PointSize = 2.0 * max(ext.x, ext.y) + 1.0;
+    v_center = (ndc * 0.5 + 0.5) * u_viewport;
+    v_world = w.xyz;
+    v_normal = normalize(mat3(u_model) * cross(u, v));
+    v_ao = 0.45 + 0.55 * clamp(length(t0.xyz - u_crown.xyz) / u_crown.w, 0.0, 1.0);
+    v_tint = fract(sin(dot(t0.xyz, vec3(12.9898, 78.233, 37.719))) * 43758.5453);
+    gl_ClipDistance[0] = dot(u_clip_plane, w);
+    gl_Position = c;
+}
