@@ -39,12 +39,13 @@ void main()
     if (u_hull != 0) {
         vec3 d = v_local - u_bound.xyz;
         vec2 q = vec2(dot(d, u_right), dot(d, u_up)) / u_bound.w * 0.5 + 0.5;
-        vec2 t = (u_tile.xy + clamp(q, 0.0, 1.0) * u_tile.zw) * u_size;
-        ivec3 uv = ivec3(ivec2(min(t, u_size - 1.0)), int(u_layer));
-        vec4 a = texelFetch(u_albedo, uv, u_lod);
+        // Filtered: a hull is seen nearer than its bounding centre, often
+        // with several pixels per texel, where single texels show as blocks.
+        vec3 uv = vec3(u_tile.xy + clamp(q, 0.0, 1.0) * u_tile.zw, u_layer);
+        vec4 a = textureLod(u_albedo, uv, float(u_lod));
         if (a.a < 0.5)
             discard;
-        vec4 nn = texelFetch(u_normals, uv, u_lod);
+        vec4 nn = textureLod(u_normals, uv, float(u_lod));
         albedo = a.rgb / a.a;
         n = normalize(mat3(u_model) * (nn.rgb / max(nn.a, 1e-3) * 2.0 - 1.0));
         if (dot(n, to_eye) < 0.0)
