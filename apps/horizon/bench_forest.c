@@ -15,15 +15,20 @@
 
 #include "horizon/metrics.h"
 
-enum { RUN_HYST, RUN_NOHYST, RUN_FULL, RUN_TERRAIN, RUNS };
+/* RUN_PARTS: the hysteresis frames again, each forest draw split by
+ * glFinish into leaves, bark + hulls and impostors, timed (kept apart so
+ * that the splits do not slow the runs compared). */
+enum { RUN_HYST, RUN_NOHYST, RUN_FULL, RUN_TERRAIN, RUN_PARTS, RUNS };
 static const char *const RUN_NAME[RUNS] = {"forest frames (hysteresis)", "forest frames (no hysteresis)",
-                                           "forest frames (unsimplified)", "bare terrain frames"};
+                                           "forest frames (unsimplified)", "bare terrain frames",
+                                           "forest frames (parts timed)"};
 
 #include "horizon/safety.h"
 
 typedef struct frow {
     bool done;
     double frame_ms, cpu_ms, draw_ms, select_ms;
+    double part_ms[3]; /* RUN_PARTS: leaves, bark + hulls, impostors */
     uint64_t tri_full, tri_drawn, upload;
     uint32_t in_frustum, leaves, hulls, impostors, fading, changed, held;
 } frow;
@@ -120,6 +125,9 @@ static bool frame(hz_renderer *ren, const hz_terrain *t, cli_opts *o, cli_forest
         r->changed = fr->nodes_changed;
         r->held = fr->nodes_held;
         r->upload = hz_forest_gpu_upload_bytes(cf->gpu);
+        const double *parts = hz_forest_gpu_part_ms(cf->gpu);
+        for (int k = 0; k < 3; k++)
+            r->part_ms[k] = parts ? parts[k] : NAN;
     }
     return true;
 }
@@ -209,20 +217,23 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
         if (run == RUN_FULL && bo->no_full)
             continue;
         hz_forest_reset(cf->forest);
+        hz_forest_gpu_time_parts(cf->gpu, run == RUN_PARTS);
         for (uint32_t f = 0; f < frames; f++) {
             bool sampled = f % every == 0;
             if (run == RUN_FULL && !sampled)
                 continue;
             double now = (double)f * dt;
             hz_path_sample(&path, (float)now, &cam);
-            const hz_forest_params *fp = run == RUN_HYST ? &with : run == RUN_NOHYST ? &without
+            const hz_forest_params *fp = run == RUN_HYST || run == RUN_PARTS ? &with
+                                         : run == RUN_NOHYST                ? &without
                                                                : run == RUN_FULL   ? &full
                                                                                    : NULL;
             if (!frame(ren, t, o, cf, &cam, fp, now, &il, &rows[run][f], &err))
                 goto done;
             int slot = run == RUN_HYST ? 0 : run == RUN_FULL ? 1 : run == RUN_TERRAIN ? 2 : -1;
             bool keep = slot >= 0 && sampled && !bo->no_full;
-            if (keep || (bo->save_dir && run != RUN_NOHYST)) {
+            const bool save = bo->save_dir && run != RUN_NOHYST && run != RUN_PARTS;
+            if (keep || save) {
                 if (hz_renderer_read_rgb(ren, rgb, &err) != HZ_OK)
                     goto done;
             }
@@ -234,9 +245,9 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
                 }
                 memcpy(img[slot][f], rgb, npx * 3);
             }
-            if (bo->save_dir && run != RUN_NOHYST) {
+            if (save) {
                 char name[1024];
-                static const char *const pre[RUNS] = {"", "", "full_", "terrain_"};
+                static const char *const pre[RUNS] = {"", "", "full_", "terrain_", ""};
                 snprintf(name, sizeof name, "%s/forest_%s%04u.png", bo->save_dir, pre[run], f);
                 if (hz_image_write_png(name, rgb, o->width, o->height, &err) != HZ_OK)
                     goto done;
@@ -313,6 +324,9 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
                MED(RUN_NOHYST, cpu_ms), MEDF(RUN_FULL, cpu_ms), MED(RUN_TERRAIN, cpu_ms));
         printf("%-30s %12.1f %12.1f %12.1f\n", "forest draw ms", MED(RUN_HYST, draw_ms), MED(RUN_NOHYST, draw_ms),
                MEDF(RUN_FULL, draw_ms));
+        printf("%-30s %12.1f\n", "  leaves (timed apart)", MED(RUN_PARTS, part_ms[0]));
+        printf("%-30s %12.1f\n", "  bark + crown hulls", MED(RUN_PARTS, part_ms[1]));
+        printf("%-30s %12.1f\n", "  impostors", MED(RUN_PARTS, part_ms[2]));
         printf("%-30s %12.0f %12.0f %12.0f\n", "triangles drawn", tri_drawn, MEDQ(RUN_NOHYST, tri_drawn),
                MEDQ(RUN_FULL, tri_drawn));
         printf("%-30s %12.0f %12.0f %12.0f\n", "trees in frustum", MEDU(RUN_HYST, in_frustum),
@@ -370,8 +384,10 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
         jx_set(jo, "impostor_dist_m", jx_num(lf->impostor_band[1]));
         jx_set(jo, "prep_s", jx_fix(cf->prep_ms / 1000.0, 2));
         jx_set(jo, "peak_rss_mb", jx_fix((double)hz_peak_rss_bytes() / 1048576.0, 1));
-        static const char *const sfx[RUNS] = {"", "_no_hysteresis", "_full", "_terrain"};
+        static const char *const sfx[RUNS] = {"", "_no_hysteresis", "_full", "_terrain", "_parts"};
         for (int run = 0; run < RUNS; run++) {
+            if (run == RUN_PARTS)
+                continue;
             char key[96];
             const frow *rr = rows[run];
 #define JK(name) (snprintf(key, sizeof key, "%s%s", name, sfx[run]), key)
@@ -392,6 +408,9 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
             json_num(jo, JK("nodes_changed"), pct(rr, NULL, frames, offsetof(frow, changed), 'u', 0.5), 0);
 #undef JK
         }
+        static const char *const part_key[3] = {"forest_leaves_ms", "forest_hulls_ms", "forest_impostors_ms"};
+        for (int k = 0; k < 3; k++)
+            json_num(jo, part_key[k], MED(RUN_PARTS, part_ms[k]), 3);
         json_num(jo, "trees_detailed", MEDU(RUN_HYST, leaves), 0);
         json_num(jo, "nodes_held", MEDU(RUN_HYST, held), 0);
         json_num(jo, "triangles_full", tri_full, 0);

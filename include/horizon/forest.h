@@ -138,11 +138,15 @@ typedef struct hz_forest_draw {
     uint32_t node_base;  /* detailed trees: offset of this tree's nodes in counts/scales (persistent) */
     float fade;          /* 0..1: share of the next coarser state, dithered (cross-fade band) */
     float dist;          /* metres from the eye to its bounding centre (draws are sorted by it) */
-    /* Detailed trees: leaves to draw in the model's interleaved rank order
-     * (hz_forest_model_order), which holds every node's kept prefix; and the
-     * range of nodes whose count changed since the last update (lo >= hi:
+    /* Detailed trees: the model's leaves are interleaved by rank
+     * (hz_forest_model_order) within HZ_FOREST_GROUPS groups of nodes;
+     * group g's leaves start at group_first[g] (the model's) and the first
+     * group_count[g] of them (this tree's) hold every kept leaf of the
+     * group's nodes. prefix is the sum of group_count: the leaves drawn. And
+     * the range of nodes whose count changed since the last update (lo >= hi:
      * none; a tree that was not detailed last frame is dirty throughout). */
     uint32_t prefix;
+    const uint32_t *group_first, *group_count;
     uint32_t dirty_lo, dirty_hi;
 } hz_forest_draw;
 
@@ -201,11 +205,19 @@ hz_result hz_forest_update(hz_forest *f, const hz_camera *cam, const hz_forest_p
 /* Forgets the per-node state (as after a teleport). */
 void hz_forest_reset(hz_forest *f);
 
-/* The model's leaves interleaved by rank: order[p] is the leaf (index into
- * t->leaves) at position p, sorted by (rank within its node + 0.5) / node
- * size, so that the first p positions hold a prefix of every node. pos is
- * the inverse (pos[order[p]] == p). */
+/* The model's leaves interleaved by rank in groups: nodes are grouped by
+ * their crown layer (F3 f1) and the axis their branch grows along (F3 f5's
+ * direction), whose rates are alike; within a group, leaves are sorted by
+ * (rank within its node + 0.5) / node size, so that the first p positions of
+ * a group hold a prefix of each of its nodes. A tree then draws, per group,
+ * the range that holds its kept leaves: little more than those, where one
+ * range over every node (whose kept fractions spread by the node's layer and
+ * direction) drew about 1.6 times as many. order[p] is the leaf (index into
+ * t->leaves) at position p, pos the inverse (pos[order[p]] == p); groups:
+ * HZ_FOREST_GROUPS + 1 group starts (the last = the leaves in nodes). */
+#define HZ_FOREST_GROUPS 18u
 const uint32_t *hz_forest_model_order(const hz_forest *f, uint32_t k);
+const uint32_t *hz_forest_model_groups(const hz_forest *f, uint32_t k);
 const uint32_t *hz_forest_model_pos(const hz_forest *f, uint32_t k);
 /* The model's crown hull as drawn in the forest: simplified to about
  * HZ_FOREST_HULL_TRIANGLES (its look comes from the impostor texture). */

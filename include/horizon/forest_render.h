@@ -94,6 +94,11 @@ uint64_t hz_forest_gpu_upload_bytes(const hz_forest_gpu *g);
 float hz_forest_gpu_point_leaves(hz_forest_gpu *g, float max_px);
 /* Detailed trees the last main pass drew as points. */
 uint32_t hz_forest_gpu_point_trees(const hz_forest_gpu *g);
+/* With on, each main pass is split by glFinish into its three parts, timed
+ * (ms): [0] leaves (with the count upload), [1] bark and crown hulls, [2]
+ * impostors; read them with hz_forest_gpu_part_ms (NULL when off). */
+void hz_forest_gpu_time_parts(hz_forest_gpu *g, bool on);
+const double *hz_forest_gpu_part_ms(const hz_forest_gpu *g);
 
 /* Ready-made hz_draw_hook_fn: set draw_objects = hz_forest_draw_hook and
  * draw_objects_user = a hz_forest_hook. Errors land in hook->err/failed. */

@@ -245,6 +245,8 @@ typedef struct model_info {
     float ld0;
     uint64_t triangles;
     uint32_t *order, *pos; /* leaves interleaved by rank (hz_forest_model_order) */
+    uint32_t group_first[HZ_FOREST_GROUPS + 1];
+    uint8_t *node_group;
     hz_tree_mesh hull;     /* coarse crown hull */
     float *cov;            /* per leaf: coverage of its node's prefix (F4 by coverage) */
 } model_info;
@@ -263,7 +265,7 @@ struct hz_forest {
     uint32_t *counts;       /* per (tree, node): leaves kept, persistent */
     float *scales;          /* per (tree, node): F4 enlargement */
     uint64_t *detailed_at;  /* per tree: serial of the last update that drew its leaves */
-    uint32_t *prefix;       /* per tree: leaves to draw in interleaved order */
+    uint32_t *prefix;       /* per (tree, group): leaves to draw from the group's start */
     uint64_t *kept_total;   /* per tree: sum of counts */
     uint32_t *imp_list;     /* per frame: impostor trees, nearest first */
     float *imp_dist;
@@ -285,22 +287,41 @@ static int cmp_key(const void *a, const void *b)
     return (x->leaf > y->leaf) - (x->leaf < y->leaf);
 }
 
-/* Interleaves a model's leaves by rank within their node. */
+/* The group of a node (hz_forest_model_order): crown layer x the axis its
+ * branch grows along, with its sign. */
+static uint32_t node_group(const hz_tree *t, const hz_tree_node *nd)
+{
+    uint32_t layer = nd->bsl < 1 ? 0 : nd->bsl > 3 ? 2 : nd->bsl - 1;
+    const float *d = t->branches[nd->branch].dir;
+    uint32_t ax = fabsf(d[0]) >= fabsf(d[1]) && fabsf(d[0]) >= fabsf(d[2]) ? 0 : fabsf(d[1]) >= fabsf(d[2]) ? 1 : 2;
+    return layer * 6 + ax * 2 + (d[ax] < 0.0f);
+}
+
+/* Interleaves a model's leaves by rank within their node, in groups. */
 static bool model_order(const hz_tree *t, model_info *mi)
 {
     uint32_t n = t->leaf_count;
     mi->order = malloc((n ? n : 1) * sizeof *mi->order);
     mi->pos = malloc((n ? n : 1) * sizeof *mi->pos);
+    mi->node_group = malloc(t->node_count ? t->node_count : 1);
     key_leaf *kl = malloc((n ? n : 1) * sizeof *kl);
-    if (!mi->order || !mi->pos || !kl) {
+    if (!mi->order || !mi->pos || !mi->node_group || !kl) {
         free(kl);
         return false;
     }
     for (uint32_t k = 0; k < n; k++)
-        kl[k] = (key_leaf){1.0f, k}; /* leaves of no node go last */
-    for (uint32_t nd = 0; nd < t->node_count; nd++)
+        kl[k] = (key_leaf){(float)HZ_FOREST_GROUPS, k}; /* leaves of no node go last */
+    uint32_t in_group[HZ_FOREST_GROUPS] = {0};
+    for (uint32_t nd = 0; nd < t->node_count; nd++) {
+        uint32_t g = node_group(t, &t->nodes[nd]);
+        mi->node_group[nd] = (uint8_t)g;
+        in_group[g] += t->nodes[nd].count;
         for (uint32_t i = 0; i < t->nodes[nd].count; i++)
-            kl[t->nodes[nd].first + i].key = ((float)i + 0.5f) / (float)t->nodes[nd].count;
+            kl[t->nodes[nd].first + i].key = (float)g + ((float)i + 0.5f) / (float)t->nodes[nd].count;
+    }
+    mi->group_first[0] = 0;
+    for (uint32_t g = 0; g < HZ_FOREST_GROUPS; g++)
+        mi->group_first[g + 1] = mi->group_first[g] + in_group[g];
     qsort(kl, n, sizeof *kl, cmp_key);
     for (uint32_t p = 0; p < n; p++) {
         mi->order[p] = kl[p].leaf;
@@ -334,7 +355,7 @@ hz_forest *hz_forest_create(const hz_tree *const *models, uint32_t model_count, 
     f->state_base = malloc(tc * sizeof *f->state_base);
     f->draws = malloc(tc * sizeof *f->draws);
     f->detailed_at = calloc(tc, sizeof *f->detailed_at);
-    f->prefix = calloc(tc, sizeof *f->prefix);
+    f->prefix = calloc(tc * HZ_FOREST_GROUPS, sizeof *f->prefix);
     f->kept_total = calloc(tc, sizeof *f->kept_total);
     f->imp_list = malloc(tc * sizeof *f->imp_list);
     f->imp_dist = malloc(tc * sizeof *f->imp_dist);
@@ -401,6 +422,7 @@ void hz_forest_destroy(hz_forest *f)
     for (uint32_t m = 0; m < f->model_count && f->info; m++) {
         free(f->info[m].order);
         free(f->info[m].pos);
+        free(f->info[m].node_group);
         free(f->info[m].hull.pos);
         free(f->info[m].hull.nrm);
         free(f->info[m].hull.idx);
@@ -457,6 +479,11 @@ const uint32_t *hz_forest_model_order(const hz_forest *f, uint32_t k)
 {
     return k < f->model_count ? f->info[k].order : NULL;
 }
+const uint32_t *hz_forest_model_groups(const hz_forest *f, uint32_t k)
+{
+    return k < f->model_count ? f->info[k].group_first : NULL;
+}
+
 const uint32_t *hz_forest_model_pos(const hz_forest *f, uint32_t k)
 {
     return k < f->model_count ? f->info[k].pos : NULL;
@@ -592,23 +619,27 @@ static void tree_nodes(hz_forest *f, uint32_t k, const hz_forest_params *P, cons
     } else {
         f->kept_total[k] = (uint64_t)((int64_t)f->kept_total[k] + kept_delta);
     }
+    uint32_t *gc = f->prefix + (size_t)k * HZ_FOREST_GROUPS;
     if (lo < hi) {
-        /* The prefix that holds every node's kept leaves. */
-        uint32_t pre = 0;
+        /* Per group, the range that holds its nodes' kept leaves. */
+        memset(gc, 0, HZ_FOREST_GROUPS * sizeof *gc);
         for (uint32_t n = 0; n < t->node_count; n++) {
-            uint32_t c = f->counts[sb + n];
+            uint32_t c = f->counts[sb + n], g = mi->node_group[n];
             if (c) {
-                uint32_t p = mi->pos[t->nodes[n].first + c - 1] + 1;
-                if (p > pre)
-                    pre = p;
+                uint32_t p = mi->pos[t->nodes[n].first + c - 1] + 1 - mi->group_first[g];
+                if (p > gc[g])
+                    gc[g] = p;
             }
         }
-        f->prefix[k] = pre;
         fr->upload_bytes += (uint64_t)(hi - lo) * (sizeof(uint32_t) + sizeof(float));
     }
     dr->dirty_lo = lo < hi ? lo : 0;
     dr->dirty_hi = lo < hi ? hi : 0;
-    dr->prefix = f->prefix[k];
+    dr->group_first = mi->group_first;
+    dr->group_count = gc;
+    dr->prefix = 0;
+    for (uint32_t g = 0; g < HZ_FOREST_GROUPS; g++)
+        dr->prefix += gc[g];
 }
 
 /* Sorts ids[0..n) by key, ascending: LSD radix sort on the float bits

@@ -69,6 +69,8 @@ struct hz_forest_gpu {
     uint64_t upload_bytes;      /* of the last frame */
     float point_px;             /* hz_forest_gpu_point_leaves */
     uint32_t point_trees;       /* of the last main pass */
+    bool time_parts;
+    double part_ms[3];
 };
 
 static void get_u(GLuint p, prog_u *u)
@@ -247,12 +249,27 @@ static bool leaf_points(const hz_forest_gpu *g, const hz_forest *f, const hz_for
     return g->m[dr->model].leaf_size * tr->scale * focal_px <= g->point_px * near;
 }
 
-static void draw_leaves(const hz_forest_gpu *g, const hz_tree *t, uint32_t model, uint32_t prefix)
+/* A detailed tree's leaves: per node group, the range holding its kept
+ * leaves (hz_forest_draw), as points or quads. */
+static void draw_leaves(const hz_forest_gpu *g, const hz_tree *t, const hz_forest_draw *dr, bool points)
 {
     glBindVertexArray(g->empty_vao);
-    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, g->m[model].quad_ibo);
-    glDrawElements(GL_TRIANGLES, (GLsizei)((size_t)(prefix < t->leaf_count ? prefix : t->leaf_count) * 6),
-                   GL_UNSIGNED_INT, (const void *)0);
+    if (!points)
+        glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, g->m[dr->model].quad_ibo);
+    for (uint32_t k = 0; k < HZ_FOREST_GROUPS; k++) {
+        uint32_t first = dr->group_first[k], end = dr->group_first[k + 1], n = dr->group_count[k];
+        if (end > t->leaf_count)
+            end = t->leaf_count;
+        if (first >= end || n == 0)
+            continue;
+        if (n > end - first)
+            n = end - first;
+        if (points)
+            glDrawArrays(GL_POINTS, (GLint)first, (GLsizei)n);
+        else
+            glDrawElements(GL_TRIANGLES, (GLsizei)((size_t)n * 6), GL_UNSIGNED_INT,
+                           (const void *)((size_t)first * 6 * sizeof(uint32_t)));
+    }
 }
 
 /* Bakes every model's impostor atlas: the full tree (leaves and bark)
@@ -345,7 +362,9 @@ static hz_result bake_impostors(hz_forest_gpu *g, const hz_forest *f, GLuint lea
                 glActiveTexture(GL_TEXTURE1);
                 glBindTexture(GL_TEXTURE_BUFFER, g->kept_tex);
                 glActiveTexture(GL_TEXTURE0);
-                draw_leaves(g, t, mi, t->leaf_count);
+                glBindVertexArray(g->empty_vao);
+                glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, g->m[mi].quad_ibo);
+                glDrawElements(GL_TRIANGLES, (GLsizei)((size_t)t->leaf_count * 6), GL_UNSIGNED_INT, (const void *)0);
                 /* bark, all levels */
                 glUseProgram(bark_bake);
                 glUniformMatrix4fv(bu.viewproj, 1, GL_FALSE, vp);
@@ -604,6 +623,27 @@ float hz_forest_gpu_point_leaves(hz_forest_gpu *g, float max_px)
     return old;
 }
 
+void hz_forest_gpu_time_parts(hz_forest_gpu *g, bool on)
+{
+    g->time_parts = on;
+}
+
+const double *hz_forest_gpu_part_ms(const hz_forest_gpu *g)
+{
+    return g->time_parts ? g->part_ms : NULL;
+}
+
+/* With time_parts, the main pass's part that ended now (glFinish). */
+static void part_done(hz_forest_gpu *g, const hz_pass_info *pass, int part, double *t0)
+{
+    if (!g->time_parts || pass->pass != HZ_PASS_MAIN)
+        return;
+    glFinish();
+    double t = hz_time_ms();
+    g->part_ms[part] = t - *t0;
+    *t0 = t;
+}
+
 uint32_t hz_forest_gpu_point_trees(const hz_forest_gpu *g)
 {
     return g->point_trees;
@@ -626,6 +666,12 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
     if (!hz_gl_has_context())
         return hz_err_set(err, HZ_ERR_GL, "forest: draw without a current OpenGL context");
     hz_gl_drain();
+    double t_part = 0;
+    if (g->time_parts && pass->pass == HZ_PASS_MAIN) {
+        glFinish();
+        t_part = hz_time_ms();
+        memset(g->part_ms, 0, sizeof g->part_ms);
+    }
     if (fr->serial != g->last_serial) {
         hz_result r = upload_counts(g, f, fr, err);
         if (r != HZ_OK)
@@ -687,20 +733,16 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
             glUniformMatrix4fv(u->model, 1, GL_FALSE, model);
             glUniform1i(u->kept_base, (GLint)dr->node_base);
             glUniform2f(u->dither, dr->fade, 1.0f);
-            uint32_t n = dr->prefix < t->leaf_count ? dr->prefix : t->leaf_count;
-            if (points) {
+            if (points)
                 point_trees++;
-                glBindVertexArray(g->empty_vao);
-                glDrawArrays(GL_POINTS, 0, (GLsizei)n);
-            } else {
-                draw_leaves(g, t, dr->model, n);
-            }
+            draw_leaves(g, t, dr, points);
         }
         if (any && points)
             glDisable(GL_PROGRAM_POINT_SIZE);
     }
     if (pass->pass == HZ_PASS_MAIN)
         g->point_trees = point_trees;
+    part_done(g, pass, 0, &t_part);
     glBindTexture(GL_TEXTURE_BUFFER, 0);
     glActiveTexture(GL_TEXTURE6);
     glBindTexture(GL_TEXTURE_BUFFER, 0);
@@ -775,6 +817,7 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
         }
     }
 
+    part_done(g, pass, 1, &t_part);
     /* Impostors: every tree in one draw; the shader keeps those in the band. */
     if (fr->impostors && fr->impostor_count && fr->impostor_count <= g->tree_count) {
         glDisable(GL_CULL_FACE);
@@ -813,6 +856,7 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
         glActiveTexture(GL_TEXTURE0);
         glBindTexture(GL_TEXTURE_BUFFER, 0);
     }
+    part_done(g, pass, 2, &t_part);
     glActiveTexture(GL_TEXTURE3);
     glBindTexture(GL_TEXTURE_2D_ARRAY, 0);
     glActiveTexture(GL_TEXTURE2);

@@ -606,11 +606,30 @@ static void test_select(void **state)
     for (uint32_t d = 0; d < fr.draw_count; d++)
         assert_true(fr.draws[d].dirty_lo >= fr.draws[d].dirty_hi);
     assert_int_equal(fr.draws[0].prefix, prefix0);
-    /* The prefix holds every node's kept leaves (in interleaved order). */
-    const uint32_t *pos = hz_forest_model_pos(f, 0);
+    /* The drawn ranges hold every node's kept leaves (in interleaved order,
+     * per group), and not many more. */
+    const uint32_t *pos = hz_forest_model_pos(f, 0), *gf = hz_forest_model_groups(f, 0);
+    const hz_forest_draw *d0 = &fr.draws[0];
+    assert_ptr_equal(d0->group_first, gf);
+    uint32_t sum = 0;
+    uint64_t kept_leaves = 0;
+    for (uint32_t g = 0; g < HZ_FOREST_GROUPS; g++) {
+        assert_true(gf[g] <= gf[g + 1] && d0->group_count[g] <= gf[g + 1] - gf[g]);
+        sum += d0->group_count[g];
+    }
+    assert_int_equal(sum, d0->prefix);
     for (uint32_t n = 0; n < t->node_count; n++)
-        for (uint32_t i = 0; i < fr.counts[fr.draws[0].node_base + n]; i++)
-            assert_true(pos[t->nodes[n].first + i] < prefix0);
+        for (uint32_t i = 0; i < fr.counts[d0->node_base + n]; i++) {
+            uint32_t p = pos[t->nodes[n].first + i], g = 0;
+            while (g < HZ_FOREST_GROUPS && p >= gf[g + 1])
+                g++;
+            assert_true(g < HZ_FOREST_GROUPS);
+            assert_true(p < gf[g] + d0->group_count[g]);
+            kept_leaves++;
+        }
+    print_message("drawn %u leaf positions for %llu kept leaves (%.2fx)\n", d0->prefix, (unsigned long long)kept_leaves,
+                  (double)d0->prefix / (double)kept_leaves);
+    assert_true((double)d0->prefix <= 1.3 * (double)kept_leaves);
     /* Hysteresis: a small move later does not change far nodes' rates. */
     hz_forest_params hy = simp;
     hy.hysteresis = true;
