@@ -6,8 +6,7 @@ uniform vec3 u_eye;              // model space, far along the view direction
 in vec3 v_world;
 in vec3 v_normal;
 in vec2 v_uv;
-in float v_ao;
-flat in float v_tint;
+flat in float v_shade;
 layout(location = 0) out vec4 o_albedo;
 layout(location = 1) out vec4 o_normal;
 
@@ -18,6 +17,6 @@ void main()
     vec3 n = normalize(v_normal);
     if (dot(n, u_eye - v_world) < 0.0)
         n = -n;
-    o_albedo = vec4(u_color * (0.75 + 0.5 * v_tint) * v_ao, 1.0);
+    o_albedo = vec4(u_color * v_shade, 1.0);
     o_normal = vec4(n * 0.5 + 0.5, 1.0);
 }

@@ -1,6 +1,7 @@
 #version 330 core
 // Forest leaves: leaf-shaped cut-out, two-sided Lambert with some light
-// through the leaf, occlusion toward the crown centre, exponential fog.
+// through the leaf, tint and occlusion toward the crown centre per leaf
+// (v_shade), exponential fog.
 // u_dither: the pixel is kept when its dither value lies in [x, y) (the
 // cross-fade between LOD states; (0, 1) keeps all).
 uniform vec3 u_color;
@@ -10,8 +11,7 @@ uniform vec2 u_dither;
 in vec3 v_world;
 in vec3 v_normal;
 in vec2 v_uv;
-in float v_ao;
-flat in float v_tint;
+flat in float v_shade;
 out vec4 o_color;
 
 float dither(vec2 p)
@@ -32,8 +32,8 @@ void main()
         n = -n;
     float ndl = dot(n, u_sun_dir);
     float light = max(ndl, 0.0) + 0.35 * max(-ndl, 0.0);
-    vec3 albedo = u_color * (0.75 + 0.5 * v_tint);
-    vec3 c = albedo * (u_ambient + (1.0 - u_ambient) * light * vec3(1.0, 0.97, 0.90)) * v_ao;
+    vec3 albedo = u_color * v_shade;
+    vec3 c = albedo * (u_ambient + (1.0 - u_ambient) * light * vec3(1.0, 0.97, 0.90));
     float f = u_fog_density > 0.0 ? exp(-u_fog_density * length(to_eye)) : 1.0;
     o_color = vec4(mix(u_sky_horizon, c, f), 1.0);
 }

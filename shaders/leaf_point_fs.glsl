@@ -8,8 +8,7 @@ uniform float u_fog_density, u_ambient;
 uniform vec2 u_dither;
 flat in vec3 v_world;
 flat in vec3 v_normal;
-flat in float v_ao;
-flat in float v_tint;
+flat in float v_shade;
 flat in vec2 v_center;
 flat in vec4 v_inv;
 out vec4 o_color;
@@ -33,8 +32,8 @@ void main()
         n = -n;
     float ndl = dot(n, u_sun_dir);
     float light = max(ndl, 0.0) + 0.35 * max(-ndl, 0.0);
-    vec3 albedo = u_color * (0.75 + 0.5 * v_tint);
-    vec3 c = albedo * (u_ambient + (1.0 - u_ambient) * light * vec3(1.0, 0.97, 0.90)) * v_ao;
+    vec3 albedo = u_color * v_shade;
+    vec3 c = albedo * (u_ambient + (1.0 - u_ambient) * light * vec3(1.0, 0.97, 0.90));
     float f = u_fog_density > 0.0 ? exp(-u_fog_density * length(to_eye)) : 1.0;
     o_color = vec4(mix(u_sky_horizon, c, f), 1.0);
 }

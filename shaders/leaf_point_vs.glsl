@@ -5,22 +5,25 @@
 // and one point instead of four vertices and two triangles. The point covers
 // the leaf's projected quad; the fragment shader maps each pixel back into
 // the leaf's own (u, v) through the inverse of the quad's projected axes, so
-// the leaf keeps its orientation, foreshortening and cut-out. Same data as
-// leaf_vs.glsl: leaves interleaved by rank, a leaf beyond its node's kept
-// count collapsed, F4 enlargement per node.
-uniform samplerBuffer u_leaves;  // 3 texels per leaf: (c, node), (u, rank in node), (v, 0)
+// the leaf keeps its orientation, foreshortening and cut-out. The leaves are
+// the same buffer leaf_vs.glsl reads, here as vertex attributes (vertex
+// fetch is cheaper than buffer-texture fetches in software GL): interleaved
+// by rank, a leaf beyond its node's kept count collapsed, F4 enlargement per
+// node.
+layout(location = 0) in vec4 a_c;  // centre, node
+layout(location = 1) in vec4 a_u;  // half axis along, rank in node
+layout(location = 2) in vec4 a_v;  // half axis across, shade
 uniform usamplerBuffer u_kept;   // kept leaves per (tree, node), persistent
 uniform samplerBuffer u_scales;  // F4 enlargement per (tree, node), persistent
 uniform int u_kept_base;         // this tree's first node in u_kept; < 0: every leaf, no enlargement
 uniform mat4 u_model, u_viewproj;
+uniform mat4 u_mvp;              // u_viewproj * u_model
 uniform vec4 u_clip_plane;
-uniform vec4 u_crown;            // model-space crown centre, radius
 uniform vec2 u_viewport;         // pixels
 
 flat out vec3 v_world;
 flat out vec3 v_normal;
-flat out float v_ao;
-flat out float v_tint;
+flat out float v_shade;
 flat out vec2 v_center;          // window position of the leaf centre
 flat out vec4 v_inv;             // pixels -> leaf (u, v): inverse of the projected axes
 
@@ -28,8 +31,7 @@ void collapse()
 {
     v_world = vec3(0.0);
     v_normal = vec3(0.0, 1.0, 0.0);
-    v_ao = 0.0;
-    v_tint = 0.0;
+    v_shade = 0.0;
     v_center = vec2(0.0);
     v_inv = vec4(0.0);
     gl_ClipDistance[0] = -1.0;
@@ -39,23 +41,19 @@ void collapse()
 
 void main()
 {
-    int leaf = gl_VertexID;
-    vec4 t0 = texelFetch(u_leaves, leaf * 3);
-    vec4 t1 = texelFetch(u_leaves, leaf * 3 + 1);
     float s = 1.0;
     if (u_kept_base >= 0) {
-        float kept = float(texelFetch(u_kept, u_kept_base + int(t0.w)).r);
-        if (t1.w >= kept) {
+        int node = u_kept_base + int(a_c.w);
+        if (a_u.w >= float(texelFetch(u_kept, node).r)) {
             collapse();
             return;
         }
-        s = texelFetch(u_scales, u_kept_base + int(t0.w)).r;
+        s = texelFetch(u_scales, node).r;
     }
-    vec3 u = t1.xyz, v = texelFetch(u_leaves, leaf * 3 + 2).xyz;
-    vec4 w = u_model * vec4(t0.xyz, 1.0);
+    vec4 w = u_model * vec4(a_c.xyz, 1.0);
     vec4 c = u_viewproj * hz_curve(w);
-    vec4 du = u_viewproj * vec4(mat3(u_model) * (s * u), 0.0);
-    vec4 dv = u_viewproj * vec4(mat3(u_model) * (s * v), 0.0);
+    vec4 du = u_mvp * vec4(s * a_u.xyz, 0.0);
+    vec4 dv = u_mvp * vec4(s * a_v.xyz, 0.0);
     if (c.w <= 1e-3) {
         collapse();
         return;
@@ -75,9 +73,8 @@ void main()
     gl_PointSize = 2.0 * max(ext.x, ext.y) + 1.0;
     v_center = (ndc * 0.5 + 0.5) * u_viewport;
     v_world = w.xyz;
-    v_normal = normalize(mat3(u_model) * cross(u, v));
-    v_ao = 0.45 + 0.55 * clamp(length(t0.xyz - u_crown.xyz) / u_crown.w, 0.0, 1.0);
-    v_tint = fract(sin(dot(t0.xyz, vec3(12.9898, 78.233, 37.719))) * 43758.5453);
+    v_normal = normalize(mat3(u_model) * cross(a_u.xyz, a_v.xyz));
+    v_shade = a_v.w;
     gl_ClipDistance[0] = dot(u_clip_plane, w);
     gl_Position = c;
 }

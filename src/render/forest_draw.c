@@ -39,13 +39,14 @@ typedef struct mesh_gpu {
 typedef struct model_gpu {
     GLuint leaf_buf, leaf_tex;
     GLuint quad_ibo;        /* 6 indices per leaf position: 4p + 0,1,2, 0,2,3 */
+    GLuint point_vao;       /* leaf_buf as vertex attributes (points) */
     mesh_gpu bark, hull;
     uint32_t bark_level_end[HZ_TREE_MAX_LEVELS];
     float leaf_size;        /* median leaf length (model units): points or quads */
 } model_gpu;
 
 typedef struct prog_u {
-    GLint leaves, kept, scales, kept_base, model, viewproj, clip, crown, color, sun, sky, eye, fog, ambient,
+    GLint leaves, kept, scales, kept_base, model, viewproj, mvp, clip, color, sun, sky, eye, fog, ambient,
         hull, dither, albedo, normals, layer, tile, right, up, bound, trees, models, order, band, max_dist, views,
         el_step, rects, px_scale, tile_px, max_lod, lod, size, viewport;
 } prog_u;
@@ -82,7 +83,7 @@ static void get_u(GLuint p, prog_u *u)
     u->model = glGetUniformLocation(p, "u_model");
     u->viewproj = glGetUniformLocation(p, "u_viewproj");
     u->clip = glGetUniformLocation(p, "u_clip_plane");
-    u->crown = glGetUniformLocation(p, "u_crown");
+    u->mvp = glGetUniformLocation(p, "u_mvp");
     u->color = glGetUniformLocation(p, "u_color");
     u->sun = glGetUniformLocation(p, "u_sun_dir");
     u->sky = glGetUniformLocation(p, "u_sky_horizon");
@@ -161,6 +162,7 @@ void hz_forest_gpu_destroy(hz_forest_gpu *g)
             glDeleteBuffers(1, &g->m[k].leaf_buf);
             glDeleteTextures(1, &g->m[k].leaf_tex);
             glDeleteBuffers(1, &g->m[k].quad_ibo);
+            glDeleteVertexArrays(1, &g->m[k].point_vao);
             mesh_free(&g->m[k].bark);
             mesh_free(&g->m[k].hull);
         }
@@ -185,6 +187,22 @@ void hz_forest_gpu_destroy(hz_forest_gpu *g)
     }
     free(g->m);
     free(g);
+}
+
+/* A leaf's colour factor: a tint in [0.75, 1.25] per leaf (a hash of its
+ * index, so simplification keeps it) times the crown occlusion, darker
+ * toward the crown's centre (0.45 there). */
+static float leaf_shade(const hz_tree *t, uint32_t leaf)
+{
+    uint32_t h = leaf * 0x9E3779B1u;
+    h ^= h >> 15;
+    h *= 0x85EBCA77u;
+    h ^= h >> 13;
+    float tint = (float)(h >> 8) / 16777216.0f;
+    const float *c = t->leaves[leaf].c, *cc = t->crown_center;
+    float d = sqrtf((c[0] - cc[0]) * (c[0] - cc[0]) + (c[1] - cc[1]) * (c[1] - cc[1]) + (c[2] - cc[2]) * (c[2] - cc[2]));
+    float r = t->crown_radius > 0 ? fminf(d / t->crown_radius, 1.0f) : 1.0f;
+    return (0.75f + 0.5f * tint) * (0.45f + 0.55f * r);
 }
 
 /* Mip levels of the atlas: down to 1 texel per tile. */
@@ -253,7 +271,7 @@ static bool leaf_points(const hz_forest_gpu *g, const hz_forest *f, const hz_for
  * leaves (hz_forest_draw), as points or quads. */
 static void draw_leaves(const hz_forest_gpu *g, const hz_tree *t, const hz_forest_draw *dr, bool points)
 {
-    glBindVertexArray(g->empty_vao);
+    glBindVertexArray(points ? g->m[dr->model].point_vao : g->empty_vao);
     if (!points)
         glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, g->m[dr->model].quad_ibo);
     for (uint32_t k = 0; k < HZ_FOREST_GROUPS; k++) {
@@ -352,7 +370,6 @@ static hz_result bake_impostors(hz_forest_gpu *g, const hz_forest *f, GLuint lea
                 glUniform4f(lu.clip, 0, 0, 0, 1);
                 glUniform3fv(lu.eye, 1, eye);
                 glUniform3fv(lu.color, 1, t->leaf_color);
-                glUniform4f(lu.crown, t->crown_center[0], t->crown_center[1], t->crown_center[2], t->crown_radius);
                 glUniform1i(lu.kept_base, -1);
                 glUniform1i(lu.leaves, 0);
                 glUniform1i(lu.kept, 1);
@@ -537,7 +554,7 @@ hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err)
             bool in_node = n != UINT32_MAX;
             o[0] = lf->c[0], o[1] = lf->c[1], o[2] = lf->c[2], o[3] = in_node ? (float)n : 0.0f;
             o[4] = lf->u[0], o[5] = lf->u[1], o[6] = lf->u[2], o[7] = in_node ? (float)(l - t->nodes[n].first) : 0.0f;
-            o[8] = lf->v[0], o[9] = lf->v[1], o[10] = lf->v[2], o[11] = 0.0f;
+            o[8] = lf->v[0], o[9] = lf->v[1], o[10] = lf->v[2], o[11] = leaf_shade(t, l);
             static const uint32_t qi[6] = {0, 1, 2, 0, 2, 3};
             for (int j = 0; j < 6; j++)
                 q[(size_t)p * 6 + j] = 4 * p + qi[j];
@@ -552,6 +569,15 @@ hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err)
         }
         m->leaf_size = t->leaf_count ? (float)(size_sum / t->leaf_count) : 0.0f;
         hz_gl_buffer_texture(&m->leaf_buf, &m->leaf_tex, GL_RGBA32F, d, (size_t)t->leaf_count * 48, GL_STATIC_DRAW);
+        glGenVertexArrays(1, &m->point_vao);
+        glBindVertexArray(m->point_vao);
+        glBindBuffer(GL_ARRAY_BUFFER, m->leaf_buf);
+        for (GLuint a = 0; a < 3; a++) {
+            glEnableVertexAttribArray(a);
+            glVertexAttribPointer(a, 4, GL_FLOAT, GL_FALSE, 48, (const void *)(uintptr_t)(a * 16));
+        }
+        glBindVertexArray(0);
+        glBindBuffer(GL_ARRAY_BUFFER, 0);
         free(d);
         glGenBuffers(1, &m->quad_ibo);
         glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, m->quad_ibo);
@@ -726,11 +752,17 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
             if (bound_model != dr->model) {
                 glBindTexture(GL_TEXTURE_BUFFER, g->m[dr->model].leaf_tex);
                 glUniform3fv(u->color, 1, t->leaf_color);
-                glUniform4f(u->crown, t->crown_center[0], t->crown_center[1], t->crown_center[2], t->crown_radius);
                 bound_model = dr->model;
             }
             hz_forest_tree_matrix(f, dr->tree, model);
             glUniformMatrix4fv(u->model, 1, GL_FALSE, model);
+            if (points) {
+                mat4 vp, mm, mvp;
+                memcpy(vp, pass->viewproj, sizeof vp);
+                memcpy(mm, model, sizeof mm);
+                glm_mat4_mul(vp, mm, mvp);
+                glUniformMatrix4fv(u->mvp, 1, GL_FALSE, (const float *)mvp);
+            }
             glUniform1i(u->kept_base, (GLint)dr->node_base);
             glUniform2f(u->dither, dr->fade, 1.0f);
             if (points)
