@@ -183,6 +183,10 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
         hz_err_set(&err, HZ_ERR_VALUE, "no forest");
         goto done;
     }
+    if (cli_forest_billboards(cf, o, ren)) {
+        hz_err_set(&err, HZ_ERR_VALUE, "forest billboards");
+        goto done;
+    }
     hz_result pr;
     size_t plen = strlen(bo->path);
     if (plen > 4 && !strcmp(bo->path + plen - 4, ".csv"))

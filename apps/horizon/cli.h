@@ -204,6 +204,10 @@ cli_forest *cli_forest_create(const cli_opts *o, const hz_terrain *t);
 void cli_forest_destroy(cli_forest *cf);
 /* Selects the frame's trees/nodes for cam at time now_s; false after printing. */
 bool cli_forest_update(cli_forest *cf, const cli_opts *o, const hz_camera *cam, double now_s);
+/* The effects' tree billboards (R3) show the forest's own trees: their
+ * sprites become the side views baked from the forest's conifer and
+ * broadleaf models (unless --textures gave sprites). Non-zero after printing. */
+int cli_forest_billboards(const cli_forest *cf, const cli_opts *o, hz_renderer *ren);
 /* Sets sp's object hook to draw the forest. */
 void cli_forest_hook(cli_forest *cf, hz_scene_params *sp);
 /* Where the forest stands (no GL needed). */

@@ -180,6 +180,8 @@ int cmd_render(int argc, char **argv)
             hz_err_set(&err, HZ_ERR_VALUE, "no forest");
             goto done;
         }
+        if (cli_forest_billboards(cf, &o, ren))
+            goto done;
         if (!cli_forest_update(cf, &o, &cam, 0.0))
             goto done;
         cli_forest_hook(cf, &sp);

@@ -403,6 +403,57 @@ bool cli_forest_update(cli_forest *cf, const cli_opts *o, const hz_camera *cam, 
     return true;
 }
 
+/* The model the effects' billboards of a kind show: a conifer for the
+ * conifer sprite (by species, else the narrowest crown), another species for
+ * the broadleaf one. */
+static uint32_t sprite_model(const cli_forest *cf, bool conifer)
+{
+    uint32_t best = 0;
+    float best_ratio = conifer ? INFINITY : -INFINITY;
+    for (uint32_t m = 0; m < cf->model_count; m++) {
+        const hz_tree *t = cf->models[m];
+        bool is_conifer = strstr(t->species, "conifer") != NULL;
+        if (is_conifer == conifer)
+            return m;
+        float ratio = t->crown_radius / fmaxf(t->bound_center[1] + t->bound_radius, 1e-3f);
+        if (conifer ? ratio < best_ratio : ratio > best_ratio) {
+            best_ratio = ratio;
+            best = m;
+        }
+    }
+    return best;
+}
+
+int cli_forest_billboards(const cli_forest *cf, const cli_opts *o, hz_renderer *ren)
+{
+    if (o->textures)
+        return 0; /* the user's sprites stay */
+    static const struct {
+        uint32_t slot, w, h;
+        float width_frac; /* as the scatter sizes them */
+        bool conifer;
+    } kinds[2] = {{HZ_SPRITE_CONIFER, 64, 128, 0.5f, true}, {HZ_SPRITE_BROADLEAF, 128, 128, 0.85f, false}};
+    for (int k = 0; k < 2; k++) {
+        uint8_t *px = malloc((size_t)kinds[k].w * kinds[k].h * 4);
+        hz_err err = {0};
+        if (!px) {
+            fprintf(stderr, "horizon: out of memory\n");
+            return 1;
+        }
+        uint32_t m = sprite_model(cf, kinds[k].conifer);
+        hz_result r = hz_forest_gpu_sprite(cf->gpu, cf->forest, m, kinds[k].width_frac, kinds[k].w, kinds[k].h, px,
+                                           &err);
+        if (r == HZ_OK)
+            r = hz_renderer_set_billboard_texture(ren, kinds[k].slot, px, kinds[k].w, kinds[k].h, &err);
+        free(px);
+        if (r != HZ_OK) {
+            fprintf(stderr, "horizon: forest billboards: %s\n", err.msg);
+            return 1;
+        }
+    }
+    return 0;
+}
+
 void cli_forest_hook(cli_forest *cf, hz_scene_params *sp)
 {
     cf->hook = (hz_forest_hook){.gpu = cf->gpu, .forest = cf->forest, .frame = &cf->frame};

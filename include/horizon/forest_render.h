@@ -92,6 +92,14 @@ uint64_t hz_forest_gpu_upload_bytes(const hz_forest_gpu *g);
  * outline (one vertex instead of four); nearer trees draw quads. Default
  * 16; 0 draws every leaf as a quad. Returns the previous value. */
 float hz_forest_gpu_point_leaves(hz_forest_gpu *g, float max_px);
+/* A billboard sprite of a model, from its impostor's side view (baked from
+ * the full tree): RGBA8 w x h, top row first, the trunk's foot at the bottom
+ * centre, the tree's top at the top row; the image is width_frac times as
+ * wide as high in metres (a crown wider than that lowers the tree in the
+ * frame). Unlit albedo with coverage as alpha, for the effects' billboards
+ * (hz_renderer_set_billboard_texture) so that they show the forest's trees. */
+hz_result hz_forest_gpu_sprite(const hz_forest_gpu *g, const hz_forest *f, uint32_t model, float width_frac,
+                               uint32_t w, uint32_t h, uint8_t *rgba, hz_err *err);
 /* Detailed trees the last main pass drew as points. */
 uint32_t hz_forest_gpu_point_trees(const hz_forest_gpu *g);
 /* With on, each main pass is split by glFinish into its three parts, timed

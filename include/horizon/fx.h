@@ -207,6 +207,17 @@ typedef enum hz_sprite {
  * rain: a soft vertical streak; snow: a soft flake). */
 void hz_texgen_sprite(hz_sprite kind, uint32_t w, uint32_t h, uint64_t seed, uint8_t *rgba);
 
+/* Share of an RGBA8 sprite's n texels that an alpha test at 0.5 keeps. */
+double hz_sprite_coverage(const uint8_t *rgba, size_t n);
+/* The next mip level of an alpha-tested sprite (w x h -> halved, at least
+ * 1): a 2x2 box filter, colour weighted by alpha, whose alpha is then scaled
+ * so that the alpha test keeps the share cover0 of its texels (level 0's
+ * hz_sprite_coverage), after Castano, "Computing alpha mipmaps": plain
+ * averaging lets a sparse crown (leaves, needles) thin out and vanish with
+ * the distance. out holds the halved size x 4 bytes. */
+void hz_sprite_mip_next(const uint8_t *in, uint32_t w, uint32_t h, double cover0, uint8_t *out, uint32_t *ow,
+                        uint32_t *oh);
+
 /* ---- water -------------------------------------------------------------------------- */
 
 /* A water level for a heightmap that has none given (metres, zscale applied):

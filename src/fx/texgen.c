@@ -190,3 +190,64 @@ void hz_texgen_sprite(hz_sprite kind, uint32_t w, uint32_t h, uint64_t seed64, u
                 for (int c = 0; c < 3; c++)
                     rgba[4 * k + (size_t)c] = (uint8_t)clampf((float)(acc[c] / wsum) * 255.0f + 0.5f, 0, 255);
 }
+
+double hz_sprite_coverage(const uint8_t *rgba, size_t n)
+{
+    size_t kept = 0;
+    for (size_t i = 0; i < n; i++)
+        kept += rgba[i * 4 + 3] >= 128;
+    return n ? (double)kept / (double)n : 0.0;
+}
+
+/* Share of texels an alpha test at 0.5 keeps with alpha scaled by k. */
+static double coverage_scaled(const uint8_t *rgba, size_t n, double k)
+{
+    size_t kept = 0;
+    for (size_t i = 0; i < n; i++)
+        kept += (double)rgba[i * 4 + 3] * k >= 127.5;
+    return n ? (double)kept / (double)n : 0.0;
+}
+
+void hz_sprite_mip_next(const uint8_t *in, uint32_t w, uint32_t h, double cover0, uint8_t *out, uint32_t *ow,
+                        uint32_t *oh)
+{
+    uint32_t nw = w > 1 ? w / 2 : 1, nh = h > 1 ? h / 2 : 1;
+    for (uint32_t y = 0; y < nh; y++)
+        for (uint32_t x = 0; x < nw; x++) {
+            double acc[4] = {0, 0, 0, 0};
+            int cnt = 0;
+            for (uint32_t dy = 0; dy < 2; dy++)
+                for (uint32_t dx = 0; dx < 2; dx++) {
+                    uint32_t sx = x * 2 + dx, sy = y * 2 + dy;
+                    if (sx >= w || sy >= h)
+                        continue;
+                    const uint8_t *p = in + ((size_t)sy * w + sx) * 4;
+                    for (int c = 0; c < 3; c++)
+                        acc[c] += (double)p[c] * p[3];
+                    acc[3] += p[3];
+                    cnt++;
+                }
+            uint8_t *o = out + ((size_t)y * nw + x) * 4;
+            for (int c = 0; c < 3; c++)
+                o[c] = (uint8_t)(acc[3] > 0 ? acc[c] / acc[3] + 0.5 : 0);
+            o[3] = (uint8_t)(acc[3] / cnt + 0.5);
+        }
+    /* The alpha scale whose coverage comes nearest cover0: bisection for the
+     * step where it crosses, then the nearer side (alpha takes few values
+     * in the first levels, so coverage moves in steps). */
+    const size_t n = (size_t)nw * nh;
+    double lo = 0.0, hi = 1.0;
+    while (hi < 256.0 && coverage_scaled(out, n, hi) < cover0)
+        hi *= 2.0;
+    for (int it = 0; it < 24; it++) {
+        double mid = 0.5 * (lo + hi);
+        if (coverage_scaled(out, n, mid) < cover0)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    double k = fabs(coverage_scaled(out, n, lo) - cover0) < fabs(coverage_scaled(out, n, hi) - cover0) ? lo : hi;
+    for (size_t i = 0; i < n; i++)
+        out[i * 4 + 3] = (uint8_t)fmin(255.0, out[i * 4 + 3] * k + 0.5);
+    *ow = nw, *oh = nh;
+}

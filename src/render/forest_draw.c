@@ -290,6 +290,83 @@ static void draw_leaves(const hz_forest_gpu *g, const hz_tree *t, const hz_fores
     }
 }
 
+hz_result hz_forest_gpu_sprite(const hz_forest_gpu *g, const hz_forest *f, uint32_t model, float width_frac,
+                               uint32_t w, uint32_t h, uint8_t *rgba, hz_err *err)
+{
+    if (model >= g->nm || !rgba || w == 0 || h == 0 || w > 4096 || h > 4096 || !(width_frac > 0.05f) ||
+        !(width_frac <= 4.0f))
+        return hz_err_set(err, HZ_ERR_VALUE, "forest sprite: bad arguments (model %u of %u, %ux%u, width %g)", model,
+                          g->nm, w, h, (double)width_frac);
+    if (!hz_gl_has_context())
+        return hz_err_set(err, HZ_ERR_GL, "forest sprite: no current OpenGL context");
+    /* The side view (azimuth 0, elevation 0: image x = model x, y = model y),
+     * level 0, premultiplied albedo. */
+    uint8_t *tile = malloc((size_t)IMP_TILE * IMP_TILE * 4);
+    if (!tile)
+        return hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
+    hz_gl_drain();
+    GLint old_read = 0;
+    glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &old_read);
+    GLuint fbo;
+    glGenFramebuffers(1, &fbo);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo);
+    glFramebufferTextureLayer(GL_READ_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, g->atlas[0], 0, (GLint)model);
+    glReadBuffer(GL_COLOR_ATTACHMENT0);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, IMP_TILE, IMP_TILE, GL_RGBA, GL_UNSIGNED_BYTE, tile);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, (GLuint)old_read);
+    glDeleteFramebuffers(1, &fbo);
+    hz_result r = hz_gl_check(err, "forest sprite");
+    if (r != HZ_OK) {
+        free(tile);
+        return r;
+    }
+    /* Model-space extent the image shows: the tile frames the bounding
+     * sphere; the sprite stands on the foot (y = 0) and reaches the tree's
+     * top, or higher when the crown is wider than width_frac of that. */
+    const hz_tree *t = hz_forest_model(f, model);
+    const float *bc = t->bound_center, R = t->bound_radius;
+    int top_row = -1;
+    float half_w = 0.0f;
+    for (int y = 0; y < IMP_TILE; y++)
+        for (int x = 0; x < IMP_TILE; x++)
+            if (tile[((size_t)y * IMP_TILE + (size_t)x) * 4 + 3] >= 128) {
+                top_row = y > top_row ? y : top_row;
+                float mx = fabsf(bc[0] + R * (2.0f * ((float)x + 0.5f) / IMP_TILE - 1.0f));
+                half_w = fmaxf(half_w, mx);
+            }
+    float top = top_row >= 0 ? bc[1] + R * (2.0f * ((float)top_row + 1.0f) / IMP_TILE - 1.0f) : bc[1] + R;
+    float height = fmaxf(fmaxf(top, 2.0f * half_w / width_frac), 1e-3f);
+    for (uint32_t row = 0; row < h; row++) {
+        float my = height * (1.0f - ((float)row + 0.5f) / (float)h); /* top row first */
+        for (uint32_t col = 0; col < w; col++) {
+            float mx = width_frac * height * (((float)col + 0.5f) / (float)w - 0.5f);
+            /* bilinear in the tile, premultiplied */
+            float tx = ((mx - bc[0]) / R * 0.5f + 0.5f) * IMP_TILE - 0.5f;
+            float ty = ((my - bc[1]) / R * 0.5f + 0.5f) * IMP_TILE - 0.5f;
+            float acc[4] = {0, 0, 0, 0};
+            int x0 = (int)floorf(tx), y0 = (int)floorf(ty);
+            float fx = tx - (float)x0, fy = ty - (float)y0;
+            for (int dy = 0; dy < 2; dy++)
+                for (int dx = 0; dx < 2; dx++) {
+                    int xx = x0 + dx, yy = y0 + dy;
+                    if (xx < 0 || yy < 0 || xx >= IMP_TILE || yy >= IMP_TILE)
+                        continue;
+                    float wt = (dx ? fx : 1.0f - fx) * (dy ? fy : 1.0f - fy);
+                    const uint8_t *p = tile + ((size_t)yy * IMP_TILE + (size_t)xx) * 4;
+                    for (int c = 0; c < 4; c++)
+                        acc[c] += wt * (float)p[c];
+                }
+            uint8_t *o = rgba + ((size_t)row * w + col) * 4;
+            for (int c = 0; c < 3; c++)
+                o[c] = (uint8_t)fminf(255.0f, acc[3] > 0.5f ? acc[c] / acc[3] * 255.0f + 0.5f : 0.0f);
+            o[3] = (uint8_t)fminf(255.0f, acc[3] + 0.5f);
+        }
+    }
+    free(tile);
+    return HZ_OK;
+}
+
 /* Bakes every model's impostor atlas: the full tree (leaves and bark)
  * orthographically from each view, framing its bounding sphere; albedo
  * unlit, normals in model space; mipmapped. */

@@ -13,6 +13,7 @@
 
 #include "hz_shaders.h"
 
+/* Mipmaps that keep an alpha-tested sprite's coverage (hz_sprite_mip_next). */
 static hz_result upload_sprite(hz_renderer *r, uint32_t slot, const uint8_t *rgba, uint32_t w, uint32_t h,
                                hz_err *err)
 {
@@ -22,7 +23,29 @@ static hz_result upload_sprite(hz_renderer *r, uint32_t slot, const uint8_t *rgb
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
     glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, (GLsizei)w, (GLsizei)h, 0, GL_RGBA, GL_UNSIGNED_BYTE, rgba);
-    glGenerateMipmap(GL_TEXTURE_2D);
+    uint8_t *a = malloc((size_t)w * h * 4), *b = malloc((size_t)w * h * 4);
+    if (!a || !b) {
+        free(a);
+        free(b);
+        glBindTexture(GL_TEXTURE_2D, 0);
+        return hz_err_set(err, HZ_ERR_MEMORY, "billboard texture: out of memory for mipmaps");
+    }
+    memcpy(a, rgba, (size_t)w * h * 4);
+    const double cover0 = hz_sprite_coverage(rgba, (size_t)w * h);
+    int level = 0;
+    for (uint32_t lw = w, lh = h; lw > 1 || lh > 1;) {
+        uint32_t nw, nh;
+        hz_sprite_mip_next(a, lw, lh, cover0, b, &nw, &nh);
+        level++;
+        glTexImage2D(GL_TEXTURE_2D, level, GL_RGBA8, (GLsizei)nw, (GLsizei)nh, 0, GL_RGBA, GL_UNSIGNED_BYTE, b);
+        uint8_t *t = a;
+        a = b;
+        b = t;
+        lw = nw, lh = nh;
+    }
+    free(a);
+    free(b);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, level);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);

@@ -345,6 +345,55 @@ static void test_sprites(void **state)
     free(s);
 }
 
+/* Alpha-tested sprite mipmaps keep the coverage: a sparse crown (needles at
+ * random, densest in the middle) stays as covered at every level, where
+ * plain averaging thins it out level by level. Colours stay those of the
+ * opaque texels. */
+static void test_sprite_mips_keep_coverage(void **state)
+{
+    (void)state;
+    const uint32_t w = 64, h = 128;
+    uint8_t *a = calloc((size_t)w * h * 4, 1), *b = calloc((size_t)w * h * 4, 1);
+    uint32_t rng = 12345;
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            uint8_t *p = a + ((size_t)y * w + x) * 4;
+            /* needles: opaque at random, densest in the middle of a crown */
+            float dx = ((float)x - 32.0f) / 32.0f, dy = ((float)y - 64.0f) / 64.0f;
+            float dens = fmaxf(0.0f, 0.6f * (1.0f - (dx * dx + dy * dy)));
+            rng = rng * 1664525u + 1013904223u;
+            bool on = (float)(rng >> 8) / 16777216.0f < dens;
+            p[0] = 40, p[1] = on ? 160 : 0, p[2] = 30, p[3] = on ? 255 : 0;
+        }
+    const double c0 = hz_sprite_coverage(a, (size_t)w * h);
+    assert_true(c0 > 0.1 && c0 < 0.4);
+    uint32_t lw = w, lh = h;
+    int levels = 0;
+    while (lw > 1 || lh > 1) {
+        uint32_t nw, nh;
+        hz_sprite_mip_next(a, lw, lh, c0, b, &nw, &nh);
+        assert_int_equal(nw, lw > 1 ? lw / 2 : 1);
+        assert_int_equal(nh, lh > 1 ? lh / 2 : 1);
+        double c = hz_sprite_coverage(b, (size_t)nw * nh);
+        print_message("level %d: %ux%u coverage %.3f (level 0: %.3f)\n", levels + 1, nw, nh, c, c0);
+        if ((size_t)nw * nh >= 64) /* small levels cannot hit a share closely */
+            assert_true(fabs(c - c0) < 0.2 * c0);
+        else /* within a texel's share */
+            assert_true(fabs(c - c0) <= 1.0 / (double)((size_t)nw * nh));
+        for (size_t i = 0; i < (size_t)nw * nh; i++)
+            if (b[i * 4 + 3] >= 128)
+                assert_true(b[i * 4 + 1] == 160 && b[i * 4] == 40);
+        uint8_t *t = a;
+        a = b;
+        b = t;
+        lw = nw, lh = nh;
+        levels++;
+    }
+    assert_int_equal(levels, 7);
+    free(a);
+    free(b);
+}
+
 /* ---- scatter and water ----------------------------------------------------------------------- */
 
 static void make_hm(hz_heightmap *hm, uint32_t n, float sea_frac)
@@ -463,6 +512,7 @@ int main(void)
         cmocka_unit_test(test_weather),
         cmocka_unit_test(test_detail_textures),
         cmocka_unit_test(test_sprites),
+        cmocka_unit_test(test_sprite_mips_keep_coverage),
         cmocka_unit_test(test_trees_and_water),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

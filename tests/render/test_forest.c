@@ -368,6 +368,71 @@ static void test_point_leaves_match_quads(void **state)
     hz_tree_destroy(t);
 }
 
+/* The effects' billboards show the forest's trees: a sprite from the
+ * impostor's side view stands on its trunk at the bottom centre, reaches the
+ * top of the image, and is mostly foliage-coloured where it is opaque. */
+static void test_forest_sprite(void **state)
+{
+    (void)state;
+    enum { W = 64, H = 128 };
+    hz_err err = {0};
+    hz_renderer *ren = hz_renderer_create(&(hz_renderer_desc){.width = 64, .height = 64}, &err);
+    assert_non_null(ren);
+    static const char *const species[2] = {"conifer", "oak"};
+    static const float width[2] = {0.5f, 0.85f}; /* as the billboards of each kind */
+    for (int k = 0; k < 2; k++) {
+        hz_tree *t = hz_tree_grow(&(hz_tree_desc){.species = species[k], .seed = 2}, &err);
+        assert_non_null(t);
+        assert_int_equal(hz_hull_build(t, NULL, NULL, &err), HZ_OK);
+        const hz_tree *models[1] = {t};
+        hz_forest_tree trees[1] = {{.scale = 1}};
+        hz_forest *f = hz_forest_create(models, 1, trees, 1, &err);
+        assert_non_null(f);
+        hz_forest_gpu *gpu = hz_forest_gpu_create(f, &err);
+        if (!gpu)
+            fail_msg("gpu: %s", err.msg);
+        uint8_t *px = malloc(W * H * 4);
+        assert_int_equal(hz_forest_gpu_sprite(gpu, f, 1, width[k], W, H, px, &err), HZ_ERR_VALUE);
+        assert_int_equal(hz_forest_gpu_sprite(gpu, f, 0, NAN, W, H, px, &err), HZ_ERR_VALUE);
+        assert_int_equal(hz_forest_gpu_sprite(gpu, f, 0, width[k], W, H, px, &err), HZ_OK);
+        uint32_t opaque = 0, green = 0, top = H, edge = 0;
+        for (uint32_t y = 0; y < H; y++)
+            for (uint32_t x = 0; x < W; x++) {
+                const uint8_t *p = px + (y * W + x) * 4;
+                if (p[3] < 128)
+                    continue;
+                opaque++;
+                green += p[1] > p[0] && p[1] > p[2];
+                top = y < top ? y : top;
+                edge += x == 0 || x == W - 1;
+            }
+        /* the trunk at the foot, in the middle */
+        uint32_t foot = 0;
+        for (uint32_t x = W / 2 - 3; x <= W / 2 + 2; x++)
+            foot += px[((H - 2) * W + x) * 4 + 3] >= 128;
+        char path[512];
+        snprintf(path, sizeof path, "%s/forest_sprite_%s.png", HZ_TEST_TMP, species[k]);
+        uint8_t *rgb = malloc(W * H * 3); /* over magenta, to look at */
+        for (uint32_t i = 0; i < W * H; i++)
+            for (int c = 0; c < 3; c++)
+                rgb[i * 3 + c] = px[i * 4 + 3] >= 128 ? px[i * 4 + c] : (c == 1 ? 0 : 255);
+        hz_image_write_png(path, rgb, W, H, &err);
+        free(rgb);
+        print_message("%s sprite: %.1f %% opaque, %.1f %% of it green, top row %u, foot %u, edge %u\n", species[k],
+                      100.0 * opaque / (W * H), 100.0 * green / (opaque ? opaque : 1), top, foot, edge);
+        assert_true(opaque > W * H / 10);
+        assert_true(green > opaque / 2);
+        assert_true(top <= H / 12);
+        assert_true(foot > 0);
+        assert_true(edge < H / 4);
+        free(px);
+        hz_forest_gpu_destroy(gpu);
+        hz_forest_destroy(f);
+        hz_tree_destroy(t);
+    }
+    hz_renderer_destroy(ren);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -377,6 +442,7 @@ int main(void)
         cmocka_unit_test(test_vmi_beats_random),
         cmocka_unit_test(test_forest_draw),
         cmocka_unit_test(test_point_leaves_match_quads),
+        cmocka_unit_test(test_forest_sprite),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
