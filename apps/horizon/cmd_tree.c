@@ -34,7 +34,10 @@ static void usage(void)
             "  --no-rank               skip the VMI ranking (done by default when not yet ranked)\n"
             "  --rank                  rank again even if the tree is ranked\n"
             "  --views 12|42|162       VMI viewpoints on the icosahedron (default 42)\n"
-            "  --rank-res PX           item-buffer pixels across a leaf node (default 32)\n"
+            "  --rank-res PX           item-buffer pixels across a leaf node rendered alone (default 32)\n"
+            "  --rank-tree PX          rank in the whole tree rendered PX pixels across instead (e.g. 1024),\n"
+            "                          so that a leaf's visible area is what the rest of the crown leaves\n"
+            "                          of it (default 0: each node alone)\n"
             "  --layers L              depth-peeled layers per pixel (default 4)\n"
             "  --no-hull               skip the crown hull (built by default when missing)\n"
             "  --hull-grid N           density grid voxels along the crown (default 40)\n"
@@ -132,7 +135,7 @@ int cmd_tree(int argc, char **argv)
                     !strcmp(a, "--hull-preview");
         static const char *const valued[] = {"--species", "--seed", "--leaves", "--import", "--leaf-match", "--up",
                                              "--scale", "--node-leaves", "--in", "--out", "--preview", "--views",
-                                             "--rank-res", "--layers", "--hull-grid", "--hull-triangles", "--rate",
+                                             "--rank-res", "--rank-tree", "--layers", "--hull-grid", "--hull-triangles", "--rate",
                                              "--size", "--pr-views", "--pr-res", "--max-memory"};
         bool is_known = flag;
         for (size_t k = 0; k < sizeof valued / sizeof valued[0] && !is_known; k++)
@@ -196,6 +199,9 @@ int cmd_tree(int argc, char **argv)
             } else if (!strcmp(a, "--rank-res")) {
                 if (!cli_parse_u32(v, 4, 256, &rd.res))
                     return bad(a, v, "pixels in [4, 256]");
+            } else if (!strcmp(a, "--rank-tree")) {
+                if (!cli_parse_u32(v, 0, 4096, &rd.tree_res) || (rd.tree_res && rd.tree_res < 512))
+                    return bad(a, v, "0 or pixels in [512, 4096]");
             } else if (!strcmp(a, "--layers")) {
                 if (!cli_parse_u32(v, 1, 16, &rd.layers))
                     return bad(a, v, "a count in [1, 16]");

@@ -133,7 +133,8 @@ static hz_tree *cached_model(const cli_opts *o, const char *species, const char 
     }
     bool cache = cache_dir(o, dir, sizeof dir);
     if (cache) {
-        snprintf(file, sizeof file, "%s/%s-v%ur%uk%u-h%ut%u-g3.hzt", dir, key, rank.views, rank.res, rank.layers,
+        snprintf(file, sizeof file, "%s/%s-v%ur%uk%u-h%ut%u-g3.hzt", dir, key, rank.views,
+                 rank.tree_res ? rank.tree_res : rank.res, rank.layers,
                  hull.grid, hull.triangles);
         struct stat sb;
         if (stat(file, &sb) == 0) {

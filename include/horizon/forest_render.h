@@ -18,6 +18,10 @@ typedef struct hz_rank_desc {
     uint32_t views;    /* viewpoints: 12, 42 or 162 (icosahedron, 0/1/2 subdivisions); 0 -> 42 */
     uint32_t res;      /* item-buffer pixels across one leaf node's bounding sphere; 0 -> 32 */
     uint32_t layers;   /* depth-peeled layers kept per pixel; 0 -> 4 */
+    uint32_t tree_res; /* 0: each node rendered alone, res pixels across it, as F2 reads literally;
+                          else the whole tree rendered tree_res pixels across (512..4096), so that a
+                          leaf's visible area is what the rest of the crown leaves of it;
+                          t->rank_res records it (> 256 says: ranked in the tree) */
     hz_progress_fn progress; /* optional */
     void *progress_user;
 } hz_rank_desc;

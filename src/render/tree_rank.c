@@ -222,6 +222,150 @@ static void view_basis(const float *toward_viewer, float *right, float *up, floa
     up[2] = right[0] * fwd[1] - right[1] * fwd[0];
 }
 
+/* Appends one pixel (layers ids) to a node's list. */
+static bool list_push(node_lists *nl, const uint16_t *px, uint32_t layers)
+{
+    if (nl->n == nl->cap) {
+        size_t nc = nl->cap ? nl->cap * 2 : 256;
+        uint16_t *np = realloc(nl->ids, nc * layers * sizeof *np);
+        if (!np)
+            return false;
+        nl->ids = np;
+        nl->cap = nc;
+    }
+    memcpy(nl->ids + nl->n * layers, px, layers * sizeof *px);
+    nl->n++;
+    return true;
+}
+
+/* VMI in the tree: the pixel lists come from the whole tree rendered from
+ * each view (orthographic, framing the bounding sphere, tres x tres,
+ * depth-peeled), so a leaf's visible area is what the rest of the crown
+ * leaves of it: each pixel belongs to the node of its front-most leaf, with
+ * that node's leaves front to back until another node's leaf hides the
+ * rest. Then hz_vmi_rank per node, as for nodes rendered alone. */
+static hz_result rank_in_tree(hz_tree *t, const float *dirs, uint32_t views, uint32_t layers, uint32_t tres,
+                              const hz_rank_desc *d, uint32_t *orders, hz_rank_stats *st, hz_err *err)
+{
+    const uint32_t nn = t->node_count, nl_ = t->leaf_count;
+    const size_t npx = (size_t)tres * tres;
+    itembuf ib;
+    hz_result res = ib_create(&ib, t, tres, tres, err);
+    if (res != HZ_OK)
+        return res;
+    float *ones = malloc((nn ? nn : 1) * sizeof *ones);
+    uint32_t *node_of = malloc((nl_ ? nl_ : 1) * sizeof *node_of);
+    uint32_t *ids = malloc(npx * layers * sizeof *ids);
+    node_lists *lists = calloc(nn ? nn : 1, sizeof *lists);
+    uint16_t px[16];
+    if (!ones || !node_of || !ids || !lists) {
+        res = hz_err_set(err, HZ_ERR_MEMORY, "rank: out of memory");
+        goto done;
+    }
+    for (uint32_t n = 0; n < nn; n++) {
+        ones[n] = 1.0f;
+        lists[n].view_start = malloc((views + 1) * sizeof *lists[n].view_start);
+        if (!lists[n].view_start) {
+            res = hz_err_set(err, HZ_ERR_MEMORY, "rank: out of memory");
+            goto done;
+        }
+    }
+    for (uint32_t l = 0; l < nl_; l++)
+        node_of[l] = UINT32_MAX;
+    for (uint32_t n = 0; n < nn; n++)
+        for (uint32_t l = t->nodes[n].first; l < t->nodes[n].first + t->nodes[n].count; l++)
+            node_of[l] = n;
+    hz_gl_buffer_texture(&ib.scale_buf, &ib.scale_tex, GL_R32F, ones, (nn ? nn : 1) * sizeof(float), GL_DYNAMIC_DRAW);
+    const float *c = t->bound_center, R = t->bound_radius > 0 ? t->bound_radius : 1.0f;
+    range_draw rd = {0, (GLsizei)(nl_ * 6)};
+    for (uint32_t v = 0; v < views; v++) {
+        double r0 = hz_time_ms();
+        float right[3], up[3], fwd[3];
+        view_basis(dirs + v * 3, right, up, fwd);
+        /* column-major: x = right.(p - c) / R, y = up.(p - c) / R, z = fwd.(p - c) / R */
+        float m[16] = {0};
+        for (int k = 0; k < 3; k++) {
+            m[k * 4 + 0] = right[k] / R;
+            m[k * 4 + 1] = up[k] / R;
+            m[k * 4 + 2] = 0.999f * fwd[k] / R;
+        }
+        m[12] = -(right[0] * c[0] + right[1] * c[1] + right[2] * c[2]) / R;
+        m[13] = -(up[0] * c[0] + up[1] * c[1] + up[2] * c[2]) / R;
+        m[14] = -0.999f * (fwd[0] * c[0] + fwd[1] * c[1] + fwd[2] * c[2]) / R;
+        m[15] = 1.0f;
+        ib_begin(&ib, 2);
+        glUniformMatrix4fv(ib.u_viewproj, 1, GL_FALSE, m);
+        uint32_t got = 0;
+        for (uint32_t l = 0; l < layers; l++) {
+            ib_layer(&ib, l, draw_range, &rd);
+            uint32_t *lay = ids + (size_t)l * npx;
+            ib_read(&ib, lay);
+            glBindFramebuffer(GL_FRAMEBUFFER, ib.fbo);
+            got = l + 1;
+            bool any = false;
+            for (size_t p = 0; p < npx && !any; p++)
+                any = lay[p] != 0;
+            if (!any)
+                break;
+        }
+        ib_end();
+        if ((res = hz_gl_check(err, "tree item buffer rendering")) != HZ_OK)
+            goto done;
+        st->render_ms += hz_time_ms() - r0;
+        for (uint32_t n = 0; n < nn; n++)
+            lists[n].view_start[v] = (uint32_t)lists[n].n;
+        for (size_t p = 0; p < npx; p++) {
+            uint32_t id0 = ids[p];
+            if (!id0 || id0 > nl_ || node_of[id0 - 1] == UINT32_MAX)
+                continue;
+            const uint32_t n = node_of[id0 - 1], first = t->nodes[n].first;
+            bool blocked = false;
+            for (uint32_t l = 0; l < layers; l++) {
+                uint32_t id = l < got ? ids[(size_t)l * npx + p] : 0;
+                if (!id || id > nl_ || node_of[id - 1] != n)
+                    blocked = true; /* another node's leaf, or nothing, from here on */
+                px[l] = blocked ? HZ_VMI_EMPTY : (uint16_t)(id - 1 - first);
+            }
+            if (px[layers - 1] != HZ_VMI_EMPTY)
+                st->deep_pixels++;
+            if (!list_push(&lists[n], px, layers)) {
+                res = hz_err_set(err, HZ_ERR_MEMORY, "rank: out of memory");
+                goto done;
+            }
+        }
+    }
+    double r1 = hz_time_ms();
+    for (uint32_t n = 0; n < nn; n++) {
+        node_lists *nl = &lists[n];
+        nl->view_start[views] = (uint32_t)nl->n;
+        st->pixels += nl->n;
+        hz_vmi_input in = {.leaf_count = t->nodes[n].count, .view_count = views, .layers = layers,
+                           .view_start = nl->view_start, .ids = nl->ids};
+        hz_vmi_stats vs;
+        if ((res = hz_vmi_rank(&in, orders + t->nodes[n].first, &vs, err)) != HZ_OK)
+            goto done;
+        st->candidates += vs.candidates;
+        free(nl->ids);
+        nl->ids = NULL;
+        if (d->progress && (n + 1) % 64 == 0)
+            d->progress(d->progress_user, "rank leaves (VMI)", n + 1, nn);
+    }
+    st->vmi_ms += hz_time_ms() - r1;
+    st->batches = views;
+done:
+    if (lists)
+        for (uint32_t n = 0; n < nn; n++) {
+            free(lists[n].view_start);
+            free(lists[n].ids);
+        }
+    free(lists);
+    free(ids);
+    free(node_of);
+    free(ones);
+    ib_destroy(&ib);
+    return res;
+}
+
 hz_result hz_tree_rank(hz_tree *t, const hz_rank_desc *desc, hz_rank_stats *stats, hz_err *err)
 {
     double t0 = hz_time_ms();
@@ -233,10 +377,12 @@ hz_result hz_tree_rank(hz_tree *t, const hz_rank_desc *desc, hz_rank_stats *stat
     if (!d.layers)
         d.layers = 4;
     hz_rank_stats st = {0};
-    if (d.res < 4 || d.res > 256 || d.layers > 16 || (d.views != 12 && d.views != 42 && d.views != 162))
+    if (d.res < 4 || d.res > 256 || d.layers > 16 || (d.views != 12 && d.views != 42 && d.views != 162) ||
+        (d.tree_res && (d.tree_res < 512 || d.tree_res > 4096)))
         return hz_err_set(err, HZ_ERR_VALUE,
-                          "rank: bad parameters (views %u: 12, 42 or 162; resolution %u: 4..256; layers %u: 1..16)",
-                          d.views, d.res, d.layers);
+                          "rank: bad parameters (views %u: 12, 42 or 162; resolution %u: 4..256; layers %u: 1..16; "
+                          "tree resolution %u: 512..4096)",
+                          d.views, d.res, d.layers, d.tree_res);
     float dirs[162 * 3];
     hz_sphere_views(d.views, dirs);
     const uint32_t per_row = d.res <= 64 ? 1024 / d.res : 4;
@@ -261,7 +407,11 @@ hz_result hz_tree_rank(hz_tree *t, const hz_rank_desc *desc, hz_rank_stats *stat
             goto done;
         }
     }
-    for (uint32_t b0 = 0; b0 < t->node_count; b0 += per_batch) {
+    if (d.tree_res) {
+        if ((res = rank_in_tree(t, dirs, d.views, d.layers, d.tree_res, &d, orders, &st, err)) != HZ_OK)
+            goto done;
+    }
+    for (uint32_t b0 = 0; b0 < t->node_count && !d.tree_res; b0 += per_batch) {
         uint32_t b1 = b0 + per_batch < t->node_count ? b0 + per_batch : t->node_count;
         double r0 = hz_time_ms();
         for (uint32_t n = b0; n < b1; n++) {
@@ -359,7 +509,7 @@ hz_result hz_tree_rank(hz_tree *t, const hz_rank_desc *desc, hz_rank_stats *stat
     if (res == HZ_OK) {
         t->ranked = true;
         t->rank_views = d.views;
-        t->rank_res = d.res;
+        t->rank_res = d.tree_res ? d.tree_res : d.res;
         t->rank_layers = d.layers;
         st.nodes = t->node_count;
         st.ms = hz_time_ms() - t0;

@@ -95,6 +95,74 @@ static void test_rank_hidden_leaf_last(void **state)
     hz_tree_destroy(t);
 }
 
+/* Two leaf nodes: node 0 is a closed box of six leaves; node 1 has a big
+ * leaf inside the box and two small ones outside, above it. */
+static hz_tree *boxed_tree(void)
+{
+    hz_tree *t = calloc(1, sizeof *t);
+    snprintf(t->species, sizeof t->species, "nested");
+    t->levels = 2;
+    t->branch_count = 2;
+    t->branches = calloc(2, sizeof *t->branches);
+    t->branches[0] = (hz_tree_branch){.parent = HZ_TREE_NONE, .level = 1, .leaf_node = 0, .length = 1,
+                                      .radius = 0.05f, .tip = {0, 1, 0}, .dir = {0, 1, 0}};
+    t->branches[1] = (hz_tree_branch){.parent = 0, .level = 2, .leaf_node = 1, .length = 1, .radius = 0.02f,
+                                      .base = {0, 1, 0}, .tip = {0, 2, 0}, .dir = {0, 1, 0}};
+    t->leaf_count = 9;
+    t->leaves = calloc(9, sizeof *t->leaves);
+    const float h = 0.5f, big = 0.75f;
+    hz_tree_leaf faces[6] = {
+        {{h, 1, 0}, {0, big, 0}, {0, 0, big}},  {{-h, 1, 0}, {0, big, 0}, {0, 0, big}},
+        {{0, 1 + h, 0}, {big, 0, 0}, {0, 0, big}}, {{0, 1 - h, 0}, {big, 0, 0}, {0, 0, big}},
+        {{0, 1, h}, {big, 0, 0}, {0, big, 0}},  {{0, 1, -h}, {big, 0, 0}, {0, big, 0}},
+    };
+    for (int k = 0; k < 6; k++)
+        t->leaves[k] = faces[k];
+    t->leaves[6] = (hz_tree_leaf){{0, 1, 0}, {0.3f, 0, 0}, {0, 0.3f, 0}};        /* big, inside the box */
+    t->leaves[7] = (hz_tree_leaf){{-0.2f, 2.2f, 0}, {0.05f, 0, 0}, {0, 0, 0.05f}}; /* small, outside */
+    t->leaves[8] = (hz_tree_leaf){{0.2f, 2.2f, 0}, {0.05f, 0, 0}, {0, 0, 0.05f}};
+    t->node_count = 2;
+    t->nodes = calloc(2, sizeof *t->nodes);
+    t->nodes[0] = (hz_tree_node){.branch = 0, .first = 0, .count = 6};
+    t->nodes[1] = (hz_tree_node){.branch = 1, .first = 6, .count = 3};
+    hz_tree_finish(t);
+    return t;
+}
+
+/* Ranked in the tree, a leaf that another node hides from every side ranks
+ * last in its node; ranked alone, the same (big) leaf does not. */
+static void test_rank_in_tree(void **state)
+{
+    (void)state;
+    hz_err err = {0};
+    for (int in_tree = 0; in_tree < 2; in_tree++) {
+        hz_tree *t = boxed_tree();
+        if (hz_tree_validate(t, &err) != HZ_OK)
+            fail_msg("nested tree: %s", err.msg);
+        hz_rank_stats st;
+        hz_rank_desc d = {.views = 42, .res = 48, .layers = 4, .tree_res = in_tree ? 512 : 0};
+        if (hz_tree_rank(t, &d, &st, &err) != HZ_OK)
+            fail_msg("rank: %s", err.msg);
+        assert_int_equal(t->rank_res, in_tree ? 512u : 48u);
+        assert_true(st.pixels > 42 * 50);
+        /* where node 1's big leaf ended up in its order */
+        uint32_t at = 99;
+        for (uint32_t k = 0; k < 3; k++)
+            if (fabsf(t->leaves[6 + k].u[0] - 0.3f) < 1e-6f)
+                at = k;
+        print_message("%s: the hidden big leaf ranks %u of 3\n", in_tree ? "in the tree" : "alone", at + 1);
+        if (in_tree)
+            assert_int_equal(at, 2);
+        else
+            assert_true(at < 2);
+        assert_int_equal(hz_tree_validate(t, &err), HZ_OK);
+        hz_tree_destroy(t);
+    }
+    hz_tree *t = boxed_tree();
+    assert_int_equal(hz_tree_rank(t, &(hz_rank_desc){.tree_res = 100}, NULL, &err), HZ_ERR_VALUE);
+    hz_tree_destroy(t);
+}
+
 static void test_pr(void **state)
 {
     (void)state;
@@ -437,6 +505,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_rank_hidden_leaf_last),
+        cmocka_unit_test(test_rank_in_tree),
         cmocka_unit_test(test_pr),
         cmocka_unit_test(test_pr_hand_made),
         cmocka_unit_test(test_vmi_beats_random),
