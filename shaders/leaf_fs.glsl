@@ -1,39 +1,16 @@
 #version 330 core
-// Forest leaves: leaf-shaped cut-out, two-sided Lambert with some light
-// through the leaf, tint and occlusion toward the crown centre per leaf
-// (v_shade), exponential fog.
-// u_dither: the pixel is kept when its dither value lies in [x, y) (the
-// cross-fade between LOD states; (0, 1) keeps all).
-uniform vec3 u_color;
-uniform vec3 u_sun_dir, u_sky_horizon, u_eye;
-uniform float u_fog_density, u_ambient;
-uniform vec2 u_dither;
+#include "leaf_shade.glsl"
+// Forest leaves as quads: the leaf-shaped cut-out of the quad, lit and
+// fogged (leaf_shade.glsl).
 in vec3 v_world;
 in vec3 v_normal;
 in vec2 v_uv;
 flat in float v_shade;
 out vec4 o_color;
 
-float dither(vec2 p)
-{
-    return fract(52.9829189 * fract(dot(p, vec2(0.06711056, 0.00583715))));
-}
-
 void main()
 {
-    if (abs(v_uv.y) > 0.9 * (1.0 - v_uv.x * v_uv.x))
+    if (abs(v_uv.y) > 0.9 * (1.0 - v_uv.x * v_uv.x) || leaf_dithered_out())
         discard;
-    float dv = dither(gl_FragCoord.xy);
-    if (dv < u_dither.x || dv >= u_dither.y)
-        discard;
-    vec3 n = normalize(v_normal);
-    vec3 to_eye = u_eye - v_world;
-    if (dot(n, to_eye) < 0.0)
-        n = -n;
-    float ndl = dot(n, u_sun_dir);
-    float light = max(ndl, 0.0) + 0.35 * max(-ndl, 0.0);
-    vec3 albedo = u_color * v_shade;
-    vec3 c = albedo * (u_ambient + (1.0 - u_ambient) * light * vec3(1.0, 0.97, 0.90));
-    float f = u_fog_density > 0.0 ? exp(-u_fog_density * length(to_eye)) : 1.0;
-    o_color = vec4(mix(u_sky_horizon, c, f), 1.0);
+    o_color = leaf_lit(normalize(v_normal), v_world, v_shade);
 }

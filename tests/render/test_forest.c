@@ -34,6 +34,20 @@ static int teardown(void **state)
     return 0;
 }
 
+/* Six leaves forming a closed box centred at (0, 1, 0), 1 m wide; a quad is
+ * c +- u +- v. The leaf cut-out is almond shaped, so each face is two
+ * crossed leaves' worth: faces larger than the box close the corners. */
+static void box_faces(hz_tree_leaf *out)
+{
+    const float h = 0.5f, big = 0.75f;
+    const hz_tree_leaf faces[6] = {
+        {{h, 1, 0}, {0, big, 0}, {0, 0, big}},  {{-h, 1, 0}, {0, big, 0}, {0, 0, big}},
+        {{0, 1 + h, 0}, {big, 0, 0}, {0, 0, big}}, {{0, 1 - h, 0}, {big, 0, 0}, {0, 0, big}},
+        {{0, 1, h}, {big, 0, 0}, {0, big, 0}},  {{0, 1, -h}, {big, 0, 0}, {0, big, 0}},
+    };
+    memcpy(out, faces, sizeof faces);
+}
+
 /* One branch, one leaf node: six leaves forming a closed box around a
  * seventh leaf in its middle, plus one leaf sticking out above. */
 static hz_tree *box_tree(void)
@@ -47,18 +61,7 @@ static hz_tree *box_tree(void)
                                       .radius = 0.05f, .tip = {0, 1, 0}, .dir = {0, 1, 0}};
     t->leaf_count = 8;
     t->leaves = calloc(8, sizeof *t->leaves);
-    const float h = 0.5f;
-    /* faces of the box centred at (0, 1, 0); a quad is c +- u +- v. The leaf
-     * cut-out is almond shaped, so each face is two crossed leaves' worth:
-     * we make faces larger than the box to close the corners. */
-    const float big = 0.75f;
-    hz_tree_leaf faces[6] = {
-        {{h, 1, 0}, {0, big, 0}, {0, 0, big}},  {{-h, 1, 0}, {0, big, 0}, {0, 0, big}},
-        {{0, 1 + h, 0}, {big, 0, 0}, {0, 0, big}}, {{0, 1 - h, 0}, {big, 0, 0}, {0, 0, big}},
-        {{0, 1, h}, {big, 0, 0}, {0, big, 0}},  {{0, 1, -h}, {big, 0, 0}, {0, big, 0}},
-    };
-    for (int k = 0; k < 6; k++)
-        t->leaves[k] = faces[k];
+    box_faces(t->leaves);
     t->leaves[6] = (hz_tree_leaf){{0, 1, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}};   /* hidden inside */
     t->leaves[7] = (hz_tree_leaf){{0, 2.2f, 0}, {0.3f, 0, 0}, {0, 0.3f, 0}}; /* exposed above */
     t->node_count = 1;
@@ -110,14 +113,7 @@ static hz_tree *boxed_tree(void)
                                       .base = {0, 1, 0}, .tip = {0, 2, 0}, .dir = {0, 1, 0}};
     t->leaf_count = 9;
     t->leaves = calloc(9, sizeof *t->leaves);
-    const float h = 0.5f, big = 0.75f;
-    hz_tree_leaf faces[6] = {
-        {{h, 1, 0}, {0, big, 0}, {0, 0, big}},  {{-h, 1, 0}, {0, big, 0}, {0, 0, big}},
-        {{0, 1 + h, 0}, {big, 0, 0}, {0, 0, big}}, {{0, 1 - h, 0}, {big, 0, 0}, {0, 0, big}},
-        {{0, 1, h}, {big, 0, 0}, {0, big, 0}},  {{0, 1, -h}, {big, 0, 0}, {0, big, 0}},
-    };
-    for (int k = 0; k < 6; k++)
-        t->leaves[k] = faces[k];
+    box_faces(t->leaves);
     t->leaves[6] = (hz_tree_leaf){{0, 1, 0}, {0.3f, 0, 0}, {0, 0.3f, 0}};        /* big, inside the box */
     t->leaves[7] = (hz_tree_leaf){{-0.2f, 2.2f, 0}, {0.05f, 0, 0}, {0, 0, 0.05f}}; /* small, outside */
     t->leaves[8] = (hz_tree_leaf){{0.2f, 2.2f, 0}, {0.05f, 0, 0}, {0, 0, 0.05f}};
@@ -291,23 +287,46 @@ static uint64_t count_diff(const uint8_t *a, const uint8_t *b, size_t npx)
     return n;
 }
 
+/* A grown model with its hull, a forest of it at `trees`, its GPU side. */
+typedef struct one_model {
+    hz_tree *t;
+    hz_forest *f;
+    hz_forest_gpu *gpu;
+} one_model;
+
+static one_model one_model_forest(const hz_tree_desc *td, const hz_forest_tree *trees, uint32_t n)
+{
+    hz_err err = {0};
+    one_model m = {hz_tree_grow(td, &err), NULL, NULL};
+    assert_non_null(m.t);
+    assert_int_equal(hz_hull_build(m.t, NULL, NULL, &err), HZ_OK);
+    const hz_tree *models[1] = {m.t};
+    m.f = hz_forest_create(models, 1, trees, n, &err);
+    assert_non_null(m.f);
+    m.gpu = hz_forest_gpu_create(m.f, &err);
+    if (!m.gpu)
+        fail_msg("gpu: %s", err.msg);
+    return m;
+}
+
+static void one_model_free(one_model *m)
+{
+    hz_forest_gpu_destroy(m->gpu);
+    hz_forest_destroy(m->f);
+    hz_tree_destroy(m->t);
+}
+
 static void test_forest_draw(void **state)
 {
     (void)state;
     enum { W = 192, H = 144 };
     hz_err err = {0};
-    hz_tree *t = hz_tree_grow(&(hz_tree_desc){.species = "oak", .seed = 1, .leaves = 8000}, &err);
-    assert_non_null(t);
-    assert_int_equal(hz_hull_build(t, NULL, NULL, &err), HZ_OK);
-    const hz_tree *models[1] = {t};
-    hz_forest_tree trees[2] = {{.pos = {0, 0, 0}, .scale = 1}, {.pos = {0, 0, -400}, .scale = 1}};
-    hz_forest *f = hz_forest_create(models, 1, trees, 2, &err);
-    assert_non_null(f);
     hz_renderer *ren = hz_renderer_create(&(hz_renderer_desc){.width = W, .height = H}, &err);
     assert_non_null(ren);
-    hz_forest_gpu *gpu = hz_forest_gpu_create(f, &err);
-    if (!gpu)
-        fail_msg("gpu: %s", err.msg);
+    hz_forest_tree trees[2] = {{.pos = {0, 0, 0}, .scale = 1}, {.pos = {0, 0, -400}, .scale = 1}};
+    one_model om = one_model_forest(&(hz_tree_desc){.species = "oak", .seed = 1, .leaves = 8000}, trees, 2);
+    hz_forest *f = om.f;
+    hz_forest_gpu *gpu = om.gpu;
     hz_camera cam = {.pos = {0, 8, 16}, .yaw = 0, .pitch = 0, .fov_y = 60, .aspect = (float)W / H, .znear = 0.3f,
                      .zfar = 3000};
     uint8_t *sky = malloc(W * H * 3), *full = malloc(W * H * 3), *simp = malloc(W * H * 3), *big = malloc(W * H * 3);
@@ -350,10 +369,8 @@ static void test_forest_draw(void **state)
     free(full);
     free(simp);
     free(big);
-    hz_forest_gpu_destroy(gpu);
+    one_model_free(&om);
     hz_renderer_destroy(ren);
-    hz_forest_destroy(f);
-    hz_tree_destroy(t);
 }
 
 /* Leaves drawn as points cut to the leaf's projected outline give the picture
@@ -364,18 +381,13 @@ static void test_point_leaves_match_quads(void **state)
     (void)state;
     enum { W = 320, H = 240 };
     hz_err err = {0};
-    hz_tree *t = hz_tree_grow(&(hz_tree_desc){.species = "maple", .seed = 3, .leaves = 20000}, &err);
-    assert_non_null(t);
-    assert_int_equal(hz_hull_build(t, NULL, NULL, &err), HZ_OK);
-    const hz_tree *models[1] = {t};
-    hz_forest_tree trees[1] = {{.pos = {0, 0, 0}, .scale = 1, .yaw = 0.7f}};
-    hz_forest *f = hz_forest_create(models, 1, trees, 1, &err);
-    assert_non_null(f);
     hz_renderer *ren = hz_renderer_create(&(hz_renderer_desc){.width = W, .height = H}, &err);
     assert_non_null(ren);
-    hz_forest_gpu *gpu = hz_forest_gpu_create(f, &err);
-    if (!gpu)
-        fail_msg("gpu: %s", err.msg);
+    hz_forest_tree trees[1] = {{.pos = {0, 0, 0}, .scale = 1, .yaw = 0.7f}};
+    one_model om = one_model_forest(&(hz_tree_desc){.species = "maple", .seed = 3, .leaves = 20000}, trees, 1);
+    const hz_tree *t = om.t;
+    hz_forest *f = om.f;
+    hz_forest_gpu *gpu = om.gpu;
     /* Looking at the crown from a little above it, zoomed in: leaves up to
      * about ten pixels long. */
     const float *bc = t->bound_center, r = t->bound_radius;
@@ -430,10 +442,8 @@ static void test_point_leaves_match_quads(void **state)
     free(sky);
     free(quads);
     free(points);
-    hz_forest_gpu_destroy(gpu);
+    one_model_free(&om);
     hz_renderer_destroy(ren);
-    hz_forest_destroy(f);
-    hz_tree_destroy(t);
 }
 
 /* The effects' billboards show the forest's trees: a sprite from the
@@ -449,16 +459,10 @@ static void test_forest_sprite(void **state)
     static const char *const species[2] = {"conifer", "oak"};
     static const float width[2] = {0.5f, 0.85f}; /* as the billboards of each kind */
     for (int k = 0; k < 2; k++) {
-        hz_tree *t = hz_tree_grow(&(hz_tree_desc){.species = species[k], .seed = 2}, &err);
-        assert_non_null(t);
-        assert_int_equal(hz_hull_build(t, NULL, NULL, &err), HZ_OK);
-        const hz_tree *models[1] = {t};
         hz_forest_tree trees[1] = {{.scale = 1}};
-        hz_forest *f = hz_forest_create(models, 1, trees, 1, &err);
-        assert_non_null(f);
-        hz_forest_gpu *gpu = hz_forest_gpu_create(f, &err);
-        if (!gpu)
-            fail_msg("gpu: %s", err.msg);
+        one_model om = one_model_forest(&(hz_tree_desc){.species = species[k], .seed = 2}, trees, 1);
+        hz_forest *f = om.f;
+        hz_forest_gpu *gpu = om.gpu;
         uint8_t *px = malloc(W * H * 4);
         assert_int_equal(hz_forest_gpu_sprite(gpu, f, 1, width[k], W, H, px, &err), HZ_ERR_VALUE);
         assert_int_equal(hz_forest_gpu_sprite(gpu, f, 0, NAN, W, H, px, &err), HZ_ERR_VALUE);
@@ -494,9 +498,7 @@ static void test_forest_sprite(void **state)
         assert_true(foot > 0);
         assert_true(edge < H / 4);
         free(px);
-        hz_forest_gpu_destroy(gpu);
-        hz_forest_destroy(f);
-        hz_tree_destroy(t);
+        one_model_free(&om);
     }
     hz_renderer_destroy(ren);
 }
