@@ -93,8 +93,9 @@ uint64_t hz_forest_gpu_upload_bytes(const hz_forest_gpu *g);
 /* Leaves drawn as points: a detailed tree whose nearest leaves are at most
  * max_px pixels long on screen (mean leaf, before enlargement) draws each
  * leaf as one point that the fragment shader cuts to the leaf's projected
- * outline (one vertex instead of four); nearer trees draw quads. Default
- * 16; 0 draws every leaf as a quad. Returns the previous value. */
+ * outline (one vertex instead of four); nearer trees, and every tree of an
+ * unsimplified frame (the reference), draw quads. Default 16; 0 draws every
+ * leaf as a quad. Returns the previous value. */
 float hz_forest_gpu_point_leaves(hz_forest_gpu *g, float max_px);
 /* A billboard sprite of a model, from its impostor's side view (baked from
  * the full tree): RGBA8 w x h, top row first, the trunk's foot at the bottom

@@ -808,7 +808,8 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
             if (dr->hull || dr->prefix == 0)
                 continue;
             const hz_tree *t = hz_forest_model(f, dr->model);
-            if (leaf_points(g, f, dr, t, focal_px) != (points != 0))
+            /* The unsimplified reference (no impostors) keeps every leaf a quad. */
+            if ((fr->impostors && leaf_points(g, f, dr, t, focal_px)) != (points != 0))
                 continue;
             if (!any) {
                 any = true;
