@@ -1,5 +1,6 @@
 #version 330 core
 #include "leaf_shade.glsl"
+#include "leaf_dither.glsl"
 // Forest leaves as quads: the leaf-shaped cut-out of the quad, lit and
 // fogged (leaf_shade.glsl).
 in vec3 v_world;

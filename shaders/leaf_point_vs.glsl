@@ -1,5 +1,6 @@
 #version 330 core
 #include "curvature.glsl"
+#include "leaf_shade.glsl"
 // Forest leaves as points (the leaves of trees whose leaves are a few pixels
 // across): one vertex per leaf instead of a quad, so a leaf costs one vertex
 // and one point instead of four vertices and two triangles. The point covers
@@ -21,17 +22,13 @@ uniform mat4 u_mvp;              // u_viewproj * u_model
 uniform vec4 u_clip_plane;
 uniform vec2 u_viewport;         // pixels
 
-flat out vec3 v_world;
-flat out vec3 v_normal;
-flat out float v_shade;
+flat out vec3 v_color;           // lit and fogged (leaf_shade.glsl): one colour per leaf
 flat out vec2 v_center;          // window position of the leaf centre
 flat out vec4 v_inv;             // pixels -> leaf (u, v): inverse of the projected axes
 
 void collapse()
 {
-    v_world = vec3(0.0);
-    v_normal = vec3(0.0, 1.0, 0.0);
-    v_shade = 0.0;
+    v_color = vec3(0.0);
     v_center = vec2(0.0);
     v_inv = vec4(0.0);
     gl_ClipDistance[0] = -1.0;
@@ -72,9 +69,7 @@ void main()
     vec2 ext = abs(pu) + abs(pv);
     gl_PointSize = 2.0 * max(ext.x, ext.y) + 1.0;
     v_center = (ndc * 0.5 + 0.5) * u_viewport;
-    v_world = w.xyz;
-    v_normal = normalize(mat3(u_model) * cross(a_u.xyz, a_v.xyz));
-    v_shade = a_v.w;
+    v_color = leaf_lit(normalize(mat3(u_model) * cross(a_u.xyz, a_v.xyz)), w.xyz, a_v.w).rgb;
     gl_ClipDistance[0] = dot(u_clip_plane, w);
     gl_Position = c;
 }

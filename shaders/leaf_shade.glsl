@@ -1,17 +1,9 @@
-// Shared by the leaf fragment shaders (quads and points): the cross-fade
-// dither and the leaf's lighting. u_dither: the pixel is kept when its
-// dither value lies in [x, y) (the cross-fade between LOD states; (0, 1)
-// keeps all).
+// A leaf's lighting, shared by the leaf shaders: per fragment for quads
+// (leaf_fs.glsl), per leaf in the vertex shader for points (whose normal
+// and position are the leaf's).
 uniform vec3 u_color;
 uniform vec3 u_sun_dir, u_sky_horizon, u_eye;
 uniform float u_fog_density, u_ambient;
-uniform vec2 u_dither;
-
-bool leaf_dithered_out()
-{
-    float dv = fract(52.9829189 * fract(dot(gl_FragCoord.xy, vec2(0.06711056, 0.00583715))));
-    return dv < u_dither.x || dv >= u_dither.y;
-}
 
 // Two-sided Lambert with some light through the leaf, the leaf's tint and
 // crown occlusion (shade), exponential fog.
