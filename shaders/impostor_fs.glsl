@@ -1,11 +1,13 @@
 #version 330 core
 // Far trees: the baked albedo (premultiplied by coverage through the mips)
-// and model-space normal, lit and fogged like the leaves; dithered in over
+// and model-space normal, lit like the leaves and fogged at the tree's
+// distance (one value per tree, set in the vertex shader); dithered in over
 // the fade band.
 uniform sampler2DArray u_albedo, u_normals;
-uniform vec3 u_sun_dir, u_sky_horizon, u_eye;
-uniform float u_fog_density, u_ambient;
-in vec3 v_world;
+uniform vec3 u_sun_dir, u_sky_horizon;
+uniform float u_ambient;
+flat in vec3 v_to_eye;
+flat in float v_fog;
 in vec2 v_uv;
 flat in float v_layer;
 flat in float v_fade;
@@ -31,12 +33,10 @@ void main()
     vec3 nm = nn.rgb / max(nn.a, 1e-3) * 2.0 - 1.0;
     float c = v_rot.x, s = v_rot.y;
     vec3 n = normalize(vec3(c * nm.x + s * nm.z, nm.y, -s * nm.x + c * nm.z));
-    vec3 to_eye = u_eye - v_world;
-    if (dot(n, to_eye) < 0.0)
+    if (dot(n, v_to_eye) < 0.0)
         n = -n;
     float ndl = dot(n, u_sun_dir);
     float light = max(ndl, 0.0) + 0.35 * max(-ndl, 0.0);
     vec3 col = a.rgb / a.a * (u_ambient + (1.0 - u_ambient) * light * vec3(1.0, 0.97, 0.90));
-    float f = u_fog_density > 0.0 ? exp(-u_fog_density * length(to_eye)) : 1.0;
-    o_color = vec4(mix(u_sky_horizon, col, f), 1.0);
+    o_color = vec4(mix(u_sky_horizon, col, v_fog), 1.0);
 }

@@ -11,6 +11,7 @@ uniform usamplerBuffer u_order;  // this frame's impostor trees, nearest first
 uniform mat4 u_viewproj;
 uniform vec4 u_clip_plane;
 uniform vec3 u_eye;
+uniform float u_fog_density;
 uniform vec2 u_band;             // distance band over which impostors fade in
 uniform float u_max_dist;
 uniform ivec2 u_views;           // azimuths, elevations
@@ -20,7 +21,8 @@ uniform float u_px_scale;        // pixels per unit of (size / distance) on scre
 uniform int u_tile_px;           // texels across a tile at level 0
 uniform int u_max_lod;
 
-out vec3 v_world;
+flat out vec3 v_to_eye;          // unit, from the tree toward the eye (one per tree)
+flat out float v_fog;            // exponential fog at the tree's distance
 out vec2 v_uv;
 flat out float v_layer;
 flat out float v_fade;
@@ -49,7 +51,8 @@ void main()
     v_fade = fade;
     v_layer = b.y;
     if (fade <= 0.0 || dist > u_max_dist) {
-        v_world = vec3(0.0);
+        v_to_eye = vec3(0.0, 1.0, 0.0);
+        v_fog = 1.0;
         v_uv = vec2(0.0);
         gl_ClipDistance[0] = -1.0;
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
@@ -67,7 +70,8 @@ void main()
     vec4 r = texelFetch(u_rects, int(b.y) * u_views.x * u_views.y + ie * u_views.x + ia);
     vec2 q = vec2(k.x < 0.0 ? r.x : r.z, k.y < 0.0 ? r.y : r.w);
     vec3 w = ctr + sc * bs.w * (q.x * right + q.y * up);
-    v_world = w;
+    v_to_eye = to_eye / dist;
+    v_fog = u_fog_density > 0.0 ? exp(-u_fog_density * dist) : 1.0;
     v_uv = (vec2(float(ia), float(ie)) + (q * 0.5 + 0.5)) / vec2(u_views);
     float px = 2.0 * sc * bs.w / dist * u_px_scale; // pixels across the tile on screen
     v_lod = clamp(int(floor(log2(max(float(u_tile_px) / max(px, 1e-3), 1.0)) + 0.5)), 0, u_max_lod);
