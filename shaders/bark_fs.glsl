@@ -1,25 +1,24 @@
 #version 330 core
-// Bark (u_hull = 0) or crown hull (1), Lambert and fog. The hull is shaded
+// Bark (u_hull = 0) or crown hull (1), Lambert and fog (per vertex). The hull is shaded
 // from the tree's own impostor: each fragment looks up the baked view
 // nearest the eye (albedo with alpha, model-space normal) where it projects,
 // so the hull reads as the same foliage as the impostor and the leaves, with
 // the hull's depth; transparent texels are holes.
 uniform vec3 u_color;
-uniform vec3 u_sun_dir, u_sky_horizon, u_eye;
-uniform float u_fog_density, u_ambient;
+uniform vec3 u_sun_dir, u_sky_horizon;
+uniform float u_ambient;
+uniform vec3 u_tree_eye;         // hulls: unit, from the tree toward the eye (world)
 uniform int u_hull;
 uniform vec2 u_dither;           // keep pixels whose dither value is in [x, y)
 uniform sampler2DArray u_albedo, u_normals;
 uniform float u_layer;           // the model's atlas layer
 uniform vec4 u_tile;             // atlas uv of the view's tile: offset xy, size zw
-uniform vec3 u_right, u_up;      // the view's image axes, model space
-uniform vec4 u_bound;            // model-space bounding sphere (image frame)
 uniform mat4 u_model;
 uniform int u_lod;               // atlas level for the hull's size on screen
 uniform vec2 u_size;             // atlas size in texels at that level
-in vec3 v_world;
 in vec3 v_normal;
-in vec3 v_local;
+in vec2 v_q;
+in float v_fog;
 out vec4 o_color;
 
 float dither(vec2 p)
@@ -32,30 +31,25 @@ void main()
     float dv = dither(gl_FragCoord.xy);
     if (dv < u_dither.x || dv >= u_dither.y)
         discard;
-    vec3 n = normalize(v_normal);
     vec3 albedo = u_color;
-    vec3 to_eye = u_eye - v_world;
     float light;
     if (u_hull != 0) {
-        vec3 d = v_local - u_bound.xyz;
-        vec2 q = vec2(dot(d, u_right), dot(d, u_up)) / u_bound.w * 0.5 + 0.5;
         // Filtered: a hull is seen nearer than its bounding centre, often
         // with several pixels per texel, where single texels show as blocks.
-        vec3 uv = vec3(u_tile.xy + clamp(q, 0.0, 1.0) * u_tile.zw, u_layer);
+        vec3 uv = vec3(u_tile.xy + clamp(v_q, 0.0, 1.0) * u_tile.zw, u_layer);
         vec4 a = textureLod(u_albedo, uv, float(u_lod));
         if (a.a < 0.5)
             discard;
         vec4 nn = textureLod(u_normals, uv, float(u_lod));
         albedo = a.rgb / a.a;
-        n = normalize(mat3(u_model) * (nn.rgb / max(nn.a, 1e-3) * 2.0 - 1.0));
-        if (dot(n, to_eye) < 0.0)
+        vec3 n = normalize(mat3(u_model) * (nn.rgb / max(nn.a, 1e-3) * 2.0 - 1.0));
+        if (dot(n, u_tree_eye) < 0.0)
             n = -n;
         float ndl = dot(n, u_sun_dir);
         light = max(ndl, 0.0) + 0.35 * max(-ndl, 0.0);
     } else {
-        light = max(dot(n, u_sun_dir), 0.0);
+        light = max(dot(normalize(v_normal), u_sun_dir), 0.0);
     }
     vec3 c = albedo * (u_ambient + (1.0 - u_ambient) * light * vec3(1.0, 0.97, 0.90));
-    float f = u_fog_density > 0.0 ? exp(-u_fog_density * length(to_eye)) : 1.0;
-    o_color = vec4(mix(u_sky_horizon, c, f), 1.0);
+    o_color = vec4(mix(u_sky_horizon, c, v_fog), 1.0);
 }

@@ -48,7 +48,7 @@ typedef struct model_gpu {
 typedef struct prog_u {
     GLint leaves, kept, scales, kept_base, model, viewproj, mvp, clip, color, sun, sky, eye, fog, ambient,
         hull, dither, albedo, normals, layer, tile, right, up, bound, trees, models, order, band, max_dist, views,
-        el_step, rects, px_scale, tile_px, max_lod, lod, size, viewport;
+        el_step, rects, px_scale, tile_px, max_lod, lod, size, viewport, tree_eye;
 } prog_u;
 
 struct hz_forest_gpu {
@@ -113,6 +113,7 @@ static void get_u(GLuint p, prog_u *u)
     u->views = glGetUniformLocation(p, "u_views");
     u->el_step = glGetUniformLocation(p, "u_el_step");
     u->viewport = glGetUniformLocation(p, "u_viewport");
+    u->tree_eye = glGetUniformLocation(p, "u_tree_eye");
 }
 
 static void mesh_upload(mesh_gpu *g, const hz_tree_mesh *m, uint32_t count)
@@ -904,6 +905,7 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
                 if (l <= 0)
                     l = 1;
                 dm[0] = (c * e[0] - s * e[2]) / l, dm[1] = e[1] / l, dm[2] = (s * e[0] + c * e[2]) / l;
+                glUniform3f(g->bu.tree_eye, e[0] / l, e[1] / l, e[2] / l);
                 int ia, ie;
                 nearest_view(dm, &ia, &ie);
                 float right[3], up[3], fwd[3];
