@@ -7,13 +7,13 @@
 uniform vec3 u_color;
 uniform vec3 u_sun_dir, u_sky_horizon;
 uniform float u_ambient;
-uniform vec3 u_tree_eye;         // hulls: unit, from the tree toward the eye (world)
+uniform vec3 u_tree_eye;         // hulls: unit, from the tree toward the eye, model space
+uniform vec3 u_sun_model;        // hulls: the sun, model space
 uniform int u_hull;
 uniform vec2 u_dither;           // keep pixels whose dither value is in [x, y)
 uniform sampler2DArray u_albedo, u_normals;
 uniform float u_layer;           // the model's atlas layer
 uniform vec4 u_tile;             // atlas uv of the view's tile: offset xy, size zw
-uniform mat4 u_model;
 uniform int u_lod;               // atlas level for the hull's size on screen
 uniform vec2 u_size;             // atlas size in texels at that level
 in vec3 v_normal;
@@ -42,10 +42,10 @@ void main()
             discard;
         vec4 nn = textureLod(u_normals, uv, float(u_lod));
         albedo = a.rgb / a.a;
-        vec3 n = normalize(mat3(u_model) * (nn.rgb / max(nn.a, 1e-3) * 2.0 - 1.0));
+        vec3 n = normalize(nn.rgb / max(nn.a, 1e-3) * 2.0 - 1.0); // model space, as u_tree_eye, u_sun_model
         if (dot(n, u_tree_eye) < 0.0)
             n = -n;
-        float ndl = dot(n, u_sun_dir);
+        float ndl = dot(n, u_sun_model);
         light = max(ndl, 0.0) + 0.35 * max(-ndl, 0.0);
     } else {
         light = max(dot(normalize(v_normal), u_sun_dir), 0.0);

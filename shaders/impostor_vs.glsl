@@ -11,6 +11,7 @@ uniform usamplerBuffer u_order;  // this frame's impostor trees, nearest first
 uniform mat4 u_viewproj;
 uniform vec4 u_clip_plane;
 uniform vec3 u_eye;
+uniform vec3 u_sun_dir;
 uniform float u_fog_density;
 uniform vec2 u_band;             // distance band over which impostors fade in
 uniform float u_max_dist;
@@ -21,12 +22,12 @@ uniform float u_px_scale;        // pixels per unit of (size / distance) on scre
 uniform int u_tile_px;           // texels across a tile at level 0
 uniform int u_max_lod;
 
-flat out vec3 v_to_eye;          // unit, from the tree toward the eye (one per tree)
+flat out vec3 v_to_eye;          // unit, from the tree toward the eye, model space
 flat out float v_fog;            // exponential fog at the tree's distance
 out vec2 v_uv;
 flat out float v_layer;
 flat out float v_fade;
-flat out vec2 v_rot;             // cos, sin of the yaw (normals to world)
+flat out vec3 v_sun_m;           // the sun, in the tree's model space (where the normals are)
 flat out int v_lod;              // atlas level: about one texel per pixel
 flat out vec2 v_size;            // atlas size in texels at that level
 
@@ -45,7 +46,7 @@ void main()
     vec3 to_eye = u_eye - ctr;
     float dist = length(to_eye);
     float fade = clamp((dist - u_band.x) / max(u_band.y - u_band.x, 1e-3), 0.0, 1.0);
-    v_rot = vec2(c, s);
+    v_sun_m = vec3(c * u_sun_dir.x - s * u_sun_dir.z, u_sun_dir.y, s * u_sun_dir.x + c * u_sun_dir.z);
     v_lod = 0;
     v_size = vec2(1.0);
     v_fade = fade;
@@ -70,7 +71,7 @@ void main()
     vec4 r = texelFetch(u_rects, int(b.y) * u_views.x * u_views.y + ie * u_views.x + ia);
     vec2 q = vec2(k.x < 0.0 ? r.x : r.z, k.y < 0.0 ? r.y : r.w);
     vec3 w = ctr + sc * bs.w * (q.x * right + q.y * up);
-    v_to_eye = to_eye / dist;
+    v_to_eye = dm;
     v_fog = u_fog_density > 0.0 ? exp(-u_fog_density * dist) : 1.0;
     v_uv = (vec2(float(ia), float(ie)) + (q * 0.5 + 0.5)) / vec2(u_views);
     float px = 2.0 * sc * bs.w / dist * u_px_scale; // pixels across the tile on screen

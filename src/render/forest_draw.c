@@ -48,7 +48,7 @@ typedef struct model_gpu {
 typedef struct prog_u {
     GLint leaves, kept, scales, kept_base, model, viewproj, mvp, clip, color, sun, sky, eye, fog, ambient,
         hull, dither, albedo, normals, layer, tile, right, up, bound, trees, models, order, band, max_dist, views,
-        el_step, rects, px_scale, tile_px, max_lod, lod, size, viewport, tree_eye;
+        el_step, rects, px_scale, tile_px, max_lod, lod, size, viewport, tree_eye, sun_model;
 } prog_u;
 
 struct hz_forest_gpu {
@@ -114,6 +114,7 @@ static void get_u(GLuint p, prog_u *u)
     u->el_step = glGetUniformLocation(p, "u_el_step");
     u->viewport = glGetUniformLocation(p, "u_viewport");
     u->tree_eye = glGetUniformLocation(p, "u_tree_eye");
+    u->sun_model = glGetUniformLocation(p, "u_sun_model");
 }
 
 static void mesh_upload(mesh_gpu *g, const hz_tree_mesh *m, uint32_t count)
@@ -905,7 +906,9 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
                 if (l <= 0)
                     l = 1;
                 dm[0] = (c * e[0] - s * e[2]) / l, dm[1] = e[1] / l, dm[2] = (s * e[0] + c * e[2]) / l;
-                glUniform3f(g->bu.tree_eye, e[0] / l, e[1] / l, e[2] / l);
+                glUniform3fv(g->bu.tree_eye, 1, dm);
+                const float *sun = pass->sun_dir;
+                glUniform3f(g->bu.sun_model, c * sun[0] - s * sun[2], sun[1], s * sun[0] + c * sun[2]);
                 int ia, ie;
                 nearest_view(dm, &ia, &ie);
                 float right[3], up[3], fwd[3];
