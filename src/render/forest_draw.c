@@ -276,19 +276,28 @@ static void draw_leaves(const hz_forest_gpu *g, const hz_tree *t, const hz_fores
     glBindVertexArray(points ? g->m[dr->model].point_vao : g->empty_vao);
     if (!points)
         glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, g->m[dr->model].quad_ibo);
-    for (uint32_t k = 0; k < HZ_FOREST_GROUPS; k++) {
-        uint32_t first = dr->group_first[k], end = dr->group_first[k + 1], n = dr->group_count[k];
-        if (end > t->leaf_count)
-            end = t->leaf_count;
-        if (first >= end || n == 0)
-            continue;
-        if (n > end - first)
-            n = end - first;
-        if (points)
-            glDrawArrays(GL_POINTS, (GLint)first, (GLsizei)n);
-        else
-            glDrawElements(GL_TRIANGLES, (GLsizei)((size_t)n * 6), GL_UNSIGNED_INT,
-                           (const void *)((size_t)first * 6 * sizeof(uint32_t)));
+    /* A group drawn whole runs on into the next one: one draw for both (an
+     * unsimplified tree is one draw). */
+    uint32_t run_first = 0, run_n = 0;
+    for (uint32_t k = 0; k <= HZ_FOREST_GROUPS; k++) {
+        uint32_t first = 0, n = 0;
+        if (k < HZ_FOREST_GROUPS) {
+            first = dr->group_first[k];
+            uint32_t end = dr->group_first[k + 1] < t->leaf_count ? dr->group_first[k + 1] : t->leaf_count;
+            n = first < end ? (dr->group_count[k] < end - first ? dr->group_count[k] : end - first) : 0;
+            if (n && run_n && run_first + run_n == first) {
+                run_n += n;
+                continue;
+            }
+        }
+        if (run_n) {
+            if (points)
+                glDrawArrays(GL_POINTS, (GLint)run_first, (GLsizei)run_n);
+            else
+                glDrawElements(GL_TRIANGLES, (GLsizei)((size_t)run_n * 6), GL_UNSIGNED_INT,
+                               (const void *)((size_t)run_first * 6 * sizeof(uint32_t)));
+        }
+        run_first = first, run_n = n;
     }
 }
 
