@@ -79,11 +79,12 @@ hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err);
 void hz_forest_gpu_destroy(hz_forest_gpu *g);
 
 /* Draws a frame's selection with a pass's matrices, lighting and fog:
- * detailed trees as leaf prefixes per node (one draw per tree over the
- * static index buffer; only changed node counts are uploaded), F4
- * enlargement in the vertex shader, bark by level, middle trees as crown
- * hulls shaded from their impostor, far trees as impostors (one draw),
- * dithered across the fade bands. */
+ * detailed trees as leaf prefixes per node (per node group, the range of
+ * the static leaf order holding the kept leaves; only changed node counts
+ * are uploaded), as quads or, where leaves are a few pixels long, points
+ * (hz_forest_gpu_point_leaves), F4 enlargement in the vertex shader, bark by
+ * level, middle trees as crown hulls shaded from their impostor, far trees
+ * as impostors (one draw), dithered across the fade bands. */
 hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_forest_frame *fr,
                              const hz_pass_info *pass, hz_err *err);
 

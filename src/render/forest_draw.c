@@ -1,13 +1,14 @@
 /* Forest drawing, one LOD chain per tree: VMI leaf prefixes near, the crown
  * hull shaded from the tree's own impostor in the middle, image impostors
  * far, cross-faded by dithering. Models live on the GPU once: leaves
- * interleaved by rank with a static quad index buffer (a tree draws one
- * prefix; the vertex shader drops leaves beyond their node's kept count,
- * read from a persistent per-(tree, node) buffer of which only changed
- * ranges are uploaded), bark and hull meshes, and an impostor atlas baked
- * from the full tree (albedo + normals, several views). Far trees are one
- * draw over a static buffer of all trees. Drawn through the renderer's
- * object hook so fog and reflections apply. */
+ * interleaved by rank within node groups, with a static quad index buffer
+ * (a tree draws, per group, the range holding its kept leaves; the vertex
+ * shader drops leaves beyond their node's kept count, read from a
+ * persistent per-(tree, node) buffer of which only changed ranges are
+ * uploaded) or as points where leaves are a few pixels long, bark and hull
+ * meshes, and an impostor atlas baked from the full tree (albedo + normals,
+ * several views). Far trees are one draw over a static buffer of all trees.
+ * Drawn through the renderer's object hook so fog and reflections apply. */
 #include "horizon/forest_render.h"
 
 #include <math.h>
