@@ -191,14 +191,6 @@ void hz_texgen_sprite(hz_sprite kind, uint32_t w, uint32_t h, uint64_t seed64, u
                     rgba[4 * k + (size_t)c] = (uint8_t)clampf((float)(acc[c] / wsum) * 255.0f + 0.5f, 0, 255);
 }
 
-double hz_sprite_coverage(const uint8_t *rgba, size_t n)
-{
-    size_t kept = 0;
-    for (size_t i = 0; i < n; i++)
-        kept += rgba[i * 4 + 3] >= 128;
-    return n ? (double)kept / (double)n : 0.0;
-}
-
 /* Share of texels an alpha test at 0.5 keeps with alpha scaled by k. */
 static double coverage_scaled(const uint8_t *rgba, size_t n, double k)
 {
@@ -206,6 +198,11 @@ static double coverage_scaled(const uint8_t *rgba, size_t n, double k)
     for (size_t i = 0; i < n; i++)
         kept += (double)rgba[i * 4 + 3] * k >= 127.5;
     return n ? (double)kept / (double)n : 0.0;
+}
+
+double hz_sprite_coverage(const uint8_t *rgba, size_t n)
+{
+    return coverage_scaled(rgba, n, 1.0);
 }
 
 void hz_sprite_mip_next(const uint8_t *in, uint32_t w, uint32_t h, double cover0, uint8_t *out, uint32_t *ow,

@@ -43,7 +43,7 @@ typedef struct model_gpu {
     GLuint point_vao;       /* leaf_buf as vertex attributes (points) */
     mesh_gpu bark, hull;
     uint32_t bark_level_end[HZ_TREE_MAX_LEVELS];
-    float leaf_size;        /* median leaf length (model units): points or quads */
+    float leaf_size;        /* mean leaf length (model units): points or quads */
 } model_gpu;
 
 typedef struct prog_u {
@@ -636,6 +636,7 @@ hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err)
         for (uint32_t n = 0; n < t->node_count; n++)
             for (uint32_t l = t->nodes[n].first; l < t->nodes[n].first + t->nodes[n].count; l++)
                 node_of[l] = n;
+        double size_sum = 0;
         for (uint32_t p = 0; p < t->leaf_count; p++) {
             uint32_t l = order[p], n = node_of[l];
             const hz_tree_leaf *lf = &t->leaves[l];
@@ -647,15 +648,11 @@ hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err)
             static const uint32_t qi[6] = {0, 1, 2, 0, 2, 3};
             for (int j = 0; j < 6; j++)
                 q[(size_t)p * 6 + j] = 4 * p + qi[j];
-        }
-        free(node_of);
-        double size_sum = 0;
-        for (uint32_t l = 0; l < t->leaf_count; l++) {
-            const hz_tree_leaf *lf = &t->leaves[l];
             float lu = sqrtf(lf->u[0] * lf->u[0] + lf->u[1] * lf->u[1] + lf->u[2] * lf->u[2]);
             float lv = sqrtf(lf->v[0] * lf->v[0] + lf->v[1] * lf->v[1] + lf->v[2] * lf->v[2]);
             size_sum += 2.0 * fmax(lu, lv);
         }
+        free(node_of);
         m->leaf_size = t->leaf_count ? (float)(size_sum / t->leaf_count) : 0.0f;
         hz_gl_buffer_texture(&m->leaf_buf, &m->leaf_tex, GL_RGBA32F, d, (size_t)t->leaf_count * 48, GL_STATIC_DRAW);
         glGenVertexArrays(1, &m->point_vao);
@@ -805,8 +802,8 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
     glActiveTexture(GL_TEXTURE3);
     glBindTexture(GL_TEXTURE_2D_ARRAY, g->atlas[1]);
 
-    /* Leaves: two-sided, one prefix draw per tree; as quads, or as points
-     * where leaves are a few pixels across. */
+    /* Leaves: two-sided, per tree the node groups' ranges (draw_leaves); as
+     * quads, or as points where leaves are a few pixels across. */
     glDisable(GL_CULL_FACE);
     const float focal_px = pass->proj[1][1] * 0.5f * (float)pass->height;
     uint32_t point_trees = 0;

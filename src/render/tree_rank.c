@@ -222,11 +222,32 @@ static void view_basis(const float *toward_viewer, float *right, float *up, floa
     up[2] = right[0] * fwd[1] - right[1] * fwd[0];
 }
 
+/* Draws up to `layers` depth-peeled layers of rd into ids (w x h ids per
+ * layer), stopping after the first empty one; the number of layers drawn. */
+static uint32_t ib_peel(itembuf *ib, uint32_t layers, range_draw *rd, uint32_t *ids)
+{
+    const size_t npx = (size_t)ib->w * ib->h;
+    uint32_t got = 0;
+    for (uint32_t l = 0; l < layers; l++) {
+        ib_layer(ib, l, draw_range, rd);
+        uint32_t *lay = ids + (size_t)l * npx;
+        ib_read(ib, lay);
+        glBindFramebuffer(GL_FRAMEBUFFER, ib->fbo);
+        got = l + 1;
+        bool any = false;
+        for (size_t p = 0; p < npx && !any; p++)
+            any = lay[p] != 0;
+        if (!any)
+            break;
+    }
+    return got;
+}
+
 /* Appends one pixel (layers ids) to a node's list. */
 static bool list_push(node_lists *nl, const uint16_t *px, uint32_t layers)
 {
     if (nl->n == nl->cap) {
-        size_t nc = nl->cap ? nl->cap * 2 : 256;
+        size_t nc = nl->cap ? nl->cap * 2 : 1024;
         uint16_t *np = realloc(nl->ids, nc * layers * sizeof *np);
         if (!np)
             return false;
@@ -295,19 +316,7 @@ static hz_result rank_in_tree(hz_tree *t, const float *dirs, uint32_t views, uin
         m[15] = 1.0f;
         ib_begin(&ib, 2);
         glUniformMatrix4fv(ib.u_viewproj, 1, GL_FALSE, m);
-        uint32_t got = 0;
-        for (uint32_t l = 0; l < layers; l++) {
-            ib_layer(&ib, l, draw_range, &rd);
-            uint32_t *lay = ids + (size_t)l * npx;
-            ib_read(&ib, lay);
-            glBindFramebuffer(GL_FRAMEBUFFER, ib.fbo);
-            got = l + 1;
-            bool any = false;
-            for (size_t p = 0; p < npx && !any; p++)
-                any = lay[p] != 0;
-            if (!any)
-                break;
-        }
+        const uint32_t got = ib_peel(&ib, layers, &rd, ids);
         ib_end();
         if ((res = hz_gl_check(err, "tree item buffer rendering")) != HZ_OK)
             goto done;
@@ -436,19 +445,7 @@ hz_result hz_tree_rank(hz_tree *t, const hz_rank_desc *desc, hz_rank_stats *stat
             glUniform3fv(ib.u_right, 1, right);
             glUniform3fv(ib.u_up, 1, up);
             glUniform3fv(ib.u_fwd, 1, fwd);
-            uint32_t layers = 0;
-            for (uint32_t l = 0; l < d.layers; l++) {
-                ib_layer(&ib, l, draw_range, &rd);
-                uint32_t *lay = ids + (size_t)l * W * H;
-                ib_read(&ib, lay);
-                glBindFramebuffer(GL_FRAMEBUFFER, ib.fbo);
-                layers = l + 1;
-                bool any = false;
-                for (size_t p = 0; p < (size_t)W * H && !any; p++)
-                    any = lay[p] != 0;
-                if (!any)
-                    break;
-            }
+            const uint32_t layers = ib_peel(&ib, d.layers, &rd, ids);
             /* Per node: its tile's covered pixels, ids front to back. */
             for (uint32_t n = b0; n < b1; n++) {
                 uint32_t s = n - b0;
@@ -460,25 +457,18 @@ hz_result hz_tree_rank(hz_tree *t, const hz_rank_desc *desc, hz_rank_stats *stat
                         size_t p = (size_t)y * W + x;
                         if (!ids[p])
                             continue;
-                        if (nl->n == nl->cap) {
-                            size_t nc = nl->cap ? nl->cap * 2 : 1024;
-                            uint16_t *np = realloc(nl->ids, nc * d.layers * sizeof *np);
-                            if (!np) {
-                                ib_end();
-                                res = hz_err_set(err, HZ_ERR_MEMORY, "rank: out of memory");
-                                goto done;
-                            }
-                            nl->ids = np;
-                            nl->cap = nc;
-                        }
-                        uint16_t *o = nl->ids + nl->n * d.layers;
+                        uint16_t px[16];
                         for (uint32_t l = 0; l < d.layers; l++) {
                             uint32_t id = l < layers ? ids[(size_t)l * W * H + p] : 0;
-                            o[l] = id ? (uint16_t)(id - 1) : HZ_VMI_EMPTY;
+                            px[l] = id ? (uint16_t)(id - 1) : HZ_VMI_EMPTY;
                         }
-                        if (o[d.layers - 1] != HZ_VMI_EMPTY)
+                        if (px[d.layers - 1] != HZ_VMI_EMPTY)
                             st.deep_pixels++;
-                        nl->n++;
+                        if (!list_push(nl, px, d.layers)) {
+                            ib_end();
+                            res = hz_err_set(err, HZ_ERR_MEMORY, "rank: out of memory");
+                            goto done;
+                        }
                     }
             }
         }

@@ -34,6 +34,22 @@ static int teardown(void **state)
     return 0;
 }
 
+/* A hand-built tree's storage: nb branches, nl leaves, nn leaf nodes, all
+ * zeroed; the caller fills them and calls hz_tree_finish. */
+static hz_tree *tree_alloc(const char *species, uint32_t levels, uint32_t nb, uint32_t nl, uint32_t nn)
+{
+    hz_tree *t = calloc(1, sizeof *t);
+    snprintf(t->species, sizeof t->species, "%s", species);
+    t->levels = levels;
+    t->branch_count = nb;
+    t->branches = calloc(nb, sizeof *t->branches);
+    t->leaf_count = nl;
+    t->leaves = calloc(nl, sizeof *t->leaves);
+    t->node_count = nn;
+    t->nodes = calloc(nn, sizeof *t->nodes);
+    return t;
+}
+
 /* Six leaves forming a closed box centred at (0, 1, 0), 1 m wide; a quad is
  * c +- u +- v. The leaf cut-out is almond shaped, so each face is two
  * crossed leaves' worth: faces larger than the box close the corners. */
@@ -52,20 +68,12 @@ static void box_faces(hz_tree_leaf *out)
  * seventh leaf in its middle, plus one leaf sticking out above. */
 static hz_tree *box_tree(void)
 {
-    hz_tree *t = calloc(1, sizeof *t);
-    snprintf(t->species, sizeof t->species, "box");
-    t->levels = 1;
-    t->branch_count = 1;
-    t->branches = calloc(1, sizeof *t->branches);
+    hz_tree *t = tree_alloc("box", 1, 1, 8, 1);
     t->branches[0] = (hz_tree_branch){.parent = HZ_TREE_NONE, .level = 1, .leaf_node = 0, .length = 1,
                                       .radius = 0.05f, .tip = {0, 1, 0}, .dir = {0, 1, 0}};
-    t->leaf_count = 8;
-    t->leaves = calloc(8, sizeof *t->leaves);
     box_faces(t->leaves);
     t->leaves[6] = (hz_tree_leaf){{0, 1, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}};   /* hidden inside */
     t->leaves[7] = (hz_tree_leaf){{0, 2.2f, 0}, {0.3f, 0, 0}, {0, 0.3f, 0}}; /* exposed above */
-    t->node_count = 1;
-    t->nodes = calloc(1, sizeof *t->nodes);
     t->nodes[0] = (hz_tree_node){.branch = 0, .first = 0, .count = 8};
     hz_tree_finish(t);
     return t;
@@ -102,23 +110,15 @@ static void test_rank_hidden_leaf_last(void **state)
  * leaf inside the box and two small ones outside, above it. */
 static hz_tree *boxed_tree(void)
 {
-    hz_tree *t = calloc(1, sizeof *t);
-    snprintf(t->species, sizeof t->species, "nested");
-    t->levels = 2;
-    t->branch_count = 2;
-    t->branches = calloc(2, sizeof *t->branches);
+    hz_tree *t = tree_alloc("boxed", 2, 2, 9, 2);
     t->branches[0] = (hz_tree_branch){.parent = HZ_TREE_NONE, .level = 1, .leaf_node = 0, .length = 1,
                                       .radius = 0.05f, .tip = {0, 1, 0}, .dir = {0, 1, 0}};
     t->branches[1] = (hz_tree_branch){.parent = 0, .level = 2, .leaf_node = 1, .length = 1, .radius = 0.02f,
                                       .base = {0, 1, 0}, .tip = {0, 2, 0}, .dir = {0, 1, 0}};
-    t->leaf_count = 9;
-    t->leaves = calloc(9, sizeof *t->leaves);
     box_faces(t->leaves);
     t->leaves[6] = (hz_tree_leaf){{0, 1, 0}, {0.3f, 0, 0}, {0, 0.3f, 0}};        /* big, inside the box */
     t->leaves[7] = (hz_tree_leaf){{-0.2f, 2.2f, 0}, {0.05f, 0, 0}, {0, 0, 0.05f}}; /* small, outside */
     t->leaves[8] = (hz_tree_leaf){{0.2f, 2.2f, 0}, {0.05f, 0, 0}, {0, 0, 0.05f}};
-    t->node_count = 2;
-    t->nodes = calloc(2, sizeof *t->nodes);
     t->nodes[0] = (hz_tree_node){.branch = 0, .first = 0, .count = 6};
     t->nodes[1] = (hz_tree_node){.branch = 1, .first = 6, .count = 3};
     hz_tree_finish(t);
@@ -196,15 +196,9 @@ static void test_pr(void **state)
  * small_first: the order small, big (else big, small). */
 static hz_tree *nested_tree(bool small_first)
 {
-    hz_tree *t = calloc(1, sizeof *t);
-    snprintf(t->species, sizeof t->species, "nested");
-    t->levels = 1;
-    t->branch_count = 1;
-    t->branches = calloc(1, sizeof *t->branches);
+    hz_tree *t = tree_alloc("nested", 1, 1, 2, 1);
     t->branches[0] = (hz_tree_branch){.parent = HZ_TREE_NONE, .level = 1, .leaf_node = 0, .length = 1,
                                       .radius = 0.05f, .tip = {0, 1, 0}, .dir = {0, 1, 0}};
-    t->leaf_count = 2;
-    t->leaves = calloc(2, sizeof *t->leaves);
     /* tilted so that no view of the measure sees it edge-on */
     const hz_tree_leaf small = {{0, 1, 0}, {0.5f, 0.2f, 0.1f}, {-0.1f, 0.25f, 0.45f}};
     hz_tree_leaf big = small;
@@ -212,8 +206,6 @@ static hz_tree *nested_tree(bool small_first)
         big.u[c] *= 2, big.v[c] *= 2;
     t->leaves[small_first ? 0 : 1] = small;
     t->leaves[small_first ? 1 : 0] = big;
-    t->node_count = 1;
-    t->nodes = calloc(1, sizeof *t->nodes);
     t->nodes[0] = (hz_tree_node){.branch = 0, .first = 0, .count = 2};
     hz_tree_finish(t);
     return t;
