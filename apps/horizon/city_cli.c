@@ -290,19 +290,21 @@ static size_t mesh_quads(const hz_scene *s, uint32_t mesh, float *q)
     return n;
 }
 
-/* Terrain occluder quads: a coarse grid over the valid data, each corner at
- * the lowest sample of the cells around it, so the quads lie under the
- * surface (inside the ground): anything behind them is behind ground. */
-static int terrain_quads(city_app *a, const hz_terrain *t)
+/* Terrain occluders: a coarse grid over the valid data (cells of 4 x 4
+ * samples), each corner at the lowest sample of the cells around it, so
+ * the quads lie under the surface (inside the ground): anything behind
+ * them is behind ground. Kept as corner heights and a flag per cell; the
+ * quads near the camera are made per frame (terrain_occlude). */
+static int terrain_grid(city_app *a, const hz_terrain *t)
 {
     const uint32_t n = t->hm.size, step = 4;
     const uint32_t cn = (n - 1) / step; /* coarse cells per side */
-    float *cmin = malloc((size_t)(cn + 1) * (cn + 1) * sizeof *cmin);
-    a->terrain_quads = malloc((size_t)cn * cn * 12 * sizeof *a->terrain_quads);
-    if (!cmin || !a->terrain_quads) {
-        free(cmin);
+    a->ter_cn = cn;
+    a->ter_step = step;
+    a->ter_cmin = malloc((size_t)(cn + 1) * (cn + 1) * sizeof *a->ter_cmin);
+    a->ter_cell_ok = malloc((size_t)cn * cn + 1);
+    if (!a->ter_cmin || !a->ter_cell_ok)
         return 1;
-    }
     /* Corner heights: min over the samples of the (up to 4) coarse cells touching the corner. */
     for (uint32_t cj = 0; cj <= cn; cj++)
         for (uint32_t ci = 0; ci <= cn; ci++) {
@@ -312,31 +314,53 @@ static int terrain_quads(city_app *a, const hz_terrain *t)
             for (uint32_t j = j0; j <= j1 && j < n; j++)
                 for (uint32_t i = i0; i <= i1 && i < n; i++)
                     m = fminf(m, hz_heightmap_get(&t->hm, i, j) * t->zscale);
-            cmin[(size_t)cj * (cn + 1) + ci] = m - 1.0f; /* a metre of margin for the LOD's error */
+            a->ter_cmin[(size_t)cj * (cn + 1) + ci] = m - 1.0f; /* a metre of margin for the LOD's error */
         }
-    size_t q = 0;
+    /* Only over real data: a cell touching a masked sample is no occluder. */
     for (uint32_t cj = 0; cj < cn; cj++)
         for (uint32_t ci = 0; ci < cn; ci++) {
-            /* Only over real data: a cell touching a masked sample is no occluder. */
             bool ok = true;
             if (t->valid)
                 for (uint32_t j = cj * step; j <= (cj + 1) * step && ok; j++)
                     for (uint32_t i = ci * step; i <= (ci + 1) * step && ok; i++)
                         ok = t->valid[(size_t)j * n + i];
-            if (!ok)
+            a->ter_cell_ok[(size_t)cj * cn + ci] = ok;
+        }
+    a->ter_spacing = t->spacing;
+    return 0;
+}
+
+/* Rasterises the terrain cells whose first corner lies within reach of
+ * the camera (far ground hides little and costs the most): only the cells
+ * of that window are visited, whatever the map's size. */
+static void terrain_occlude(city_app *a, const hz_camera *cam, float reach)
+{
+    const uint32_t cn = a->ter_cn;
+    if (!cn)
+        return;
+    const float cell = (float)a->ter_step * a->ter_spacing;
+    const float fi0 = floorf((cam->pos[0] - reach) / cell), fi1 = ceilf((cam->pos[0] + reach) / cell);
+    const float fj0 = floorf((cam->pos[2] - reach) / cell), fj1 = ceilf((cam->pos[2] + reach) / cell);
+    if (!(fi1 >= 0 && fj1 >= 0 && fi0 < (float)cn && fj0 < (float)cn))
+        return;
+    const uint32_t i0 = (uint32_t)fmaxf(fi0, 0), i1 = (uint32_t)fminf(fi1, (float)(cn - 1));
+    const uint32_t j0 = (uint32_t)fmaxf(fj0, 0), j1 = (uint32_t)fminf(fj1, (float)(cn - 1));
+    for (uint32_t cj = j0; cj <= j1; cj++)
+        for (uint32_t ci = i0; ci <= i1; ci++) {
+            if (!a->ter_cell_ok[(size_t)cj * cn + ci])
+                continue;
+            const float dx = (float)ci * cell - cam->pos[0], dz = (float)cj * cell - cam->pos[2];
+            if (!(dx * dx + dz * dz < reach * reach))
                 continue;
             const uint32_t cc[4][2] = {{ci, cj}, {ci, cj + 1}, {ci + 1, cj + 1}, {ci + 1, cj}};
+            float q[12];
             for (int k = 0; k < 4; k++) {
-                float *p = a->terrain_quads + 12 * q + 3 * k;
-                p[0] = (float)(cc[k][0] * step) * t->spacing;
-                p[1] = cmin[(size_t)cc[k][1] * (cn + 1) + cc[k][0]];
-                p[2] = (float)(cc[k][1] * step) * t->spacing;
+                q[3 * k] = (float)cc[k][0] * cell;
+                q[3 * k + 1] = a->ter_cmin[(size_t)cc[k][1] * (cn + 1) + cc[k][0]];
+                q[3 * k + 2] = (float)cc[k][1] * cell;
             }
-            q++;
+            hz_occlusion_rasterize_quads(&a->occ, q, 1, NULL);
         }
-    a->terrain_quad_count = q;
-    free(cmin);
-    return 0;
 }
 
 /* The objects as the light map's shadow casters: each object's world box
@@ -416,8 +440,9 @@ int city_app_place(city_app *a, const hz_terrain *t, const char *cmd)
     a->mesh_first = malloc(((size_t)nm + 1) * sizeof *a->mesh_first);
     a->mesh_quads = malloc(((size_t)nm + 1) * sizeof *a->mesh_quads);
     a->occ_node = malloc(((size_t)nn + 1) * sizeof *a->occ_node);
+    a->occ_cand = malloc(((size_t)nn + 1) * 4 * sizeof *a->occ_cand); /* the nodes, the sort's scratch */
     a->quads = malloc(((size_t)ic / 6 + 1) * 12 * sizeof *a->quads);
-    if (!a->mesh_first || !a->mesh_quads || !a->occ_node || !a->quads || terrain_quads(a, t) ||
+    if (!a->mesh_first || !a->mesh_quads || !a->occ_node || !a->occ_cand || !a->quads || terrain_grid(a, t) ||
         !hz_occlusion_init(&a->occ, 0, 0)) {
         fprintf(stderr, "horizon %s: out of memory for the occluders\n", cmd);
         return 1;
@@ -527,30 +552,39 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
         a->occ_built = true;
         double t0 = hz_time_ms();
         hz_occlusion_begin(&a->occ, cam);
-        /* The ground, then the faces of the objects in view within 1.5 km
-         * (big near occluders; far walls hide little). */
-        /* Terrain quads in runs of a row: skip runs whose first corner is
-         * beyond 3 km (far ground hides little and costs the most). */
-        const float reach = 3000.0f;
-        for (size_t k = 0; k < a->terrain_quad_count; k++) {
-            const float *q = a->terrain_quads + 12 * k;
-            float dx = q[0] - cam->pos[0], dz = q[2] - cam->pos[2];
-            if (dx * dx + dz * dz < reach * reach)
-                hz_occlusion_rasterize_quads(&a->occ, q, 1, NULL);
-        }
+        /* The ground within 3 km, then the objects' faces. */
+        terrain_occlude(a, cam, 3000.0f);
+        /* The objects in view within 1.5 km (big near occluders; far walls
+         * hide little), nearest first: an occluder whose box is already
+         * hidden cannot bring any cell nearer, so it is skipped. At street
+         * level the first rows of buildings hide most of the rest. */
         vec4 planes[6];
         hz_camera_frustum(cam, planes);
+        const float reach_obj = 1500.0f;
+        uint32_t nc = 0;
         for (uint32_t k = 0; k < a->occ_nodes; k++) {
             hz_box b;
             hz_scene_node_bounds(a->scene, a->occ_node[k], &b);
             if (hz_box_vs_planes(&b, planes, 6) < 0)
                 continue;
-            float dx = 0.5f * (b.min[0] + b.max[0]) - cam->pos[0], dz = 0.5f * (b.min[2] + b.max[2]) - cam->pos[2];
-            if (dx * dx + dz * dz > 1500.0f * 1500.0f)
+            float d2 = 0;
+            for (int c = 0; c < 3; c += 2) {
+                float v = fmaxf(fmaxf(b.min[c] - cam->pos[c], cam->pos[c] - b.max[c]), 0.0f);
+                d2 += v * v;
+            }
+            if (d2 <= reach_obj * reach_obj)
+                a->occ_cand[nc++] = a->occ_node[k];
+        }
+        hz_scene_sort_near_first(a->scene, cam->pos, a->occ_cand, nc, a->occ_cand + nc);
+        for (uint32_t k = 0; k < nc; k++) {
+            const uint32_t id = a->occ_cand[k];
+            hz_box b;
+            hz_scene_node_bounds(a->scene, id, &b);
+            if (hz_occlusion_box_hidden(&a->occ, &b))
                 continue;
             mat4 m;
-            hz_scene_world_matrix(a->scene, a->occ_node[k], m);
-            const uint32_t mesh = hz_scene_node_mesh(a->scene, a->occ_node[k]);
+            hz_scene_world_matrix(a->scene, id, m);
+            const uint32_t mesh = hz_scene_node_mesh(a->scene, id);
             hz_occlusion_rasterize_quads(&a->occ, a->quads + 12 * (size_t)a->mesh_first[mesh], a->mesh_quads[mesh], m);
         }
         a->hook.opts.occlusion = &a->occ;
@@ -738,8 +772,10 @@ void city_app_destroy(city_app *a)
     hz_occlusion_free(&a->occ);
     free(a->patch_keep);
     free(a->casters);
-    free(a->terrain_quads);
+    free(a->ter_cmin);
+    free(a->ter_cell_ok);
     free(a->occ_node);
+    free(a->occ_cand);
     free(a->mesh_first);
     free(a->mesh_quads);
     free(a->quads);

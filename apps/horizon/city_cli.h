@@ -46,14 +46,17 @@ typedef struct city_app {
     hz_city_placed placed;
     double place_ms;
     char tin_path[256];    /* the TINRelief grid written for the terrain (removed at the end) */
-    /* occluders: terrain quads (world); per mesh its face quads (local), per
-     * occluding node its mesh */
-    float *terrain_quads;
-    size_t terrain_quad_count;
+    /* occluders: the terrain's coarse cells; per mesh its face quads (local),
+     * per occluding node its mesh */
+    float *ter_cmin;        /* (ter_cn + 1)^2 corner heights of the coarse terrain cells */
+    uint8_t *ter_cell_ok;   /* ter_cn^2: the cell lies over valid data */
+    uint32_t ter_cn, ter_step;
+    float ter_spacing;
     uint32_t *mesh_first, *mesh_quads;   /* per mesh: first quad, count */
     float *quads;
     uint32_t *occ_node;
     uint32_t occ_nodes;
+    uint32_t *occ_cand;    /* per frame: the occluders in reach, nearest first (4 per node: + sort scratch) */
     hz_occlusion occ;
     double occ_ms;         /* last frame's occlusion buffer build */
     bool occ_built;        /* the last frame had an occlusion buffer */

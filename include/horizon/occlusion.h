@@ -21,6 +21,7 @@ typedef struct hz_occlusion {
     uint32_t w, h;        /* cells; row 0 = the bottom of the image */
     float *depth;         /* w * h; +inf where no occluder covers the cell */
     mat4 view, proj;      /* the camera's (OpenGL convention) */
+    mat4 viewproj;        /* proj * view: clip w is the view depth */
     float znear;
     uint64_t triangles;   /* rasterised (after near-plane rejection) */
     uint64_t cells_written;

@@ -166,6 +166,12 @@ uint32_t hz_scene_cull_curved(const hz_scene *s, const hz_camera *cam, const vec
 
 /* ---- render queue (G5) ------------------------------------------------------ */
 
+/* Orders nodes[0..n) nearest first by the distance from eye to each node's
+ * world box (0 for an eye inside it); stable: equal distances keep their
+ * order. tmp: scratch of 3 * n entries. After hz_scene_update. Fed to
+ * hz_scene_queue_build, the instances of each item come nearest first. */
+void hz_scene_sort_near_first(const hz_scene *s, const float eye[3], uint32_t *nodes, uint32_t n, uint32_t *tmp);
+
 /* A draw: consecutive instances of one mesh with one material. */
 typedef struct hz_draw_item {
     uint32_t shader, material, mesh;

@@ -30,7 +30,7 @@ struct hz_scene_gpu {
     size_t inst_cap, cmd_cap;  /* bytes */
     uint32_t mesh_count;
     /* CPU scratch */
-    uint32_t *vis, *order;
+    uint32_t *vis, *order, *sort_tmp; /* sort_tmp: 3 per node */
     hz_draw_item *items;
     float *mats;
     draw_cmd *cmds;
@@ -53,6 +53,7 @@ void hz_scene_gpu_destroy(hz_scene_gpu *g)
     }
     free(g->vis);
     free(g->order);
+    free(g->sort_tmp);
     free(g->items);
     free(g->mats);
     free(g->cmds);
@@ -165,7 +166,10 @@ static bool scratch(hz_scene_gpu *g, uint32_t n)
     draw_cmd *cmds = realloc(g->cmds, (size_t)c * sizeof *cmds);
     if (cmds)
         g->cmds = cmds;
-    if (!vis || !order || !items || !mats || !cmds)
+    uint32_t *sort_tmp = realloc(g->sort_tmp, (size_t)c * 3 * sizeof *sort_tmp);
+    if (sort_tmp)
+        g->sort_tmp = sort_tmp;
+    if (!vis || !order || !items || !mats || !cmds || !sort_tmp)
         return false;
     g->scratch_cap = c;
     return true;
@@ -369,6 +373,11 @@ hz_result hz_scene_gpu_draw(hz_scene_gpu *g, const hz_scene *s, const hz_pass_in
         }
         n = kept;
     }
+    /* Nearest first (the queue keeps this order within each item): near
+     * objects fill the depth buffer first, and the hidden fragments of
+     * those behind fail the depth test before shading. */
+    if (!opts->naive)
+        hz_scene_sort_near_first(s, pass->cam->pos, g->vis, n, g->sort_tmp);
     st.cull_ms = hz_time_ms() - t0;
     hz_result r = HZ_OK;
     if (opts->gpu_queries && pass->pass == HZ_PASS_MAIN) {

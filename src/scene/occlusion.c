@@ -22,6 +22,7 @@ void hz_occlusion_begin(hz_occlusion *o, const hz_camera *cam)
 {
     hz_camera_view(cam, o->view);
     hz_camera_proj(cam, o->proj);
+    glm_mat4_mul(o->proj, o->view, o->viewproj);
     o->cam = *cam;
     o->znear = cam->znear > 0 ? cam->znear : 1.0f;
     for (size_t k = 0; k < (size_t)o->w * o->h; k++)
@@ -30,19 +31,25 @@ void hz_occlusion_begin(hz_occlusion *o, const hz_camera *cam)
     o->raster_ms = 0;
 }
 
-/* Screen position in cells (x right, y up) and view depth of a world point;
- * false when it is nearer than the near plane. */
-static bool project(const hz_occlusion *o, const mat4 mv, const float p[3], float s[2], float *d)
+/* Screen position in cells (x right, y up) and view depth of the clip
+ * position c (the projection's w is the depth along the view axis); false
+ * when it is nearer than the near plane. */
+static bool to_screen(const hz_occlusion *o, const vec4 c, float s[2], float *d)
 {
-    vec4 v, c;
-    glm_mat4_mulv((vec4 *)mv, (vec4){p[0], p[1], p[2], 1}, v);
-    *d = -v[2];
+    *d = c[3];
     if (!(*d >= o->znear))
         return false;
-    glm_mat4_mulv((vec4 *)o->proj, v, c);
     s[0] = (c[0] / c[3] * 0.5f + 0.5f) * (float)o->w;
     s[1] = (c[1] / c[3] * 0.5f + 0.5f) * (float)o->h;
     return true;
+}
+
+/* The same for a world point through mvp (projection * view [* model]). */
+static bool project(const hz_occlusion *o, const mat4 mvp, const float p[3], float s[2], float *d)
+{
+    vec4 c;
+    glm_mat4_mulv((vec4 *)mvp, (vec4){p[0], p[1], p[2], 1}, c);
+    return to_screen(o, c, s, d);
 }
 
 static float edge(const float *a, const float *b, float x, float y)
@@ -124,9 +131,9 @@ static void rasterize_n(hz_occlusion *o, const float *v, size_t count, const mat
     mat4 mv;
     const bool curved = o->cam.earth_radius != 0.0f;
     if (model && !curved)
-        glm_mat4_mul(o->view, (vec4 *)model, mv);
+        glm_mat4_mul(o->viewproj, (vec4 *)model, mv);
     else
-        glm_mat4_copy(o->view, mv);
+        glm_mat4_copy(o->viewproj, mv);
     for (size_t t = 0; t < count; t++) {
         float s[4][2], d[4];
         bool ok = true;
@@ -178,11 +185,21 @@ bool hz_occlusion_box_hidden(const hz_occlusion *o, const hz_box *b)
         return false;
     float cb[2][3] = {{b->min[0], b->min[1], b->min[2]}, {b->max[0], b->max[1], b->max[2]}};
     hz_camera_curve_box(&o->cam, cb); /* holds the object as drawn */
+    /* The corners' clip positions: the min corner's plus the box's edges
+     * along x, y and z in clip space. */
+    vec4 c0, e[3];
+    glm_mat4_mulv((vec4 *)o->viewproj, (vec4){cb[0][0], cb[0][1], cb[0][2], 1}, c0);
+    for (int a = 0; a < 3; a++)
+        glm_vec4_scale((float *)o->viewproj[a], cb[1][a] - cb[0][a], e[a]);
     float x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY, near = INFINITY;
     for (int k = 0; k < 8; k++) {
-        float p[3] = {cb[k & 1 ? 1 : 0][0], cb[k & 2 ? 1 : 0][1], cb[k & 4 ? 1 : 0][2]};
+        vec4 c;
+        glm_vec4_copy(c0, c);
+        for (int a = 0; a < 3; a++)
+            if (k & (1 << a))
+                glm_vec4_add(c, e[a], c);
         float s[2], d;
-        if (!project(o, o->view, p, s, &d))
+        if (!to_screen(o, c, s, &d))
             return false; /* reaches the eye's side of the near plane */
         x0 = fminf(x0, s[0]);
         x1 = fmaxf(x1, s[0]);

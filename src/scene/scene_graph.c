@@ -615,6 +615,43 @@ static int cmp_qkey(const void *pa, const void *pb)
     return (a->order > b->order) - (a->order < b->order);
 }
 
+/* An LSD radix sort on the squared distances' float bits (non-negative
+ * floats order as their bits), a byte per pass; stable. */
+void hz_scene_sort_near_first(const hz_scene *s, const float eye[3], uint32_t *nodes, uint32_t n, uint32_t *tmp)
+{
+    if (n < 2)
+        return;
+    uint32_t *key = tmp, *key_tmp = tmp + n, *node_tmp = tmp + 2 * (size_t)n;
+    for (uint32_t k = 0; k < n; k++) {
+        hz_box b;
+        hz_scene_node_bounds(s, nodes[k], &b);
+        float d2 = 0;
+        for (int c = 0; c < 3; c++) {
+            const float v = fmaxf(fmaxf(b.min[c] - eye[c], eye[c] - b.max[c]), 0.0f);
+            d2 += v * v;
+        }
+        if (!(d2 >= 0)) /* NaN: last */
+            d2 = INFINITY;
+        memcpy(&key[k], &d2, sizeof d2);
+    }
+    for (int shift = 0; shift < 32; shift += 8) {
+        uint32_t count[257] = {0};
+        for (uint32_t k = 0; k < n; k++)
+            count[((key[k] >> shift) & 255u) + 1]++;
+        if (count[((key[0] >> shift) & 255u) + 1] == n)
+            continue; /* every key has this byte: the pass would change nothing */
+        for (int b = 0; b < 256; b++)
+            count[b + 1] += count[b];
+        for (uint32_t k = 0; k < n; k++) {
+            const uint32_t at = count[(key[k] >> shift) & 255u]++;
+            key_tmp[at] = key[k];
+            node_tmp[at] = nodes[k];
+        }
+        memcpy(key, key_tmp, (size_t)n * sizeof *key);
+        memcpy(nodes, node_tmp, (size_t)n * sizeof *nodes);
+    }
+}
+
 uint32_t hz_scene_queue_build(const hz_scene *s, const uint32_t *nodes, uint32_t count, bool sorted,
                               uint32_t *nodes_out, hz_draw_item *items, hz_queue_stats *stats)
 {

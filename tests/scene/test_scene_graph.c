@@ -270,6 +270,77 @@ static void test_render_queue(void **state)
     hz_scene_destroy(s);
 }
 
+/* Distance from e to the node's world box, 0 inside. */
+static float box_dist(const hz_scene *s, uint32_t node, const float e[3])
+{
+    hz_box b;
+    hz_scene_node_bounds(s, node, &b);
+    float d2 = 0;
+    for (int c = 0; c < 3; c++) {
+        float v = fmaxf(fmaxf(b.min[c] - e[c], e[c] - b.max[c]), 0.0f);
+        d2 += v * v;
+    }
+    return sqrtf(d2);
+}
+
+/* Near-first order: distances never decrease, it is a permutation, and
+ * equal distances keep the given order; the queue then keeps it within an
+ * item. 2 000 boxes spread over 20 km (every byte of the keys matters), a
+ * run of boxes at the same distance, one box around the eye. */
+static void test_sort_near_first(void **state)
+{
+    (void)state;
+    hz_scene *s = hz_scene_create(NULL);
+    uint32_t box = add_box(s, 1);
+    enum { N = 2000 };
+    uint32_t nodes[N], given[N], tmp[3 * N];
+    uint32_t rng = 12345;
+    for (int k = 0; k < N; k++) {
+        nodes[k] = hz_scene_add_node(s, 0, NULL);
+        hz_scene_set_mesh(s, nodes[k], box, 0);
+        float p[3];
+        if (k % 10 == 3) {
+            p[0] = 100, p[1] = 0, p[2] = 0; /* ten percent at one place: equal distances */
+        } else if (k == 1000) {
+            p[0] = p[1] = p[2] = 0; /* around the eye */
+        } else {
+            for (int c = 0; c < 3; c++) {
+                rng = rng * 1664525u + 1013904223u;
+                p[c] = ((float)(rng >> 8) / 16777216.0f - 0.5f) * (c == 1 ? 200.0f : 20000.0f);
+            }
+        }
+        hz_scene_set_translation(s, nodes[k], p);
+    }
+    hz_scene_update(s);
+    memcpy(given, nodes, sizeof nodes);
+    const float eye[3] = {0.2f, 0.3f, -0.1f};
+    hz_scene_sort_near_first(s, eye, nodes, N, tmp);
+    assert_int_equal(nodes[0], given[1000]);
+    assert_true(box_dist(s, nodes[0], eye) == 0.0f);
+    uint32_t seen[N + 1] = {0};
+    uint32_t last_tie = 0, ties = 0;
+    for (int k = 0; k < N; k++) {
+        seen[nodes[k]]++;
+        if (k)
+            assert_true(box_dist(s, nodes[k - 1], eye) <= box_dist(s, nodes[k], eye));
+        const uint32_t id = nodes[k];
+        if ((id - given[0]) % 10 == 3) { /* the tied boxes, in the given (id) order */
+            assert_true(id > last_tie);
+            last_tie = id;
+            ties++;
+        }
+    }
+    assert_int_equal(ties, N / 10);
+    for (int k = 0; k < N; k++)
+        assert_int_equal(seen[given[k]], 1);
+    /* The queue keeps that order within its one item. */
+    uint32_t order[N];
+    hz_draw_item items[N];
+    assert_int_equal(hz_scene_queue_build(s, nodes, N, true, order, items, NULL), 1);
+    assert_memory_equal(order, nodes, sizeof order);
+    hz_scene_destroy(s);
+}
+
 static void test_raycast(void **state)
 {
     (void)state;
@@ -386,6 +457,7 @@ int main(void)
         cmocka_unit_test(test_inheritance),     cmocka_unit_test(test_ypr),
         cmocka_unit_test(test_bounds_after_move), cmocka_unit_test(test_frustum_culling),
         cmocka_unit_test(test_render_queue),    cmocka_unit_test(test_raycast),
+        cmocka_unit_test(test_sort_near_first),
         cmocka_unit_test(test_depth_first),     cmocka_unit_test(test_occlusion),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
