@@ -378,11 +378,14 @@ static void shadow_casters(city_app *a, const hz_terrain *t)
     for (size_t k = 0; k < (size_t)n * n; k++)
         a->casters[k] = -INFINITY;
     const float sp = t->spacing;
+    hz_box all;
+    hz_box_empty(&all);
     for (uint32_t k = 0; k < a->occ_nodes; k++) {
         hz_box b;
         hz_scene_node_bounds(a->scene, a->occ_node[k], &b);
         if (!(b.max[1] > b.min[1]) || !isfinite(b.max[1]))
             continue;
+        hz_box_add_box(&all, &b);
         const float i0 = ceilf(b.min[0] / sp), i1 = floorf(b.max[0] / sp);
         const float j0 = ceilf(b.min[2] / sp), j1 = floorf(b.max[2] / sp);
         if (i1 < 0 || j1 < 0 || i0 > (float)(n - 1) || j0 > (float)(n - 1))
@@ -394,6 +397,22 @@ static void shadow_casters(city_app *a, const hz_terrain *t)
                 *c = fmaxf(*c, b.max[1]);
             }
     }
+    /* The objects' faces are shaded by the sun heights over their samples
+     * and two more around (a face looks one sample outward); at most 16 M
+     * samples (64 MB) and 16 384 per side. */
+    if (hz_box_is_empty(&all))
+        return;
+    const float i0 = fmaxf(floorf(all.min[0] / sp) - 2, 0), i1 = fminf(ceilf(all.max[0] / sp) + 2, (float)(n - 1));
+    const float j0 = fmaxf(floorf(all.min[2] / sp) - 2, 0), j1 = fminf(ceilf(all.max[2] / sp) + 2, (float)(n - 1));
+    if (!(i1 >= i0 && j1 >= j0))
+        return;
+    const uint32_t w = (uint32_t)(i1 - i0) + 1, h = (uint32_t)(j1 - j0) + 1;
+    if ((uint64_t)w * h > (16u << 20) || w > 16384 || h > 16384)
+        return;
+    a->sun_rect[0] = (uint32_t)i0;
+    a->sun_rect[1] = (uint32_t)j0;
+    a->sun_rect[2] = w;
+    a->sun_rect[3] = h;
 }
 
 int city_app_place(city_app *a, const hz_terrain *t, const char *cmd)

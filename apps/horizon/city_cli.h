@@ -70,6 +70,8 @@ typedef struct city_app {
      * sample the top of the highest object box over it, -inf elsewhere; NULL when none */
     float *casters;
     uint64_t caster_samples; /* samples under an object */
+    uint32_t sun_rect[4];    /* the samples around the objects (i0, j0, w, h) whose sun heights shade
+                                their faces (hz_lightmap_desc.sun_heights); w 0: none */
     /* GL */
     hz_scene_gpu *gpu;
     hz_scene_hook hook;

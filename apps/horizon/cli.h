@@ -74,6 +74,8 @@ typedef struct app_fx {
     float water_level;
     uint8_t *lightmap;
     const float *casters; /* objects casting shadows into the light map (city_app's), or NULL */
+    uint32_t sun_rect[4]; /* samples around the objects whose sun heights shade them (city_app's; w 0: none) */
+    float *sun_heights;   /* the light map's sun heights over sun_rect */
     vec3 lightmap_sun;
     double lightmap_ms;   /* last build */
     uint32_t lightmap_threads;

@@ -1130,6 +1130,8 @@ int cmd_bench(int argc, char **argv)
         goto done;
     /* --effect-costs builds every effect's resources ("view" does). */
     b.afx.casters = b.ca ? b.ca->casters : NULL;
+    if (b.ca)
+        memcpy(b.afx.sun_rect, b.ca->sun_rect, sizeof b.afx.sun_rect);
     if (app_fx_setup(&b.afx, &b.o, b.t, b.ren, costs_out ? "view" : "bench")) {
         snprintf(b.err.msg, sizeof b.err.msg, "effects setup failed");
         goto done;

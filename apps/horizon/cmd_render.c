@@ -165,6 +165,8 @@ int cmd_render(int argc, char **argv)
     if (!ren || cli_renderer_setup(ren, t, &o, &err) != HZ_OK)
         goto done;
     afx.casters = ca ? ca->casters : NULL;
+    if (ca)
+        memcpy(afx.sun_rect, ca->sun_rect, sizeof afx.sun_rect);
     if (app_fx_setup(&afx, &o, t, ren, "render")) {
         snprintf(err.msg, sizeof err.msg, "effects setup failed");
         goto done;

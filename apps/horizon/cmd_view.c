@@ -1204,8 +1204,13 @@ int cmd_view(int argc, char **argv)
         fprintf(stderr, "horizon view: %s\n", v->err.msg);
         goto out;
     }
+    /* The city before the effects: its objects shade the light map. */
+    if (v->ca && (city_app_place(v->ca, v->t, "view") || city_app_gpu(v->ca, "view")))
+        goto out;
     draw_loading(&ld, "effects: light map, trees, water", 1, 1);
     v->afx.casters = v->ca ? v->ca->casters : NULL;
+    if (v->ca)
+        memcpy(v->afx.sun_rect, v->ca->sun_rect, sizeof v->afx.sun_rect);
     if (app_fx_setup(&v->afx, &v->o, v->t, v->ren, "view"))
         goto out;
     v->fx_time = v->o.time;
@@ -1225,9 +1230,6 @@ int cmd_view(int argc, char **argv)
         }
         v->have_path = true;
     }
-
-    if (v->ca && (city_app_place(v->ca, v->t, "view") || city_app_gpu(v->ca, "view")))
-        goto out;
 
     /* Cameras. */
     hz_camera cam = v->cf && !v->o.have_camera ? cli_forest_camera(&v->o, v->t) : cli_camera(&v->o, v->t);

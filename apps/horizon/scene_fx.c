@@ -37,9 +37,21 @@ static int build_lightmap(app_fx *a, const hz_terrain *t, hz_renderer *r, const 
     hz_lightmap_desc d = {.hm = &t->hm, .spacing = t->spacing, .zscale = t->zscale, .threads = 2,
                           .casters = a->casters};
     glm_vec3_copy(a->sun, d.sun_dir);
+    /* The objects' shade: the sun heights around them. */
+    if (a->sun_rect[2] && a->sun_rect[3]) {
+        if (!a->sun_heights)
+            a->sun_heights = malloc((size_t)a->sun_rect[2] * a->sun_rect[3] * sizeof *a->sun_heights);
+        if (!a->sun_heights) {
+            fprintf(stderr, "horizon %s: out of memory for the objects' sun heights\n", cmd);
+            return 1;
+        }
+        d.sun_heights = a->sun_heights;
+        memcpy(d.sun_rect, a->sun_rect, sizeof d.sun_rect);
+    }
     hz_lightmap_stats st;
     if (hz_lightmap_build(&d, a->lightmap, &st, &err) != HZ_OK ||
-        hz_renderer_set_lightmap(r, a->lightmap, t->hm.size, a->sun, &err) != HZ_OK) {
+        hz_renderer_set_lightmap(r, a->lightmap, t->hm.size, a->sun, &err) != HZ_OK ||
+        (d.sun_heights && hz_renderer_set_sun_heights(r, d.sun_heights, d.sun_rect, a->sun, &err) != HZ_OK)) {
         fprintf(stderr, "horizon %s: light map: %s\n", cmd, err.msg);
         return 1;
     }
@@ -252,8 +264,11 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
 {
     double t0 = hz_time_ms();
     const float *casters = a->casters; /* set by the caller */
+    uint32_t sun_rect[4];
+    memcpy(sun_rect, a->sun_rect, sizeof sun_rect);
     memset(a, 0, sizeof *a);
     a->casters = casters;
+    memcpy(a->sun_rect, sun_rect, sizeof sun_rect);
     a->effects = o->effects;
     a->fx = o->fx;
     a->fog = o->fog;
@@ -401,6 +416,7 @@ void app_fx_sun_angles(const app_fx *a, float *azimuth, float *elevation)
 void app_fx_free(app_fx *a)
 {
     free(a->lightmap);
+    free(a->sun_heights);
     free(a->refl.data);
     memset(a, 0, sizeof *a);
 }

@@ -32,6 +32,18 @@ typedef struct hz_lightmap_desc {
                                Objects cast shadows on the terrain at the map's resolution (the
                                samples under an object, which it hides, are in its shade but for
                                its sunward edge). NULL: none */
+    /* Optional output for shading objects: over the rectangle of samples
+     * sun_rect = {i0, j0, w, h} (inside the map), w * h floats, row-major
+     * (index = (j - j0) * w + (i - i0)): the sun height of each sample, the
+     * height (world metres) below which a point straight above it is in
+     * shade. That is the sweep's shadow surface from the sun's side: the
+     * ground itself, or the highest sun ray passing over it from the
+     * terrain and the casters on the sun's side, whichever is higher. The
+     * sample's own caster is left out, so an object's sunward wall and roof
+     * are not shaded by the object itself. Without shadows (no_shadows, or
+     * the sun at the zenith) it is the ground. NULL: not written. */
+    float *sun_heights;
+    uint32_t sun_rect[4];
 } hz_lightmap_desc;
 
 typedef struct hz_lightmap_stats {
@@ -50,8 +62,9 @@ size_t hz_lightmap_bound(const hz_heightmap *hm);
  * neighbours (one-sided at the borders), like the terrain vertex shader.
  * A sun below the horizon (sun_dir.y <= 0) gives Ie everywhere; a sun at the
  * zenith casts no shadows. stats may be NULL.
- * Errors: HZ_ERR_VALUE for a missing heightmap, bad spacing/zscale/ambient or
- * a zero/NaN sun direction; HZ_ERR_MEMORY. */
+ * Errors: HZ_ERR_VALUE for a missing heightmap, bad spacing/zscale/ambient,
+ * a zero/NaN sun direction or a sun_rect (with sun_heights) that is empty or
+ * leaves the map; HZ_ERR_MEMORY. */
 hz_result hz_lightmap_build(const hz_lightmap_desc *desc, uint8_t *out, hz_lightmap_stats *stats, hz_err *err);
 
 /* The unit sun direction for an azimuth (degrees clockwise from north = -z,

@@ -76,6 +76,16 @@ typedef struct hz_pass_info {
     vec3 zenith_color;
     uint32_t effects;        /* the frame's HZ_FX_* set */
     double time;             /* the frame's effect time, seconds */
+    /* With HZ_FX_SHADOWS and sun heights for this sun
+     * (hz_renderer_set_sun_heights), else 0: a GL_R32F 2D texture of the
+     * sun heights; world x, z map to its coordinates as
+     * uv = (x, z) * sun_heights_map.xy + sun_heights_map.zw (texel centres
+     * on the samples; clamped at the edges). A point (x, y, z) is in the
+     * terrain's and the casters' shade when y is below the filtered value.
+     * sun_heights_spacing: metres between its samples. */
+    uint32_t sun_heights_tex;
+    vec4 sun_heights_map;
+    float sun_heights_spacing;
 } hz_pass_info;
 
 /* Draws extra opaque objects (trees, buildings...) into a scene pass, after
@@ -187,6 +197,16 @@ hz_result hz_renderer_read_depth(hz_renderer *r, float *depth, hz_err *err);
  * texture limit are uploaded at half resolution. */
 hz_result hz_renderer_set_lightmap(hz_renderer *r, const uint8_t *lm, uint32_t size, const float sun_dir[3],
                                    hz_err *err);
+
+/* HZ_FX_SHADOWS for objects: the light map's sun heights
+ * (hz_lightmap_desc.sun_heights) over the samples rect = {i0, j0, w, h} of
+ * the heightmap, computed for sun_dir, w * h floats. Handed to the objects
+ * hook in hz_pass_info while a frame's sun is within 0.25 degree of sun_dir
+ * and the frame has HZ_FX_SHADOWS. heights NULL removes them. Errors:
+ * HZ_ERR_VALUE for a rectangle outside the heightmap, over the GPU's texture
+ * size, a non-finite height or a bad sun; HZ_ERR_GL. */
+hz_result hz_renderer_set_sun_heights(hz_renderer *r, const float *heights, const uint32_t rect[4],
+                                      const float sun_dir[3], hz_err *err);
 
 /* HZ_FX_BILLBOARDS: the static vegetation (copied, bucketed in cells, culled
  * per frame to fx->billboard_distance). n = 0 removes it. */

@@ -107,6 +107,8 @@ void fx_ground_bind(hz_renderer *r)
 void fx_ground_destroy(hz_renderer *r)
 {
     glDeleteTextures(1, &r->lightmap_tex);
+    glDeleteTextures(1, &r->sunh_tex);
+    r->sunh_tex = 0;
     glDeleteTextures(1, &r->detail_tex);
     glDeleteTextures(1, &r->colormap_tex);
     glDeleteTextures(1, &r->cover_tex);
@@ -120,14 +122,72 @@ void fx_ground_destroy(hz_renderer *r)
     r->detail_cpu = NULL;
 }
 
-bool fx_lightmap_matches(const hz_renderer *r, const vec3 sun)
+/* Within 0.25 degree. */
+static bool same_sun(const vec3 sun, const vec3 built)
 {
-    if (!r->has_lightmap)
-        return false;
-    float a = glm_vec3_norm((float *)sun), b = glm_vec3_norm((float *)r->lightmap_sun);
+    float a = glm_vec3_norm((float *)sun), b = glm_vec3_norm((float *)built);
     if (!(a > 0.0f) || !(b > 0.0f))
         return false;
-    return glm_vec3_dot((float *)sun, (float *)r->lightmap_sun) / (a * b) >= cosf(glm_rad(0.25f));
+    return glm_vec3_dot((float *)sun, (float *)built) / (a * b) >= cosf(glm_rad(0.25f));
+}
+
+bool fx_lightmap_matches(const hz_renderer *r, const vec3 sun)
+{
+    return r->has_lightmap && same_sun(sun, r->lightmap_sun);
+}
+
+bool fx_sun_heights_match(const hz_renderer *r, const vec3 sun)
+{
+    return r->sunh_tex && same_sun(sun, r->sunh_sun);
+}
+
+hz_result hz_renderer_set_sun_heights(hz_renderer *r, const float *heights, const uint32_t rect[4],
+                                      const float sun_dir[3], hz_err *err)
+{
+    HZ_ASSERT(r);
+    hz_result ctx = fx_check_context(r, err, "hz_renderer_set_sun_heights");
+    if (ctx != HZ_OK)
+        return ctx;
+    if (!heights) {
+        glDeleteTextures(1, &r->sunh_tex);
+        r->sunh_tex = 0;
+        return HZ_OK;
+    }
+    if (!r->has_heights || !rect || !rect[2] || !rect[3] || rect[0] >= r->size || rect[1] >= r->size ||
+        rect[2] > r->size - rect[0] || rect[3] > r->size - rect[1])
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: sun heights rectangle outside the %u-sample heightmap",
+                          r->has_heights ? r->size : 0);
+    if (r->max_tex > 0 && (rect[2] > (uint32_t)r->max_tex || rect[3] > (uint32_t)r->max_tex))
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: sun heights of %u x %u samples exceed the GPU's %d texels",
+                          rect[2], rect[3], r->max_tex);
+    if (!sun_dir || !isfinite(sun_dir[0]) || !isfinite(sun_dir[1]) || !isfinite(sun_dir[2]) ||
+        (sun_dir[0] == 0.0f && sun_dir[1] == 0.0f && sun_dir[2] == 0.0f))
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: sun heights without a valid sun direction");
+    for (size_t k = 0; k < (size_t)rect[2] * rect[3]; k++)
+        if (!isfinite(heights[k]))
+            return hz_err_set(err, HZ_ERR_VALUE, "renderer: sun height %zu is not finite", k);
+    hz_gl_drain();
+    if (!r->sunh_tex)
+        glGenTextures(1, &r->sunh_tex);
+    glBindTexture(GL_TEXTURE_2D, r->sunh_tex);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, (GLsizei)rect[2], (GLsizei)rect[3], 0, GL_RED, GL_FLOAT, heights);
+    set_filtering(GL_TEXTURE_2D, false, GL_CLAMP_TO_EDGE);
+    glBindTexture(GL_TEXTURE_2D, 0);
+    hz_result res = hz_gl_check(err, "sun heights upload (GL_R32F)");
+    if (res != HZ_OK) {
+        glDeleteTextures(1, &r->sunh_tex);
+        r->sunh_tex = 0;
+        return res;
+    }
+    /* Sample (i0 + a, j0 + b) at world (i0 + a, j0 + b) * spacing sits at the centre of texel (a, b). */
+    r->sunh_map[0] = 1.0f / (r->spacing * (float)rect[2]);
+    r->sunh_map[1] = 1.0f / (r->spacing * (float)rect[3]);
+    r->sunh_map[2] = (0.5f - (float)rect[0]) / (float)rect[2];
+    r->sunh_map[3] = (0.5f - (float)rect[1]) / (float)rect[3];
+    memcpy(r->sunh_sun, sun_dir, sizeof r->sunh_sun);
+    return HZ_OK;
 }
 
 hz_result hz_renderer_set_lightmap(hz_renderer *r, const uint8_t *lm, uint32_t size, const float sun_dir[3],

@@ -8,6 +8,7 @@
  * the comparison. */
 #include "horizon/scene_render.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -27,6 +28,7 @@ struct hz_scene_gpu {
     GLuint *queries;
     uint32_t query_cap;
     GLint u_viewproj, u_clip, u_color, u_sun, u_sky, u_eye, u_fog, u_ambient, u_fog_far;
+    GLint u_sunh_tex, u_sunh_map, u_sunh, u_sun_h;
     size_t inst_cap, cmd_cap;  /* bytes */
     uint32_t mesh_count;
     /* CPU scratch */
@@ -86,6 +88,10 @@ hz_scene_gpu *hz_scene_gpu_create(const hz_scene *s, hz_err *err)
     g->u_fog = glGetUniformLocation(g->prog, "u_fog_density");
     g->u_ambient = glGetUniformLocation(g->prog, "u_ambient");
     g->u_fog_far = glGetUniformLocation(g->prog, "u_fog_far");
+    g->u_sunh_tex = glGetUniformLocation(g->prog, "u_sun_heights");
+    g->u_sunh_map = glGetUniformLocation(g->prog, "u_sunh_map");
+    g->u_sunh = glGetUniformLocation(g->prog, "u_sunh");
+    g->u_sun_h = glGetUniformLocation(g->prog, "u_sun_h");
     uint32_t vc, ic;
     const hz_vertex *v = hz_scene_vertices(s, &vc);
     const uint32_t *ix = hz_scene_indices(s, &ic);
@@ -186,6 +192,30 @@ static void stream(GLenum target, GLuint buf, size_t *cap, const void *data, siz
     glBufferSubData(target, 0, (GLsizeiptr)bytes, data);
 }
 
+/* The texture unit of the sun heights: above the renderer's fixed units. */
+#define SUNH_UNIT 15
+
+/* The light map's sun heights of the pass (or none): shade from the terrain
+ * and the other objects. */
+static void set_sun_heights(const hz_scene_gpu *g, const hz_pass_info *pass)
+{
+    if (!pass->sun_heights_tex) {
+        glUniform4f(g->u_sunh, 0, 0, 0, 0);
+        return;
+    }
+    const float *s = pass->sun_dir, hl = sqrtf(s[0] * s[0] + s[2] * s[2]);
+    const float sp = pass->sun_heights_spacing;
+    glActiveTexture(GL_TEXTURE0 + SUNH_UNIT);
+    glBindTexture(GL_TEXTURE_2D, pass->sun_heights_tex);
+    glActiveTexture(GL_TEXTURE0);
+    glUniform1i(g->u_sunh_tex, SUNH_UNIT);
+    glUniform4fv(g->u_sunh_map, 1, pass->sun_heights_map);
+    /* Soft over a tenth of a sample (0.5 .. 3 m): the heights are bilinear between samples. */
+    const float soft = fminf(fmaxf(0.1f * sp, 0.5f), 3.0f);
+    glUniform4f(g->u_sunh, 1.0f, sp, hl > 1e-6f ? s[1] / hl : 0.0f, soft);
+    glUniform2f(g->u_sun_h, hl > 1e-6f ? s[0] / hl : 0.0f, hl > 1e-6f ? s[2] / hl : 0.0f);
+}
+
 /* Queues, uploads the world matrices of and draws nodes[0..n) (n <= the
  * scratch capacity; nodes may alias g->vis). Adds to st. */
 static hz_result submit(hz_scene_gpu *g, const hz_scene *s, const hz_pass_info *pass, const hz_scene_draw_opts *opts,
@@ -217,6 +247,7 @@ static hz_result submit(hz_scene_gpu *g, const hz_scene *s, const hz_pass_info *
     glUniform1f(g->u_fog, pass->fog_density);
     glUniform1f(g->u_ambient, pass->ambient > 0 ? pass->ambient : 0.3f);
     glUniform2fv(g->u_fog_far, 1, pass->fog_far);
+    set_sun_heights(g, pass);
     /* Closed outward meshes: back faces culled (mirrored passes flip the
      * front face, set by the renderer). */
     glEnable(GL_CULL_FACE);
@@ -267,6 +298,11 @@ static hz_result submit(hz_scene_gpu *g, const hz_scene *s, const hz_pass_info *
     glBindVertexArray(0);
     glUseProgram(0);
     glBindBuffer(GL_ARRAY_BUFFER, 0);
+    if (pass->sun_heights_tex) {
+        glActiveTexture(GL_TEXTURE0 + SUNH_UNIT);
+        glBindTexture(GL_TEXTURE_2D, 0);
+        glActiveTexture(GL_TEXTURE0);
+    }
     return hz_gl_check(err, "scene draw");
 }
 

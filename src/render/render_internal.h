@@ -177,6 +177,9 @@ struct hz_renderer {
     uint8_t *detail_cpu;            /* the packed detail texture (R grass, G rock, B snow, A sand) */
     vec3 lightmap_sun;
     float lm_xform[2];
+    GLuint sunh_tex;      /* hz_renderer_set_sun_heights, 0: none */
+    vec3 sunh_sun;
+    vec4 sunh_map;
     /* billboards and weather */
     prog_cache bb;
     const prog_variant *bb_cur;
@@ -249,6 +252,7 @@ hz_result fx_ground_ensure(hz_renderer *r, hz_err *err);
 void fx_ground_bind(hz_renderer *r);
 void fx_ground_destroy(hz_renderer *r);
 bool fx_lightmap_matches(const hz_renderer *r, const vec3 sun);
+bool fx_sun_heights_match(const hz_renderer *r, const vec3 sun);
 
 /* ---- fx_sky.c: sky dome, clouds, sun query, lens flare ---- */
 hz_result fx_sky_ensure(hz_renderer *r, const fx_frame *f, hz_err *err);

@@ -572,6 +572,11 @@ static void draw_objects(hz_renderer *r, const fx_frame *f, const fx_view *v)
             pi.fog_far[0] = 0.8f * f->zfar;
             pi.fog_far[1] = f->zfar;
         }
+        if ((f->bits & HZ_FX_SHADOWS) && fx_sun_heights_match(r, sp->sun_dir)) {
+            pi.sun_heights_tex = r->sunh_tex;
+            glm_vec4_copy(r->sunh_map, pi.sun_heights_map);
+            pi.sun_heights_spacing = r->spacing;
+        }
         glEnable(GL_DEPTH_TEST);
         glDepthFunc(GL_GREATER);
         glDepthMask(GL_TRUE);

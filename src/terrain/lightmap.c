@@ -44,6 +44,8 @@ typedef struct sweep {
     float ambient;
     bool shadows;
     const float *casters;  /* hz_lightmap_desc.casters */
+    float *sun_heights;    /* hz_lightmap_desc.sun_heights over sun_rect, or NULL */
+    uint32_t rect[4];
     bool major_x;          /* lines are columns (i const) when the sun is mostly along x */
     int dir;               /* +1: the sun is toward increasing major coordinate */
     float r, rise;
@@ -168,6 +170,21 @@ static void *run_band(void *arg)
         }
         for (uint32_t q = qb > qa ? qb : qa; q < q1; q++)
             cur[q] = mid[q], shade[q] = 0;
+        /* The sun heights are the shadow surface before this line's own
+         * casters raise it. */
+        if (sw->sun_heights) {
+            const uint32_t *R = sw->rect;
+            const uint32_t m0 = sw->major_x ? R[0] : R[1], mn = sw->major_x ? R[2] : R[3];
+            const uint32_t n0 = sw->major_x ? R[1] : R[0], nn = sw->major_x ? R[3] : R[2];
+            if (m >= m0 && m < m0 + mn) {
+                const uint32_t a0 = q0 > n0 ? q0 : n0, a1 = q1 < n0 + nn ? q1 : n0 + nn;
+                for (uint32_t q = a0; q < a1; q++) {
+                    const size_t at = sw->major_x ? (size_t)(q - n0) * R[2] + (m - m0)
+                                                  : (size_t)(m - m0) * R[2] + (q - n0);
+                    sw->sun_heights[at] = cur[q];
+                }
+            }
+        }
         /* Objects standing on a sample raise the shadow surface the next
          * lines see (not the sample's own shading). */
         if (sw->casters && sw->shadows)
@@ -272,6 +289,16 @@ hz_result hz_lightmap_build(const hz_lightmap_desc *d, uint8_t *out, hz_lightmap
     const float horiz = fmaxf(fabsf(sx), fabsf(sz));
     sw->shadows = !d->no_shadows && sy > 0.0f && horiz > 1e-6f;
     sw->casters = d->casters;
+    if (d->sun_heights) {
+        const uint32_t *R = d->sun_rect;
+        if (!R[2] || !R[3] || R[0] >= n || R[1] >= n || R[2] > n - R[0] || R[3] > n - R[1]) {
+            free(sw);
+            return hz_err_set(err, HZ_ERR_VALUE, "lightmap: sun height rectangle %u,%u %ux%u is empty or leaves "
+                              "the %u x %u map", R[0], R[1], R[2], R[3], n, n);
+        }
+        sw->sun_heights = d->sun_heights;
+        memcpy(sw->rect, R, sizeof sw->rect);
+    }
     sw->major_x = fabsf(sx) >= fabsf(sz);
     const float smaj = sw->major_x ? sx : sz, smin = sw->major_x ? sz : sx;
     sw->dir = smaj > 0.0f ? 1 : -1;

@@ -128,6 +128,68 @@ expect_fail "scene crs without georef" "nodes\[0\].crs: needs a terrain with a g
   $R --generate perlin --size 257 --scene "$TMP/crsnogeo.json"
 expect_fail "--city-bench without objects" "need --city or --scene" $R --generate perlin --size 257 --city-bench street
 
+# ---- shadows on the objects' faces: a 60 m block east of a 10 m box, the sun
+# in the east 30 degrees up. The box's east face (at the image centre) is in
+# the block's shade; with the block far away the same face is in the sun (so
+# the box does not shade itself).
+for bx in 530 900; do
+  cat > "$TMP/shade_$bx.json" <<EOF
+{"terrain": {"generate": "perlin", "size": 129, "seed": 1, "amplitude": 1, "spacing": 10},
+ "lights": {"sun": [90, 30]},
+ "materials": {"white": {"color": [0.8, 0.8, 0.8]}},
+ "models": {"a": {"box": [10, 10, 10], "material": "white"}, "b": {"box": [10, 60, 30], "material": "white"}},
+ "nodes": [{"name": "A", "model": "a", "position": [500, 0, 500], "clamp": "ground"},
+           {"name": "B", "model": "b", "position": [$bx, 0, 500], "clamp": "ground"}]}
+EOF
+done
+V="--width 320 --height 180 --camera 540,15,440,210.3,-8.2 --pick 160,90 --json"
+j1=$($HZ render --quiet --effects shadows --scene "$TMP/shade_530.json" $V --out "$TMP/shade_530.png"); r1=$?
+j2=$($HZ render --quiet --effects shadows --scene "$TMP/shade_900.json" $V --out "$TMP/shade_900.png"); r2=$?
+if [ $r1 -eq 0 ] && [ $r2 -eq 0 ] && python3 - "$j1" "$j2" "$TMP" "$(dirname "$0")" <<'PY'
+import json, sys
+sys.path.insert(0, sys.argv[4])
+import pngstat
+for s in sys.argv[1:3]:
+    assert json.loads(s)['pick']['node'] == 'A', s
+def lum(path):
+    w, h, rows = pngstat.read(path)
+    px = [rows[y][x] for y in range(86, 95) for x in range(156, 165)]  # the box's east face
+    return sum(0.299 * r + 0.587 * g + 0.114 * b for r, g, b in px) / len(px)
+shade, sun = lum(sys.argv[3] + "/shade_530.png"), lum(sys.argv[3] + "/shade_900.png")
+print("east face: %.1f in the block's shade, %.1f in the sun" % (shade, sun), file=sys.stderr)
+assert sun > 1.6 * shade, (shade, sun)
+PY
+then ok "a block's shade falls on the box's face; alone the face is in the sun"
+else bad "shadows on faces (exit $r1 $r2)"; fi
+
+# A tall box alone under a low north-east sun: its sunlit north face is not
+# shaded by the box's own samples (which its roof raises): it looks as
+# without shadows. (Looked up in place instead of one sample outward, the
+# face's lower half falls into the box's own shade.)
+cat > "$TMP/alone.json" <<'EOF'
+{"terrain": {"generate": "perlin", "size": 129, "seed": 1, "amplitude": 1, "spacing": 10},
+ "lights": {"sun": [60, 10]},
+ "materials": {"white": {"color": [0.8, 0.8, 0.8]}},
+ "models": {"a": {"box": [30, 40, 30], "material": "white"}},
+ "nodes": [{"name": "A", "model": "a", "position": [500, 0, 500], "clamp": "ground"}]}
+EOF
+V="--width 320 --height 180 --camera 500,6,430,180,-2"
+if $HZ render --quiet --effects shadows --scene "$TMP/alone.json" $V --out "$TMP/alone_sh.png" >/dev/null &&
+   $HZ render --quiet --effects none --scene "$TMP/alone.json" $V --out "$TMP/alone_none.png" >/dev/null &&
+   python3 - "$TMP" "$(dirname "$0")" <<'PY'
+import sys
+sys.path.insert(0, sys.argv[2])
+import pngstat
+def lum(path):
+    w, h, rows = pngstat.read(path)
+    px = [rows[y][x] for y in range(85, 96) for x in range(150, 170)]  # the north face
+    return sum(0.299 * r + 0.587 * g + 0.114 * b for r, g, b in px) / len(px)
+a, b = lum(sys.argv[1] + "/alone_sh.png"), lum(sys.argv[1] + "/alone_none.png")
+print("north face alone: %.1f with shadows, %.1f without" % (a, b), file=sys.stderr)
+assert abs(a - b) <= 0.03 * b, (a, b)
+PY
+then ok "an object does not shade its own sunlit face"; else bad "self-shading of a face"; fi
+
 # ---- refusals
 printf '{"type":"CityJSON","version":"2.0","CityObjects":{},"vertices":[]}' > "$TMP/notransform.city.json"
 expect_fail "city without transform"  "transform: missing"       $R --city "$TMP/notransform.city.json"

@@ -137,6 +137,75 @@ static void test_casters_shadow(void **state)
     hz_heightmap_destroy(&hm);
 }
 
+/* Sun heights over a rectangle: the 3 x 3 block of test_casters_shadow, sun
+ * in the east 30 degrees up, spacing 1 m. West of the block, on its rows, a
+ * point is in shade below 10 - d tan(30) at d metres from its west column
+ * (the ground when that is lower); the block's own samples see only the
+ * block's columns east of them (its sunward column: the ground); other rows
+ * and the east side: the ground. The light map bytes do not change. */
+static void test_sun_heights(void **state)
+{
+    (void)state;
+    const uint32_t n = 129;
+    hz_heightmap hm;
+    make_hm(&hm, n, HZ_LAYOUT_LINEAR, flat, NULL);
+    uint8_t *lm = malloc(hz_lightmap_bound(&hm)), *ref = malloc(hz_lightmap_bound(&hm));
+    float *top = malloc((size_t)n * n * sizeof *top);
+    const uint32_t rect[4] = {40, 55, 40, 15};
+    float *sh = malloc((size_t)rect[2] * rect[3] * sizeof *sh);
+    assert_true(lm && ref && top && sh);
+    for (size_t k = 0; k < (size_t)n * n; k++)
+        top[k] = -INFINITY;
+    for (uint32_t j = 60; j <= 62; j++)
+        for (uint32_t i = 64; i <= 66; i++)
+            top[(size_t)j * n + i] = 10.0f;
+    const float t30 = tanf(glm_rad(30.0f));
+    for (int t = 1; t <= 2; t++) {
+        hz_lightmap_desc d = {.hm = &hm, .spacing = 1.0f, .ambient = 0.3f, .threads = (uint32_t)t, .casters = top};
+        hz_sun_direction(90.0f, 30.0f, d.sun_dir);
+        assert_int_equal(hz_lightmap_build(&d, ref, NULL, NULL), HZ_OK);
+        d.sun_heights = sh;
+        memcpy(d.sun_rect, rect, sizeof rect);
+        for (size_t k = 0; k < (size_t)rect[2] * rect[3]; k++)
+            sh[k] = NAN;
+        assert_int_equal(hz_lightmap_build(&d, lm, NULL, NULL), HZ_OK);
+        assert_memory_equal(lm, ref, hz_lightmap_bound(&hm));
+        for (uint32_t j = rect[1]; j < rect[1] + rect[3]; j++)
+            for (uint32_t i = rect[0]; i < rect[0] + rect[2]; i++) {
+                float want = 0.0f;
+                if (j >= 60 && j <= 62 && i <= 65) {
+                    const uint32_t from = i < 64 ? 64 : i + 1; /* nearest block column east of i */
+                    want = fmaxf(10.0f - (float)(from - i) * t30, 0.0f);
+                }
+                const float got = sh[(size_t)(j - rect[1]) * rect[2] + (i - rect[0])];
+                if (!(fabsf(got - want) < 1e-4f))
+                    fail_msg("sun height at %u,%u: %g, want %g (threads %d)", i, j, (double)got, (double)want, t);
+            }
+        /* Along the other axis (sun in the north) the rectangle's layout is the same. */
+        hz_sun_direction(0.0f, 30.0f, d.sun_dir);
+        assert_int_equal(hz_lightmap_build(&d, lm, NULL, NULL), HZ_OK);
+        for (uint32_t i = 64; i <= 66; i++) {
+            /* north of the block (smaller j) is its sun side: ground; j = 61 sees the row at 60 */
+            assert_true(fabsf(sh[(size_t)(58 - rect[1]) * rect[2] + (i - rect[0])]) < 1e-4f);
+            assert_true(fabsf(sh[(size_t)(61 - rect[1]) * rect[2] + (i - rect[0])] - (10.0f - t30)) < 1e-4f);
+            assert_true(fabsf(sh[(size_t)(64 - rect[1]) * rect[2] + (i - rect[0])] - (10.0f - 2 * t30)) < 1e-4f);
+        }
+    }
+    /* A rectangle leaving the map is refused. */
+    hz_err err = {0};
+    hz_lightmap_desc d = {.hm = &hm, .spacing = 1.0f, .sun_dir = {1, 1, 0}, .sun_heights = sh,
+                          .sun_rect = {100, 0, 30, 10}};
+    assert_int_equal(hz_lightmap_build(&d, lm, NULL, &err), HZ_ERR_VALUE);
+    assert_non_null(strstr(err.msg, "rectangle"));
+    d.sun_rect[0] = 0, d.sun_rect[2] = 0;
+    assert_int_equal(hz_lightmap_build(&d, lm, NULL, &err), HZ_ERR_VALUE);
+    free(lm);
+    free(ref);
+    free(top);
+    free(sh);
+    hz_heightmap_destroy(&hm);
+}
+
 static float wall_z(uint32_t i, uint32_t j, void *u)
 {
     (void)i, (void)u;
@@ -455,6 +524,7 @@ int main(void)
         cmocka_unit_test(test_wall_shadow_length),
         cmocka_unit_test(test_wall_north_sun),
         cmocka_unit_test(test_casters_shadow),
+        cmocka_unit_test(test_sun_heights),
         cmocka_unit_test(test_matches_ray_march),
         cmocka_unit_test(test_threads_and_layouts_identical),
         cmocka_unit_test(test_special_suns),
