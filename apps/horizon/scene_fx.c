@@ -341,6 +341,9 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
             }
             a->trees = kept;
         }
+        /* None inside the buildings. */
+        if (!err.msg[0] && a->casters)
+            a->trees = hz_billboards_clear_of(trees, a->trees, a->casters, t->hm.size, t->spacing);
         if (err.msg[0] || hz_renderer_set_billboards(r, trees, a->trees, &err) != HZ_OK) {
             free(trees);
             fprintf(stderr, "horizon %s: trees: %s\n", cmd, err.msg);

@@ -104,6 +104,14 @@ typedef struct hz_bb_batch {
 size_t hz_billboards_cull(const hz_billboard *in, size_t n, const hz_camera *cam, float max_dist,
                           hz_billboard *out, size_t cap);
 
+/* Keeps, in order, the axial (tree) billboards that stand clear of the
+ * objects: no sample within half the billboard's width (at least one
+ * sample spacing) of its foot has an object on it. tops: size * size
+ * (index = j * size + i; sample (i, j) at (i, j) * spacing metres), the top
+ * of an object standing on the sample or -INFINITY / NAN where none (as
+ * hz_lightmap_desc.casters). Returns how many are kept (at the front of b). */
+size_t hz_billboards_clear_of(hz_billboard *b, size_t n, const float *tops, uint32_t size, float spacing);
+
 /* Scratch bytes hz_billboards_sort and hz_billboards_batch need for n. */
 size_t hz_billboards_scratch_bytes(size_t n);
 

@@ -501,12 +501,39 @@ static void test_trees_and_water(void **state)
     hz_heightmap_destroy(&no_sea);
 }
 
+/* Trees clear of the buildings: an 8 m block on samples 10..12 of a 5 m
+ * grid drops the trees standing in it, beside it within a sample, or whose
+ * crown reaches over it; the rest keep their order. */
+static void test_billboards_clear_of(void **state)
+{
+    (void)state;
+    enum { N = 32 };
+    float tops[N * N];
+    for (int k = 0; k < N * N; k++)
+        tops[k] = -INFINITY;
+    for (int j = 10; j <= 12; j++)
+        for (int i = 10; i <= 12; i++)
+            tops[j * N + i] = 8.0f;
+    tops[3] = NAN; /* none */
+    const float x[6] = {55, 63, 80, 80, -100, 15}, w[6] = {4, 4, 4, 50, 4, 4};
+    hz_billboard b[6];
+    for (int k = 0; k < 6; k++)
+        b[k] = (hz_billboard){.pos = {x[k], 0, k == 5 ? 0.0f : 55.0f}, .width = w[k], .axis = {0, 10, 0},
+                              .texture = (uint16_t)k};
+    assert_int_equal(hz_billboards_clear_of(b, 6, tops, N, 5.0f), 3);
+    assert_int_equal(b[0].texture, 2); /* 4 samples east of the block, 2 m crown */
+    assert_int_equal(b[1].texture, 4); /* off the grid */
+    assert_int_equal(b[2].texture, 5); /* on the NAN sample's row */
+    assert_int_equal(hz_billboards_clear_of(b, 3, NULL, N, 5.0f), 3);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_parse),
         cmocka_unit_test(test_settings_defaults),
         cmocka_unit_test(test_cull),
+        cmocka_unit_test(test_billboards_clear_of),
         cmocka_unit_test(test_sort_back_to_front),
         cmocka_unit_test(test_field_cull_matches_brute_force),
         cmocka_unit_test(test_weather),
