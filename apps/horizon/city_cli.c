@@ -730,6 +730,7 @@ void city_app_print(const city_app *a, json_t *json)
             jx_set(o, "file_crs", jx_str(c->crs));
             jx_set(o, "buildings", jx_int(c->buildings));
             jx_set(o, "objects", jx_int(c->obj_count));
+            jx_set(o, "geometry_instances", jx_int(c->instances));
             jx_set(o, "faces", jx_int((long long)c->faces));
             jx_set(o, "triangles", jx_int((long long)a->placed.triangles));
             jx_set(o, "load_ms", jx_fix(c->load_ms, 1));
@@ -760,9 +761,11 @@ void city_app_print(const city_app *a, json_t *json)
         return;
     }
     if (c) {
-        printf("city          %u buildings (%s, %llu faces -> %llu triangles), loaded in %.0f ms\n", c->buildings,
-               c->crs[0] ? c->crs : "no CRS", (unsigned long long)c->faces, (unsigned long long)a->placed.triangles,
-               c->load_ms);
+        printf("city          %u buildings (%s, %llu faces -> %llu triangles", c->buildings,
+               c->crs[0] ? c->crs : "no CRS", (unsigned long long)c->faces, (unsigned long long)a->placed.triangles);
+        if (c->instances)
+            printf(", %u geometry instances", c->instances);
+        printf("), loaded in %.0f ms\n", c->load_ms);
         printf("city ground   %u clamped (mean move %.2f m, max %.2f m), %u without ground under them\n",
                a->placed.clamped, a->placed.mean_shift, a->placed.max_shift, a->placed.outside);
     }

@@ -4,7 +4,10 @@
  *
  * What is read: every CityObject's geometry of the highest LoD (or the one
  * asked for): Solid, MultiSolid, CompositeSolid, MultiSurface,
- * CompositeSurface; vertices dequantised with `transform` (required, as in
+ * CompositeSurface, and GeometryInstance (a geometry template's real
+ * vertices transformed by its row-major transformationMatrix and moved to
+ * its reference point, which here become vertices of the city like the
+ * rest); vertices dequantised with `transform` (required, as in
  * CityJSON 2.0); the CRS from metadata.referenceSystem (an OGC CRS URL or
  * URN or "EPSG:n"), checked by PROJ; semantic surfaces (RoofSurface,
  * WallSurface, GroundSurface...) when present, else each triangle is a
@@ -49,6 +52,7 @@ typedef struct hz_city {
     uint32_t terrain_objects;
     uint64_t faces;
     bool semantics;       /* some surface kinds came from semantics */
+    uint32_t instances;   /* GeometryInstances read (their template's vertices are appended to verts) */
     char crs[64];         /* "EPSG:32734", "" when the file has none */
     char version[16];
     double extent[6];     /* min x, y, z, max x, y, z of the vertices used */

@@ -26,6 +26,16 @@ typedef struct loader {
     uint32_t rs_cap;
     uint32_t *tbuf;
     uint32_t tbuf_cap;
+    /* ring indices address c->verts[vbase + i], i < vcount: the file's
+     * vertices, or an instance's transformed template vertices */
+    uint32_t vbase, vcount;
+    uint32_t vert_cap;    /* doubles allocated in c->verts */
+    json_t *templates;    /* geometry-templates.templates, or NULL */
+    double *tverts;       /* geometry-templates.vertices-templates (x, y, z each) */
+    uint32_t tvert_count;
+    uint64_t instanced;   /* vertices added by instances (bounded) */
+    uint32_t file_verts;  /* the file's own vertices (reference points index them) */
+    uint64_t instanced_tris; /* triangles made by instances (bounded) */
     char path[512];
 } loader;
 
@@ -176,6 +186,9 @@ static hz_result read_vertices(loader *L, json_t *root)
         }
     }
     c->vert_count = (uint32_t)n;
+    L->vert_cap = (uint32_t)((n ? n : 1) * 3);
+    L->vbase = 0;
+    L->vcount = L->file_verts = (uint32_t)n;
     /* Some writers store absolute quantised vertices and still give a
      * translate (Mamre's file: its vertices land 265 km east of its own
      * metadata.geographicalExtent with it, exactly on it without). When the
@@ -257,10 +270,10 @@ static hz_result read_surface(loader *L, json_t *surf, int kind, hz_city_object 
         for (size_t k = 0; k < m; k++) {
             json_t *q = json_array_get(ring, k);
             json_int_t ix = json_is_integer(q) ? json_integer_value(q) : -1;
-            if (ix < 0 || ix >= (json_int_t)c->vert_count)
+            if (ix < 0 || ix >= (json_int_t)L->vcount)
                 return fail(L, HZ_ERR_FORMAT, "ring %zu, entry %zu: vertex %s%lld out of range (%u vertices)", r, k,
-                            json_is_integer(q) ? "" : "(not an integer) ", (long long)ix, c->vert_count);
-            memcpy(L->pts + 3 * (total + k), c->verts + 3 * ix, 3 * sizeof(double));
+                            json_is_integer(q) ? "" : "(not an integer) ", (long long)ix, L->vcount);
+            memcpy(L->pts + 3 * (total + k), c->verts + 3 * (L->vbase + (uint32_t)ix), 3 * sizeof(double));
         }
         total += m;
         L->rs[r + 1] = (uint32_t)total;
@@ -290,7 +303,7 @@ static hz_result read_surface(loader *L, json_t *surf, int kind, hz_city_object 
     for (size_t r = 0, q = 0; r < nr; r++) {
         json_t *ring = json_array_get(surf, r);
         for (size_t k = 0; k < json_array_size(ring); k++)
-            fileix[q++] = (uint32_t)json_integer_value(json_array_get(ring, k));
+            fileix[q++] = L->vbase + (uint32_t)json_integer_value(json_array_get(ring, k));
     }
     for (int t = 0; t < nt; t++) {
         uint32_t *d = c->tris + 3 * (base + (uint32_t)t);
@@ -356,6 +369,101 @@ static float lod_value(json_t *g)
     return -1;
 }
 
+/* The template a GeometryInstance g names (checked). */
+static hz_result instance_template(loader *L, json_t *g, json_t **tmpl)
+{
+    json_t *t = json_object_get(g, "template");
+    const size_t nt = L->templates ? json_array_size(L->templates) : 0;
+    if (!json_is_integer(t) || json_integer_value(t) < 0 || (size_t)json_integer_value(t) >= nt)
+        return fail(L, HZ_ERR_FORMAT, "template: %s (%zu geometry templates)",
+                    json_is_integer(t) ? "out of range" : "missing or not an integer", nt);
+    *tmpl = json_array_get(L->templates, (size_t)json_integer_value(t));
+    if (!json_is_object(*tmpl))
+        return fail(L, HZ_ERR_FORMAT, "template %lld is not a geometry", (long long)json_integer_value(t));
+    return HZ_OK;
+}
+
+/* A GeometryInstance: its template's vertices, transformed by the
+ * row-major 4 x 4 transformationMatrix and moved to the reference point
+ * (boundaries[0], a vertex of the file), are appended to the city's
+ * vertices; the template's rings then address them (L->vbase). */
+static hz_result instance_vertices(loader *L, json_t *g, json_t **tmpl)
+{
+    hz_city *c = L->c;
+    hz_result r = instance_template(L, g, tmpl);
+    if (r != HZ_OK)
+        return r;
+    json_t *b = json_object_get(g, "boundaries");
+    json_t *ref = json_array_get(b, 0);
+    if (!json_is_array(b) || json_array_size(b) != 1 || !json_is_integer(ref) || json_integer_value(ref) < 0 ||
+        json_integer_value(ref) >= (json_int_t)L->file_verts)
+        return fail(L, HZ_ERR_FORMAT, "boundaries: must be [the reference point's vertex index] (%u vertices)",
+                    L->file_verts);
+    json_t *mj = json_object_get(g, "transformationMatrix");
+    double m[16];
+    if (!json_is_array(mj) || json_array_size(mj) != 16)
+        return fail(L, HZ_ERR_FORMAT, "transformationMatrix: missing or not 16 numbers");
+    for (size_t k = 0; k < 16; k++) {
+        json_t *q = json_array_get(mj, k);
+        if (!json_is_number(q) || !isfinite(m[k] = json_number_value(q)))
+            return fail(L, HZ_ERR_FORMAT, "transformationMatrix[%zu]: not a finite number", k);
+    }
+    if (!L->tvert_count)
+        return fail(L, HZ_ERR_FORMAT, "geometry-templates.vertices-templates: missing or empty");
+    const uint64_t limit = 8u << 20; /* 192 MB of vertices */
+    if (L->instanced + L->tvert_count > limit)
+        return fail(L, HZ_ERR_VALUE, "geometry instances add more than %llu vertices", (unsigned long long)limit);
+    if (!reserve((void **)&c->verts, &L->vert_cap, 3 * ((uint64_t)c->vert_count + L->tvert_count),
+                  sizeof *c->verts))
+        return fail(L, HZ_ERR_MEMORY, "out of memory for the instance's %u vertices", L->tvert_count);
+    const double *p0 = c->verts + 3 * (size_t)json_integer_value(ref);
+    const double px = p0[0], py = p0[1], pz = p0[2];
+    double *d = c->verts + 3 * (size_t)c->vert_count;
+    for (uint32_t v = 0; v < L->tvert_count; v++) {
+        const double *t = L->tverts + 3 * (size_t)v;
+        d[3 * v + 0] = m[0] * t[0] + m[1] * t[1] + m[2] * t[2] + m[3] + px;
+        d[3 * v + 1] = m[4] * t[0] + m[5] * t[1] + m[6] * t[2] + m[7] + py;
+        d[3 * v + 2] = m[8] * t[0] + m[9] * t[1] + m[10] * t[2] + m[11] + pz;
+    }
+    L->vbase = c->vert_count;
+    L->vcount = L->tvert_count;
+    c->vert_count += L->tvert_count;
+    L->instanced += L->tvert_count;
+    c->instances++;
+    return HZ_OK;
+}
+
+/* geometry-templates: the templates and their vertices (real coordinates,
+ * not quantised). Optional. */
+static hz_result read_templates(loader *L, json_t *root)
+{
+    json_t *gt = json_object_get(root, "geometry-templates");
+    if (!gt)
+        return HZ_OK;
+    snprintf(L->path, sizeof L->path, "geometry-templates");
+    json_t *t = json_object_get(gt, "templates"), *v = json_object_get(gt, "vertices-templates");
+    if (!json_is_object(gt) || !json_is_array(t) || !json_is_array(v))
+        return fail(L, HZ_ERR_FORMAT, "needs the arrays templates and vertices-templates");
+    const size_t n = json_array_size(v);
+    if (n > (1u << 20))
+        return fail(L, HZ_ERR_VALUE, "%zu template vertices is too many (at most 1 M)", n);
+    L->tverts = malloc((n ? n : 1) * 3 * sizeof *L->tverts);
+    if (!L->tverts)
+        return fail(L, HZ_ERR_MEMORY, "out of memory for %zu template vertices", n);
+    for (size_t i = 0; i < n; i++) {
+        double p[3];
+        if (!get3(json_array_get(v, i), p)) {
+            snprintf(L->path, sizeof L->path, "geometry-templates.vertices-templates[%zu]", i);
+            return fail(L, HZ_ERR_FORMAT, "not three finite numbers");
+        }
+        memcpy(L->tverts + 3 * i, p, sizeof p);
+    }
+    L->tvert_count = (uint32_t)n;
+    L->templates = t;
+    L->path[0] = 0;
+    return HZ_OK;
+}
+
 static hz_result read_object(loader *L, const char *key, json_t *obj, float want_lod)
 {
     hz_city *c = L->c;
@@ -381,15 +489,25 @@ static hz_result read_object(loader *L, const char *key, json_t *obj, float want
         return HZ_OK;
     if (!json_is_array(geoms))
         return fail(L, HZ_ERR_FORMAT, "geometry: not an array");
-    /* The geometry to read: the asked LoD, else the highest. */
+    /* The geometry to read: the asked LoD, else the highest. A
+     * GeometryInstance counts with its template's LoD. */
     size_t pick = SIZE_MAX;
     float best = -1;
+    const size_t plen = strlen(L->path);
     for (size_t g = 0; g < json_array_size(geoms); g++) {
         json_t *gg = json_array_get(geoms, g);
         json_t *gt = json_object_get(gg, "type");
-        if (!json_is_string(gt) || !strcmp(json_string_value(gt), "GeometryInstance"))
+        if (!json_is_string(gt))
             continue;
-        float l = lod_value(gg);
+        json_t *shape = gg;
+        if (!strcmp(json_string_value(gt), "GeometryInstance")) {
+            snprintf(L->path + plen, sizeof L->path - plen, ".geometry[%zu]", g);
+            hz_result r = instance_template(L, gg, &shape);
+            if (r != HZ_OK)
+                return r;
+            L->path[plen] = 0;
+        }
+        float l = lod_value(shape);
         if (want_lod > 0 ? fabsf(l - want_lod) < 1e-3f : l > best) {
             best = l;
             pick = g;
@@ -400,25 +518,45 @@ static hz_result read_object(loader *L, const char *key, json_t *obj, float want
     if (pick == SIZE_MAX)
         return HZ_OK;
     json_t *g = json_array_get(geoms, pick);
-    const char *gt = json_string_value(json_object_get(g, "type"));
+    json_t *shape = g; /* what holds the boundaries: the geometry or its template */
+    const bool inst = !strcmp(json_string_value(json_object_get(g, "type")), "GeometryInstance");
+    if (inst) {
+        snprintf(L->path + plen, sizeof L->path - plen, ".geometry[%zu]", pick);
+        hz_result r = instance_vertices(L, g, &shape);
+        if (r != HZ_OK)
+            return r;
+    }
+    json_t *st = json_object_get(shape, "type");
+    const char *gt = json_is_string(st) ? json_string_value(st) : "";
     int depth = !strcmp(gt, "MultiSurface") || !strcmp(gt, "CompositeSurface") ? 1
                 : !strcmp(gt, "Solid")                                         ? 2
                 : !strcmp(gt, "MultiSolid") || !strcmp(gt, "CompositeSolid")  ? 3
                                                                                 : 0;
-    if (!depth)
+    if (!depth) {
+        L->vbase = 0, L->vcount = L->file_verts;
         return HZ_OK; /* points and lines: nothing to draw */
+    }
     o->lod = best;
-    json_t *sem = json_object_get(g, "semantics");
+    json_t *sem = json_object_get(shape, "semantics");
     json_t *surfaces = sem ? json_object_get(sem, "surfaces") : NULL;
     json_t *values = sem ? json_object_get(sem, "values") : NULL;
+    if (inst) /* errors in the template's boundaries name the template */
+        snprintf(L->path, sizeof L->path, "geometry-templates.templates[%lld]",
+                 (long long)json_integer_value(json_object_get(g, "template")));
+    else
+        snprintf(L->path + plen, sizeof L->path - plen, ".geometry[%zu]", pick);
     if (sem && (!json_is_array(surfaces) || !json_is_array(values))) {
-        snprintf(L->path + strlen(L->path), sizeof L->path - strlen(L->path), ".geometry[%zu].semantics", pick);
+        snprintf(L->path + strlen(L->path), sizeof L->path - strlen(L->path), ".semantics");
         return fail(L, HZ_ERR_FORMAT, "needs the arrays surfaces and values");
     }
-    snprintf(L->path + strlen(L->path), sizeof L->path - strlen(L->path), ".geometry[%zu].boundaries", pick);
-    hz_result r = read_nested(L, json_object_get(g, "boundaries"), values, surfaces, depth, o);
+    snprintf(L->path + strlen(L->path), sizeof L->path - strlen(L->path), ".boundaries");
+    hz_result r = read_nested(L, json_object_get(shape, "boundaries"), values, surfaces, depth, o);
+    L->vbase = 0, L->vcount = L->file_verts;
     if (r != HZ_OK)
         return r;
+    /* A small instance may repeat a big template: bounded like the vertices. */
+    if (inst && (L->instanced_tris += o->tri_count) > (16u << 20))
+        return fail(L, HZ_ERR_VALUE, "geometry instances make more than %u triangles", 16u << 20);
     if (o->terrain && o->tri_count)
         c->terrain_objects++;
     else if (o->tri_count && (!strcmp(o->type, "Building") || !strcmp(o->type, "BuildingPart")))
@@ -450,7 +588,8 @@ hz_city *hz_city_load_memory(const char *data, size_t size, const char *name, co
     }
     json_t *ver = json_object_get(root, "version");
     snprintf(c->version, sizeof c->version, "%s", json_is_string(ver) ? json_string_value(ver) : "?");
-    if ((r = read_vertices(&L, root)) != HZ_OK || (r = read_crs(&L, root)) != HZ_OK)
+    if ((r = read_vertices(&L, root)) != HZ_OK || (r = read_crs(&L, root)) != HZ_OK ||
+        (r = read_templates(&L, root)) != HZ_OK)
         goto out;
     json_t *objs = json_object_get(root, "CityObjects");
     if (!json_is_object(objs)) {
@@ -490,6 +629,7 @@ out:
     free(L.pts);
     free(L.rs);
     free(L.tbuf);
+    free(L.tverts);
     if (r != HZ_OK) {
         hz_city_destroy(c);
         return NULL;

@@ -136,6 +136,79 @@ static void test_refusals(void **state)
     assert_int_equal(err.code, HZ_ERR_IO);
 }
 
+/* GeometryInstance: a 1 m cube template (Solid, LoD 2) placed twice, at
+ * reference points 50 m apart: scaled by 2 and shifted 1 m east, and turned
+ * 90 degrees about z. Each object's triangles span the transformed cube. */
+#define TEMPLATE_CITY(tmpl_index, matrix, ref, tverts)                                                           \
+    "{\"type\":\"CityJSON\",\"version\":\"2.0\"," TRANSFORM "\"metadata\":{\"referenceSystem\":\"" CRS32734 "\"}," \
+    "\"geometry-templates\":{\"templates\":[{\"type\":\"Solid\",\"lod\":\"2\",\"boundaries\":[[[[0,3,2,1]],"        \
+    "[[4,5,6,7]],[[0,1,5,4]],[[1,2,6,5]],[[2,3,7,6]],[[3,0,4,7]]]]}],\"vertices-templates\":" tverts "},"          \
+    "\"CityObjects\":{\"a\":{\"type\":\"Building\",\"geometry\":[{\"type\":\"GeometryInstance\",\"template\":"     \
+    tmpl_index ",\"boundaries\":[" ref "],\"transformationMatrix\":" matrix "}]},"                                \
+    "\"b\":{\"type\":\"Building\",\"geometry\":[{\"type\":\"GeometryInstance\",\"template\":0,"                   \
+    "\"boundaries\":[1],\"transformationMatrix\":[0,-1,0,0, 1,0,0,0, 0,0,1,0, 0,0,0,1]}]}},"                      \
+    "\"vertices\":[[0,0,0],[5000,0,0]]}"
+#define UNIT_CUBE "[[0,0,0],[1,0,0],[1,1,0],[0,1,0],[0,0,1],[1,0,1],[1,1,1],[0,1,1]]"
+#define SCALE2 "[2,0,0,1, 0,2,0,0, 0,0,2,0, 0,0,0,1]"
+
+static void object_bounds(const hz_city *c, const hz_city_object *o, double lo[3], double hi[3])
+{
+    for (int k = 0; k < 3; k++)
+        lo[k] = 1e300, hi[k] = -1e300;
+    for (uint32_t t = o->first_tri; t < o->first_tri + o->tri_count; t++)
+        for (int v = 0; v < 3; v++)
+            for (int k = 0; k < 3; k++) {
+                const double x = c->verts[3 * c->tris[3 * t + v] + k];
+                lo[k] = fmin(lo[k], x);
+                hi[k] = fmax(hi[k], x);
+            }
+}
+
+static void test_geometry_instance(void **state)
+{
+    (void)state;
+    const char *json = TEMPLATE_CITY("0", SCALE2, "0", UNIT_CUBE);
+    hz_err err = {0};
+    hz_city *c = hz_city_load_memory(json, strlen(json), "inst", NULL, &err);
+    if (!c)
+        fail_msg("%s", err.msg);
+    assert_int_equal(c->instances, 2);
+    assert_int_equal(c->buildings, 2);
+    assert_int_equal(c->tri_count, 24);
+    assert_int_equal(c->vert_count, 2 + 16);
+    const hz_city_object *a = NULL, *b = NULL;
+    for (uint32_t k = 0; k < c->obj_count; k++)
+        if (!strcmp(c->obj[k].id, "a"))
+            a = &c->obj[k];
+        else if (!strcmp(c->obj[k].id, "b"))
+            b = &c->obj[k];
+    assert_true(a && b && a->tri_count == 12 && b->tri_count == 12);
+    assert_true(fabs(a->lod - 2.0f) < 1e-6);
+    double lo[3], hi[3];
+    object_bounds(c, a, lo, hi); /* reference (265000, 6289000, 150); 2x, +1 m in x */
+    const double wa[6] = {265001, 6289000, 150, 265003, 6289002, 152};
+    for (int k = 0; k < 3; k++)
+        assert_true(fabs(lo[k] - wa[k]) < 1e-6 && fabs(hi[k] - wa[3 + k]) < 1e-6);
+    object_bounds(c, b, lo, hi); /* reference 50 m east; x' = -y, y' = x */
+    const double wb[6] = {265049, 6289000, 150, 265050, 6289001, 151};
+    for (int k = 0; k < 3; k++)
+        assert_true(fabs(lo[k] - wb[k]) < 1e-6 && fabs(hi[k] - wb[3 + k]) < 1e-6);
+    /* Roofs and walls by normal, turned with the template: 1 m^2 roof each (2 x 2 = 4 for a). */
+    double roof = 0;
+    for (uint32_t t = 0; t < c->tri_count; t++)
+        if (c->tri_kind[t] == HZ_SURF_ROOF)
+            roof += tri_area(c, t);
+    assert_true(fabs(roof - 5.0) < 1e-9);
+    hz_city_destroy(c);
+    /* Refusals, with the path. */
+    refused(TEMPLATE_CITY("3", SCALE2, "0", UNIT_CUBE), "CityObjects.a.geometry[0]: template: out of range (1 geometry templates)");
+    refused(TEMPLATE_CITY("0", "[1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0]", "0", UNIT_CUBE), "transformationMatrix: missing or not 16 numbers");
+    refused(TEMPLATE_CITY("0", SCALE2, "7", UNIT_CUBE), "boundaries: must be [the reference point's vertex index] (2 vertices)");
+    refused(TEMPLATE_CITY("0", SCALE2, "0", "[[0,0,0],[1,0,0]]"),
+            "geometry-templates.templates[0].boundaries[0][0]: ring 0, entry 1: vertex 3 out of range (2 vertices)");
+    refused(TEMPLATE_CITY("0", SCALE2, "0", "[[0,0,\"x\"]]"), "geometry-templates.vertices-templates[0]: not three finite numbers");
+}
+
 static double poly_area(const double *pts, const uint32_t *tris, int n)
 {
     double a = 0;
@@ -365,6 +438,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_box_solid),  cmocka_unit_test(test_semantics), cmocka_unit_test(test_refusals),
+        cmocka_unit_test(test_geometry_instance),
         cmocka_unit_test(test_triangulate), cmocka_unit_test(test_mamre),  cmocka_unit_test(test_footprints),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
