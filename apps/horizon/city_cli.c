@@ -580,19 +580,25 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
         vec4 planes[6];
         hz_camera_frustum(cam, planes);
         const float reach_obj = 1500.0f;
-        uint32_t nc = 0;
-        for (uint32_t k = 0; k < a->occ_nodes; k++) {
-            hz_box b;
-            hz_scene_node_bounds(a->scene, a->occ_node[k], &b);
-            if (hz_box_vs_planes(&b, planes, 6) < 0)
+        /* The scene's hierarchical frustum culling: whole blocks out of
+         * view cost one test. */
+        const uint32_t nn = hz_scene_node_count(a->scene);
+        uint32_t nv = hz_scene_cull_curved(a->scene, cam, planes, a->occ_cand, nn + 1, NULL), nc = 0;
+        if (nv > nn + 1)
+            nv = nn + 1;
+        for (uint32_t k = 0; k < nv; k++) {
+            const uint32_t id = a->occ_cand[k], mesh = hz_scene_node_mesh(a->scene, id);
+            if (mesh == HZ_MESH_NONE || !a->mesh_quads[mesh])
                 continue;
+            hz_box b;
+            hz_scene_node_bounds(a->scene, id, &b);
             float d2 = 0;
             for (int c = 0; c < 3; c += 2) {
                 float v = fmaxf(fmaxf(b.min[c] - cam->pos[c], cam->pos[c] - b.max[c]), 0.0f);
                 d2 += v * v;
             }
             if (d2 <= reach_obj * reach_obj)
-                a->occ_cand[nc++] = a->occ_node[k];
+                a->occ_cand[nc++] = id;
         }
         hz_scene_sort_near_first(a->scene, cam->pos, a->occ_cand, nc, a->occ_cand + nc);
         for (uint32_t k = 0; k < nc; k++) {
