@@ -1,13 +1,17 @@
 #version 450 core
 // Scene objects: the material's colour, Lambert from the sun plus a sky
-// term, and the scene's fog (exponential, faded fully to the fog colour over
-// the last stretch of the view distance, as the terrain). With the light
+// term, and the scene's fog as hz_pass_info gives it: exponential, plus
+// with the fog effect the height fog (integrated along the ray) toward the
+// sky's colour behind, faded fully to it over the last stretch of the view
+// distance, as the terrain. With the light
 // map's sun heights, the sun term is shaded where the terrain or other
 // objects hide the sun.
 uniform vec3 u_color;
 uniform vec3 u_sun_dir, u_sky_horizon, u_eye;
 uniform float u_fog_density, u_ambient;
 uniform vec2 u_fog_far;
+uniform vec3 u_height_fog;       // density /m, base height, falloff (m); density 0: none
+uniform vec3 u_zenith;
 uniform sampler2D u_sun_heights; // R32F: below it a point is in shade (hz_pass_info)
 uniform vec4 u_sunh_map;         // world xz -> uv: xz * map.xy + map.zw
 uniform vec4 u_sunh;             // x: 1 = on, y: lookup step (m), z: tan(sun elevation), w: soft edge (m)
@@ -38,9 +42,22 @@ void main()
         ndl *= sun_lit(n);
     float sky = 0.5 + 0.5 * n.y;
     vec3 c = u_color * (u_ambient * (0.6 + 0.4 * sky) + (1.0 - u_ambient) * ndl * vec3(1.0, 0.97, 0.90));
-    float dist = length(u_eye - v_world);
-    float f = u_fog_density > 0.0 ? exp(-u_fog_density * dist) : 1.0;
+    vec3 d = v_world - u_eye;
+    float dist = length(d);
+    float tau = u_fog_density * dist;
+    vec3 fog_c = u_sky_horizon;
+    if (u_height_fog.x > 0.0) {
+        // (exp(-ye) - exp(-yp)) / dy: the height fog's mean density along the ray
+        float ye = max((u_eye.y - u_height_fog.y) / u_height_fog.z, -30.0);
+        float yp = max((v_world.y - u_height_fog.y) / u_height_fog.z, -30.0);
+        float dy = yp - ye;
+        float k = abs(dy) > 1e-3 ? (exp(-ye) - exp(-yp)) / dy : exp(-ye) * (1.0 - 0.5 * dy);
+        tau += u_height_fog.x * dist * k;
+        float up = max(d.y / max(dist, 1e-6), 0.0);
+        fog_c = mix(u_sky_horizon, u_zenith, (1.0 - exp(-3.0 * up)) / (1.0 - exp(-3.0)));
+    }
+    float f = exp(-tau);
     if (u_fog_far.y > u_fog_far.x)
         f *= 1.0 - smoothstep(u_fog_far.x, u_fog_far.y, dist);
-    o_color = vec4(mix(u_sky_horizon, c, f), 1.0);
+    o_color = vec4(mix(fog_c, c, f), 1.0);
 }

@@ -178,7 +178,7 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
     ren = hz_renderer_create(&(hz_renderer_desc){.width = o->width, .height = o->height}, &err);
     if (!ren || cli_renderer_setup(ren, t, o, &err) != HZ_OK)
         goto done;
-    cf = cli_forest_create(o, t);
+    cf = cli_forest_create(o, t, NULL);
     if (!cf) {
         hz_err_set(&err, HZ_ERR_VALUE, "no forest");
         goto done;

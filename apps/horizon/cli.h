@@ -197,12 +197,15 @@ typedef struct cli_forest {
     hz_forest_hook hook;
     float center[2], side;   /* where the trees stand */
     double prep_ms;          /* growing/ranking/loading the models */
+    uint32_t cleared;        /* placed trees left out because a building stands there */
 } cli_forest;
 
 /* Loads or grows (and caches) the models, places o->forest_n trees and
  * uploads them. Needs a current GL context (ranking, upload). NULL after
  * printing the error. */
-cli_forest *cli_forest_create(const cli_opts *o, const hz_terrain *t);
+/* object_tops: the city's objects as light-map casters (or NULL); no tree is
+ * planted where an object stands within its crown. */
+cli_forest *cli_forest_create(const cli_opts *o, const hz_terrain *t, const float *object_tops);
 void cli_forest_destroy(cli_forest *cf);
 /* Selects the frame's trees/nodes for cam at time now_s; false after printing. */
 bool cli_forest_update(cli_forest *cf, const cli_opts *o, const hz_camera *cam, double now_s);

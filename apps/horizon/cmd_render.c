@@ -177,7 +177,7 @@ int cmd_render(int argc, char **argv)
     uint32_t draw_count;
     cli_lod_scene(&lf, &sp, &draw_idx, &draw_count);
     if (o.forest_n) {
-        cf = cli_forest_create(&o, t);
+        cf = cli_forest_create(&o, t, ca ? ca->casters : NULL);
         if (!cf) {
             hz_err_set(&err, HZ_ERR_VALUE, "no forest");
             goto done;

@@ -1217,7 +1217,7 @@ int cmd_view(int argc, char **argv)
 
     if (v->o.forest_n) {
         draw_loading(&ld, "growing and ranking trees (cached after the first time)", 1, 1);
-        v->cf = cli_forest_create(&v->o, v->t);
+        v->cf = cli_forest_create(&v->o, v->t, v->ca ? v->ca->casters : NULL);
         if (!v->cf || cli_forest_billboards(v->cf, &v->o, v->ren))
             goto out;
     }

@@ -281,7 +281,7 @@ static float ground(void *user, float x, float z)
     return hz_terrain_height_at(user, x, z);
 }
 
-cli_forest *cli_forest_create(const cli_opts *o, const hz_terrain *t)
+cli_forest *cli_forest_create(const cli_opts *o, const hz_terrain *t, const float *object_tops)
 {
     hz_err err = {0};
     cli_forest *cf = calloc(1, sizeof *cf);
@@ -364,6 +364,20 @@ cli_forest *cli_forest_create(const cli_opts *o, const hz_terrain *t)
     if (placed < o->forest_n && !o->quiet)
         fprintf(stderr, "horizon: placed %u of %u trees (the ground around the centre is too steep or high)\n",
                 placed, o->forest_n);
+    /* None inside the city's buildings. */
+    if (object_tops) {
+        uint32_t kept = 0;
+        for (uint32_t k = 0; k < placed; k++) {
+            const hz_tree *m = cf->models[trees[k].model];
+            if (hz_ground_clear(object_tops, t->hm.size, t->spacing, trees[k].pos[0], trees[k].pos[2],
+                                m->crown_radius * trees[k].scale))
+                trees[kept++] = trees[k];
+        }
+        cf->cleared = placed - kept;
+        placed = kept;
+        if (cf->cleared && !o->quiet)
+            fprintf(stderr, "horizon: %u of the trees would stand in buildings: left out\n", cf->cleared);
+    }
 have_trees:
     cf->forest = hz_forest_create((const hz_tree *const *)cf->models, cf->model_count, trees, placed, &err);
     if (!cf->forest)

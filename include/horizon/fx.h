@@ -104,6 +104,10 @@ typedef struct hz_bb_batch {
 size_t hz_billboards_cull(const hz_billboard *in, size_t n, const hz_camera *cam, float max_dist,
                           hz_billboard *out, size_t cap);
 
+/* True when no object stands on a sample within radius (at least one
+ * sample spacing) of the ground point (x, z): tops as below. */
+bool hz_ground_clear(const float *tops, uint32_t size, float spacing, float x, float z, float radius);
+
 /* Keeps, in order, the axial (tree) billboards that stand clear of the
  * objects: no sample within half the billboard's width (at least one
  * sample spacing) of its foot has an object on it. tops: size * size

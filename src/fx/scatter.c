@@ -236,25 +236,31 @@ float hz_water_level_auto(const hz_heightmap *hm, float zscale, float fraction, 
     return level;
 }
 
+bool hz_ground_clear(const float *tops, uint32_t size, float spacing, float x, float z, float radius)
+{
+    if (!tops || !size || !(spacing > 0.0f))
+        return true;
+    const float rad = fmaxf(radius, spacing);
+    const float fi0 = floorf((x - rad) / spacing), fi1 = ceilf((x + rad) / spacing);
+    const float fj0 = floorf((z - rad) / spacing), fj1 = ceilf((z + rad) / spacing);
+    if (!(fi1 >= 0 && fj1 >= 0 && fi0 < (float)size && fj0 < (float)size))
+        return true;
+    const uint32_t i0 = (uint32_t)fmaxf(fi0, 0), i1 = (uint32_t)fminf(fi1, (float)(size - 1));
+    const uint32_t j0 = (uint32_t)fmaxf(fj0, 0), j1 = (uint32_t)fminf(fj1, (float)(size - 1));
+    for (uint32_t j = j0; j <= j1; j++)
+        for (uint32_t i = i0; i <= i1; i++)
+            if (tops[(size_t)j * size + i] > -INFINITY)
+                return false;
+    return true;
+}
+
 size_t hz_billboards_clear_of(hz_billboard *b, size_t n, const float *tops, uint32_t size, float spacing)
 {
-    if (!b || !tops || !size || !(spacing > 0.0f))
+    if (!b || !tops)
         return n;
     size_t kept = 0;
-    for (size_t k = 0; k < n; k++) {
-        const float rad = fmaxf(0.5f * b[k].width, spacing);
-        const float fi0 = floorf((b[k].pos[0] - rad) / spacing), fi1 = ceilf((b[k].pos[0] + rad) / spacing);
-        const float fj0 = floorf((b[k].pos[2] - rad) / spacing), fj1 = ceilf((b[k].pos[2] + rad) / spacing);
-        bool clear = true;
-        if (fi1 >= 0 && fj1 >= 0 && fi0 < (float)size && fj0 < (float)size) {
-            const uint32_t i0 = (uint32_t)fmaxf(fi0, 0), i1 = (uint32_t)fminf(fi1, (float)(size - 1));
-            const uint32_t j0 = (uint32_t)fmaxf(fj0, 0), j1 = (uint32_t)fminf(fj1, (float)(size - 1));
-            for (uint32_t j = j0; clear && j <= j1; j++)
-                for (uint32_t i = i0; clear && i <= i1; i++)
-                    clear = !(tops[(size_t)j * size + i] > -INFINITY);
-        }
-        if (clear)
+    for (size_t k = 0; k < n; k++)
+        if (hz_ground_clear(tops, size, spacing, b[k].pos[0], b[k].pos[2], 0.5f * b[k].width))
             b[kept++] = b[k];
-    }
     return kept;
 }

@@ -28,7 +28,7 @@ struct hz_scene_gpu {
     GLuint *queries;
     uint32_t query_cap;
     GLint u_viewproj, u_clip, u_color, u_sun, u_sky, u_eye, u_fog, u_ambient, u_fog_far;
-    GLint u_sunh_tex, u_sunh_map, u_sunh, u_sun_h;
+    GLint u_sunh_tex, u_sunh_map, u_sunh, u_sun_h, u_height_fog, u_zenith;
     size_t inst_cap, cmd_cap;  /* bytes */
     uint32_t mesh_count;
     /* CPU scratch */
@@ -92,6 +92,8 @@ hz_scene_gpu *hz_scene_gpu_create(const hz_scene *s, hz_err *err)
     g->u_sunh_map = glGetUniformLocation(g->prog, "u_sunh_map");
     g->u_sunh = glGetUniformLocation(g->prog, "u_sunh");
     g->u_sun_h = glGetUniformLocation(g->prog, "u_sun_h");
+    g->u_height_fog = glGetUniformLocation(g->prog, "u_height_fog");
+    g->u_zenith = glGetUniformLocation(g->prog, "u_zenith");
     uint32_t vc, ic;
     const hz_vertex *v = hz_scene_vertices(s, &vc);
     const uint32_t *ix = hz_scene_indices(s, &ic);
@@ -247,6 +249,9 @@ static hz_result submit(hz_scene_gpu *g, const hz_scene *s, const hz_pass_info *
     glUniform1f(g->u_fog, pass->fog_density);
     glUniform1f(g->u_ambient, pass->ambient > 0 ? pass->ambient : 0.3f);
     glUniform2fv(g->u_fog_far, 1, pass->fog_far);
+    glUniform3f(g->u_height_fog, pass->height_fog[2] > 0 ? pass->height_fog[0] : 0.0f, pass->height_fog[1],
+                pass->height_fog[2]);
+    glUniform3fv(g->u_zenith, 1, pass->zenith_color);
     set_sun_heights(g, pass);
     /* Closed outward meshes: back faces culled (mirrored passes flip the
      * front face, set by the renderer). */

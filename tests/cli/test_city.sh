@@ -128,6 +128,12 @@ expect_fail "scene crs without georef" "nodes\[0\].crs: needs a terrain with a g
   $R --generate perlin --size 257 --scene "$TMP/crsnogeo.json"
 expect_fail "--city-bench without objects" "need --city or --scene" $R --generate perlin --size 257 --city-bench street
 
+# ---- a forest over the city: no tree is planted where a building stands
+out=$($HZ render --width 320 --height 180 --scene "$TMP/c3.json" --forest 2000 --out "$TMP/c3f.png" 2>&1 >/dev/null); rc=$?
+n=$(echo "$out" | sed -n 's/^horizon: \([0-9]*\) of the trees would stand in buildings: left out$/\1/p')
+if [ $rc -eq 0 ] && [ -n "$n" ] && [ "$n" -gt 100 ]; then ok "forest over the city: $n trees left out of the buildings"
+else bad "forest over the city (exit $rc): $out"; fi
+
 # ---- shadows on the objects' faces: a 60 m block east of a 10 m box, the sun
 # in the east 30 degrees up. The box's east face (at the image centre) is in
 # the block's shade; with the block far away the same face is in the sun (so
