@@ -91,6 +91,20 @@ static float flat(uint32_t i, uint32_t j, void *u)
     return 0.0f;
 }
 
+/* Casters of an n x n map: a 3 x 3-sample block 10 m high on samples
+ * i = 64..66, j = 60..62; none elsewhere. */
+static float *block_casters(uint32_t n)
+{
+    float *top = malloc((size_t)n * n * sizeof *top);
+    assert_non_null(top);
+    for (size_t k = 0; k < (size_t)n * n; k++)
+        top[k] = -INFINITY;
+    for (uint32_t j = 60; j <= 62; j++)
+        for (uint32_t i = 64; i <= 66; i++)
+            top[(size_t)j * n + i] = 10.0f;
+    return top;
+}
+
 /* An object (casters) on flat ground casts the shadow a wall of its height
  * would, and only on the ground behind it: a 3 x 3-sample block 10 m high,
  * sun in the east 30 degrees up, spacing 1 m: samples d <= 17 m west of it
@@ -104,13 +118,8 @@ static void test_casters_shadow(void **state)
     hz_heightmap hm;
     make_hm(&hm, n, HZ_LAYOUT_LINEAR, flat, NULL);
     uint8_t *lm = malloc(hz_lightmap_bound(&hm)), *bare = malloc(hz_lightmap_bound(&hm));
-    float *top = malloc((size_t)n * n * sizeof *top);
-    assert_true(lm && bare && top);
-    for (size_t k = 0; k < (size_t)n * n; k++)
-        top[k] = -INFINITY;
-    for (uint32_t j = 60; j <= 62; j++)
-        for (uint32_t i = 64; i <= 66; i++)
-            top[(size_t)j * n + i] = 10.0f;
+    float *top = block_casters(n);
+    assert_true(lm && bare);
     top[5] = NAN; /* none */
     for (int t = 1; t <= 2; t++) {
         hz_lightmap_desc d = {.hm = &hm, .spacing = 1.0f, .ambient = 0.3f, .threads = (uint32_t)t};
@@ -150,15 +159,10 @@ static void test_sun_heights(void **state)
     hz_heightmap hm;
     make_hm(&hm, n, HZ_LAYOUT_LINEAR, flat, NULL);
     uint8_t *lm = malloc(hz_lightmap_bound(&hm)), *ref = malloc(hz_lightmap_bound(&hm));
-    float *top = malloc((size_t)n * n * sizeof *top);
+    float *top = block_casters(n);
     const uint32_t rect[4] = {40, 55, 40, 15};
     float *sh = malloc((size_t)rect[2] * rect[3] * sizeof *sh);
-    assert_true(lm && ref && top && sh);
-    for (size_t k = 0; k < (size_t)n * n; k++)
-        top[k] = -INFINITY;
-    for (uint32_t j = 60; j <= 62; j++)
-        for (uint32_t i = 64; i <= 66; i++)
-            top[(size_t)j * n + i] = 10.0f;
+    assert_true(lm && ref && sh);
     const float t30 = tanf(glm_rad(30.0f));
     for (int t = 1; t <= 2; t++) {
         hz_lightmap_desc d = {.hm = &hm, .spacing = 1.0f, .ambient = 0.3f, .threads = (uint32_t)t, .casters = top};
