@@ -737,6 +737,8 @@ void city_app_print(const city_app *a, json_t *json)
             jx_set(o, "buildings", jx_int(c->buildings));
             jx_set(o, "objects", jx_int(c->obj_count));
             jx_set(o, "geometry_instances", jx_int(c->instances));
+            jx_set(o, "appearance_materials", jx_int(c->material_count));
+            jx_set(o, "material_theme", jx_str(c->material_theme));
             jx_set(o, "faces", jx_int((long long)c->faces));
             jx_set(o, "triangles", jx_int((long long)a->placed.triangles));
             jx_set(o, "load_ms", jx_fix(c->load_ms, 1));
@@ -771,6 +773,8 @@ void city_app_print(const city_app *a, json_t *json)
                c->crs[0] ? c->crs : "no CRS", (unsigned long long)c->faces, (unsigned long long)a->placed.triangles);
         if (c->instances)
             printf(", %u geometry instances", c->instances);
+        if (c->material_count)
+            printf(", %u materials (theme %s)", c->material_count, c->material_theme[0] ? c->material_theme : "none used");
         printf("), loaded in %.0f ms\n", c->load_ms);
         printf("city ground   %u clamped (mean move %.2f m, max %.2f m), %u without ground under them\n",
                a->placed.clamped, a->placed.mean_shift, a->placed.max_shift, a->placed.outside);

@@ -11,7 +11,10 @@
  * CityJSON 2.0); the CRS from metadata.referenceSystem (an OGC CRS URL or
  * URN or "EPSG:n"), checked by PROJ; semantic surfaces (RoofSurface,
  * WallSurface, GroundSurface...) when present, else each triangle is a
- * roof, wall or ground by its normal. TINRelief objects are the terrain. */
+ * roof, wall or ground by its normal; appearance materials (their diffuse
+ * colour, per surface, of the file's default-theme-material or else each
+ * geometry's first theme). TINRelief objects are the terrain. Textures are
+ * not read. */
 #ifndef HORIZON_CITY_H
 #define HORIZON_CITY_H
 
@@ -40,11 +43,24 @@ typedef struct hz_city_object {
     uint32_t faces;      /* polygons read (before triangulation) */
 } hz_city_object;
 
+/* An appearance material (CityJSON appearance.materials): its diffuse colour
+ * ([0.8, 0.8, 0.8] when the file gives none) and name. */
+typedef struct hz_city_material {
+    float color[3];
+    char name[32];
+} hz_city_material;
+
+#define HZ_CITY_NO_MATERIAL 0xffffffffu
+
 typedef struct hz_city {
     double *verts;        /* x, y, z per vertex: CRS easting, northing, height (dequantised) */
     uint32_t vert_count;
     uint32_t *tris;       /* 3 vertex indices per triangle */
     uint8_t *tri_kind;    /* hz_surface_kind per triangle */
+    uint32_t *tri_material; /* per triangle an index into materials, or HZ_CITY_NO_MATERIAL */
+    hz_city_material *materials; /* appearance.materials (material_count) */
+    uint32_t material_count;
+    char material_theme[64]; /* the theme read: default-theme-material, else each geometry's first */
     uint32_t tri_count;
     hz_city_object *obj;
     uint32_t obj_count;
@@ -126,6 +142,7 @@ typedef struct hz_city_placed {
     uint32_t outside;        /* buildings with no ground under them (ground gave NaN
                                 everywhere): left at their own heights */
     uint32_t materials[HZ_SURF_KINDS]; /* scene material of walls, roofs, ground */
+    uint32_t first_material; /* scene material of the city's appearance material 0 (the others follow) */
 } hz_city_placed;
 
 /* Adds the city's non-terrain objects to a scene (after hz_scene_update

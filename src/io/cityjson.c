@@ -36,6 +36,7 @@ typedef struct loader {
     uint64_t instanced;   /* vertices added by instances (bounded) */
     uint32_t file_verts;  /* the file's own vertices (reference points index them) */
     uint64_t instanced_tris; /* triangles made by instances (bounded) */
+    uint32_t surf_material;  /* the appearance material of the surface being read */
     char path[512];
 } loader;
 
@@ -80,6 +81,8 @@ void hz_city_destroy(hz_city *c)
     free(c->verts);
     free(c->tris);
     free(c->tri_kind);
+    free(c->tri_material);
+    free(c->materials);
     free(c);
 }
 
@@ -296,6 +299,10 @@ static hz_result read_surface(loader *L, json_t *surf, int kind, hz_city_object 
     if (!nk)
         return fail(L, HZ_ERR_MEMORY, "out of memory");
     c->tri_kind = nk;
+    uint32_t *nm = realloc(c->tri_material, ((size_t)L->tri_cap / 3 + 1) * sizeof *nm);
+    if (!nm)
+        return fail(L, HZ_ERR_MEMORY, "out of memory");
+    c->tri_material = nm;
     /* Which file vertex each scratch point is: re-read the rings. */
     uint32_t *fileix = malloc((size_t)total * sizeof *fileix);
     if (!fileix)
@@ -309,6 +316,7 @@ static hz_result read_surface(loader *L, json_t *surf, int kind, hz_city_object 
         uint32_t *d = c->tris + 3 * (base + (uint32_t)t);
         for (int k = 0; k < 3; k++)
             d[k] = fileix[L->tbuf[3 * t + k]];
+        c->tri_material[base + (uint32_t)t] = L->surf_material;
         c->tri_kind[base + (uint32_t)t] =
             (uint8_t)(kind >= 0 ? kind
                                 : (int)kind_of_normal(c->verts + 3 * d[0], c->verts + 3 * d[1], c->verts + 3 * d[2]));
@@ -330,8 +338,23 @@ static int semantic_kind(json_t *surfaces, json_t *val)
     return (int)kind_of_semantic(json_is_string(t) ? json_string_value(t) : NULL);
 }
 
-/* depth: 1 = array of surfaces (MultiSurface), 2 = shells (Solid), 3 = solids. */
-static hz_result read_nested(loader *L, json_t *b, json_t *sv, json_t *surfaces, int depth, hz_city_object *o)
+/* The appearance material of a surface: a material value (an index or
+ * null). -2 when out of range or not an index. */
+static int64_t material_of(const loader *L, json_t *val)
+{
+    if (!val || json_is_null(val))
+        return -1;
+    if (!json_is_integer(val) || json_integer_value(val) < 0 ||
+        (uint64_t)json_integer_value(val) >= L->c->material_count)
+        return -2;
+    return json_integer_value(val);
+}
+
+/* depth: 1 = array of surfaces (MultiSurface), 2 = shells (Solid), 3 = solids.
+ * sv, mv: the semantics and material values nested alike (or NULL);
+ * mat_all: one material for every surface (-1: none, or per mv). */
+static hz_result read_nested(loader *L, json_t *b, json_t *sv, json_t *mv, int64_t mat_all, json_t *surfaces,
+                             int depth, hz_city_object *o)
 {
     if (!json_is_array(b))
         return fail(L, HZ_ERR_FORMAT, "boundaries: expected an array");
@@ -339,6 +362,7 @@ static hz_result read_nested(loader *L, json_t *b, json_t *sv, json_t *surfaces,
     for (size_t k = 0; k < json_array_size(b); k++) {
         json_t *e = json_array_get(b, k);
         json_t *v = json_is_array(sv) ? json_array_get(sv, k) : NULL;
+        json_t *m = json_is_array(mv) ? json_array_get(mv, k) : NULL;
         snprintf(L->path + plen, sizeof L->path - plen, "[%zu]", k);
         hz_result r;
         if (depth == 1) {
@@ -348,14 +372,102 @@ static hz_result read_nested(loader *L, json_t *b, json_t *sv, json_t *surfaces,
                             json_array_size(surfaces));
             if (kind >= 0)
                 L->c->semantics = true;
+            const int64_t mat = mat_all >= 0 ? mat_all : material_of(L, m);
+            if (mat == -2)
+                return fail(L, HZ_ERR_FORMAT, "material value is not an index below %u (appearance.materials)",
+                            L->c->material_count);
+            L->surf_material = mat >= 0 ? (uint32_t)mat : HZ_CITY_NO_MATERIAL;
             r = read_surface(L, e, o->terrain ? (int)HZ_SURF_GROUND : kind, o);
         } else {
-            r = read_nested(L, e, v, surfaces, depth - 1, o);
+            r = read_nested(L, e, v, m, mat_all, surfaces, depth - 1, o);
         }
         if (r != HZ_OK)
             return r;
     }
     L->path[plen] = 0;
+    return HZ_OK;
+}
+
+/* The material theme of geometry g: its "material" object's entry for the
+ * file's default theme, else its first; NULL when it has none. On a theme
+ * with a single "value", *all is that material (checked), else -1. */
+static hz_result material_theme(loader *L, json_t *g, json_t **values, int64_t *all)
+{
+    *values = NULL;
+    *all = -1;
+    json_t *mo = json_object_get(g, "material");
+    if (!mo)
+        return HZ_OK;
+    size_t plen = strlen(L->path);
+    snprintf(L->path + plen, sizeof L->path - plen, ".material");
+    if (!json_is_object(mo))
+        return fail(L, HZ_ERR_FORMAT, "not an object of themes");
+    const char *name = L->c->material_theme[0] ? L->c->material_theme : NULL;
+    json_t *th = name ? json_object_get(mo, name) : NULL;
+    if (!th) {
+        void *it = json_object_iter(mo);
+        if (!it) {
+            L->path[plen] = 0;
+            return HZ_OK;
+        }
+        th = json_object_iter_value(it);
+        if (!name)
+            snprintf(L->c->material_theme, sizeof L->c->material_theme, "%s", json_object_iter_key(it));
+    }
+    json_t *val = json_object_get(th, "value"), *vals = json_object_get(th, "values");
+    if (val) {
+        if ((*all = material_of(L, val)) == -2)
+            return fail(L, HZ_ERR_FORMAT, "value is not an index below %u (appearance.materials)",
+                        L->c->material_count);
+    } else if (json_is_array(vals)) {
+        *values = vals;
+    } else {
+        return fail(L, HZ_ERR_FORMAT, "a theme needs \"value\" or the array \"values\"");
+    }
+    L->path[plen] = 0;
+    return HZ_OK;
+}
+
+/* appearance.materials: diffuse colours (optional). */
+static hz_result read_materials(loader *L, json_t *root)
+{
+    json_t *ap = json_object_get(root, "appearance");
+    if (!ap)
+        return HZ_OK;
+    snprintf(L->path, sizeof L->path, "appearance");
+    if (!json_is_object(ap))
+        return fail(L, HZ_ERR_FORMAT, "not an object");
+    json_t *dt = json_object_get(ap, "default-theme-material");
+    if (json_is_string(dt))
+        snprintf(L->c->material_theme, sizeof L->c->material_theme, "%s", json_string_value(dt));
+    json_t *ms = json_object_get(ap, "materials");
+    if (!ms) {
+        L->path[0] = 0;
+        return HZ_OK;
+    }
+    if (!json_is_array(ms) || json_array_size(ms) > 65536)
+        return fail(L, HZ_ERR_FORMAT, "materials: not an array (of at most 65 536)");
+    hz_city *c = L->c;
+    c->materials = calloc(json_array_size(ms) + 1, sizeof *c->materials);
+    if (!c->materials)
+        return fail(L, HZ_ERR_MEMORY, "out of memory");
+    for (size_t k = 0; k < json_array_size(ms); k++) {
+        json_t *m = json_array_get(ms, k), *dc = json_object_get(m, "diffuseColor");
+        hz_city_material *cm = &c->materials[k];
+        snprintf(L->path, sizeof L->path, "appearance.materials[%zu]", k);
+        if (!json_is_object(m))
+            return fail(L, HZ_ERR_FORMAT, "not an object");
+        double rgb[3] = {0.8, 0.8, 0.8};
+        if (dc && (!get3(dc, rgb) || rgb[0] < 0 || rgb[0] > 1 || rgb[1] < 0 || rgb[1] > 1 || rgb[2] < 0 ||
+                   rgb[2] > 1))
+            return fail(L, HZ_ERR_FORMAT, "diffuseColor: three numbers in [0, 1]");
+        for (int a = 0; a < 3; a++)
+            cm->color[a] = (float)rgb[a];
+        json_t *nm = json_object_get(m, "name");
+        snprintf(cm->name, sizeof cm->name, "%s", json_is_string(nm) ? json_string_value(nm) : "");
+        c->material_count++;
+    }
+    L->path[0] = 0;
     return HZ_OK;
 }
 
@@ -549,8 +661,13 @@ static hz_result read_object(loader *L, const char *key, json_t *obj, float want
         snprintf(L->path + strlen(L->path), sizeof L->path - strlen(L->path), ".semantics");
         return fail(L, HZ_ERR_FORMAT, "needs the arrays surfaces and values");
     }
+    json_t *mvals;
+    int64_t mat_all;
+    hz_result r = material_theme(L, shape, &mvals, &mat_all);
+    if (r != HZ_OK)
+        return r;
     snprintf(L->path + strlen(L->path), sizeof L->path - strlen(L->path), ".boundaries");
-    hz_result r = read_nested(L, json_object_get(shape, "boundaries"), values, surfaces, depth, o);
+    r = read_nested(L, json_object_get(shape, "boundaries"), values, mvals, mat_all, surfaces, depth, o);
     L->vbase = 0, L->vcount = L->file_verts;
     if (r != HZ_OK)
         return r;
@@ -589,7 +706,7 @@ hz_city *hz_city_load_memory(const char *data, size_t size, const char *name, co
     json_t *ver = json_object_get(root, "version");
     snprintf(c->version, sizeof c->version, "%s", json_is_string(ver) ? json_string_value(ver) : "?");
     if ((r = read_vertices(&L, root)) != HZ_OK || (r = read_crs(&L, root)) != HZ_OK ||
-        (r = read_templates(&L, root)) != HZ_OK)
+        (r = read_templates(&L, root)) != HZ_OK || (r = read_materials(&L, root)) != HZ_OK)
         goto out;
     json_t *objs = json_object_get(root, "CityObjects");
     if (!json_is_object(objs)) {
@@ -749,13 +866,25 @@ done:
 
 /* Flat-shaded mesh of one object's triangles of the kinds in mask, relative
  * to (ox, oy, oz). HZ_MESH_NONE when there are none (err untouched). */
-static uint32_t build_mesh(hz_scene *s, const hz_city *c, const hz_city_object *o, unsigned mask, const double *lx,
+/* What a triangle is drawn with: its appearance material (HZ_SURF_KINDS +
+ * index), else roofs with the roof material and walls and floors with the
+ * wall material. */
+static uint32_t draw_material(const hz_city *c, uint32_t t)
+{
+    if (c->tri_material && c->tri_material[t] != HZ_CITY_NO_MATERIAL)
+        return HZ_SURF_KINDS + c->tri_material[t];
+    return c->tri_kind[t] == HZ_SURF_ROOF ? HZ_SURF_ROOF : HZ_SURF_WALL;
+}
+
+/* A mesh of the object's triangles drawn with draw material dm, in local
+ * metres about (ox, oy, oz); HZ_MESH_NONE when it has none (or on error). */
+static uint32_t build_mesh(hz_scene *s, const hz_city *c, const hz_city_object *o, uint32_t dm, const double *lx,
                            const double *lz, double ox, double oy, double oz, hz_vertex *vb, uint32_t *ib,
                            uint64_t *tris, hz_err *err)
 {
     uint32_t nv = 0;
     for (uint32_t t = o->first_tri; t < o->first_tri + o->tri_count; t++) {
-        if (!(mask & (1u << c->tri_kind[t])))
+        if (draw_material(c, t) != dm)
             continue;
         vec3 p[3];
         for (int k = 0; k < 3; k++) {
@@ -794,8 +923,11 @@ hz_result hz_city_to_scene(const hz_city *c, hz_scene *s, const hz_city_place *p
     hz_vertex *vb = malloc(((size_t)maxtri * 3 + 1) * sizeof *vb);
     uint32_t *ib = malloc(((size_t)maxtri * 3 + 1) * sizeof *ib);
     uint32_t *tile_node = NULL;
+    /* per draw material: the last object (+ 1) that listed it; the object's list */
+    const size_t ndraw = (size_t)HZ_SURF_KINDS + c->material_count;
+    uint32_t *dm_stamp = calloc(ndraw, sizeof *dm_stamp), *dm_list = malloc(ndraw * sizeof *dm_list);
     hz_result r = HZ_OK;
-    if (!lx || !lz || !vb || !ib) {
+    if (!lx || !lz || !vb || !ib || !dm_stamp || !dm_list) {
         r = hz_err_set(err, HZ_ERR_MEMORY, "city: out of memory placing %u vertices", n);
         goto done;
     }
@@ -807,6 +939,19 @@ hz_result hz_city_to_scene(const hz_city *c, hz_scene *s, const hz_city_place *p
             r = hz_err_set(err, HZ_ERR_MEMORY, "city: out of memory");
             goto done;
         }
+    }
+    /* The file's appearance materials follow, in order. */
+    res.first_material = HZ_MESH_NONE;
+    for (uint32_t k = 0; k < c->material_count; k++) {
+        hz_material m = {.color = {c->materials[k].color[0], c->materials[k].color[1], c->materials[k].color[2]}};
+        snprintf(m.name, sizeof m.name, "%s", c->materials[k].name);
+        uint32_t id = hz_scene_add_material(s, &m);
+        if (id == HZ_MESH_NONE) {
+            r = hz_err_set(err, HZ_ERR_MEMORY, "city: out of memory");
+            goto done;
+        }
+        if (!k)
+            res.first_material = id;
     }
     uint32_t root = hz_scene_add_node(s, HZ_NODE_NONE, "city");
     res.nodes++;
@@ -878,28 +1023,39 @@ hz_result hz_city_to_scene(const hz_city *c, hz_scene *s, const hz_city_place *p
         hz_scene_set_translation(s, node, (float[3]){(float)cx, (float)(base + shift), (float)cz});
         if ((r = hz_scene_set_attributes(s, node, o->attributes, err)) != HZ_OK)
             goto done;
-        const unsigned walls = 1u << HZ_SURF_WALL | 1u << HZ_SURF_GROUND, roofs = 1u << HZ_SURF_ROOF;
-        hz_err e2 = {0};
-        uint32_t mw = build_mesh(s, c, o, walls, lx, lz, cx, base, cz, vb, ib, &res.triangles, &e2);
-        if (mw == HZ_MESH_NONE && e2.msg[0]) {
-            r = hz_err_set(err, e2.code, "city: %s: %s", o->id, e2.msg);
-            goto done;
-        }
-        uint32_t mr = build_mesh(s, c, o, roofs, lx, lz, cx, base, cz, vb, ib, &res.triangles, &e2);
-        if (mr == HZ_MESH_NONE && e2.msg[0]) {
-            r = hz_err_set(err, e2.code, "city: %s: %s", o->id, e2.msg);
-            goto done;
-        }
-        if (mw != HZ_MESH_NONE)
-            hz_scene_set_mesh(s, node, mw, res.materials[HZ_SURF_WALL]);
-        if (mr != HZ_MESH_NONE) {
-            uint32_t rn = mw != HZ_MESH_NONE ? hz_scene_add_node(s, node, NULL) : node;
-            if (!rn) {
-                r = hz_err_set(err, HZ_ERR_MEMORY, "city: out of memory adding nodes");
-                goto done;
+        /* One mesh per draw material (walls, roofs, each appearance
+         * material) in order of appearance: the first on the building's
+         * node, the others on children. */
+        uint32_t ndm = 0;
+        for (uint32_t t = o->first_tri; t < o->first_tri + o->tri_count; t++) {
+            const uint32_t dm = draw_material(c, t);
+            if (dm_stamp[dm] != k + 1) {
+                dm_stamp[dm] = k + 1;
+                dm_list[ndm++] = dm;
             }
-            res.nodes += rn != node;
-            hz_scene_set_mesh(s, rn, mr, res.materials[HZ_SURF_ROOF]);
+        }
+        for (uint32_t q = 0; q < ndm; q++) {
+            hz_err e2 = {0};
+            uint32_t mesh = build_mesh(s, c, o, dm_list[q], lx, lz, cx, base, cz, vb, ib, &res.triangles, &e2);
+            if (mesh == HZ_MESH_NONE) {
+                if (e2.msg[0]) {
+                    r = hz_err_set(err, e2.code, "city: %s: %s", o->id, e2.msg);
+                    goto done;
+                }
+                continue;
+            }
+            const uint32_t mat = dm_list[q] >= HZ_SURF_KINDS ? res.first_material + (dm_list[q] - HZ_SURF_KINDS)
+                                                             : res.materials[dm_list[q]];
+            uint32_t at = node;
+            if (hz_scene_node_mesh(s, node) != HZ_MESH_NONE) {
+                at = hz_scene_add_node(s, node, NULL);
+                if (!at) {
+                    r = hz_err_set(err, HZ_ERR_MEMORY, "city: out of memory adding nodes");
+                    goto done;
+                }
+                res.nodes++;
+            }
+            hz_scene_set_mesh(s, at, mesh, mat);
         }
     }
     res.mean_shift = res.clamped ? shift_sum / res.clamped : 0;
@@ -909,6 +1065,8 @@ done:
     free(vb);
     free(ib);
     free(tile_node);
+    free(dm_stamp);
+    free(dm_list);
     if (out)
         *out = res;
     return r;

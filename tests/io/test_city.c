@@ -209,6 +209,89 @@ static void test_geometry_instance(void **state)
     refused(TEMPLATE_CITY("0", SCALE2, "0", "[[0,0,\"x\"]]"), "geometry-templates.vertices-templates[0]: not three finite numbers");
 }
 
+/* Appearance materials: faces 0, 1 red, 2, 3, 5 blue, 4 none (theme
+ * "paint", the file's default); the scene gets one mesh per material on
+ * the building's node and its children, with the file's colours. A single
+ * "value" paints every face; an index past the materials is refused. */
+#define APPEARANCE "\"appearance\":{\"default-theme-material\":\"paint\",\"materials\":[" \
+                   "{\"name\":\"red\",\"diffuseColor\":[1,0,0]},{\"name\":\"blue\",\"diffuseColor\":[0,0,1]}]},"
+
+static float zero_ground(void *u, float x, float z)
+{
+    (void)u, (void)x, (void)z;
+    return 0.0f;
+}
+
+static void test_materials(void **state)
+{
+    (void)state;
+    char buf[4096];
+    hz_err err = {0};
+    box_json(buf, sizeof buf, TRANSFORM APPEARANCE, CRS32734, BOX_FACES,
+             ",\"material\":{\"other\":{\"value\":0},\"paint\":{\"values\":[[0,0,1,1,null,1]]}}");
+    hz_city *c = hz_city_load_memory(buf, strlen(buf), "box", NULL, &err);
+    if (!c)
+        fail_msg("%s", err.msg);
+    assert_int_equal(c->material_count, 2);
+    assert_string_equal(c->material_theme, "paint");
+    assert_string_equal(c->materials[1].name, "blue");
+    uint32_t per[3] = {0};
+    for (uint32_t t = 0; t < c->tri_count; t++)
+        per[c->tri_material[t] == HZ_CITY_NO_MATERIAL ? 2 : c->tri_material[t]]++;
+    assert_int_equal(per[0], 4);
+    assert_int_equal(per[1], 6);
+    assert_int_equal(per[2], 2);
+    /* Into a scene: red, blue and (the face without) the wall material. */
+    hz_scene *s = hz_scene_create(NULL);
+    hz_city_placed pl;
+    hz_city_place p = {.origin = {c->extent[0], c->extent[4]}, .ground = zero_ground};
+    assert_int_equal(hz_city_to_scene(c, s, &p, &pl, &err), HZ_OK);
+    hz_scene_update(s);
+    float seen[3] = {0};
+    uint32_t meshes = 0;
+    for (uint32_t id = 1; id <= hz_scene_node_count(s); id++) {
+        if (hz_scene_node_mesh(s, id) == HZ_MESH_NONE)
+            continue;
+        meshes++;
+        const uint32_t m = hz_scene_node_material(s, id);
+        const hz_mesh_range *r = hz_scene_mesh(s, hz_scene_node_mesh(s, id));
+        if (m == pl.first_material) {
+            assert_true(hz_scene_material(s, m)->color[0] == 1.0f && hz_scene_material(s, m)->color[2] == 0.0f);
+            seen[0] += (float)r->index_count / 3;
+        } else if (m == pl.first_material + 1) {
+            assert_true(hz_scene_material(s, m)->color[2] == 1.0f && hz_scene_material(s, m)->color[0] == 0.0f);
+            seen[1] += (float)r->index_count / 3;
+        } else {
+            assert_int_equal(m, pl.materials[HZ_SURF_WALL]);
+            seen[2] += (float)r->index_count / 3;
+        }
+    }
+    assert_int_equal(meshes, 3);
+    assert_true(seen[0] == 4 && seen[1] == 6 && seen[2] == 2);
+    hz_scene_destroy(s);
+    hz_city_destroy(c);
+    /* Without a default theme the geometry's first ("other": value 0) paints every face red. */
+    char buf2[4096];
+    box_json(buf2, sizeof buf2,
+             TRANSFORM "\"appearance\":{\"materials\":[{\"name\":\"red\",\"diffuseColor\":[1,0,0]}]},",
+             CRS32734, BOX_FACES, ",\"material\":{\"other\":{\"value\":0},\"paint\":{\"values\":[[0,0,0,0,0,0]]}}");
+    c = hz_city_load_memory(buf2, strlen(buf2), "box", NULL, &err);
+    if (!c)
+        fail_msg("%s", err.msg);
+    for (uint32_t t = 0; t < c->tri_count; t++)
+        assert_int_equal(c->tri_material[t], 0);
+    assert_string_equal(c->material_theme, "other");
+    hz_city_destroy(c);
+    refused(box_json(buf, sizeof buf, TRANSFORM APPEARANCE, CRS32734, BOX_FACES,
+                     ",\"material\":{\"paint\":{\"values\":[[0,0,2,1,null,1]]}}"),
+            "CityObjects.b1.geometry[0].boundaries[0][2]: material value is not an index below 2");
+    refused(box_json(buf, sizeof buf, TRANSFORM "\"appearance\":{\"materials\":[{\"diffuseColor\":[2,0,0]}]},",
+                     CRS32734, BOX_FACES, ""),
+            "appearance.materials[0]: diffuseColor: three numbers in [0, 1]");
+    refused(box_json(buf, sizeof buf, TRANSFORM APPEARANCE, CRS32734, BOX_FACES, ",\"material\":{\"paint\":{}}"),
+            "CityObjects.b1.geometry[0].material: a theme needs");
+}
+
 static double poly_area(const double *pts, const uint32_t *tris, int n)
 {
     double a = 0;
@@ -438,7 +521,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_box_solid),  cmocka_unit_test(test_semantics), cmocka_unit_test(test_refusals),
-        cmocka_unit_test(test_geometry_instance),
+        cmocka_unit_test(test_geometry_instance), cmocka_unit_test(test_materials),
         cmocka_unit_test(test_triangulate), cmocka_unit_test(test_mamre),  cmocka_unit_test(test_footprints),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
