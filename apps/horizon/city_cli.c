@@ -499,6 +499,19 @@ hz_camera city_app_camera(const city_app *a, const struct cli_opts *o, const hz_
     c.pos[2] = cz + d * 0.866f;
     float gy = hz_terrain_surface_at(t, cx, cz);
     c.pos[1] = fmaxf(gy, hz_terrain_surface_at(t, c.pos[0], c.pos[2])) + d * 0.55f;
+    /* Over rough ground a hill may stand between: raise the camera until the
+     * line to the middle of the city's box clears the terrain by 5 m. The
+     * line is linear in the camera's height, so one pass finds the rise. */
+    const float ty = fmaxf(0.5f * (b.min[1] + b.max[1]), gy);
+    float rise = 0;
+    for (int k = 1; k < 64; k++) {
+        const float f = (float)k / 64.0f;
+        const float x = c.pos[0] + f * (cx - c.pos[0]), z = c.pos[2] + f * (cz - c.pos[2]);
+        const float h = hz_terrain_surface_at(t, x, z), line = c.pos[1] + f * (ty - c.pos[1]);
+        if (isfinite(h) && h + 5.0f > line)
+            rise = fmaxf(rise, (h + 5.0f - line) / (1.0f - f));
+    }
+    c.pos[1] += rise;
     c.yaw = glm_deg(atan2f(cx - c.pos[0], -(cz - c.pos[2])));
     c.pitch = -glm_deg(atan2f(c.pos[1] - gy, d));
     return c;
