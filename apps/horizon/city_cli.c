@@ -460,6 +460,7 @@ int city_app_place(city_app *a, const hz_terrain *t, const char *cmd)
     a->mesh_quads = malloc(((size_t)nm + 1) * sizeof *a->mesh_quads);
     a->occ_node = malloc(((size_t)nn + 1) * sizeof *a->occ_node);
     a->occ_cand = malloc(((size_t)nn + 1) * 4 * sizeof *a->occ_cand); /* the nodes, the sort's scratch */
+    a->occ_cand_cap = nn + 1;
     a->quads = malloc(((size_t)ic / 6 + 1) * 12 * sizeof *a->quads);
     if (!a->mesh_first || !a->mesh_quads || !a->occ_node || !a->occ_cand || !a->quads || terrain_grid(a, t) ||
         !hz_occlusion_init(&a->occ, 0, 0)) {
@@ -595,10 +596,9 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
         const float reach_obj = 1500.0f;
         /* The scene's hierarchical frustum culling: whole blocks out of
          * view cost one test. */
-        const uint32_t nn = hz_scene_node_count(a->scene);
-        uint32_t nv = hz_scene_cull_curved(a->scene, cam, planes, a->occ_cand, nn + 1, NULL), nc = 0;
-        if (nv > nn + 1)
-            nv = nn + 1;
+        uint32_t nv = hz_scene_cull_curved(a->scene, cam, planes, a->occ_cand, a->occ_cand_cap, NULL), nc = 0;
+        if (nv > a->occ_cand_cap)
+            nv = a->occ_cand_cap; /* (nodes added after placing are not occluders) */
         for (uint32_t k = 0; k < nv; k++) {
             const uint32_t id = a->occ_cand[k], mesh = hz_scene_node_mesh(a->scene, id);
             if (mesh == HZ_MESH_NONE || !a->mesh_quads[mesh])

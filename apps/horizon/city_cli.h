@@ -57,6 +57,7 @@ typedef struct city_app {
     uint32_t *occ_node;
     uint32_t occ_nodes;
     uint32_t *occ_cand;    /* per frame: the occluders in reach, nearest first (4 per node: + sort scratch) */
+    uint32_t occ_cand_cap; /* nodes it holds (the scene's when placed, + 1) */
     hz_occlusion occ;
     double occ_ms;         /* last frame's occlusion buffer build */
     bool occ_built;        /* the last frame had an occlusion buffer */
