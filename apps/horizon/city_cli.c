@@ -571,16 +571,18 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
                                         .gpu_queries = o->city.gpu_queries};
     a->occ_ms = 0;
     /* Adaptive: when the last buffer hid under 5 % of the objects in the
-     * frustum (a view from above), the next 7 frames go without one (only
-     * frustum culling: still conservative), then it is tried again. */
+     * frustum (a view from above), the next 7 frames with occlusion culling
+     * go without one (only frustum culling: still conservative), then it is
+     * tried again. Frames drawn with occlusion culling off (--city-bench
+     * interleaves them) do not count. */
     if (a->occ_built) {
         const hz_scene_draw_stats *ls = &a->hook.stats;
         if (ls->after_frustum && (double)ls->after_occlusion > 0.95 * (double)ls->after_frustum)
-            a->occ_rest = 7;
-    } else if (a->occ_rest) {
-        a->occ_rest--;
+            a->occ_rest = 8;
     }
     a->occ_built = false;
+    if (!o->city.no_occlusion && a->occ_rest)
+        a->occ_rest--;
     if (!o->city.no_occlusion && !a->occ_rest) {
         a->occ_built = true;
         double t0 = hz_time_ms();
@@ -1085,6 +1087,11 @@ int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *
     double sum_obj[BENCH_CFGS][8] = {{0}}; /* after frustum, after occlusion, draw calls, state changes, occ ms,
                                              query ms, terrain patches in view, drawn */
     uint64_t diff[BENCH_CFGS] = {0}, diff_frames[BENCH_CFGS] = {0};
+    struct {
+        bool built;
+        uint32_t rest;
+        hz_scene_draw_stats stats;
+    } adapt[BENCH_CFGS] = {{0}};
     uint8_t *img = malloc(px * BENCH_CFGS);
     uint32_t objects = 0;
     cli_lod_frame lf = {0};
@@ -1115,6 +1122,11 @@ int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *
             const uint32_t *idx;
             uint32_t count;
             cli_lod_scene(&lf, &sp, &idx, &count);
+            /* Each configuration keeps its own adaptive occlusion state, as
+             * if it ran alone. */
+            a->occ_built = adapt[ci].built;
+            a->occ_rest = adapt[ci].rest;
+            a->hook.stats = adapt[ci].stats;
             city_app_frame(a, o, &cam, &sp);
             o->city = keep;
             hz_draw_stats ds = {0};
@@ -1122,6 +1134,9 @@ int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *
                 fprintf(stderr, "horizon render: %s\n", a->hook.failed ? a->hook.err.msg : err.msg);
                 goto out;
             }
+            adapt[ci].built = a->occ_built;
+            adapt[ci].rest = a->occ_rest;
+            adapt[ci].stats = a->hook.stats;
             if (r == 0)
                 continue;
             const hz_scene_draw_stats *s = &a->hook.stats;
