@@ -196,6 +196,32 @@ assert abs(a - b) <= 0.03 * b, (a, b)
 PY
 then ok "an object does not shade its own sunlit face"; else bad "self-shading of a face"; fi
 
+# ---- fog: a red box 2 km away melts into the horizon with the fog effect
+# (its height fog too, as the ground around it), and stands out without it
+cat > "$TMP/fogbox.json" <<'EOF'
+{"terrain": {"generate": "perlin", "size": 257, "seed": 1, "amplitude": 1, "spacing": 10},
+ "materials": {"red": {"color": [0.9, 0.1, 0.1]}},
+ "models": {"a": {"box": [40, 40, 40], "material": "red"}},
+ "nodes": [{"name": "A", "model": "a", "position": [2100, 0, 1280], "clamp": "ground"}]}
+EOF
+V="--scene $TMP/fogbox.json --fog 0.0005 --camera 100,20,1280,90,0 --pick 640,357 --json"
+j1=$($HZ render --quiet --effects fog $V --out "$TMP/fog_on.png"); r1=$?
+j2=$($HZ render --quiet --effects none $V --out "$TMP/fog_off.png"); r2=$?
+if [ $r1 -eq 0 ] && [ $r2 -eq 0 ] && python3 - "$j1" "$j2" "$TMP" "$(dirname "$0")" <<'PY'
+import json, sys
+sys.path.insert(0, sys.argv[4])
+import pngstat
+for s in sys.argv[1:3]:
+    assert json.loads(s)['pick']['node'] == 'A', s
+def gap(path):  # the box's pixel against the horizon just above it
+    w, h, rows = pngstat.read(path)
+    return max(abs(a - b) for a, b in zip(rows[357][640], rows[340][640]))
+on, off = gap(sys.argv[3] + "/fog_on.png"), gap(sys.argv[3] + "/fog_off.png")
+print("box against the horizon: %d levels with the fog effect, %d without" % (on, off), file=sys.stderr)
+assert on <= 20 and off >= 40, (on, off)
+PY
+then ok "a far box is fogged as the ground with the fog effect"; else bad "fog on objects (exit $r1 $r2)"; fi
+
 # ---- refusals
 printf '{"type":"CityJSON","version":"2.0","CityObjects":{},"vertices":[]}' > "$TMP/notransform.city.json"
 expect_fail "city without transform"  "transform: missing"       $R --city "$TMP/notransform.city.json"
