@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 13's city figures: a procedural city of 20 140 buildings on the real
+# Issue 13's city figures: a procedural city of 20 035 buildings on the real
 # Heidelberg DEM (street-level and overview paths, every culling / render
 # queue stage on and off in the same run) and the Mamre CityJSON model (load,
 # triangles, frame, picking a known osm_id by its pixel).

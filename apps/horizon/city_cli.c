@@ -847,10 +847,42 @@ static double rng_unit(uint64_t *s)
     return (double)(rng_next(s) >> 11) * (1.0 / 9007199254740992.0);
 }
 
+/* Where lots may be built: the terrain, the city's centre (world x, z) and
+ * the steepest ground a building may stand on (tangent). */
+typedef struct lot_ground {
+    const hz_terrain *t;
+    double cx, cz;
+    double max_tan;
+    uint32_t steep; /* lots left empty */
+} lot_ground;
+
+/* True when the ground under a lot (centre x, z relative to the city,
+ * w x d metres, any turn) rises no more than max_tan across it: sampled at
+ * the corners and the centre of the square that holds it. */
+static bool lot_flat_enough(lot_ground *g, double x, double z, double w, double d)
+{
+    if (!(g->max_tan < 1e6))
+        return true;
+    const double r = 0.5 * fmax(w, d);
+    float lo = INFINITY, hi = -INFINITY;
+    static const double k[5][2] = {{0, 0}, {-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+    for (int q = 0; q < 5; q++) {
+        const float h = hz_terrain_surface_at(g->t, (float)(g->cx + x + k[q][0] * r), (float)(g->cz + z + k[q][1] * r));
+        if (isfinite(h))
+            lo = fminf(lo, h), hi = fmaxf(hi, h);
+    }
+    if (!(hi >= lo) || (double)(hi - lo) <= g->max_tan * 2.0 * r)
+        return true;
+    g->steep++;
+    return false;
+}
+
 /* One block of buildings along its four edges (lots of 12-24 m, 10-18 m deep,
- * facing the street), heights rising toward the city centre. */
+ * facing the street), heights rising toward the city centre; lots on ground
+ * steeper than allowed stay empty (the same random draws, so the rest of
+ * the city does not change). */
 static bool add_block(json_t *children, uint64_t *rng, double bx, double bz, double side, double r_norm,
-                      uint32_t bi, uint32_t bj, uint32_t *count)
+                      uint32_t bi, uint32_t bj, uint32_t *count, lot_ground *ground)
 {
     static const char *const mats[4] = {"concrete", "brick", "plaster", "glass"};
     for (int e = 0; e < 4; e++) {
@@ -873,6 +905,10 @@ static bool add_block(json_t *children, uint64_t *rng, double bx, double bz, dou
             char name[64];
             snprintf(name, sizeof name, "b_%u_%u_%u", bi, bj, *count);
             const char *mat = mats[rng_next(rng) % (tall > 0.5 ? 4u : 3u)];
+            if (!lot_flat_enough(ground, bx + x, bz + z, w, d)) {
+                along += w + 1.0 + 3.0 * rng_unit(rng);
+                continue;
+            }
             json_t *n = json_pack("{s:s, s:s, s:s, s:[f,f,f], s:f, s:[f,f,f], s:s, s:{s:[i,i], s:f, s:i}}", "name",
                                   name, "model", "box", "material", mat, "position", bx + x, 0.0, bz + z, "yaw", yaw,
                                   "scale", w, h, d, "clamp", "ground", "attributes", "block", (int)bi, (int)bj,
@@ -889,7 +925,7 @@ static bool add_block(json_t *children, uint64_t *rng, double bx, double bz, dou
 int cmd_city(int argc, char **argv)
 {
     uint32_t blocks = 0;
-    float block = 120, street = 20;
+    float block = 120, street = 20, max_slope = 45;
     char **rest = calloc((size_t)argc + 1, sizeof *rest);
     if (!rest)
         return 1;
@@ -898,24 +934,29 @@ int cmd_city(int argc, char **argv)
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (i >= 2 && (!strcmp(a, "--help") || !strcmp(a, "-h"))) {
             fprintf(stderr, "usage: horizon city --blocks N --out FILE.json [terrain options] [--block M] [--street M]\n"
+                            "       [--max-slope DEG]\n"
                             "Writes a scene file (docs/scene.md) of a procedural city: N x N blocks of --block metres\n"
                             "(default 120) between streets of --street metres (default 20), buildings along each\n"
                             "block's edges (about 24 per block), taller toward the centre, four materials, one box\n"
                             "model instanced, every building clamped to the ground; centred on the terrain given\n"
-                            "(default: a generated one), which the scene names. --seed also seeds the city.\n");
+                            "(default: a generated one), which the scene names. --seed also seeds the city.\n"
+                            "Lots on ground steeper than --max-slope degrees (default 45; 90: any) stay empty.\n");
             cli_usage_terrain();
             free(rest);
             return 0;
         }
-        if (i >= 2 && (!strcmp(a, "--blocks") || !strcmp(a, "--block") || !strcmp(a, "--street"))) {
-            bool ok = v && (!strcmp(a, "--blocks") ? cli_parse_u32(v, 1, 400, &blocks)
-                            : !strcmp(a, "--block") ? cli_parse_float(v, 40, 2000, &block)
-                                                    : cli_parse_float(v, 4, 500, &street));
+        if (i >= 2 && (!strcmp(a, "--blocks") || !strcmp(a, "--block") || !strcmp(a, "--street") ||
+                       !strcmp(a, "--max-slope"))) {
+            bool ok = v && (!strcmp(a, "--blocks")    ? cli_parse_u32(v, 1, 400, &blocks)
+                            : !strcmp(a, "--block")   ? cli_parse_float(v, 40, 2000, &block)
+                            : !strcmp(a, "--street")  ? cli_parse_float(v, 4, 500, &street)
+                                                      : cli_parse_float(v, 0, 90, &max_slope));
             if (!ok) {
                 fprintf(stderr, "horizon city: %s wants %s, not '%s'\n", a,
-                        !strcmp(a, "--blocks") ? "a count in [1, 400]"
-                        : !strcmp(a, "--block") ? "metres in [40, 2000]"
-                                                : "metres in [4, 500]",
+                        !strcmp(a, "--blocks")   ? "a count in [1, 400]"
+                        : !strcmp(a, "--block")  ? "metres in [40, 2000]"
+                        : !strcmp(a, "--street") ? "metres in [4, 500]"
+                                                 : "degrees in [0, 90]",
                         v ? v : "(nothing)");
                 free(rest);
                 return 2;
@@ -968,6 +1009,8 @@ int cmd_city(int argc, char **argv)
     json_t *models = json_pack("{s:{s:[f,f,f]}}", "box", "box", 1.0, 1.0, 1.0);
     uint64_t rng = o.terrain.seed * 0x2545f4914f6cdd1dull + blocks;
     uint32_t count = 0;
+    lot_ground ground = {.t = t, .cx = cx, .cz = cz,
+                         .max_tan = max_slope >= 90.0f ? INFINITY : tan(glm_rad(max_slope))};
     bool ok = root && nodes && children && terrain && mats && models;
     for (uint32_t bj = 0; ok && bj < blocks; bj++)
         for (uint32_t bi = 0; ok && bi < blocks; bi++) {
@@ -976,7 +1019,7 @@ int cmd_city(int argc, char **argv)
             json_t *bl = json_array();
             char name[32];
             snprintf(name, sizeof name, "block_%u_%u", bi, bj);
-            ok = bl && add_block(bl, &rng, bx, bz, block, r, bi, bj, &count);
+            ok = bl && add_block(bl, &rng, bx, bz, block, r, bi, bj, &count, &ground);
             json_t *node = ok ? json_pack("{s:s, s:o}", "name", name, "children", bl) : NULL;
             ok = node && !json_array_append_new(children, node);
         }
@@ -1007,6 +1050,8 @@ int cmd_city(int argc, char **argv)
     } else {
         printf("city          %u x %u blocks, %u buildings, %.0f m across, centred at %.0f, %.0f on %s\n", blocks,
                blocks, count, 2 * half, cx, cz, t->source);
+        if (ground.steep)
+            printf("steep ground  %u lots left empty (steeper than %.0f degrees)\n", ground.steep, max_slope);
         printf("scene         %s\n", o.out);
         rc = 0;
     }

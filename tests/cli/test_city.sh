@@ -118,6 +118,21 @@ assert c['scene_file']['objects'] == n and c['scene_file']['clamped'] == n and c
 assert c['draw_calls'] <= 4 and c['queue_items'] <= 4, c   # one box mesh, instanced, per material
 PY
 then ok "horizon city: 9 blocks written, rendered in <= 4 instanced draws"; else bad "horizon city (exit $rc $rc2): $out $j"; fi
+# Steep ground: lots on a cliff stay empty (the default 45 degrees), all built with --max-slope 90
+o45=$($HZ city --blocks 3 --generate perlin --size 513 --seed 4 --out "$TMP/c3s.json")
+o90=$($HZ city --blocks 3 --generate perlin --size 513 --seed 4 --max-slope 90 --out "$TMP/c3a.json")
+if python3 - "$TMP/c3s.json" "$TMP/c3a.json" "$o45" <<'PY'
+import json, sys
+def names(p):  # the lots, by place and size
+    return {(tuple(n['position']), tuple(n['scale'])) for b in json.load(open(p))['nodes'][0]['children']
+            for n in b['children']}
+steep, every = names(sys.argv[1]), names(sys.argv[2])
+empty = int(sys.argv[3].split('steep ground')[1].split()[0])
+# the same city with the steep lots left out: nothing added, nothing else changed
+assert steep < every and len(every) - len(steep) == empty > 0, (len(steep), len(every), empty)
+PY
+then ok "horizon city leaves lots on steep ground empty"; else bad "city --max-slope: $o45"; fi
+expect_fail "city --max-slope 100"    "--max-slope wants degrees" $HZ city --blocks 2 --max-slope 100 --out "$TMP/x.json"
 expect_fail "city without --blocks"   "give --blocks"            $HZ city --generate perlin --size 257 --out "$TMP/x.json"
 expect_fail "city --blocks 0"         "--blocks wants"           $HZ city --blocks 0 --out "$TMP/x.json"
 printf '{"nodes": [{"model": "tower"}]}' > "$TMP/badmodel.json"
