@@ -53,6 +53,10 @@ typedef struct hz_lightmap_stats {
     uint32_t threads;      /* threads actually used */
 } hz_lightmap_stats;
 
+/* True when rect = {i0, j0, w, h} is non-empty and inside a size x size map
+ * (what hz_lightmap_desc.sun_rect must be). */
+bool hz_sample_rect_inside(const uint32_t rect[4], uint32_t size);
+
 /* Bytes needed for a light map of this heightmap: size * size (one byte per
  * sample, I * 255 rounded, row-major: index = j * size + i like the grid). */
 size_t hz_lightmap_bound(const hz_heightmap *hm);

@@ -35,6 +35,8 @@ bool hz_box_is_empty(const hz_box *b);
 /* b grown to contain p / another box. */
 void hz_box_add_point(hz_box *b, const float p[3]);
 void hz_box_add_box(hz_box *b, const hz_box *o);
+/* Squared distance from p to b (0 for p inside; +inf for an empty box). */
+float hz_box_distance2(const hz_box *b, const float p[3]);
 /* The box of the 8 corners of b transformed by m (an affine matrix). */
 void hz_box_transform(const hz_box *b, const mat4 m, hz_box *dest);
 

@@ -3,6 +3,8 @@
  * trees. Textures only; terrain_fs.glsl does the shading. */
 #include "render_internal.h"
 
+#include "horizon/lightmap.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -122,6 +124,12 @@ void fx_ground_destroy(hz_renderer *r)
     r->detail_cpu = NULL;
 }
 
+/* A finite, non-zero sun direction. */
+static bool sun_ok(const float *s)
+{
+    return s && isfinite(s[0]) && isfinite(s[1]) && isfinite(s[2]) && (s[0] != 0.0f || s[1] != 0.0f || s[2] != 0.0f);
+}
+
 /* Within 0.25 degree. */
 static bool same_sun(const vec3 sun, const vec3 built)
 {
@@ -153,15 +161,13 @@ hz_result hz_renderer_set_sun_heights(hz_renderer *r, const float *heights, cons
         r->sunh_tex = 0;
         return HZ_OK;
     }
-    if (!r->has_heights || !rect || !rect[2] || !rect[3] || rect[0] >= r->size || rect[1] >= r->size ||
-        rect[2] > r->size - rect[0] || rect[3] > r->size - rect[1])
+    if (!r->has_heights || !hz_sample_rect_inside(rect, r->size))
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: sun heights rectangle outside the %u-sample heightmap",
                           r->has_heights ? r->size : 0);
     if (r->max_tex > 0 && (rect[2] > (uint32_t)r->max_tex || rect[3] > (uint32_t)r->max_tex))
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: sun heights of %u x %u samples exceed the GPU's %d texels",
                           rect[2], rect[3], r->max_tex);
-    if (!sun_dir || !isfinite(sun_dir[0]) || !isfinite(sun_dir[1]) || !isfinite(sun_dir[2]) ||
-        (sun_dir[0] == 0.0f && sun_dir[1] == 0.0f && sun_dir[2] == 0.0f))
+    if (!sun_ok(sun_dir))
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: sun heights without a valid sun direction");
     for (size_t k = 0; k < (size_t)rect[2] * rect[3]; k++)
         if (!isfinite(heights[k]))
@@ -204,8 +210,7 @@ hz_result hz_renderer_set_lightmap(hz_renderer *r, const uint8_t *lm, uint32_t s
     if (!r->has_heights || size != r->size)
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: light map of %u samples per side for a heightmap of %u", size,
                           r->has_heights ? r->size : 0);
-    if (!sun_dir || !isfinite(sun_dir[0]) || !isfinite(sun_dir[1]) || !isfinite(sun_dir[2]) ||
-        (sun_dir[0] == 0.0f && sun_dir[1] == 0.0f && sun_dir[2] == 0.0f))
+    if (!sun_ok(sun_dir))
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: light map without a valid sun direction");
     hz_gl_drain();
     /* Too big for one texture: every second sample. */

@@ -428,14 +428,7 @@ hz_result hz_scene_gpu_draw(hz_scene_gpu *g, const hz_scene *s, const hz_pass_in
         for (uint32_t k = 0; k < n; k++) {
             hz_box b;
             hz_scene_node_bounds(s, g->vis[k], &b);
-            float d2 = 0;
-            for (int c = 0; c < 3; c++) {
-                float v = pass->cam->pos[c] < b.min[c] ? b.min[c] - pass->cam->pos[c]
-                          : pass->cam->pos[c] > b.max[c] ? pass->cam->pos[c] - b.max[c]
-                                                          : 0;
-                d2 += v * v;
-            }
-            if (d2 < near * near) {
+            if (hz_box_distance2(&b, pass->cam->pos) < near * near) {
                 uint32_t t = g->vis[nn];
                 g->vis[nn++] = g->vis[k];
                 g->vis[k] = t;

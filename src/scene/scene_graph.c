@@ -75,6 +75,16 @@ void hz_box_add_point(hz_box *b, const float p[3])
     }
 }
 
+float hz_box_distance2(const hz_box *b, const float p[3])
+{
+    float d2 = 0;
+    for (int c = 0; c < 3; c++) {
+        const float v = fmaxf(fmaxf(b->min[c] - p[c], p[c] - b->max[c]), 0.0f);
+        d2 += v * v;
+    }
+    return d2;
+}
+
 void hz_box_add_box(hz_box *b, const hz_box *o)
 {
     if (hz_box_is_empty(o))
@@ -625,11 +635,7 @@ void hz_scene_sort_near_first(const hz_scene *s, const float eye[3], uint32_t *n
     for (uint32_t k = 0; k < n; k++) {
         hz_box b;
         hz_scene_node_bounds(s, nodes[k], &b);
-        float d2 = 0;
-        for (int c = 0; c < 3; c++) {
-            const float v = fmaxf(fmaxf(b.min[c] - eye[c], eye[c] - b.max[c]), 0.0f);
-            d2 += v * v;
-        }
+        float d2 = hz_box_distance2(&b, eye);
         if (!(d2 >= 0)) /* NaN: last */
             d2 = INFINITY;
         memcpy(&key[k], &d2, sizeof d2);

@@ -235,6 +235,12 @@ static void *run_band(void *arg)
     return NULL;
 }
 
+bool hz_sample_rect_inside(const uint32_t rect[4], uint32_t size)
+{
+    return rect && rect[2] && rect[3] && rect[0] < size && rect[1] < size && rect[2] <= size - rect[0] &&
+           rect[3] <= size - rect[1];
+}
+
 size_t hz_lightmap_bound(const hz_heightmap *hm)
 {
     return hm ? (size_t)hm->size * hm->size : 0;
@@ -291,7 +297,7 @@ hz_result hz_lightmap_build(const hz_lightmap_desc *d, uint8_t *out, hz_lightmap
     sw->casters = d->casters;
     if (d->sun_heights) {
         const uint32_t *R = d->sun_rect;
-        if (!R[2] || !R[3] || R[0] >= n || R[1] >= n || R[2] > n - R[0] || R[3] > n - R[1]) {
+        if (!hz_sample_rect_inside(R, n)) {
             free(sw);
             return hz_err_set(err, HZ_ERR_VALUE, "lightmap: sun height rectangle %u,%u %ux%u is empty or leaves "
                               "the %u x %u map", R[0], R[1], R[2], R[3], n, n);
