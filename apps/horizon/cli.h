@@ -95,6 +95,11 @@ typedef struct app_fx {
 int app_load_imagery(app_fx *a, const cli_opts *o, const hz_georef *g, uint32_t samples, double spacing,
                      hz_renderer *r, const char *cmd);
 
+/* The city's objects (or none) as the effects see them: shadow casters of
+ * the light map and the samples whose sun heights shade their faces. Call
+ * before app_fx_setup. */
+void app_fx_objects(app_fx *a, const city_app *ca);
+
 /* Builds and uploads what o's effects need. 0, or 1 after printing the error. */
 int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer *r, const char *cmd);
 /* Fills the scene parameters for a frame seen by cam (selects the reflection

@@ -1129,9 +1129,7 @@ int cmd_bench(int argc, char **argv)
     if (b.ca && city_app_gpu(b.ca, "bench"))
         goto done;
     /* --effect-costs builds every effect's resources ("view" does). */
-    b.afx.casters = b.ca ? b.ca->casters : NULL;
-    if (b.ca)
-        memcpy(b.afx.sun_rect, b.ca->sun_rect, sizeof b.afx.sun_rect);
+    app_fx_objects(&b.afx, b.ca);
     if (app_fx_setup(&b.afx, &b.o, b.t, b.ren, costs_out ? "view" : "bench")) {
         snprintf(b.err.msg, sizeof b.err.msg, "effects setup failed");
         goto done;

@@ -164,9 +164,7 @@ int cmd_render(int argc, char **argv)
     ren = hz_renderer_create(&(hz_renderer_desc){.width = o.width, .height = o.height}, &err);
     if (!ren || cli_renderer_setup(ren, t, &o, &err) != HZ_OK)
         goto done;
-    afx.casters = ca ? ca->casters : NULL;
-    if (ca)
-        memcpy(afx.sun_rect, ca->sun_rect, sizeof afx.sun_rect);
+    app_fx_objects(&afx, ca);
     if (app_fx_setup(&afx, &o, t, ren, "render")) {
         snprintf(err.msg, sizeof err.msg, "effects setup failed");
         goto done;

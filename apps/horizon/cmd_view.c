@@ -1208,9 +1208,7 @@ int cmd_view(int argc, char **argv)
     if (v->ca && (city_app_place(v->ca, v->t, "view") || city_app_gpu(v->ca, "view")))
         goto out;
     draw_loading(&ld, "effects: light map, trees, water", 1, 1);
-    v->afx.casters = v->ca ? v->ca->casters : NULL;
-    if (v->ca)
-        memcpy(v->afx.sun_rect, v->ca->sun_rect, sizeof v->afx.sun_rect);
+    app_fx_objects(&v->afx, v->ca);
     if (app_fx_setup(&v->afx, &v->o, v->t, v->ren, "view"))
         goto out;
     v->fx_time = v->o.time;

@@ -260,6 +260,15 @@ static hz_climate app_climate(const cli_opts *o, const hz_terrain *t, bool *know
     return hz_climate_of_kind(o->climate, lat);
 }
 
+void app_fx_objects(app_fx *a, const city_app *ca)
+{
+    a->casters = ca ? ca->casters : NULL;
+    if (ca)
+        memcpy(a->sun_rect, ca->sun_rect, sizeof a->sun_rect);
+    else
+        memset(a->sun_rect, 0, sizeof a->sun_rect);
+}
+
 int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer *r, const char *cmd)
 {
     double t0 = hz_time_ms();
