@@ -15,6 +15,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "horizon/blob.h"
 #include "horizon/safety.h"
 #include "horizon/terrain.h"
 #include "io_fixtures.h"
@@ -315,13 +316,79 @@ static void test_outfile(void **state)
     unlink(link_path);
 }
 
+/* Cache blobs: what went in comes out, under its key and size only; a
+ * truncated, padded, damaged, foreign or oversized file is refused with its
+ * reason, never read into the caller's buffer as if whole. */
+static void test_blob(void **state)
+{
+    (void)state;
+    const size_t n = 200000;
+    uint8_t *data = malloc(n), *back = malloc(n);
+    assert_non_null(data);
+    assert_non_null(back);
+    for (size_t k = 0; k < n; k++)
+        data[k] = (uint8_t)((k * 2654435761u) >> 13 & (k % 7 ? 0x0f : 0xff)); /* some entropy, compressible */
+    char path[1024];
+    snprintf(path, sizeof path, "%s", fx_tmp("cache.hzb"));
+    hz_err err = {0};
+    assert_int_equal(hz_blob_save(path, 0x1234u, data, n, &err), HZ_OK);
+    memset(back, 0, n);
+    assert_int_equal(hz_blob_load(path, 0x1234u, back, n, &err), HZ_OK);
+    assert_memory_equal(back, data, n);
+    /* Another key or size. */
+    assert_int_equal(hz_blob_load(path, 0x1235u, back, n, &err), HZ_ERR_FORMAT);
+    assert_non_null(strstr(err.msg, "other data"));
+    assert_int_equal(hz_blob_load(path, 0x1234u, back, n - 1, &err), HZ_ERR_FORMAT);
+    assert_int_equal(hz_blob_load("/nonexistent_dir_hz/x.hzb", 0x1234u, back, n, &err), HZ_ERR_IO);
+    /* The file's bytes, damaged in every way a cache file gets damaged. */
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    uint8_t *file = malloc(n + 1000);
+    assert_non_null(file);
+    size_t fn = fread(file, 1, n + 1000, f);
+    fclose(f);
+    assert_true(fn > HZ_BLOB_HEADER && fn < n); /* compressed */
+    assert_int_equal(hz_blob_load_mem(file, fn, "m", 0x1234u, back, n, &err), HZ_OK);
+    for (size_t cut = 0; cut < fn; cut += 997) { /* truncated */
+        assert_int_equal(hz_blob_load_mem(file, cut, "m", 0x1234u, back, n, &err), HZ_ERR_FORMAT);
+        assert_true(err.msg[0] != 0);
+    }
+    file[fn] = 0; /* padded */
+    assert_int_equal(hz_blob_load_mem(file, fn + 1, "m", 0x1234u, back, n, &err), HZ_ERR_FORMAT);
+    assert_non_null(strstr(err.msg, "truncated or padded"));
+    /* A flipped bit anywhere is caught: by the header checks, by zstd or by the checksum. */
+    for (size_t k = 0; k < fn; k += fn / 97 + 1) {
+        file[k] ^= 0x10;
+        assert_int_equal(hz_blob_load_mem(file, fn, "m", 0x1234u, back, n, &err), HZ_ERR_FORMAT);
+        file[k] ^= 0x10;
+    }
+    /* The checksum guards the bytes even when the frame decodes: the same
+     * frame under a header whose XXH64 is another. */
+    file[24] ^= 1;
+    assert_int_equal(hz_blob_load_mem(file, fn, "m", 0x1234u, back, n, &err), HZ_ERR_FORMAT);
+    assert_non_null(strstr(err.msg, "checksum"));
+    file[24] ^= 1;
+    /* A file larger than any blob of that size is not read at all. */
+    f = fopen(path, "ab");
+    assert_non_null(f);
+    for (int k = 0; k < 4096; k++)
+        fwrite(file, 1, 1000 < fn ? 1000 : fn, f);
+    fclose(f);
+    assert_int_equal(hz_blob_load(path, 0x1234u, back, n, &err), HZ_ERR_FORMAT);
+    assert_non_null(strstr(err.msg, "more than"));
+    unlink(path);
+    free(file);
+    free(data);
+    free(back);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_size_parse),      cmocka_unit_test(test_mem_check),
         cmocka_unit_test(test_fit_side),        cmocka_unit_test(test_wide_file_refused),
         cmocka_unit_test(test_gunzip_budget),   cmocka_unit_test(test_gdal_header_budget),   cmocka_unit_test(test_same_file),
-        cmocka_unit_test(test_outfile),
+        cmocka_unit_test(test_outfile),         cmocka_unit_test(test_blob),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
