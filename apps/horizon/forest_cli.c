@@ -11,6 +11,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "horizon/blob.h"
 #include "horizon/safety.h"
 
 void cli_usage_forest(void)
@@ -281,6 +282,62 @@ static float ground(void *user, float x, float z)
     return hz_terrain_height_at(user, x, z);
 }
 
+/* The models' baked impostors, kept in the tree cache (DIR/impostor-KEY.hzb,
+ * about 1 MB each compressed) under hz_forest_gpu_impostor_key: what each
+ * depends on. Loaded when present and whole (NULL entries are baked). */
+static uint8_t **impostors_load(const cli_opts *o, const cli_forest *cf)
+{
+    char dir[700], path[800];
+    if (!cache_dir(o, dir, sizeof dir))
+        return NULL;
+    uint8_t **imp = calloc(cf->model_count, sizeof *imp);
+    if (!imp)
+        return NULL;
+    const size_t bytes = hz_forest_gpu_impostor_bytes();
+    for (uint32_t k = 0; k < cf->model_count; k++) {
+        const uint64_t key = hz_forest_gpu_impostor_key(cf->models[k]);
+        snprintf(path, sizeof path, "%s/impostor-%016llx.hzb", dir, (unsigned long long)key);
+        struct stat sb;
+        if (stat(path, &sb) != 0)
+            continue;
+        hz_err e = {0};
+        uint8_t *b = malloc(bytes);
+        if (b && hz_blob_load(path, key, b, bytes, &e) == HZ_OK) {
+            imp[k] = b;
+            continue;
+        }
+        free(b);
+        if (!o->quiet)
+            fprintf(stderr, "horizon: baking the impostor again: %s\n", b ? e.msg : "out of memory");
+    }
+    return imp;
+}
+
+/* Stores the impostors baked this run (best effort: the forest works without). */
+static void impostors_store(const cli_opts *o, const cli_forest *cf)
+{
+    char dir[700], path[800];
+    if (!cache_dir(o, dir, sizeof dir))
+        return;
+    const size_t bytes = hz_forest_gpu_impostor_bytes();
+    uint8_t *b = NULL;
+    for (uint32_t k = 0; k < cf->model_count; k++) {
+        if (!hz_forest_gpu_impostor_baked(cf->gpu, k))
+            continue;
+        if (!b && !(b = malloc(bytes)))
+            return;
+        const uint64_t key = hz_forest_gpu_impostor_key(cf->models[k]);
+        snprintf(path, sizeof path, "%s/impostor-%016llx.hzb", dir, (unsigned long long)key);
+        hz_err e = {0};
+        if (!mkdir_p(dir) || hz_forest_gpu_impostor_read(cf->gpu, k, b, &e) != HZ_OK ||
+            hz_blob_save(path, key, b, bytes, &e) != HZ_OK) {
+            if (!o->quiet)
+                fprintf(stderr, "horizon: cannot cache the impostor in %s (%s)\n", dir, e.msg[0] ? e.msg : strerror(errno));
+        }
+    }
+    free(b);
+}
+
 cli_forest *cli_forest_create(const cli_opts *o, const hz_terrain *t, const float *object_tops)
 {
     hz_err err = {0};
@@ -382,9 +439,22 @@ have_trees:
     cf->forest = hz_forest_create((const hz_tree *const *)cf->models, cf->model_count, trees, placed, &err);
     if (!cf->forest)
         goto fail;
-    cf->gpu = hz_forest_gpu_create(cf->forest, &err);
+    uint8_t **imp = impostors_load(o, cf);
+    uint32_t to_bake = 0;
+    for (uint32_t k = 0; k < cf->model_count; k++)
+        to_bake += !(imp && imp[k]);
+    if (to_bake && !o->quiet)
+        fprintf(stderr, "horizon: baking the impostors of %u tree model%s (cached for next time)\n", to_bake,
+                to_bake == 1 ? "" : "s");
+    cf->gpu = hz_forest_gpu_create_with(cf->forest, &(hz_forest_gpu_desc){.impostors = (const uint8_t *const *)imp},
+                                        &err);
+    for (uint32_t k = 0; imp && k < cf->model_count; k++)
+        free(imp[k]);
+    free(imp);
     if (!cf->gpu)
         goto fail;
+    if (to_bake)
+        impostors_store(o, cf);
     free(trees);
     free(high);
     return cf;

@@ -78,6 +78,28 @@ typedef struct hz_forest_gpu hz_forest_gpu;
 hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err);
 void hz_forest_gpu_destroy(hz_forest_gpu *g);
 
+/* Baked impostors can be kept (e.g. on disk, include/horizon/blob.h) and
+ * given back instead of baking them again (about one second per model). */
+typedef struct hz_forest_gpu_desc {
+    /* Per model (hz_forest_model_count entries), NULL or a model's impostor
+     * as hz_forest_gpu_impostor_read wrote it (hz_forest_gpu_impostor_bytes
+     * bytes), for a tree of the same hz_forest_gpu_impostor_key: used as it
+     * is. NULL entries, or a NULL array, are baked. */
+    const uint8_t *const *impostors;
+} hz_forest_gpu_desc;
+hz_forest_gpu *hz_forest_gpu_create_with(const hz_forest *f, const hz_forest_gpu_desc *d, hz_err *err);
+/* Bytes of one model's impostor: the albedo then the normal atlas, RGBA8,
+ * full resolution (the mipmaps are rebuilt). */
+size_t hz_forest_gpu_impostor_bytes(void);
+/* A hash of everything a model's impostor depends on (its leaves, nodes,
+ * bark, colours, and the bake's shaders and layout): the key to keep it
+ * under. */
+uint64_t hz_forest_gpu_impostor_key(const hz_tree *t);
+/* Copies model's impostor (hz_forest_gpu_impostor_bytes) to out. */
+hz_result hz_forest_gpu_impostor_read(const hz_forest_gpu *g, uint32_t model, uint8_t *out, hz_err *err);
+/* Whether model's impostor was baked by this hz_forest_gpu (not given). */
+bool hz_forest_gpu_impostor_baked(const hz_forest_gpu *g, uint32_t model);
+
 /* Draws a frame's selection with a pass's matrices, lighting and fog:
  * detailed trees as leaf prefixes per node (per node group, the range of
  * the static leaf order holding the kept leaves; only changed node counts

@@ -15,6 +15,7 @@
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
+#include <xxhash.h>
 
 #include "gl_util.h"
 #include "hz_shaders.h"
@@ -65,6 +66,7 @@ struct hz_forest_gpu {
     GLuint order_buf, order_tex;  /* R32UI: the frame's impostor trees */
     GLuint rect_buf, rect_tex;    /* RGBA32F per (model, view): the image's extent in its tile */
     GLuint atlas[2];            /* albedo, normals: RGBA8 arrays */
+    bool *baked;                /* per model: baked here (not given by hz_forest_gpu_desc) */
     uint32_t tree_count;
     size_t node_total;
     uint64_t last_serial;       /* frame whose counts were uploaded last */
@@ -189,6 +191,7 @@ void hz_forest_gpu_destroy(hz_forest_gpu *g)
         glDeleteTextures(2, g->atlas);
     }
     free(g->m);
+    free(g->baked);
     free(g);
 }
 
@@ -382,7 +385,17 @@ hz_result hz_forest_gpu_sprite(const hz_forest_gpu *g, const hz_forest *f, uint3
 /* Bakes every model's impostor atlas: the full tree (leaves and bark)
  * orthographically from each view, framing its bounding sphere; albedo
  * unlit, normals in model space; mipmapped. */
-static hz_result bake_impostors(hz_forest_gpu *g, const hz_forest *f, GLuint leaf_bake, GLuint bark_bake, hz_err *err)
+/* Views rendered between two glFinish calls while baking. llvmpipe bins a
+ * whole scene before it rasterises; 48 views of a 100 000-leaf tree queued at
+ * once took up to 1 GB more peak memory than 4 at a time (which costs about
+ * 10 % more bake time than none). */
+#define BAKE_FINISH_EVERY 4
+
+/* Bakes the atlas layer of every model that was not given (given[model]:
+ * its level 0, albedo then normals, as hz_forest_gpu_impostor_read gives it),
+ * uploads the given ones, then builds the mipmaps and each view's extent. */
+static hz_result bake_impostors(hz_forest_gpu *g, const hz_forest *f, GLuint leaf_bake, GLuint bark_bake,
+                                const uint8_t *const *given, hz_err *err)
 {
     const GLsizei W = IMP_AZ * IMP_TILE, H = IMP_EL * IMP_TILE;
     GLint old_fbo = 0, old_vp[4];
@@ -418,6 +431,18 @@ static hz_result bake_impostors(hz_forest_gpu *g, const hz_forest *f, GLuint lea
     hz_result r = HZ_OK;
     for (uint32_t mi = 0; mi < g->nm && r == HZ_OK; mi++) {
         const hz_tree *t = hz_forest_model(f, mi);
+        g->baked[mi] = !(given && given[mi]);
+        if (!g->baked[mi]) {
+            glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+            glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+            for (int k = 0; k < 2; k++) {
+                glBindTexture(GL_TEXTURE_2D_ARRAY, g->atlas[k]);
+                glTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, (GLint)mi, W, H, 1, GL_RGBA, GL_UNSIGNED_BYTE,
+                                given[mi] + (size_t)k * W * H * 4);
+            }
+            glBindTexture(GL_TEXTURE_2D_ARRAY, 0);
+            continue;
+        }
         for (int k = 0; k < 2; k++)
             glFramebufferTextureLayer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0 + k, g->atlas[k], 0, (GLint)mi);
         if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
@@ -481,6 +506,8 @@ static hz_result bake_impostors(hz_forest_gpu *g, const hz_forest *f, GLuint lea
                     glBindVertexArray(g->m[mi].bark.vao);
                     glDrawElements(GL_TRIANGLES, (GLsizei)g->m[mi].bark.count, GL_UNSIGNED_INT, (const void *)0);
                 }
+                if ((ie * IMP_AZ + ia + 1) % BAKE_FINISH_EVERY == 0)
+                    glFinish();
             }
     }
     glBindVertexArray(0);
@@ -545,6 +572,11 @@ static hz_result bake_impostors(hz_forest_gpu *g, const hz_forest *f, GLuint lea
 
 hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err)
 {
+    return hz_forest_gpu_create_with(f, NULL, err);
+}
+
+hz_forest_gpu *hz_forest_gpu_create_with(const hz_forest *f, const hz_forest_gpu_desc *desc, hz_err *err)
+{
     if (!hz_gl_has_context()) {
         hz_err_set(err, HZ_ERR_GL, "forest: no current OpenGL context");
         return NULL;
@@ -558,7 +590,8 @@ hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err)
     hz_gl_drain();
     g->nm = hz_forest_model_count(f);
     g->m = calloc(g->nm, sizeof *g->m);
-    if (!g->m) {
+    g->baked = calloc(g->nm ? g->nm : 1, sizeof *g->baked);
+    if (!g->m || !g->baked) {
         hz_err_set(err, HZ_ERR_MEMORY, "out of memory");
         goto fail;
     }
@@ -677,7 +710,7 @@ hz_forest_gpu *hz_forest_gpu_create(const hz_forest *f, hz_err *err)
     }
     if (hz_gl_check(err, "forest upload") != HZ_OK)
         goto fail;
-    if (bake_impostors(g, f, leaf_bake, bark_bake, err) != HZ_OK)
+    if (bake_impostors(g, f, leaf_bake, bark_bake, desc ? desc->impostors : NULL, err) != HZ_OK)
         goto fail;
     glDeleteProgram(leaf_bake);
     glDeleteProgram(bark_bake);
@@ -689,6 +722,83 @@ fail:
     }
     hz_forest_gpu_destroy(g);
     return NULL;
+}
+
+size_t hz_forest_gpu_impostor_bytes(void)
+{
+    return (size_t)2 * IMP_AZ * IMP_TILE * IMP_EL * IMP_TILE * 4;
+}
+
+/* What a model's baked impostor depends on, hashed: its leaves (in order:
+ * the tint is a hash of the leaf), nodes, bark, colours and spheres, the
+ * bake's shaders and layout. Bump BAKE_VERSION when the bake's C code
+ * changes what it draws. */
+#define BAKE_VERSION 1u
+
+uint64_t hz_forest_gpu_impostor_key(const hz_tree *t)
+{
+    XXH3_state_t *st = XXH3_createState();
+    if (!st)
+        return 0;
+    XXH3_64bits_reset(st);
+    const uint32_t head[6] = {BAKE_VERSION, IMP_AZ, IMP_EL, IMP_TILE, t->leaf_count, t->node_count};
+    XXH3_64bits_update(st, head, sizeof head);
+    XXH3_64bits_update(st, t->leaves, (size_t)t->leaf_count * sizeof *t->leaves);
+    for (uint32_t n = 0; n < t->node_count; n++) {
+        const uint32_t nd[3] = {t->nodes[n].branch, t->nodes[n].first, t->nodes[n].count};
+        XXH3_64bits_update(st, nd, sizeof nd);
+    }
+    const uint32_t bark[2] = {t->bark.vertex_count, t->bark.index_count};
+    XXH3_64bits_update(st, bark, sizeof bark);
+    if (t->bark.vertex_count) {
+        XXH3_64bits_update(st, t->bark.pos, (size_t)t->bark.vertex_count * 12);
+        XXH3_64bits_update(st, t->bark.nrm, (size_t)t->bark.vertex_count * 12);
+    }
+    if (t->bark.index_count)
+        XXH3_64bits_update(st, t->bark.idx, (size_t)t->bark.index_count * 4);
+    const float f[14] = {t->leaf_color[0],   t->leaf_color[1],   t->leaf_color[2],   t->bark_color[0],
+                         t->bark_color[1],   t->bark_color[2],   t->crown_center[0], t->crown_center[1],
+                         t->crown_center[2], t->crown_radius,    t->bound_center[0], t->bound_center[1],
+                         t->bound_center[2], t->bound_radius};
+    XXH3_64bits_update(st, f, sizeof f);
+    const char *const src[4] = {hz_shader_leaf_vs, hz_shader_leaf_bake_fs, hz_shader_bark_vs, hz_shader_bark_bake_fs};
+    for (int k = 0; k < 4; k++)
+        XXH3_64bits_update(st, src[k], strlen(src[k]));
+    uint64_t h = XXH3_64bits_digest(st);
+    XXH3_freeState(st);
+    return h;
+}
+
+bool hz_forest_gpu_impostor_baked(const hz_forest_gpu *g, uint32_t model)
+{
+    return model < g->nm && g->baked[model];
+}
+
+hz_result hz_forest_gpu_impostor_read(const hz_forest_gpu *g, uint32_t model, uint8_t *out, hz_err *err)
+{
+    if (model >= g->nm)
+        return hz_err_set(err, HZ_ERR_VALUE, "forest: no model %u (%u models)", model, g->nm);
+    const GLsizei W = IMP_AZ * IMP_TILE, H = IMP_EL * IMP_TILE;
+    GLuint fbo = 0;
+    GLint old_read = 0;
+    glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &old_read);
+    glGenFramebuffers(1, &fbo);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo);
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glPixelStorei(GL_PACK_ROW_LENGTH, 0);
+    glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+    hz_result r = HZ_OK;
+    for (int k = 0; k < 2 && r == HZ_OK; k++) {
+        glFramebufferTextureLayer(GL_READ_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, g->atlas[k], 0, (GLint)model);
+        glReadBuffer(GL_COLOR_ATTACHMENT0);
+        if (glCheckFramebufferStatus(GL_READ_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+            r = hz_err_set(err, HZ_ERR_GL, "forest: impostor read framebuffer incomplete");
+        else
+            glReadPixels(0, 0, W, H, GL_RGBA, GL_UNSIGNED_BYTE, out + (size_t)k * W * H * 4);
+    }
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, (GLuint)old_read);
+    glDeleteFramebuffers(1, &fbo);
+    return r == HZ_OK ? hz_gl_check(err, "forest impostor read") : r;
 }
 
 /* Uploads the kept counts of the nodes that changed (all of a tree's when

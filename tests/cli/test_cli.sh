@@ -365,7 +365,7 @@ expect_fail "assimp import over the budget" "memory budget" $T --import "$DATA/t
 $T --import "$DATA/trees/white_birch.obj" --no-rank --json --out "$TMP/obj.hzt" > "$TMP/obj.json" 2>&1 &&
   python3 -c "import json,sys; j=json.load(open(sys.argv[1])); assert j['leaves']==1295 and j['hull_triangles']>0" "$TMP/obj.json" &&
   ok "tree --import OBJ (1295 leaves)" || bad "tree --import: $(cat "$TMP/obj.json")"
-F="--forest-trees $TMP/b.hzt,$TMP/obj.hzt"
+F="--forest-trees $TMP/b.hzt,$TMP/obj.hzt --tree-cache $TMP/trees"
 expect_fail "forest bad count"      "invalid value"           $R --size 257 --forest 0
 expect_fail "forest bad weights"    "five weights"            $R --size 257 --forest 5 --rate-weights 1,2
 expect_fail "forest near > far"     "larger than"             $R --size 257 --forest 5 --tree-near 50 --tree-far 10
@@ -380,6 +380,22 @@ assert j["forest_trees"] == 40 and j["trees_in_frustum"] > 5, j
 assert 0 < j["triangles_drawn"] < j["triangles_full"], j
 PY
 then ok "render --forest figures"; else bad "render --forest (exit $rc): $fj $(cat "$TMP/forest.err")"; fi
+# Baked impostors are kept with the trees: a second run loads them and draws
+# the same picture; a damaged file is reported, baked again and rewritten.
+IC="$TMP/imp_cache"; rm -rf "$IC"
+RI="$HZ render --width 320 --height 180 --size 513 --forest 40 --forest-trees $TMP/b.hzt,$TMP/obj.hzt --tree-cache $IC"
+$RI --out "$TMP/imp1.png" >/dev/null 2>"$TMP/imp1.err"
+$RI --out "$TMP/imp2.png" >/dev/null 2>"$TMP/imp2.err"
+n=$(ls "$IC"/impostor-*.hzb 2>/dev/null | wc -l)
+first=$(ls "$IC"/impostor-*.hzb 2>/dev/null | head -1)
+sz=$(stat -c %s "$first" 2>/dev/null)
+head -c 100 "$first" > "$TMP/imp_cut" 2>/dev/null && mv "$TMP/imp_cut" "$first"
+$RI --out "$TMP/imp3.png" >/dev/null 2>"$TMP/imp3.err"
+if [ "$n" = 2 ] && grep -q "baking the impostors of 2 tree models" "$TMP/imp1.err" && ! grep -q "baking" "$TMP/imp2.err" &&
+   grep -q "baking the impostor again: .*truncated" "$TMP/imp3.err" && grep -q "baking the impostors of 1 tree model " "$TMP/imp3.err" &&
+   cmp -s "$TMP/imp1.png" "$TMP/imp2.png" && cmp -s "$TMP/imp1.png" "$TMP/imp3.png" && [ "$(stat -c %s "$first")" = "$sz" ]
+then ok "impostors cached: loaded the second time (same picture); a damaged file baked again and rewritten"
+else bad "impostor cache (files: $n): $(cat "$TMP/imp1.err" "$TMP/imp2.err" "$TMP/imp3.err")"; fi
 fu=$($R --size 513 --forest 40 $F --json --no-simplify --out "$TMP/forest_full.png" 2>&1)
 python3 -c "import json,sys; j=json.loads(sys.argv[1]); assert j['triangles_drawn']==j['triangles_full']>0" "$fu" &&
   ok "render --forest --no-simplify draws everything" || bad "render --no-simplify: $fu"

@@ -495,6 +495,79 @@ static void test_forest_sprite(void **state)
     hz_renderer_destroy(ren);
 }
 
+/* Impostors given back (from a cache) instead of baked: the frame is the
+ * baked one's, byte for byte; the given bytes are what is drawn (zeros draw
+ * nothing); the key follows what the bake depends on. */
+static void test_impostor_given(void **state)
+{
+    (void)state;
+    enum { W = 160, H = 120 };
+    hz_err err = {0};
+    hz_renderer *ren = hz_renderer_create(&(hz_renderer_desc){.width = W, .height = H}, &err);
+    assert_non_null(ren);
+    hz_forest_tree tree = {.pos = {0, 0, -400}, .scale = 1};
+    one_model om = one_model_forest(&(hz_tree_desc){.species = "oak", .seed = 1, .leaves = 8000}, &tree, 1);
+    assert_true(hz_forest_gpu_impostor_baked(om.gpu, 0));
+    const size_t bytes = hz_forest_gpu_impostor_bytes();
+    uint8_t *imp = malloc(bytes), *zero = calloc(1, bytes);
+    assert_non_null(imp);
+    assert_non_null(zero);
+    assert_int_equal(hz_forest_gpu_impostor_read(om.gpu, 0, imp, &err), HZ_OK);
+    assert_int_equal(hz_forest_gpu_impostor_read(om.gpu, 1, imp, &err), HZ_ERR_VALUE);
+    size_t covered = 0;
+    for (size_t k = 3; k < bytes / 2; k += 4)
+        covered += imp[k] != 0;
+    assert_true(covered > 1000); /* the albedo atlas holds the tree's views */
+    hz_camera cam = {.pos = {0, 8, 16}, .yaw = 0, .pitch = 0, .fov_y = 5, .aspect = (float)W / H, .znear = 0.3f,
+                     .zfar = 3000};
+    hz_forest_params fp = {.simplify = true};
+    uint8_t *px[4];
+    const uint8_t *given[3][1] = {{NULL}, {imp}, {zero}};
+    for (int k = 0; k < 4; k++) {
+        px[k] = malloc(W * H * 3);
+        assert_non_null(px[k]);
+        hz_forest_gpu *g = k == 0 ? om.gpu : NULL;
+        if (k > 0 && k < 4) {
+            g = hz_forest_gpu_create_with(om.f, &(hz_forest_gpu_desc){.impostors = k == 3 ? NULL : given[k]}, &err);
+            assert_non_null(g);
+            assert_true(hz_forest_gpu_impostor_baked(g, 0) == (k == 3));
+        }
+        hz_forest_frame fr;
+        hz_forest_hook hook = {.gpu = g, .forest = om.f, .frame = &fr};
+        hz_scene_params sp = {.fog_density = -1, .draw_objects = hz_forest_draw_hook, .draw_objects_user = &hook};
+        assert_int_equal(hz_forest_update(om.f, &cam, &fp, 0, &fr, &err), HZ_OK);
+        assert_int_equal(fr.trees_impostor, 1);
+        assert_int_equal(hz_renderer_draw(ren, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
+        assert_false(hook.failed);
+        assert_int_equal(hz_renderer_read_rgb(ren, px[k], &err), HZ_OK);
+        if (g != om.gpu)
+            hz_forest_gpu_destroy(g);
+    }
+    /* 0 baked, 1 given its bytes, 2 given zeros, 3 baked again (NULL array). */
+    assert_memory_equal(px[0], px[1], W * H * 3);
+    assert_memory_equal(px[0], px[3], W * H * 3);
+    assert_true(count_diff(px[0], px[2], W * H) > 200); /* the tree is there, and drawn from what was given */
+    /* The key: the same for the same tree, another when the leaves or colours change. */
+    const uint64_t key = hz_forest_gpu_impostor_key(om.t);
+    assert_true(key == hz_forest_gpu_impostor_key(om.t));
+    om.t->leaves[17].c[1] += 0.01f;
+    assert_true(key != hz_forest_gpu_impostor_key(om.t));
+    om.t->leaves[17].c[1] -= 0.01f;
+    assert_true(key == hz_forest_gpu_impostor_key(om.t));
+    om.t->leaf_color[0] *= 1.01f;
+    assert_true(key != hz_forest_gpu_impostor_key(om.t));
+    hz_tree *other = hz_tree_grow(&(hz_tree_desc){.species = "oak", .seed = 2, .leaves = 8000}, &err);
+    assert_non_null(other);
+    assert_true(key != hz_forest_gpu_impostor_key(other));
+    hz_tree_destroy(other);
+    for (int k = 0; k < 4; k++)
+        free(px[k]);
+    free(imp);
+    free(zero);
+    one_model_free(&om);
+    hz_renderer_destroy(ren);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -506,6 +579,7 @@ int main(void)
         cmocka_unit_test(test_forest_draw),
         cmocka_unit_test(test_point_leaves_match_quads),
         cmocka_unit_test(test_forest_sprite),
+        cmocka_unit_test(test_impostor_given),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
