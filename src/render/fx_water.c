@@ -6,7 +6,11 @@
  * view matrix V * M, M the mirror at y = h, front faces flipped, and
  * everything below the plane discarded (fx_clip in the shaders,
  * GL_CLIP_DISTANCE0 for hook objects). A water fragment then samples that
- * texture at its own screen position, displaced by its wave normal.
+ * texture at its own screen position, displaced by its wave normal. The
+ * pass is scissored to where its water can show: the screen rectangle of
+ * the map blocks whose lowest ground is below the plane (and of the open sea
+ * beyond the map), widened by that displacement; with none in view there is
+ * no pass.
  *
  * Terrain for the mirrored camera comes from the caller
  * (hz_scene_params.reflection_indices, an LOD selection for
@@ -126,6 +130,80 @@ static bool rect_visible(const vec4 planes[6], const hz_camera *cam, const float
     return true;
 }
 
+/* Widens acc (NDC x0, y0, x1, y1) by the part of the rectangle rc at height
+ * y that v sees: the box's corners in front of the eye and, on each edge
+ * crossing the near side (w = 1e-3), the crossing point. */
+static void rect_ndc(const vec4 planes[6], const fx_view *v, const float rc[4], float y, float acc[4])
+{
+    if (rc[0] >= rc[2] || rc[1] >= rc[3] || !rect_visible(planes, &v->cam, rc, y))
+        return;
+    float box[2][3] = {{rc[0], y, rc[1]}, {rc[2], y, rc[3]}};
+    hz_camera_curve_box(&v->cam, box);
+    vec4 q[8];
+    for (int c = 0; c < 8; c++) {
+        vec4 p = {box[c & 1][0], box[(c >> 1) & 1][1], box[c >> 2][2], 1.0f};
+        glm_mat4_mulv((vec4 *)v->viewproj, p, q[c]);
+    }
+    const float eps = 1e-3f;
+    vec4 pts[8 + 12];
+    int n = 0;
+    for (int c = 0; c < 8; c++)
+        if (q[c][3] > eps)
+            glm_vec4_copy(q[c], pts[n++]);
+    for (int c = 0; c < 8; c++)
+        for (int bit = 1; bit < 8; bit <<= 1) {
+            const int d = c | bit; /* each of the 12 edges once: c has the bit clear */
+            if (d == c || (q[c][3] > eps) == (q[d][3] > eps))
+                continue;
+            const float t = (eps - q[c][3]) / (q[d][3] - q[c][3]);
+            glm_vec4_lerp(q[c], q[d], t, pts[n]);
+            pts[n++][3] = eps;
+        }
+    for (int k = 0; k < n; k++) {
+        const float x = pts[k][0] / pts[k][3], yy = pts[k][1] / pts[k][3];
+        acc[0] = fminf(acc[0], x), acc[1] = fminf(acc[1], yy);
+        acc[2] = fmaxf(acc[2], x), acc[3] = fmaxf(acc[3], yy);
+    }
+}
+
+/* Where plane p's water can show on v's screen (NDC x0, y0, x1, y1): the
+ * parts of its rectangle over blocks of the map whose lowest sample is
+ * below it, and beyond the map's edge (the open sea), widened by the
+ * reflection's wave displacement. False when none is in view. Without the
+ * block grid (a streamed pyramid) the whole screen. */
+static bool plane_screen_rect(const hz_renderer *r, const vec4 planes[6], const fx_view *v, const float rc[4],
+                              float h, float out[4])
+{
+    if (!r->wet_min || r->streamed) {
+        out[0] = out[1] = -1.0f, out[2] = out[3] = 1.0f;
+        return true;
+    }
+    float acc[4] = {INFINITY, INFINITY, -INFINITY, -INFINITY};
+    const float ext = (float)(r->size - 1) * r->spacing, bm = (float)r->wet_block * r->spacing;
+    for (uint32_t bj = 0; bj < r->wet_n; bj++)
+        for (uint32_t bi = 0; bi < r->wet_n; bi++) {
+            if (!(r->wet_min[(size_t)bj * r->wet_n + bi] < h))
+                continue;
+            const float b[4] = {fmaxf(rc[0], (float)bi * bm), fmaxf(rc[1], (float)bj * bm),
+                                fminf(rc[2], fminf(ext, (float)(bi + 1) * bm)),
+                                fminf(rc[3], fminf(ext, (float)(bj + 1) * bm))};
+            rect_ndc(planes, v, b, h, acc);
+        }
+    /* Beyond the map: west and east strips, then north and south between them. */
+    const float strips[4][4] = {{rc[0], rc[1], fminf(rc[2], 0.0f), rc[3]},
+                                {fmaxf(rc[0], ext), rc[1], rc[2], rc[3]},
+                                {fmaxf(rc[0], 0.0f), rc[1], fminf(rc[2], ext), fminf(rc[3], 0.0f)},
+                                {fmaxf(rc[0], 0.0f), fmaxf(rc[1], ext), fminf(rc[2], ext), rc[3]}};
+    for (int k = 0; k < 4; k++)
+        rect_ndc(planes, v, strips[k], h, acc);
+    /* A water fragment samples its reflection up to 0.05 of the viewport
+     * away (fx_water_fs.glsl: n.xz * 0.05): 0.1 in NDC. */
+    const float m = 0.1f + 4.0f / (float)(v->w ? v->w : 1);
+    out[0] = fmaxf(-1.0f, acc[0] - m), out[1] = fmaxf(-1.0f, acc[1] - m);
+    out[2] = fminf(1.0f, acc[2] + m), out[3] = fminf(1.0f, acc[3] + m);
+    return out[0] < out[2] && out[1] < out[3];
+}
+
 static bool plane_visible(const hz_renderer *r, const fx_frame *f, const fx_view *v, const hz_water_plane *p)
 {
     if (v->eye[1] <= p->height + 0.01f)
@@ -137,29 +215,40 @@ static bool plane_visible(const hz_renderer *r, const fx_frame *f, const fx_view
     return rect_visible((const vec4 *)planes, &v->cam, rc, p->height);
 }
 
-uint32_t fx_water_visible(const hz_renderer *r, const fx_frame *f, const fx_view *v, float *levels)
+uint32_t fx_water_visible(const hz_renderer *r, const fx_frame *f, const fx_view *v, float *levels,
+                          float (*rects)[4])
 {
     uint32_t n = 0;
+    vec4 planes[6];
+    hz_camera_frustum(&v->cam, planes);
     for (uint32_t k = 0; k < r->n_planes; k++) {
         const hz_water_plane *p = &r->planes[k];
-        if (!plane_visible(r, f, v, p))
+        float rc[4], sr[4];
+        plane_rect(r, p, f->zfar, rc);
+        if (!plane_visible(r, f, v, p) || !plane_screen_rect(r, (const vec4 *)planes, v, rc, p->height, sr))
             continue;
-        bool dup = false;
+        int at = -1;
         for (uint32_t i = 0; i < n; i++)
-            dup |= fabsf(levels[i] - p->height) < 0.01f;
-        if (dup)
-            continue;
-        if (n < FX_MAX_REFLECTIONS) {
-            levels[n++] = p->height;
-        } else {
+            if (fabsf(levels[i] - p->height) < 0.01f)
+                at = (int)i;
+        if (at < 0 && n < FX_MAX_REFLECTIONS) {
+            at = (int)n++;
+            levels[at] = p->height;
+            rects[at][0] = rects[at][1] = INFINITY, rects[at][2] = rects[at][3] = -INFINITY;
+        } else if (at < 0) {
             /* Keep the nearest heights to the eye. */
             uint32_t far_i = 0;
             for (uint32_t i = 1; i < n; i++)
                 if (fabsf(v->eye[1] - levels[i]) > fabsf(v->eye[1] - levels[far_i]))
                     far_i = i;
-            if (fabsf(v->eye[1] - p->height) < fabsf(v->eye[1] - levels[far_i]))
-                levels[far_i] = p->height;
+            if (!(fabsf(v->eye[1] - p->height) < fabsf(v->eye[1] - levels[far_i])))
+                continue;
+            at = (int)far_i;
+            levels[at] = p->height;
+            rects[at][0] = rects[at][1] = INFINITY, rects[at][2] = rects[at][3] = -INFINITY;
         }
+        rects[at][0] = fminf(rects[at][0], sr[0]), rects[at][1] = fminf(rects[at][1], sr[1]);
+        rects[at][2] = fmaxf(rects[at][2], sr[2]), rects[at][3] = fmaxf(rects[at][3], sr[3]);
     }
     /* Nearest first. */
     for (uint32_t i = 1; i < n; i++)
@@ -167,6 +256,10 @@ uint32_t fx_water_visible(const hz_renderer *r, const fx_frame *f, const fx_view
             float t = levels[j];
             levels[j] = levels[j - 1];
             levels[j - 1] = t;
+            float tr[4];
+            memcpy(tr, rects[j], sizeof tr);
+            memcpy(rects[j], rects[j - 1], sizeof tr);
+            memcpy(rects[j - 1], tr, sizeof tr);
         }
     return n;
 }
@@ -234,9 +327,19 @@ hz_result fx_water_reflections(hz_renderer *r, const fx_frame *f, const fx_view 
         glDepthMask(GL_TRUE);
         glClearColor(f->sp.sky_color[0], f->sp.sky_color[1], f->sp.sky_color[2], 1.0f);
         glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+        /* Only where this level's water can show (and sample): the rest of
+         * the mirror image stays sky-coloured, never read. */
+        const float *sr = r->refl_rect[k];
+        const GLint x0 = (GLint)floorf((sr[0] * 0.5f + 0.5f) * (float)mv.w);
+        const GLint y0 = (GLint)floorf((sr[1] * 0.5f + 0.5f) * (float)mv.h);
+        const GLint x1 = (GLint)ceilf((sr[2] * 0.5f + 0.5f) * (float)mv.w);
+        const GLint y1 = (GLint)ceilf((sr[3] * 0.5f + 0.5f) * (float)mv.h);
+        glEnable(GL_SCISSOR_TEST);
+        glScissor(x0, y0, x1 - x0, y1 - y0);
         draw_scene(r, f, &mv, f->refl_ibo, f->refl_count);
         if (k == 0 && (f->bits & HZ_FX_BILLBOARDS))
             fx_trees_draw(r, f, &mv); /* culled for the nearest plane's mirror */
+        glDisable(GL_SCISSOR_TEST);
     }
     return hz_gl_check(err, "water reflection pass");
 }

@@ -204,7 +204,13 @@ struct hz_renderer {
     const prog_variant *water_cur;
     GLuint refl_fbo[FX_MAX_REFLECTIONS], refl_tex[FX_MAX_REFLECTIONS], refl_depth[FX_MAX_REFLECTIONS];
     float refl_level[FX_MAX_REFLECTIONS];
+    float refl_rect[FX_MAX_REFLECTIONS][4]; /* NDC x0, y0, x1, y1 where each level's water can show */
     uint32_t n_refl, refl_w, refl_h;
+    /* Lowest terrain per block of wet_block samples (wet_n blocks per side,
+     * world height): where a water plane can be above the ground. NULL for a
+     * streamed pyramid (then water may show anywhere). */
+    float *wet_min;
+    uint32_t wet_n, wet_block;
     /* flare */
     prog_cache query;
     const prog_variant *query_cur;
@@ -274,8 +280,11 @@ void fx_billboards_destroy(hz_renderer *r);
 /* ---- fx_water.c ---- */
 hz_result fx_water_ensure(hz_renderer *r, const fx_frame *f, hz_err *err);
 /* Water heights visible from the main view (distinct, at most
- * FX_MAX_REFLECTIONS), nearest first; returns the count. */
-uint32_t fx_water_visible(const hz_renderer *r, const fx_frame *f, const fx_view *v, float *levels);
+ * FX_MAX_REFLECTIONS), nearest first, each with the NDC rectangle (x0, y0,
+ * x1, y1) where its water can show and sample its reflection (over ground
+ * lower than it, widened by the wave displacement); returns the count. */
+uint32_t fx_water_visible(const hz_renderer *r, const fx_frame *f, const fx_view *v, float *levels,
+                          float (*rects)[4]);
 void fx_water_mirror_view(const fx_view *main, float level, fx_view *out);
 hz_result fx_water_reflections(hz_renderer *r, const fx_frame *f, const fx_view *main, fx_scene_fn draw_scene,
                                hz_err *err);

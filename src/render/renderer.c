@@ -243,6 +243,7 @@ void hz_renderer_destroy(hz_renderer *r)
     glDeleteFramebuffers(1, &r->fbo);
     glDeleteRenderbuffers(1, &r->color_rb);
     glDeleteRenderbuffers(1, &r->depth_rb);
+    free(r->wet_min);
     free(r);
 }
 
@@ -354,6 +355,52 @@ static hz_result make_normal_texture(hz_renderer *r, const hz_heightmap *hm, hz_
     return HZ_OK;
 }
 
+/* The lowest sample of each block of the map (at most 128 blocks per side,
+ * blocks overlapping by their shared edge samples), in world height: where
+ * a water plane above it may show. */
+static hz_result make_wet_grid(hz_renderer *r, const hz_heightmap *hm, hz_err *err)
+{
+    free(r->wet_min);
+    r->wet_min = NULL;
+    const uint32_t cells = hm->size > 1 ? hm->size - 1 : 1;
+    uint32_t bs = 64;
+    while ((cells + bs - 1) / bs > 128)
+        bs *= 2;
+    const uint32_t n = (cells + bs - 1) / bs;
+    uint16_t *lo = malloc((size_t)n * n * sizeof *lo);
+    if (!lo)
+        return hz_err_set(err, HZ_ERR_MEMORY, "renderer: out of memory for the water grid");
+    for (size_t k = 0; k < (size_t)n * n; k++)
+        lo[k] = UINT16_MAX;
+    for (uint32_t j = 0; j < hm->size; j++) {
+        uint16_t *row = lo + (size_t)(j / bs < n ? j / bs : n - 1) * n;
+        /* a sample on a block edge belongs to both blocks */
+        uint16_t *row2 = j % bs == 0 && j / bs > 0 ? lo + (size_t)(j / bs - 1) * n : NULL;
+        for (uint32_t i = 0; i < hm->size; i++) {
+            const uint16_t h = hz_heightmap_get16(hm, i, j);
+            const uint32_t bi = i / bs < n ? i / bs : n - 1;
+            const uint32_t bi2 = i % bs == 0 && i / bs > 0 ? i / bs - 1 : bi;
+            row[bi] = h < row[bi] ? h : row[bi];
+            row[bi2] = h < row[bi2] ? h : row[bi2];
+            if (row2) {
+                row2[bi] = h < row2[bi] ? h : row2[bi];
+                row2[bi2] = h < row2[bi2] ? h : row2[bi2];
+            }
+        }
+    }
+    r->wet_min = malloc((size_t)n * n * sizeof *r->wet_min);
+    if (!r->wet_min) {
+        free(lo);
+        return hz_err_set(err, HZ_ERR_MEMORY, "renderer: out of memory for the water grid");
+    }
+    for (size_t k = 0; k < (size_t)n * n; k++)
+        r->wet_min[k] = r->hoffset + r->hscale * (float)lo[k];
+    free(lo);
+    r->wet_n = n;
+    r->wet_block = bs;
+    return HZ_OK;
+}
+
 hz_result hz_renderer_set_heightmap(hz_renderer *r, const hz_heightmap *hm, float spacing,
                                     float zscale, hz_err *err)
 {
@@ -422,6 +469,9 @@ hz_result hz_renderer_set_heightmap(hz_renderer *r, const hz_heightmap *hm, floa
     r->hoffset = hm->offset * zscale;
     r->zscale = zscale > 0 ? zscale : 1.0f;
     res = make_normal_texture(r, hm, err);
+    if (res != HZ_OK)
+        return res;
+    res = make_wet_grid(r, hm, err);
     if (res != HZ_OK)
         return res;
     float a = r->hoffset + r->hscale * (float)lo, b = r->hoffset + r->hscale * (float)hi;
@@ -860,7 +910,7 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         return HZ_ERR_GL;
     }
     float levels[FX_MAX_REFLECTIONS];
-    r->n_refl = (fr.bits & HZ_FX_WATER) ? fx_water_visible(r, &fr, &mv, levels) : 0;
+    r->n_refl = (fr.bits & HZ_FX_WATER) ? fx_water_visible(r, &fr, &mv, levels, r->refl_rect) : 0;
     for (uint32_t k = 0; k < r->n_refl; k++)
         r->refl_level[k] = levels[k];
     if (r->n_refl && params && params->reflection_count &&

@@ -590,6 +590,58 @@ static void test_water_reflects_known_shape(void **state)
     glDeleteProgram(tw.prog);
 }
 
+/* The reflection pass is drawn only where water can show: a plane under
+ * the ground needs none (and changes nothing), and a small lake's pixels are
+ * those of the same water in a lake covering the map, whose mirror image is
+ * drawn everywhere: nothing its waves sample was left out. */
+static void test_water_only_where_it_shows(void **state)
+{
+    fixture *fx = *state;
+    hz_err err = {0};
+    hz_camera cam = camera(2560, 180, 3000, 0, -4);
+    hz_fx_settings calm = {.cloud_cover = -1.0f};
+    hz_scene_params sp = {.effects = HZ_FX_SKY | HZ_FX_WATER, .fx = &calm, .time = 3.0};
+    hz_draw_stats ds;
+    /* Under the plain (100 m) everywhere. */
+    hz_water_plane under = {.height = 90.0f, .rect = {0, 0, 5120, 5120}};
+    assert_int_equal(hz_renderer_set_water(fx->flat, &under, 1, NULL, 0, &err), HZ_OK);
+    draw_read(fx->flat, &cam, &sp, fx->idx, fx->count, fx->a, &ds);
+    assert_int_equal(ds.reflections, 0);
+    sp.effects = HZ_FX_SKY;
+    draw_read(fx->flat, &cam, &sp, fx->idx, fx->count, fx->b, NULL);
+    size_t seen = 0; /* the water effect's terrain variant may round a channel the other way */
+    for (size_t k = 0; k < NPX * 3; k++)
+        seen += abs(fx->a[k] - fx->b[k]) > 2;
+    assert_int_equal(seen, 0);
+    /* A small lake in front of the wall, and one over the whole map. */
+    sp.effects = HZ_FX_SKY | HZ_FX_WATER;
+    hz_water_plane small = {.height = 110.0f, .rect = {2000, 1800, 3100, 2700}};
+    hz_water_plane big = {.height = 110.0f, .rect = {0, 0, 5120, 5120}};
+    assert_int_equal(hz_renderer_set_water(fx->flat, &small, 1, NULL, 0, &err), HZ_OK);
+    draw_read(fx->flat, &cam, &sp, fx->idx, fx->count, fx->a, &ds);
+    assert_int_equal(ds.reflections, 1);
+    save("water_small", fx->a);
+    assert_int_equal(hz_renderer_set_water(fx->flat, &big, 1, NULL, 0, &err), HZ_OK);
+    draw_read(fx->flat, &cam, &sp, fx->idx, fx->count, fx->b, NULL);
+    sp.effects = HZ_FX_SKY;
+    draw_read(fx->flat, &cam, &sp, fx->idx, fx->count, fx->c, NULL);
+    size_t lake = 0, off = 0;
+    int worst = 0;
+    for (size_t p = 0; p < NPX; p++) {
+        const uint8_t *a = fx->a + p * 3, *b = fx->b + p * 3, *c = fx->c + p * 3;
+        if (abs(a[0] - c[0]) + abs(a[1] - c[1]) + abs(a[2] - c[2]) < 6)
+            continue; /* not the small lake's water */
+        lake++;
+        int d = abs(a[0] - b[0]) + abs(a[1] - b[1]) + abs(a[2] - b[2]);
+        worst = d > worst ? d : worst;
+        off += d > 6;
+    }
+    printf("water: %zu pixels of the small lake, %zu differ from the big lake's (worst %d)\n", lake, off, worst);
+    assert_true(lake > NPX / 20);
+    assert_int_equal(off, 0);
+    assert_int_equal(hz_renderer_set_water(fx->flat, NULL, 0, NULL, 0, &err), HZ_OK);
+}
+
 /* ---- motion blur and the chain (R7, R8) ------------------------------------------------------------ */
 
 static void test_motion_blur_feedback(void **state)
@@ -956,6 +1008,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_flare_hidden_by_mountain),
         cmocka_unit_test(test_shadow_light_map_formula),
         cmocka_unit_test(test_water_reflects_known_shape),
+        cmocka_unit_test(test_water_only_where_it_shows),
         cmocka_unit_test(test_motion_blur_feedback),
         cmocka_unit_test(test_exposure_gamma_bloom),
         cmocka_unit_test(test_billboards),
