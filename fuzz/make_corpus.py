@@ -3,7 +3,10 @@
 inputs of every kind each parser reads, plus a few edge cases. Run from the
 repo root: python3 fuzz/make_corpus.py. The output is committed; crashes
 found later are added next to these as regression inputs (see README)."""
-import gzip, os, struct, zlib
+import gzip, os, struct, sys, zlib
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
+from xxh64 import xxh64  # noqa: E402
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "corpus")
 
@@ -106,45 +109,6 @@ put("view_script", "all", b"0 button left down\n1 mouse 10 -5\n2 button left up\
 put("view_script", "bad", b"x key W down\n")
 
 # ---- cache blobs (include/horizon/blob.h): header, then one zstd frame ----
-M64 = (1 << 64) - 1
-P1, P2, P3, P4, P5 = (0x9E3779B185EBCA87, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9, 0x85EBCA77C2B2AE63,
-                      0x27D4EB2F165667C5)
-
-
-def xxh64(b, seed=0):
-    """XXH64 (the reference algorithm), for the blobs' checksum."""
-    def rotl(x, r):
-        return ((x << r) | (x >> (64 - r))) & M64
-
-    def rnd(acc, lane):
-        return (rotl((acc + lane * P2) & M64, 31) * P1) & M64
-    n, i = len(b), 0
-    if n >= 32:
-        v = [(seed + P1 + P2) & M64, (seed + P2) & M64, seed, (seed - P1) & M64]
-        while i + 32 <= n:
-            for k in range(4):
-                v[k] = rnd(v[k], struct.unpack_from("<Q", b, i + 8 * k)[0])
-            i += 32
-        h = (rotl(v[0], 1) + rotl(v[1], 7) + rotl(v[2], 12) + rotl(v[3], 18)) & M64
-        for k in range(4):
-            h = ((h ^ rnd(0, v[k])) * P1 + P4) & M64
-    else:
-        h = (seed + P5) & M64
-    h = (h + n) & M64
-    while i + 8 <= n:
-        h = (rotl(h ^ rnd(0, struct.unpack_from("<Q", b, i)[0]), 27) * P1 + P4) & M64
-        i += 8
-    if i + 4 <= n:
-        h = (rotl(h ^ (struct.unpack_from("<I", b, i)[0] * P1 & M64), 23) * P2 + P3) & M64
-        i += 4
-    while i < n:
-        h = (rotl(h ^ (b[i] * P5 & M64), 11) * P1) & M64
-        i += 1
-    h = ((h ^ (h >> 33)) * P2) & M64
-    h = ((h ^ (h >> 29)) * P3) & M64
-    return h ^ (h >> 32)
-
-
 def blob(key, data):
     import subprocess, tempfile
     with tempfile.NamedTemporaryFile() as f:
@@ -154,7 +118,6 @@ def blob(key, data):
     return b"HZBLOB1\n" + struct.pack("<QQQQ", key, len(data), xxh64(data), len(z)) + z
 
 
-assert xxh64(b"") == 0xEF46DB3751D8E999 and xxh64(b"a") == 0xD24EC4F1A98C6E5B
 small = bytes((7 * i) & 0x0f for i in range(3000))
 put("blob", "small", blob(0x1234, small))
 put("blob", "tiny", blob(1, b"impostor"))

@@ -23,6 +23,8 @@ import json, os, shutil, struct, subprocess, sys, time
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from http_fixtures import NGINX, Nginx, Proxy  # noqa: E402
 from clitest import ok, bad, check, run_hz, finish  # noqa: E402,F401
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts"))
+from xxh64 import xxh64  # noqa: E402
 
 HZ, TMP = sys.argv[1], os.path.abspath(sys.argv[2])
 shutil.rmtree(TMP, ignore_errors=True)
@@ -50,42 +52,6 @@ def run_json(args, what, timeout=300):
 
 def same(a, b):
     return os.path.exists(a) and os.path.exists(b) and open(a, "rb").read() == open(b, "rb").read()
-
-
-M64 = (1 << 64) - 1
-P1, P2, P3, P4, P5 = (0x9E3779B185EBCA87, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9, 0x85EBCA77C2B2AE63,
-                      0x27D4EB2F165667C5)
-
-
-def xxh64(b, seed=0):
-    """XXH64 (the disk cache's entry trailer), to forge an entry only the index's checksum can catch."""
-    rotl = lambda x, r: ((x << r) | (x >> (64 - r))) & M64
-    rnd = lambda acc, v: (rotl((acc + v * P2) & M64, 31) * P1) & M64
-    n, i = len(b), 0
-    if n >= 32:
-        v = [(seed + P1 + P2) & M64, (seed + P2) & M64, seed, (seed - P1) & M64]
-        while i + 32 <= n:
-            for k in range(4):
-                v[k] = rnd(v[k], struct.unpack_from("<Q", b, i + 8 * k)[0])
-            i += 32
-        h = (rotl(v[0], 1) + rotl(v[1], 7) + rotl(v[2], 12) + rotl(v[3], 18)) & M64
-        for k in range(4):
-            h = ((h ^ rnd(0, v[k])) * P1 + P4) & M64
-    else:
-        h = (seed + P5) & M64
-    h = (h + n) & M64
-    while i + 8 <= n:
-        h = (rotl(h ^ rnd(0, struct.unpack_from("<Q", b, i)[0]), 27) * P1 + P4) & M64
-        i += 8
-    if i + 4 <= n:
-        h = (rotl(h ^ (struct.unpack_from("<I", b, i)[0] * P1 & M64), 23) * P2 + P3) & M64
-        i += 4
-    while i < n:
-        h = (rotl(h ^ (b[i] * P5 & M64), 11) * P1) & M64
-        i += 1
-    h = ((h ^ (h >> 33)) * P2) & M64
-    h = ((h ^ (h >> 29)) * P3) & M64
-    return h ^ (h >> 32)
 
 
 # ---------------------------------------------------------------- nginx
