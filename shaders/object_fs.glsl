@@ -1,14 +1,14 @@
 #version 450 core
 // Scene objects: the material's colour, Lambert from the sun plus a sky
-// term, and the scene's fog as hz_pass_info gives it: exponential, plus
-// with the fog effect the height fog (integrated along the ray) toward the
+// term (lit per vertex), and the scene's fog as hz_pass_info gives it:
+// exponential, plus with the fog effect the height fog (integrated along the ray) toward the
 // sky's colour behind, faded fully to it over the last stretch of the view
 // distance, as the terrain. With the light
 // map's sun heights, the sun term is shaded where the terrain or other
 // objects hide the sun.
 uniform vec3 u_color;
-uniform vec3 u_sun_dir, u_sky_horizon, u_eye;
-uniform float u_fog_density, u_ambient;
+uniform vec3 u_sky_horizon, u_eye;
+uniform float u_fog_density;
 uniform vec2 u_fog_far;
 uniform vec3 u_height_fog;       // density /m, base height, falloff (m); density 0: none
 uniform vec3 u_zenith;
@@ -18,6 +18,7 @@ uniform vec4 u_sunh;             // x: 1 = on, y: lookup step (m), z: tan(sun el
 uniform vec2 u_sun_h;            // the sun's horizontal unit direction
 in vec3 v_world;
 in vec3 v_normal;
+in vec2 v_light;
 out vec4 o_color;
 
 // 0 in the shade of the terrain or other objects, 1 in the sun. A face is
@@ -34,14 +35,10 @@ float sun_lit(vec3 n)
 
 void main()
 {
-    vec3 n = normalize(v_normal);
-    if (!gl_FrontFacing)
-        n = -n;
-    float ndl = max(dot(n, u_sun_dir), 0.0);
-    if (u_sunh.x > 0.0 && ndl > 0.0)
-        ndl *= sun_lit(n);
-    float sky = 0.5 + 0.5 * n.y;
-    vec3 c = u_color * (u_ambient * (0.6 + 0.4 * sky) + (1.0 - u_ambient) * ndl * vec3(1.0, 0.97, 0.90));
+    float direct = v_light.y;
+    if (u_sunh.x > 0.0 && direct > 0.0)
+        direct *= sun_lit(normalize(v_normal));
+    vec3 c = u_color * (v_light.x + direct * vec3(1.0, 0.97, 0.90));
     vec3 d = v_world - u_eye;
     float dist = length(d);
     float tau = u_fog_density * dist;

@@ -2,19 +2,26 @@
 #include "curvature.glsl"
 // Scene objects (buildings, models): merged static vertices, one world
 // matrix per instance (per-instance attributes; baseInstance picks them).
+// Lit per vertex (Lambert from the sun plus a sky term): back faces are
+// culled, and building faces are flat.
 layout(location = 0) in vec3 a_pos;
 layout(location = 1) in vec3 a_normal;
 layout(location = 2) in mat4 a_world;
 uniform mat4 u_viewproj;
 uniform vec4 u_clip_plane;
+uniform vec3 u_sun_dir;
+uniform float u_ambient;
 out vec3 v_world;
 out vec3 v_normal;
+out vec2 v_light; // the sky's share and the sun's (before shade); per vertex: exact on flat faces
 
 void main()
 {
     vec4 w = a_world * vec4(a_pos, 1.0);
     v_world = w.xyz;
-    v_normal = mat3(a_world) * a_normal;
+    vec3 n = normalize(mat3(a_world) * a_normal);
+    v_normal = n;
+    v_light = vec2(u_ambient * (0.6 + 0.4 * (0.5 + 0.5 * n.y)), (1.0 - u_ambient) * max(dot(n, u_sun_dir), 0.0));
     gl_ClipDistance[0] = dot(u_clip_plane, w);
     gl_Position = u_viewproj * hz_curve(w);
 }
