@@ -446,8 +446,11 @@ have_trees:
     if (to_bake && !o->quiet)
         fprintf(stderr, "horizon: baking the impostors of %u tree model%s (cached for next time)\n", to_bake,
                 to_bake == 1 ? "" : "s");
-    cf->gpu = hz_forest_gpu_create_with(cf->forest, &(hz_forest_gpu_desc){.impostors = (const uint8_t *const *)imp},
-                                        &err);
+    line_progress bake = {.what = "forest", .last_pct = -100, .last_ms = hz_time_ms()};
+    const hz_forest_gpu_desc gd = {.impostors = (const uint8_t *const *)imp,
+                                   .progress = o->quiet ? NULL : cli_tree_progress,
+                                   .progress_user = &bake};
+    cf->gpu = hz_forest_gpu_create_with(cf->forest, &gd, &err);
     for (uint32_t k = 0; imp && k < cf->model_count; k++)
         free(imp[k]);
     free(imp);

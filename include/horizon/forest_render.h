@@ -86,6 +86,10 @@ typedef struct hz_forest_gpu_desc {
      * bytes), for a tree of the same hz_forest_gpu_impostor_key: used as it
      * is. NULL entries, or a NULL array, are baked. */
     const uint8_t *const *impostors;
+    /* Optional: called as the impostors are baked ("bake impostors", views
+     * done, views to bake; not called when none is baked). */
+    hz_progress_fn progress;
+    void *progress_user;
 } hz_forest_gpu_desc;
 hz_forest_gpu *hz_forest_gpu_create_with(const hz_forest *f, const hz_forest_gpu_desc *d, hz_err *err);
 /* Bytes of one model's impostor: the albedo then the normal atlas, RGBA8,

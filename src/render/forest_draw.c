@@ -390,13 +390,21 @@ hz_result hz_forest_gpu_sprite(const hz_forest_gpu *g, const hz_forest *f, uint3
  * once took up to 1 GB more peak memory than 4 at a time (which costs about
  * 10 % more bake time than none). */
 #define BAKE_FINISH_EVERY 4
+_Static_assert((IMP_AZ * IMP_EL) % BAKE_FINISH_EVERY == 0, "progress counts whole groups of views");
 
 /* Bakes the atlas layer of every model that was not given (given[model]:
  * its level 0, albedo then normals, as hz_forest_gpu_impostor_read gives it),
  * uploads the given ones, then builds the mipmaps and each view's extent. */
 static hz_result bake_impostors(hz_forest_gpu *g, const hz_forest *f, GLuint leaf_bake, GLuint bark_bake,
-                                const uint8_t *const *given, hz_err *err)
+                                const hz_forest_gpu_desc *desc, hz_err *err)
 {
+    const uint8_t *const *given = desc ? desc->impostors : NULL;
+    const hz_progress_fn progress = desc ? desc->progress : NULL;
+    uint64_t views_done = 0, views_total = 0;
+    for (uint32_t mi = 0; mi < g->nm; mi++)
+        views_total += (given && given[mi]) ? 0 : (uint64_t)IMP_AZ * IMP_EL;
+    if (progress && views_total)
+        progress(desc->progress_user, "bake impostors", 0, views_total);
     const GLsizei W = IMP_AZ * IMP_TILE, H = IMP_EL * IMP_TILE;
     GLint old_fbo = 0, old_vp[4];
     glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &old_fbo);
@@ -506,8 +514,12 @@ static hz_result bake_impostors(hz_forest_gpu *g, const hz_forest *f, GLuint lea
                     glBindVertexArray(g->m[mi].bark.vao);
                     glDrawElements(GL_TRIANGLES, (GLsizei)g->m[mi].bark.count, GL_UNSIGNED_INT, (const void *)0);
                 }
-                if ((ie * IMP_AZ + ia + 1) % BAKE_FINISH_EVERY == 0)
+                if ((ie * IMP_AZ + ia + 1) % BAKE_FINISH_EVERY == 0) {
                     glFinish();
+                    views_done += BAKE_FINISH_EVERY;
+                    if (progress)
+                        progress(desc->progress_user, "bake impostors", views_done, views_total);
+                }
             }
     }
     glBindVertexArray(0);
@@ -710,7 +722,7 @@ hz_forest_gpu *hz_forest_gpu_create_with(const hz_forest *f, const hz_forest_gpu
     }
     if (hz_gl_check(err, "forest upload") != HZ_OK)
         goto fail;
-    if (bake_impostors(g, f, leaf_bake, bark_bake, desc ? desc->impostors : NULL, err) != HZ_OK)
+    if (bake_impostors(g, f, leaf_bake, bark_bake, desc, err) != HZ_OK)
         goto fail;
     glDeleteProgram(leaf_bake);
     glDeleteProgram(bark_bake);

@@ -391,7 +391,8 @@ first=$(ls "$IC"/impostor-*.hzb 2>/dev/null | head -1)
 sz=$(stat -c %s "$first" 2>/dev/null)
 head -c 100 "$first" > "$TMP/imp_cut" 2>/dev/null && mv "$TMP/imp_cut" "$first"
 $RI --out "$TMP/imp3.png" >/dev/null 2>"$TMP/imp3.err"
-if [ "$n" = 2 ] && grep -q "baking the impostors of 2 tree models" "$TMP/imp1.err" && ! grep -q "baking" "$TMP/imp2.err" &&
+if [ "$n" = 2 ] && grep -q "baking the impostors of 2 tree models" "$TMP/imp1.err" && ! grep -q "bak" "$TMP/imp2.err" &&
+   grep -q "forest: bake impostors: 100% (96/96)" "$TMP/imp1.err" && grep -q "bake impostors: 100% (48/48)" "$TMP/imp3.err" &&
    grep -q "baking the impostor again: .*truncated" "$TMP/imp3.err" && grep -q "baking the impostors of 1 tree model " "$TMP/imp3.err" &&
    cmp -s "$TMP/imp1.png" "$TMP/imp2.png" && cmp -s "$TMP/imp1.png" "$TMP/imp3.png" && [ "$(stat -c %s "$first")" = "$sz" ]
 then ok "impostors cached: loaded the second time (same picture); a damaged file baked again and rewritten"
