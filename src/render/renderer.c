@@ -221,6 +221,7 @@ void hz_renderer_destroy(hz_renderer *r)
         free(r->detail_cpu);
         free(r->planes);
         free(r->mats);
+        free(r->wet_min);
         free(r);
         return;
     }
