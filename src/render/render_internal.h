@@ -206,9 +206,10 @@ struct hz_renderer {
     float refl_level[FX_MAX_REFLECTIONS];
     float refl_rect[FX_MAX_REFLECTIONS][4]; /* NDC x0, y0, x1, y1 where each level's water can show */
     uint32_t n_refl, refl_w, refl_h;
-    /* Lowest terrain per block of wet_block samples (wet_n blocks per side,
-     * world height): where a water plane can be above the ground. NULL for a
-     * streamed pyramid (then water may show anywhere). */
+    /* Lowest terrain per block of wet_block samples and its neighbours
+     * (wet_n blocks per side, world height): where a water plane can be
+     * above the drawn ground. NULL for a streamed pyramid (then water may
+     * show anywhere). */
     float *wet_min;
     uint32_t wet_n, wet_block;
     /* flare */

@@ -356,9 +356,9 @@ static hz_result make_normal_texture(hz_renderer *r, const hz_heightmap *hm, hz_
     return HZ_OK;
 }
 
-/* The lowest sample of each block of the map (at most 128 blocks per side,
- * blocks overlapping by their shared edge samples), in world height: where
- * a water plane above it may show. */
+/* The lowest sample of each block of the map and its neighbours (at most
+ * 128 blocks per side, blocks sharing their edge samples), in world height:
+ * where a water plane above it may show. */
 static hz_result make_wet_grid(hz_renderer *r, const hz_heightmap *hm, hz_err *err)
 {
     free(r->wet_min);
@@ -394,8 +394,16 @@ static hz_result make_wet_grid(hz_renderer *r, const hz_heightmap *hm, hz_err *e
         free(lo);
         return hz_err_set(err, HZ_ERR_MEMORY, "renderer: out of memory for the water grid");
     }
-    for (size_t k = 0; k < (size_t)n * n; k++)
-        r->wet_min[k] = r->hoffset + r->hscale * (float)lo[k];
+    /* Each block takes the lowest of its neighbours too: a coarse LOD
+     * triangle reaching over from a lower block may dip below the plane. */
+    for (uint32_t j = 0; j < n; j++)
+        for (uint32_t i = 0; i < n; i++) {
+            uint16_t m = UINT16_MAX;
+            for (uint32_t b = j ? j - 1 : 0; b <= j + 1 && b < n; b++)
+                for (uint32_t a = i ? i - 1 : 0; a <= i + 1 && a < n; a++)
+                    m = lo[(size_t)b * n + a] < m ? lo[(size_t)b * n + a] : m;
+            r->wet_min[(size_t)j * n + i] = r->hoffset + r->hscale * (float)m;
+        }
     free(lo);
     r->wet_n = n;
     r->wet_block = bs;
