@@ -282,9 +282,18 @@ static float ground(void *user, float x, float z)
     return hz_terrain_height_at(user, x, z);
 }
 
-/* The models' baked impostors, kept in the tree cache (DIR/impostor-KEY.hzb,
- * about 1 MB each compressed) under hz_forest_gpu_impostor_key: what each
- * depends on. Loaded when present and whole (NULL entries are baked). */
+/* Where model k's baked impostor is kept in the tree cache dir
+ * (DIR/impostor-KEY.hzb, about 1 MB compressed), under
+ * hz_forest_gpu_impostor_key (what it depends on), which it returns. */
+static uint64_t impostor_path(const cli_forest *cf, uint32_t k, const char *dir, char *path, size_t cap)
+{
+    const uint64_t key = hz_forest_gpu_impostor_key(cf->models[k]);
+    snprintf(path, cap, "%s/impostor-%016llx.hzb", dir, (unsigned long long)key);
+    return key;
+}
+
+/* The models' baked impostors from the tree cache: loaded when present and
+ * whole (NULL entries are baked). */
 static uint8_t **impostors_load(const cli_opts *o, const cli_forest *cf)
 {
     char dir[700], path[800];
@@ -295,8 +304,7 @@ static uint8_t **impostors_load(const cli_opts *o, const cli_forest *cf)
         return NULL;
     const size_t bytes = hz_forest_gpu_impostor_bytes();
     for (uint32_t k = 0; k < cf->model_count; k++) {
-        const uint64_t key = hz_forest_gpu_impostor_key(cf->models[k]);
-        snprintf(path, sizeof path, "%s/impostor-%016llx.hzb", dir, (unsigned long long)key);
+        const uint64_t key = impostor_path(cf, k, dir, path, sizeof path);
         struct stat sb;
         if (stat(path, &sb) != 0)
             continue;
@@ -326,8 +334,7 @@ static void impostors_store(const cli_opts *o, const cli_forest *cf)
             continue;
         if (!b && !(b = malloc(bytes)))
             return;
-        const uint64_t key = hz_forest_gpu_impostor_key(cf->models[k]);
-        snprintf(path, sizeof path, "%s/impostor-%016llx.hzb", dir, (unsigned long long)key);
+        const uint64_t key = impostor_path(cf, k, dir, path, sizeof path);
         hz_err e = {0};
         if (!mkdir_p(dir) || hz_forest_gpu_impostor_read(cf->gpu, k, b, &e) != HZ_OK ||
             hz_blob_save(path, key, b, bytes, &e) != HZ_OK) {

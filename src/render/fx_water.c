@@ -204,15 +204,12 @@ static bool plane_screen_rect(const hz_renderer *r, const vec4 planes[6], const 
     return out[0] < out[2] && out[1] < out[3];
 }
 
-static bool plane_visible(const hz_renderer *r, const fx_frame *f, const fx_view *v, const hz_water_plane *p)
+/* Whether v (its frustum: planes) sees a plane's rectangle rc at height h. */
+static bool plane_visible(const vec4 planes[6], const fx_view *v, const float rc[4], float h)
 {
-    if (v->eye[1] <= p->height + 0.01f)
+    if (v->eye[1] <= h + 0.01f)
         return false; /* from below the surface we do not draw it */
-    float rc[4];
-    plane_rect(r, p, f->zfar, rc);
-    vec4 planes[6];
-    hz_camera_frustum(&v->cam, planes);
-    return rect_visible((const vec4 *)planes, &v->cam, rc, p->height);
+    return rect_visible(planes, &v->cam, rc, h);
 }
 
 uint32_t fx_water_visible(const hz_renderer *r, const fx_frame *f, const fx_view *v, float *levels,
@@ -225,7 +222,8 @@ uint32_t fx_water_visible(const hz_renderer *r, const fx_frame *f, const fx_view
         const hz_water_plane *p = &r->planes[k];
         float rc[4], sr[4];
         plane_rect(r, p, f->zfar, rc);
-        if (!plane_visible(r, f, v, p) || !plane_screen_rect(r, (const vec4 *)planes, v, rc, p->height, sr))
+        if (!plane_visible((const vec4 *)planes, v, rc, p->height) ||
+            !plane_screen_rect(r, (const vec4 *)planes, v, rc, p->height, sr))
             continue;
         int at = -1;
         for (uint32_t i = 0; i < n; i++)
@@ -364,13 +362,17 @@ void fx_water_draw(hz_renderer *r, const fx_frame *f, const fx_view *v)
     glDepthFunc(GL_GREATER);
     glDepthMask(GL_TRUE);
     glDisable(GL_CULL_FACE);
+    vec4 planes[6];
+    hz_camera_frustum(&v->cam, planes);
     /* Grouped by material: its uniforms once, then its planes. */
     for (uint32_t m = 0; m < r->n_mats; m++) {
         const hz_water_material *mat = &r->mats[m];
         bool any = false;
         for (uint32_t k = 0; k < r->n_planes; k++) {
             const hz_water_plane *p = &r->planes[k];
-            if (p->material != m || !plane_visible(r, f, v, p))
+            float rc[4];
+            plane_rect(r, p, f->zfar, rc);
+            if (p->material != m || !plane_visible((const vec4 *)planes, v, rc, p->height))
                 continue;
             if (!any) {
                 glUniform3fv(u[WL_DEEP], 1, mat->deep);
@@ -386,8 +388,6 @@ void fx_water_draw(hz_renderer *r, const fx_frame *f, const fx_view *v)
                     best = (int)i;
             glBindTexture(GL_TEXTURE_2D, best >= 0 ? r->refl_tex[best] : 0);
             glUniform1i(u[WL_HAS_REFLECTION], best >= 0);
-            float rc[4];
-            plane_rect(r, p, f->zfar, rc);
             glUniform4fv(u[WL_RECT], 1, rc);
             glUniform1f(u[WL_LEVEL], p->height);
             if (v->cam.earth_radius != 0.0f) {

@@ -367,28 +367,23 @@ static hz_result make_wet_grid(hz_renderer *r, const hz_heightmap *hm, hz_err *e
     uint32_t bs = 64;
     while ((cells + bs - 1) / bs > 128)
         bs *= 2;
-    const uint32_t n = (cells + bs - 1) / bs;
+    const uint32_t n = (cells + bs - 1) / bs, last = hm->size ? hm->size - 1 : 0; /* last sample */
     uint16_t *lo = malloc((size_t)n * n * sizeof *lo);
     if (!lo)
         return hz_err_set(err, HZ_ERR_MEMORY, "renderer: out of memory for the water grid");
-    for (size_t k = 0; k < (size_t)n * n; k++)
-        lo[k] = UINT16_MAX;
-    for (uint32_t j = 0; j < hm->size; j++) {
-        uint16_t *row = lo + (size_t)(j / bs < n ? j / bs : n - 1) * n;
-        /* a sample on a block edge belongs to both blocks */
-        uint16_t *row2 = j % bs == 0 && j / bs > 0 ? lo + (size_t)(j / bs - 1) * n : NULL;
-        for (uint32_t i = 0; i < hm->size; i++) {
-            const uint16_t h = hz_heightmap_get16(hm, i, j);
-            const uint32_t bi = i / bs < n ? i / bs : n - 1;
-            const uint32_t bi2 = i % bs == 0 && i / bs > 0 ? i / bs - 1 : bi;
-            row[bi] = h < row[bi] ? h : row[bi];
-            row[bi2] = h < row[bi2] ? h : row[bi2];
-            if (row2) {
-                row2[bi] = h < row2[bi] ? h : row2[bi];
-                row2[bi2] = h < row2[bi2] ? h : row2[bi2];
-            }
+    /* Block (bi, bj) holds samples bi * bs .. (bi + 1) * bs (its edges too). */
+    for (uint32_t bj = 0; bj < n; bj++)
+        for (uint32_t bi = 0; bi < n; bi++) {
+            uint16_t m = UINT16_MAX;
+            const uint32_t i1 = (bi + 1) * bs < last ? (bi + 1) * bs : last;
+            const uint32_t j1 = (bj + 1) * bs < last ? (bj + 1) * bs : last;
+            for (uint32_t j = bj * bs; j <= j1; j++)
+                for (uint32_t i = bi * bs; i <= i1; i++) {
+                    const uint16_t h = hz_heightmap_get16(hm, i, j);
+                    m = h < m ? h : m;
+                }
+            lo[(size_t)bj * n + bi] = m;
         }
-    }
     r->wet_min = malloc((size_t)n * n * sizeof *r->wet_min);
     if (!r->wet_min) {
         free(lo);

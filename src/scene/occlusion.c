@@ -128,12 +128,12 @@ static bool convex4(float s[4][2])
 static void rasterize_n(hz_occlusion *o, const float *v, size_t count, const mat4 model, int n)
 {
     double t0 = hz_time_ms();
-    mat4 mv;
+    mat4 mvp;
     const bool curved = o->cam.earth_radius != 0.0f;
     if (model && !curved)
-        glm_mat4_mul(o->viewproj, (vec4 *)model, mv);
+        glm_mat4_mul(o->viewproj, (vec4 *)model, mvp);
     else
-        glm_mat4_copy(o->viewproj, mv);
+        glm_mat4_copy(o->viewproj, mvp);
     for (size_t t = 0; t < count; t++) {
         float s[4][2], d[4];
         bool ok = true;
@@ -149,7 +149,7 @@ static void rasterize_n(hz_occlusion *o, const float *v, size_t count, const mat
                 }
                 w[1] -= hz_camera_drop(&o->cam, w[0], w[2]);
             }
-            ok = project(o, mv, w, s[k], &d[k]);
+            ok = project(o, mvp, w, s[k], &d[k]);
         }
         if (!ok)
             continue;
