@@ -265,6 +265,54 @@ static void test_gpu_morph_matches_cpu(void **state)
     free(flat);
 }
 
+/* A frame of many patches (the renderer draws them in 4 flushed chunks of
+ * at least 64) is the frame of the same patches expanded to triangles:
+ * unmorphed, the same depth at every pixel and the same sky. */
+static void test_patch_chunks_draw_every_patch(void **state)
+{
+    ctx *c = *state;
+    hz_err err = {0};
+    hz_terrain *t = c->t;
+    assert_int_equal(hz_lod_prepare(t->lod, HZ_LOD_CDLOD), HZ_OK);
+    assert_int_equal(hz_renderer_set_cdlod(c->r, t->lod, NULL, &err), HZ_OK);
+    hz_camera cam = hz_terrain_default_camera(t, W, H);
+    cam.pitch = -4;
+    hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = 0.5f, .viewport_height = H};
+    hz_index_list il = {0};
+    hz_patch_list pl = {0};
+    hz_lod_stats st;
+    assert_int_equal(hz_lod_select_patches(t->lod, &cam, &p, &pl, &st), HZ_OK);
+    fprintf(stderr, "%zu patches\n", pl.count);
+    assert_true(pl.count >= 4 * 64);
+    assert_int_equal(hz_lod_patches_to_indices(t->lod, pl.data, pl.count, &il), HZ_OK);
+    float *dp = malloc(W * H * sizeof *dp), *di = malloc(W * H * sizeof *di);
+    uint8_t *sp_ = malloc(W * H), *si = malloc(W * H);
+    hz_scene_params sp = {.patches = pl.data, .patch_count = (uint32_t)pl.count}; /* morph_scale 0 */
+    assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_depth(c->r, dp, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_sky_mask(c->r, sp_, &err), HZ_OK);
+    assert_int_equal(hz_renderer_draw(c->r, &cam, NULL, il.data, (uint32_t)il.count, NULL, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_depth(c->r, di, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_sky_mask(c->r, si, &err), HZ_OK);
+    size_t ground = 0, depth_off = 0, sky_off = 0;
+    for (size_t k = 0; k < (size_t)W * H; k++) {
+        ground += !si[k];
+        sky_off += sp_[k] != si[k];
+        depth_off += fabsf(dp[k] - di[k]) > 1e-6f * fmaxf(fabsf(di[k]), 1e-3f);
+    }
+    fprintf(stderr, "chunked patches vs triangles: %zu of %zu ground pixels at another depth, %zu sky pixels differ\n",
+            depth_off, ground, sky_off);
+    assert_true(ground > (size_t)W * H / 5);
+    assert_true(sky_off * 2000 <= (size_t)W * H);
+    assert_true(depth_off * 1000 <= ground);
+    free(dp);
+    free(di);
+    free(sp_);
+    free(si);
+    free(il.data);
+    free(pl.data);
+}
+
 /* Issue 15: the default camera frames the highest ground, wherever it is:
  * a cone in the south-west corner of a 257^2 map (the old camera above the
  * middle, looking north-north-east, never saw it) sits near the middle of the
@@ -442,6 +490,7 @@ int main(void)
         cmocka_unit_test(test_more_detail_closer_to_reference),
         cmocka_unit_test(test_modes_close_to_reference),
         cmocka_unit_test(test_gpu_morph_matches_cpu),
+        cmocka_unit_test(test_patch_chunks_draw_every_patch),
         cmocka_unit_test(test_default_camera_frames_the_summit),
         cmocka_unit_test(test_stream_tiles_slide_in),
     };
