@@ -5,8 +5,10 @@
 // targets come from a texture array of tiles (one pyramid level per tile set),
 // addressed per tile, never as one full-resolution buffer. hz_lod_morph_height
 // computes the same on the CPU.
-layout(location = 0) in uvec4 a_patch; // x0, z0 (samples), layer | shift << 16,
-                                       // ox | oz << 12 | tstep << 24 | coarse << 28
+// Streamed: x0, z0 (samples), layer | shift << 16, ox | oz << 12 | coarse << 28.
+// In memory (8 bytes a node): x0 | z0 << 16, shift | coarse << 4; the tile is
+// found from them as the CPU's patch_upload validates it.
+layout(location = 0) in uvec4 a_patch;
 layout(location = 1) in uvec2 a_slide; // streamed tiles sliding in: the least morph (0..255) of this
                                        // level's vertices inside | W << 8 | E << 16 | N << 24; S
 uniform usampler2DArray u_tiles; // RGBA16UI: h16, morph q (65535 never), target2 lo, target2 hi
@@ -116,23 +118,46 @@ void main()
     int c1 = u_size + 1;
     int w = int((float(gl_VertexID) + 0.5) / float(c1)); // exact: gl_VertexID < 2^20
     int u = gl_VertexID - w * c1;
-    uint meta = a_patch.w;
-    uint coarse = meta >> 28;
+    uint x0, z0, coarse;
+    int shift, layer, ox, oz, ts;
+    if (STREAM != 0) {
+        x0 = a_patch.x;
+        z0 = a_patch.y;
+        shift = int(a_patch.z >> 16);
+        layer = int(a_patch.z & 0xffffu);
+        ox = int(a_patch.w & 0xfffu);
+        oz = int((a_patch.w >> 12) & 0xfffu);
+        ts = 0;
+        coarse = a_patch.w >> 28;
+    } else {
+        x0 = a_patch.x & 0xffffu;
+        z0 = a_patch.x >> 16;
+        shift = int(a_patch.y & 15u);
+        coarse = (a_patch.y >> 4) & 15u;
+        // The finest tile level holding the node's grid; above the top level
+        // the vertices are every (1 << ts)-th texel of the top tile.
+        int l = min(shift, u_top);
+        ts = shift - l;
+        int gi = int(x0) >> l, gj = int(z0) >> l;
+        int tx = gi >> u_tile_shift, tz = gj >> u_tile_shift;
+        int m = ((u_map - 1) >> l) >> u_tile_shift; // tiles per side at level l
+        layer = u_base[l] + tz * m + tx;
+        ox = gi - (tx << u_tile_shift);
+        oz = gj - (tz << u_tile_shift);
+    }
+    uvec2 slide = STREAM != 0 ? a_slide : uvec2(0u); // in memory no tile arrives late
     // Stitching: odd vertices of an edge toward a coarser neighbour collapse
     // onto the even vertex before them (hz_lod_patches_to_indices does the same).
     if ((u & 1) == 1 && ((w == 0 && (coarse & 4u) != 0u) || (w == u_size && (coarse & 8u) != 0u)))
         u -= 1;
     if ((w & 1) == 1 && ((u == 0 && (coarse & 1u) != 0u) || (u == u_size && (coarse & 2u) != 0u)))
         w -= 1;
-    int shift = int(a_patch.z >> 16);
-    int layer = int(a_patch.z & 0xffffu);
-    int ox = int(meta & 0xfffu), oz = int((meta >> 12) & 0xfffu), ts = int((meta >> 24) & 15u);
     uvec4 t = texelFetch(u_tiles, ivec3(ox + (u << ts) + STREAM, oz + (w << ts) + STREAM, layer), 0);
-    int i = int(a_patch.x) + (u << shift), j = int(a_patch.y) + (w << shift);
+    int i = int(x0) + (u << shift), j = int(z0) + (w << shift);
     float h = u_hoffset + u_hscale * float(t.r);
     vec3 p = vec3(float(i) * u_spacing, h, float(j) * u_spacing);
-    ivec2 org = ivec2(a_patch.xy) - (ivec2(ox, oz) << shift);
-    float nm = float(a_slide.x & 255u) / 255.0; // how far the normal leans to the parent level's
+    ivec2 org = ivec2(int(x0), int(z0)) - (ivec2(ox, oz) << shift);
+    float nm = float(slide.x & 255u) / 255.0; // how far the normal leans to the parent level's
     bool odd = ((u | w) & 1) == 1;
     ivec2 a = ivec2(i, j), b = ivec2(i, j); // an odd vertex: the two it collapses between
     if (u_morph_scale > 0.0) {
@@ -140,16 +165,16 @@ void main()
         // A tile that just arrived slides in: the vertices this level adds
         // (odd u or w) start at their parent's shape. Along an edge the value
         // both patches of this level share, so the edge never opens.
-        if (((u | w) & 1) == 1 && (a_slide.x | a_slide.y) != 0u) {
-            uint s = a_slide.x & 255u;
+        if (((u | w) & 1) == 1 && (slide.x | slide.y) != 0u) {
+            uint s = slide.x & 255u;
             if (u == 0)
-                s = (a_slide.x >> 8) & 255u;
+                s = (slide.x >> 8) & 255u;
             else if (u == u_size)
-                s = (a_slide.x >> 16) & 255u;
+                s = (slide.x >> 16) & 255u;
             else if (w == 0)
-                s = a_slide.x >> 24;
+                s = slide.x >> 24;
             else if (w == u_size)
-                s = a_slide.y & 255u;
+                s = slide.y & 255u;
             m = max(m, float(s) / 255.0);
         }
         if (odd)

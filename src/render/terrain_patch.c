@@ -1,7 +1,8 @@
 /* cdlod patches on the GPU: a texture array of height tiles (a pyramid,
  * every level cut in T x T-cell tiles with a shared border), one static
  * P x P-cell grid in a vertex buffer-less index buffer, and per frame one
- * 16-byte instance per selected node. The vertex shader
+ * instance per selected node (8 bytes; 24 for a streamed terrain). The
+ * vertex shader
  * (shaders/terrain_patch_vs.glsl) places, stitches and morphs the vertices.
  * The CPU work and the upload per frame are proportional to the nodes. */
 #include "render_internal.h"
@@ -12,7 +13,11 @@
 #include "horizon/lod.h"
 #include "horizon/pyramid.h"
 
-#define INST_WORDS 6 /* per patch: a_patch (4 words), a_slide (2) */
+/* Words per patch instance: streamed a_patch (4) and a_slide (2); in
+ * memory 2 (a_patch.xy: the node's corner and its shift and stitching, the
+ * tile found from them), so 4 000 patches upload 31 KB a frame. */
+#define INST_WORDS_STREAM 6
+#define INST_WORDS_MEMORY 2
 /* The main view's patches go in this many flushed draws (patch_draw), when
  * each has at least PATCH_CHUNK_MIN of them. On the peers' 4097^2 flight at
  * tau 2 (2 600 patches, --effects none), without the flush after the last
@@ -52,14 +57,24 @@ static void tile_fill(hz_lod *lod, const uint16_t *morph, const uint8_t *valid, 
     }
 }
 
-/* The instance attributes from instance first on (GL 3.3 has no base
- * instance); the patch VBO bound. */
-static void patch_attribs(uint32_t first)
+static uint32_t inst_words(const hz_renderer *r)
 {
-    const size_t at = (size_t)first * INST_WORDS * sizeof(uint32_t);
-    glVertexAttribIPointer(0, 4, GL_UNSIGNED_INT, INST_WORDS * sizeof(uint32_t), (const void *)at);
-    glVertexAttribIPointer(1, 2, GL_UNSIGNED_INT, INST_WORDS * sizeof(uint32_t),
-                           (const void *)(at + 4 * sizeof(uint32_t)));
+    return r->streamed ? INST_WORDS_STREAM : INST_WORDS_MEMORY;
+}
+
+/* The instance attributes from instance first on (GL 3.3 has no base
+ * instance); the patch VAO and VBO bound. */
+static void patch_attribs(const hz_renderer *r, uint32_t first)
+{
+    const GLsizei stride = (GLsizei)(inst_words(r) * sizeof(uint32_t));
+    const size_t at = (size_t)first * (size_t)stride;
+    glVertexAttribIPointer(0, r->streamed ? 4 : 2, GL_UNSIGNED_INT, stride, (const void *)at);
+    if (r->streamed) {
+        glEnableVertexAttribArray(1);
+        glVertexAttribIPointer(1, 2, GL_UNSIGNED_INT, stride, (const void *)(at + 4 * sizeof(uint32_t)));
+    } else {
+        glDisableVertexAttribArray(1); /* the in-memory shader does not read a_slide */
+    }
 }
 
 /* The static patch: (P+1)^2 vertices, union-jack cells (hz_lod_cell_triangles). */
@@ -90,9 +105,8 @@ static hz_result patch_grid(hz_renderer *r, uint32_t P, hz_err *err)
         glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
         glEnableVertexAttribArray(0);
         glVertexAttribDivisor(0, 1);
-        glEnableVertexAttribArray(1);
         glVertexAttribDivisor(1, 1);
-        patch_attribs(0);
+        patch_attribs(r, 0);
         glBindVertexArray(0);
         glBindBuffer(GL_ARRAY_BUFFER, 0);
         free(idx);
@@ -194,7 +208,8 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, hz_err
 {
     if (!r->tiles_tex)
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: cdlod patches to draw before hz_renderer_set_cdlod");
-    const size_t bytes = (size_t)count * INST_WORDS * sizeof(uint32_t);
+    const uint32_t words = inst_words(r);
+    const size_t bytes = (size_t)count * words * sizeof(uint32_t);
     if (bytes > r->inst_scratch_cap) {
         uint32_t *s = realloc(r->inst_scratch, bytes);
         if (!s)
@@ -202,7 +217,7 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, hz_err
         r->inst_scratch = s;
         r->inst_scratch_cap = bytes;
     }
-    const uint32_t T = r->tile_cells, top = r->tile_top, n = r->size;
+    const uint32_t T = r->tile_cells, n = r->size;
     for (uint32_t k = 0; r->streamed && k < count; k++) {
         const hz_patch *q = &p[k];
         /* a repeating terrain's patches may be one period off the map */
@@ -215,7 +230,7 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, hz_err
             x0 + span > hi || z0 + span > hi)
             return hz_err_set(err, HZ_ERR_VALUE, "renderer: streamed patch %u (%u, %u, shift %u, slot %u) is invalid",
                               k, q->x0, q->z0, q->shift, q->layer1);
-        uint32_t *o = r->inst_scratch + INST_WORDS * (size_t)k;
+        uint32_t *o = r->inst_scratch + words * (size_t)k;
         o[0] = q->x0;
         o[1] = q->z0;
         o[2] = (q->layer1 - 1) | ((uint32_t)q->shift << 16);
@@ -227,20 +242,14 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, hz_err
     }
     for (uint32_t k = 0; !r->streamed && k < count; k++) {
         const hz_patch *q = &p[k];
-        if (q->shift > 15 || (q->coarse & ~15u) || ((r->patch_cells << q->shift) + q->x0 > n - 1) ||
-            ((r->patch_cells << q->shift) + q->z0 > n - 1))
+        if (q->shift > 15 || (q->coarse & ~15u) || q->x0 > 65535 || q->z0 > 65535 ||
+            ((r->patch_cells << q->shift) + q->x0 > n - 1) || ((r->patch_cells << q->shift) + q->z0 > n - 1))
             return hz_err_set(err, HZ_ERR_VALUE, "renderer: patch %u (%u, %u, shift %u) lies outside the map", k,
                               q->x0, q->z0, q->shift);
-        const uint32_t l = q->shift < top ? q->shift : top, ts = q->shift - l;
-        const uint32_t m = ((n - 1) >> l) / T;
-        const uint32_t gi = q->x0 >> l, gj = q->z0 >> l;
-        const uint32_t tx = gi / T, tz = gj / T;
-        uint32_t *o = r->inst_scratch + INST_WORDS * (size_t)k;
-        o[0] = q->x0;
-        o[1] = q->z0;
-        o[2] = ((uint32_t)r->tile_base[l] + tz * m + tx) | ((uint32_t)q->shift << 16);
-        o[3] = (gi - tx * T) | ((gj - tz * T) << 12) | (ts << 24) | ((uint32_t)q->coarse << 28);
-        o[4] = o[5] = 0; /* in memory: no tile arrives late */
+        /* the shader finds the tile: level min(shift, top), (x0 >> level) / T */
+        uint32_t *o = r->inst_scratch + words * (size_t)k;
+        o[0] = q->x0 | (q->z0 << 16);
+        o[1] = q->shift | ((uint32_t)q->coarse << 4);
     }
     glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
     if (bytes > r->inst_cap || bytes < r->inst_cap / 4) {
@@ -279,13 +288,13 @@ void patch_draw(hz_renderer *r, const GLint *loc)
     for (uint32_t c = 0; c < chunks; c++) {
         const uint32_t a = (uint32_t)((uint64_t)r->n_inst * c / chunks);
         const uint32_t b = (uint32_t)((uint64_t)r->n_inst * (c + 1) / chunks);
-        patch_attribs(a);
+        patch_attribs(r, a);
         glDrawElementsInstanced(GL_TRIANGLES, (GLsizei)r->patch_index_count, GL_UNSIGNED_SHORT, (const void *)0,
                                 (GLsizei)(b - a));
         glFlush(); /* the last one too: the terrain is rasterised while the sky,
                       forest and objects are binned */
     }
-    patch_attribs(0);
+    patch_attribs(r, 0);
     glBindBuffer(GL_ARRAY_BUFFER, 0);
     glBindVertexArray(r->vao);
 }

@@ -266,8 +266,9 @@ static void test_gpu_morph_matches_cpu(void **state)
 }
 
 /* A frame of many patches (the renderer draws them in 4 flushed chunks of
- * at least 64) is the frame of the same patches expanded to triangles:
- * unmorphed, the same depth at every pixel and the same sky. */
+ * at least 64, from 8 bytes of instance data each) is the frame of the same
+ * patches expanded to triangles: unmorphed, the same depth at every pixel
+ * and the same sky. */
 static void test_patch_chunks_draw_every_patch(void **state)
 {
     ctx *c = *state;
@@ -288,7 +289,10 @@ static void test_patch_chunks_draw_every_patch(void **state)
     float *dp = malloc(W * H * sizeof *dp), *di = malloc(W * H * sizeof *di);
     uint8_t *sp_ = malloc(W * H), *si = malloc(W * H);
     hz_scene_params sp = {.patches = pl.data, .patch_count = (uint32_t)pl.count}; /* morph_scale 0 */
-    assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
+    hz_draw_stats ds;
+    assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, &ds, &err), HZ_OK);
+    /* the upload is 8 bytes a node (an in-memory terrain) */
+    assert_int_equal(ds.upload_bytes, pl.count * 8);
     assert_int_equal(hz_renderer_read_depth(c->r, dp, &err), HZ_OK);
     assert_int_equal(hz_renderer_read_sky_mask(c->r, sp_, &err), HZ_OK);
     assert_int_equal(hz_renderer_draw(c->r, &cam, NULL, il.data, (uint32_t)il.count, NULL, &err), HZ_OK);
