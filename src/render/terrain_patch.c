@@ -2,8 +2,8 @@
  * every level cut in T x T-cell tiles with a shared border), one static
  * P x P-cell grid in a vertex buffer-less index buffer, and per frame one
  * instance per selected node (8 bytes; 24 for a streamed terrain). The
- * vertex shader
- * (shaders/terrain_patch_vs.glsl) places, stitches and morphs the vertices.
+ * vertex shader (shaders/terrain_patch_vs.glsl) places, stitches and morphs
+ * the vertices.
  * The CPU work and the upload per frame are proportional to the nodes. */
 #include "render_internal.h"
 
