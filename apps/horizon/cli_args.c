@@ -28,7 +28,7 @@ static const char *const COMMON_FLAG[] = {"no-cull",   "no-enlarge", "no-hystere
                                           NULL};
 static const char *const BENCH_VALUE[] = {"effect-costs", "fps", "frames", "full-every", "json", "metrics",
                                           "path", "plot", "pr-res", "pr-views", "reference", "save-frames",
-                                          "tune-p99", "tune-silhouette", NULL};
+                                          "tune-p99", "tune-silhouette", "tune-psnr", NULL};
 static const char *const BENCH_FLAG[] = {"no-full", "no-pr", NULL};
 static const char *const VIEW_VALUE[] = {"config", "dt", "eye-height", "frames", "hud-scale", "mouse-sens", "path",
                                          "screenshot", "script", "shot-dir", "speed", "walk-speed", NULL};

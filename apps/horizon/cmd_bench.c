@@ -100,6 +100,8 @@ static void usage(void)
             "                          screen-space error (p95 over frames) stays <= PX\n"
             "  --tune-silhouette F     per mode, use the largest --pixel-error whose median silhouette\n"
             "                          error against the reference (fraction of pixels) stays <= F\n"
+            "  --tune-psnr DB          ... whose median PSNR against the reference stays >= DB (with\n"
+            "                          --tune-silhouette: both)\n"
             "  --reference on|off      full-resolution reference frames for PSNR/popping (default on):\n"
             "                          every cell of the grid as two triangles, no LOD, no culling\n"
             "  --metrics on|off        the exact per-frame screen-space error (default on; off for\n"
@@ -286,6 +288,7 @@ typedef struct bench {
     cli_lod_frame lf;      /* this frame's selection */
     double load_ms, setup_ms;
     double tune_sil;       /* --tune-silhouette target, 0 = none */
+    double tune_psnr;      /* --tune-psnr target (dB), 0 = none */
     hz_renderer *ren;
     size_t npx;
     /* Reference frames, rendered once when several modes share them. */
@@ -426,12 +429,14 @@ static hz_result tune(bench *b, hz_lod_params *lod, double target, double *found
 
 /* The largest pixel error bound (bisection in log space, 10 steps over
  * 0.05..64 px) whose median silhouette error against the full-resolution
- * reference, over up to 8 frames spread along the path, stays <= target
- * (a fraction of the pixels): the setting that matches an image error. */
-static hz_result tune_silhouette(bench *b, hz_lod_params *lod, double target, double *found)
+ * reference, over up to 8 frames spread along the path, stays <= sil (a
+ * fraction of the pixels; 0: any) and whose median PSNR against it is
+ * >= psnr dB (0: any): the setting that matches an image error. Both
+ * errors grow with the bound. */
+static hz_result tune_image(bench *b, hz_lod_params *lod, double sil, double psnr, double *found)
 {
     const uint32_t K = b->frames < 8 ? b->frames : 8;
-    uint8_t *sky[8] = {0}, *mine = malloc(b->npx), *rgb = malloc(b->npx * 3);
+    uint8_t *sky[8] = {0}, *ref[8] = {0}, *mine = malloc(b->npx), *rgb = malloc(b->npx * 3);
     hz_camera cams[8];
     hz_result r = mine && rgb ? HZ_OK : hz_err_set(&b->err, HZ_ERR_MEMORY, "out of memory for the tuning");
     for (uint32_t k = 0; r == HZ_OK && k < K; k++) {
@@ -439,11 +444,12 @@ static hz_result tune_silhouette(bench *b, hz_lod_params *lod, double target, do
         cams[k] = cli_camera(&b->o, b->t);
         hz_path_sample(&b->path, (float)f / b->fps, &cams[k]);
         sky[k] = malloc(b->npx);
+        ref[k] = malloc(b->npx * 3);
         uint32_t tris;
-        r = sky[k] ? reference_frame(b, &cams[k], f, rgb, sky[k], &tris)
-                   : hz_err_set(&b->err, HZ_ERR_MEMORY, "out of memory for the tuning");
+        r = sky[k] && ref[k] ? reference_frame(b, &cams[k], f, ref[k], sky[k], &tris)
+                             : hz_err_set(&b->err, HZ_ERR_MEMORY, "out of memory for the tuning");
     }
-    double lo = log(0.05), hi = log(64.0), best = 0.05, vals[8];
+    double lo = log(0.05), hi = log(64.0), best = 0.05, vals[8], dbs[8];
     double t0 = hz_time_ms(), last = t0;
     const int iters = 10;
     for (int it = 0; r == HZ_OK && it < iters; it++) {
@@ -461,23 +467,30 @@ static hz_result tune_silhouette(bench *b, hz_lod_params *lod, double target, do
             r = hz_renderer_draw(b->ren, &cams[k], &sp, idx, nidx, NULL, &b->err);
             if (r == HZ_OK)
                 r = hz_renderer_read_sky_mask(b->ren, mine, &b->err);
-            if (r == HZ_OK)
+            if (r == HZ_OK && psnr > 0)
+                r = hz_renderer_read_rgb(b->ren, rgb, &b->err);
+            if (r == HZ_OK) {
                 vals[k] = hz_metrics_silhouette(mine, sky[k], b->npx);
+                /* identical frames: infinite PSNR */
+                dbs[k] = psnr > 0 ? hz_metrics_psnr(rgb, ref[k], b->npx) : 0.0;
+            }
         }
         if (r != HZ_OK)
             break;
-        if (pct_values(vals, K, 0.5) <= target) {
+        if ((sil <= 0 || pct_values(vals, K, 0.5) <= sil) && (psnr <= 0 || pct_values(dbs, K, 0.5) >= psnr)) {
             lo = mid;
             best = exp(mid);
         } else {
             hi = mid;
         }
-        progress(b, "tuning the silhouette error", (uint32_t)it + 1, iters, t0, &last);
+        progress(b, "tuning the image error", (uint32_t)it + 1, iters, t0, &last);
     }
     lod->pixel_error = (float)best;
     *found = best;
-    for (uint32_t k = 0; k < K; k++)
+    for (uint32_t k = 0; k < K; k++) {
         free(sky[k]);
+        free(ref[k]);
+    }
     free(mine);
     free(rgb);
     return r;
@@ -678,6 +691,8 @@ static void print_table(const bench *b, const hz_lod_params *lod, const summary 
         printf(" (tuned for p99 <= %g px)", tuned_for);
     if (b->tune_sil > 0)
         printf(" (tuned for median silhouette <= %g)", b->tune_sil);
+    if (b->tune_psnr > 0)
+        printf(" (tuned for median PSNR >= %g dB)", b->tune_psnr);
     printf("\n");
     curv_cli_print(&b->o.curv);
     printf("%-18s %12s %12s %12s\n", "", "median", "p95", "max");
@@ -745,6 +760,7 @@ static json_t *bench_json(const bench *b, const hz_lod_params *lod, const frame_
     jx_set(j, "px_error_p99", jx_num(s->v[COL_P99][1]));
     jx_set(j, "px_error_max", jx_num(s->v[COL_PXMAX][2]));
     jx_set(j, "tuned_for_silhouette", jx_num(b->tune_sil));
+    jx_set(j, "tuned_for_psnr_db", jx_num(b->tune_psnr));
     jx_set(j, "metrics", jx_bool(b->metrics));
     jx_set(j, "load_ms", jx_fix(b->load_ms, 1));
     jx_set(j, "setup_ms", jx_fix(b->setup_ms, 1));
@@ -884,7 +900,7 @@ int cmd_bench(int argc, char **argv)
     const char *path_name = NULL, *json_out = NULL, *plot_out = NULL, *save_dir = NULL, *costs_out = NULL;
     bench_forest_opts bfo = {0};
     uint32_t frames = 60;
-    float fps = 30.0f, tune_p99 = 0.0f, tune_sil = 0.0f;
+    float fps = 30.0f, tune_p99 = 0.0f, tune_sil = 0.0f, tune_psnr = 0.0f;
     bool fps_set = false;
     bool reference = true, metrics = true;
     hz_lod_mode modes[HZ_LOD_MODE_COUNT * 2];
@@ -913,7 +929,7 @@ int cmd_bench(int argc, char **argv)
                      !strcmp(a, "--full-every") || !strcmp(a, "--pr-views") || !strcmp(a, "--pr-res") ||
                      !strcmp(a, "--reference") || !strcmp(a, "--plot") || !strcmp(a, "--save-frames") ||
                      !strcmp(a, "--tune-p99") || (!strcmp(a, "--lod") && v && strchr(v, ',')) ||
-                     !strcmp(a, "--tune-silhouette") || !strcmp(a, "--metrics") ||
+                     !strcmp(a, "--tune-silhouette") || !strcmp(a, "--tune-psnr") || !strcmp(a, "--metrics") ||
                      !strcmp(a, "--effect-costs") ||
                      (!strcmp(a, "--json") && v && v[0] != '-');
         if (!takes) {
@@ -970,6 +986,13 @@ int cmd_bench(int argc, char **argv)
                 free(rest);
                 return 2;
             }
+        } else if (!strcmp(a, "--tune-psnr")) {
+            if (!cli_parse_float(v, 1.0f, 200.0f, &tune_psnr)) {
+                fprintf(stderr, "horizon bench: invalid value '%s' for --tune-psnr: expected dB in [1, 200], e.g. 41\n",
+                        v);
+                free(rest);
+                return 2;
+            }
         } else if (!strcmp(a, "--reference")) {
             if (strcmp(v, "on") && strcmp(v, "off")) {
                 fprintf(stderr, "horizon bench: --reference takes on or off\n");
@@ -1002,12 +1025,13 @@ int cmd_bench(int argc, char **argv)
     }
     bench b = {.frames = frames, .fps = fps, .reference = reference, .metrics = metrics, .save_dir = save_dir};
     b.tune_sil = tune_sil;
-    if (tune_sil > 0 && tune_p99 > 0) {
-        fprintf(stderr, "horizon bench: --tune-p99 and --tune-silhouette are alternatives\n");
+    b.tune_psnr = tune_psnr;
+    if ((tune_sil > 0 || tune_psnr > 0) && tune_p99 > 0) {
+        fprintf(stderr, "horizon bench: --tune-p99 and --tune-silhouette / --tune-psnr are alternatives\n");
         return 2;
     }
-    if (tune_sil > 0 && !reference) {
-        fprintf(stderr, "horizon bench: --tune-silhouette needs the reference frames (not --reference off)\n");
+    if ((tune_sil > 0 || tune_psnr > 0) && !reference) {
+        fprintf(stderr, "horizon bench: --tune-silhouette and --tune-psnr need the reference frames (not --reference off)\n");
         return 2;
     }
     int rc = cli_parse(nrest, rest, 2, &b.o, "bench");
@@ -1158,7 +1182,7 @@ int cmd_bench(int argc, char **argv)
         double tuned = 0;
         if (tune_p99 > 0 && tune(&b, &lod, tune_p99, &tuned) != HZ_OK)
             goto done;
-        if (tune_sil > 0 && tune_silhouette(&b, &lod, tune_sil, &tuned) != HZ_OK)
+        if ((tune_sil > 0 || tune_psnr > 0) && tune_image(&b, &lod, tune_sil, tune_psnr, &tuned) != HZ_OK)
             goto done;
         if (run(&b, &lod, rows) != HZ_OK)
             goto done;

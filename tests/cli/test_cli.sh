@@ -311,6 +311,21 @@ assert j["tuned_for_silhouette"] == 0.002 and j["pixel_error"] > 0.05, j["pixel_
 assert statistics.median(f["silhouette_frac"] for f in j["per_frame"]) <= 0.002 * 1.5
 PY
 then ok "bench --tune-silhouette"; else bad "bench tune silhouette: $(cat "$TMP/ts.err")"; fi
+# --tune-psnr: the bound found keeps the median PSNR at the target; a higher target gives a
+# smaller bound, and with the silhouette target too the bound meets both.
+tp() { $HZ bench --quiet --generate perlin --size 257 --frames 4 --width 320 --height 180 --lod cdlod "$@" \
+         --json "$TMP/tp.json" >/dev/null 2>"$TMP/tp.err" &&
+       python3 -c "import json,sys,statistics; j=json.load(open('$TMP/tp.json')); print(j['pixel_error'], statistics.median(f['psnr_db'] for f in j['per_frame']), statistics.median(f['silhouette_frac'] for f in j['per_frame']), j['tuned_for_psnr_db'])"; }
+p40=$(tp --tune-psnr 40); p48=$(tp --tune-psnr 48); pb=$(tp --tune-psnr 40 --tune-silhouette 0.0005)
+if python3 - "$p40" "$p48" "$pb" <<'PY'
+import sys
+a, b, c = ([float(x) for x in s.split()] for s in sys.argv[1:4])
+assert a[3] == 40 and b[3] == 48, (a, b)
+assert a[1] >= 40 - 0.5 and b[1] >= 48 - 0.5, (a, b)  # median PSNR at the target (same frames, +-1 frame choice)
+assert 0.05 < b[0] < a[0], (a, b)                      # a higher PSNR needs a smaller bound
+assert c[0] <= a[0] and c[1] >= 40 - 0.5 and c[2] <= 0.0005 * 1.5, c
+PY
+then ok "bench --tune-psnr ($p40 / $p48 / $pb)"; else bad "bench tune psnr: $p40 / $p48 / $pb $(cat "$TMP/tp.err")"; fi
 mkdir -p "$TMP/frames"; cp "$TMP/d.png" "$TMP/frames/ref_0000.png" 2>/dev/null || $R --generate perlin --size 257 --out "$TMP/frames/ref_0000.png" >/dev/null 2>&1
 sum0=$(md5sum < "$TMP/frames/ref_0000.png")
 expect_fail "bench frames over an input" "would overwrite"  $HZ bench --quiet --dem "$TMP/frames/ref_0000.png" --frames 1 --save-frames "$TMP/frames"
