@@ -196,6 +196,22 @@ static void test_modes_close_to_reference(void **state)
     free(simg);
 }
 
+/* cdlod patches for the default camera looking 4 degrees down at tau,
+ * and the same patches expanded to triangles. */
+static void cdlod_frame(ctx *c, float tau, hz_camera *cam, hz_patch_list *pl, hz_index_list *il, hz_lod_stats *st)
+{
+    hz_err err = {0};
+    hz_terrain *t = c->t;
+    assert_int_equal(hz_lod_prepare(t->lod, HZ_LOD_CDLOD), HZ_OK);
+    assert_int_equal(hz_renderer_set_cdlod(c->r, t->lod, NULL, &err), HZ_OK);
+    *cam = hz_terrain_default_camera(t, W, H);
+    cam->pitch = -4;
+    hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = tau, .viewport_height = H};
+    assert_int_equal(hz_lod_select_patches(t->lod, cam, &p, pl, st), HZ_OK);
+    assert_int_equal(hz_lod_patches_to_indices(t->lod, pl->data, pl->count, il), HZ_OK);
+    assert_int_equal(il->count, (size_t)st->triangles * 3);
+}
+
 /* The patch vertex shader places, stitches and morphs exactly like the CPU
  * (hz_lod_patches_to_indices, hz_lod_morph_height): a cdlod frame drawn as
  * patches with GPU morphing has the silhouette of the expanded triangles
@@ -206,17 +222,11 @@ static void test_gpu_morph_matches_cpu(void **state)
     hz_err err = {0};
     hz_terrain *t = c->t;
     const uint32_t n = t->hm.size;
-    assert_int_equal(hz_lod_prepare(t->lod, HZ_LOD_CDLOD), HZ_OK);
-    assert_int_equal(hz_renderer_set_cdlod(c->r, t->lod, NULL, &err), HZ_OK);
-    hz_camera cam = hz_terrain_default_camera(t, W, H);
-    cam.pitch = -4;
-    hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = 12.0f, .viewport_height = H};
+    hz_camera cam;
     hz_index_list il = {0};
     hz_patch_list pl = {0};
     hz_lod_stats st;
-    assert_int_equal(hz_lod_select_patches(t->lod, &cam, &p, &pl, &st), HZ_OK);
-    assert_int_equal(hz_lod_patches_to_indices(t->lod, pl.data, pl.count, &il), HZ_OK);
-    assert_int_equal(il.count, (size_t)st.triangles * 3);
+    cdlod_frame(c, 12.0f, &cam, &pl, &il, &st);
     assert_true(st.morph_scale > 0);
     size_t stitched = 0;
     for (size_t k = 0; k < pl.count; k++)
@@ -273,19 +283,13 @@ static void test_patch_chunks_draw_every_patch(void **state)
 {
     ctx *c = *state;
     hz_err err = {0};
-    hz_terrain *t = c->t;
-    assert_int_equal(hz_lod_prepare(t->lod, HZ_LOD_CDLOD), HZ_OK);
-    assert_int_equal(hz_renderer_set_cdlod(c->r, t->lod, NULL, &err), HZ_OK);
-    hz_camera cam = hz_terrain_default_camera(t, W, H);
-    cam.pitch = -4;
-    hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = 0.5f, .viewport_height = H};
+    hz_camera cam;
     hz_index_list il = {0};
     hz_patch_list pl = {0};
     hz_lod_stats st;
-    assert_int_equal(hz_lod_select_patches(t->lod, &cam, &p, &pl, &st), HZ_OK);
+    cdlod_frame(c, 0.5f, &cam, &pl, &il, &st);
     fprintf(stderr, "%zu patches\n", pl.count);
     assert_true(pl.count >= 4 * 64);
-    assert_int_equal(hz_lod_patches_to_indices(t->lod, pl.data, pl.count, &il), HZ_OK);
     float *dp = malloc(W * H * sizeof *dp), *di = malloc(W * H * sizeof *di);
     uint8_t *sp_ = malloc(W * H), *si = malloc(W * H);
     hz_scene_params sp = {.patches = pl.data, .patch_count = (uint32_t)pl.count}; /* morph_scale 0 */
