@@ -427,18 +427,19 @@ static hz_result tune(bench *b, hz_lod_params *lod, double target, double *found
     return HZ_OK;
 }
 
-/* The largest pixel error bound (bisection in log space, 10 steps over
- * 0.05..64 px) whose median silhouette error against the full-resolution
- * reference, over up to TUNE_IMAGE_FRAMES frames spread along the path, stays <= sil (a
- * fraction of the pixels; 0: any) and whose median PSNR against it is
- * >= psnr dB (0: any): the setting that matches an image error. Both
- * errors grow with the bound. */
-/* Frames along the path the image tuning measures (their reference images
- * are kept, 4 bytes a pixel each). On the peers' 4097^2 flight, tuned to
- * Ogre tau 1's 41.0 dB the median PSNR of all 120 frames was 40.80 dB with
- * 8 frames, 40.92 with 16 and 41.00 with 60 (tau 1.24, 1.20, 1.18). */
+/* Frames along the path the image tuning measures (their reference sky
+ * masks are kept, and their images when PSNR is tuned: 4 bytes a pixel).
+ * On the peers' 4097^2 flight, tuned to Ogre tau 1's 41.0 dB the median
+ * PSNR of all 120 frames was 40.80 dB with 8 frames, 40.92 with 16 and
+ * 41.00 with 60 (tau 1.24, 1.20, 1.18). */
 #define TUNE_IMAGE_FRAMES 60
 
+/* The largest pixel error bound (bisection in log space, 10 steps over
+ * 0.05..64 px) whose median silhouette error against the full-resolution
+ * reference, over up to TUNE_IMAGE_FRAMES frames spread along the path,
+ * stays <= sil (a fraction of the pixels; 0: any) and whose median PSNR
+ * against it is >= psnr dB (0: any): the setting that matches an image
+ * error. Both errors grow with the bound. */
 static hz_result tune_image(bench *b, hz_lod_params *lod, double sil, double psnr, double *found)
 {
     const uint32_t K = b->frames < TUNE_IMAGE_FRAMES ? b->frames : TUNE_IMAGE_FRAMES;
@@ -451,10 +452,11 @@ static hz_result tune_image(bench *b, hz_lod_params *lod, double sil, double psn
         cams[k] = cli_camera(&b->o, b->t);
         hz_path_sample(&b->path, (float)f / b->fps, &cams[k]);
         sky[k] = malloc(b->npx);
-        ref[k] = malloc(b->npx * 3);
+        ref[k] = psnr > 0 ? malloc(b->npx * 3) : NULL; /* the image is kept only to tune PSNR */
         uint32_t tris;
-        r = sky[k] && ref[k] ? reference_frame(b, &cams[k], f, ref[k], sky[k], &tris)
-                             : hz_err_set(&b->err, HZ_ERR_MEMORY, "out of memory for the tuning");
+        r = sky[k] && (ref[k] || psnr <= 0)
+                ? reference_frame(b, &cams[k], f, ref[k] ? ref[k] : rgb, sky[k], &tris)
+                : hz_err_set(&b->err, HZ_ERR_MEMORY, "out of memory for the tuning");
     }
     double lo = log(0.05), hi = log(64.0), best = 0.05, vals[TUNE_IMAGE_FRAMES], dbs[TUNE_IMAGE_FRAMES];
     double t0 = hz_time_ms(), last = t0;
