@@ -6,6 +6,18 @@
 // distance, as the terrain. With the light
 // map's sun heights, the sun term is shaded where the terrain or other
 // objects hide the sun.
+// Variants (object_draw.c): OBJ_SUN_HEIGHTS, OBJ_HEIGHT_FOG and OBJ_FAR_FADE
+// compile those paths in. A uniform switching them off would still cost
+// every fragment on llvmpipe, which runs both sides of a branch.
+#ifndef OBJ_SUN_HEIGHTS
+#define OBJ_SUN_HEIGHTS 1
+#endif
+#ifndef OBJ_HEIGHT_FOG
+#define OBJ_HEIGHT_FOG 1
+#endif
+#ifndef OBJ_FAR_FADE
+#define OBJ_FAR_FADE 1
+#endif
 uniform vec3 u_color;
 uniform vec3 u_sky_horizon, u_eye;
 uniform float u_fog_density;
@@ -14,7 +26,7 @@ uniform vec3 u_height_fog;       // density /m, base height, falloff (m); densit
 uniform vec3 u_zenith;
 uniform sampler2D u_sun_heights; // R32F: below it a point is in shade (hz_pass_info)
 uniform vec4 u_sunh_map;         // world xz -> uv: xz * map.xy + map.zw
-uniform vec4 u_sunh;             // x: 1 = on, y: lookup step (m), z: tan(sun elevation), w: soft edge (m)
+uniform vec4 u_sunh;             // y: lookup step (m), z: tan(sun elevation), w: soft edge (m)
 uniform vec2 u_sun_h;            // the sun's horizontal unit direction
 in vec3 v_world;
 in vec3 v_normal;
@@ -36,14 +48,17 @@ float sun_lit(vec3 n)
 void main()
 {
     float direct = v_light.y;
-    if (u_sunh.x > 0.0 && direct > 0.0)
+#if OBJ_SUN_HEIGHTS
+    if (direct > 0.0)
         direct *= sun_lit(normalize(v_normal));
+#endif
     vec3 c = u_color * (v_light.x + direct * vec3(1.0, 0.97, 0.90));
     vec3 d = v_world - u_eye;
     float dist = length(d);
     float tau = u_fog_density * dist;
     vec3 fog_c = u_sky_horizon;
-    if (u_height_fog.x > 0.0) {
+#if OBJ_HEIGHT_FOG
+    {
         // (exp(-ye) - exp(-yp)) / dy: the height fog's mean density along the ray
         float ye = max((u_eye.y - u_height_fog.y) / u_height_fog.z, -30.0);
         float yp = max((v_world.y - u_height_fog.y) / u_height_fog.z, -30.0);
@@ -53,8 +68,10 @@ void main()
         float up = max(d.y / max(dist, 1e-6), 0.0);
         fog_c = mix(u_sky_horizon, u_zenith, (1.0 - exp(-3.0 * up)) / (1.0 - exp(-3.0)));
     }
+#endif
     float f = exp(-tau);
-    if (u_fog_far.y > u_fog_far.x)
-        f *= 1.0 - smoothstep(u_fog_far.x, u_fog_far.y, dist);
+#if OBJ_FAR_FADE
+    f *= 1.0 - smoothstep(u_fog_far.x, u_fog_far.y, dist);
+#endif
     o_color = vec4(mix(fog_c, c, f), 1.0);
 }

@@ -128,11 +128,32 @@ void hz_gl_set_curvature(GLuint prog, const hz_camera *cam)
 
 GLuint hz_gl_program(const char *vs_src, const char *fs_src, const char *name, hz_err *err)
 {
+    return hz_gl_program_defs(vs_src, fs_src, NULL, name, err);
+}
+
+/* One shader with defs after its #version line (the line numbers of the
+ * rest stay those of the file). */
+static GLuint compile_defs(GLenum type, const char *src, const char *defs, const char *name, hz_err *err)
+{
+    if (!defs || !defs[0])
+        return hz_gl_compile(type, 1, &src, NULL, name, err);
+    const char *nl = strchr(src, '\n');
+    if (!nl || strncmp(src, "#version", 8) != 0) {
+        hz_err_set(err, HZ_ERR_GL, "GL: shader %s does not start with a #version line", name);
+        return 0;
+    }
+    const char *parts[4] = {src, defs, "\n#line 2\n", nl + 1};
+    const GLint lens[4] = {(GLint)(nl + 1 - src), -1, -1, -1};
+    return hz_gl_compile(type, 4, parts, lens, name, err);
+}
+
+GLuint hz_gl_program_defs(const char *vs_src, const char *fs_src, const char *defs, const char *name, hz_err *err)
+{
     char vn[64], fn[64];
     snprintf(vn, sizeof vn, "%s_vs.glsl", name);
     snprintf(fn, sizeof fn, "%s_fs.glsl", name);
-    GLuint vs = hz_gl_compile(GL_VERTEX_SHADER, 1, &vs_src, NULL, vn, err);
-    GLuint fs = vs ? hz_gl_compile(GL_FRAGMENT_SHADER, 1, &fs_src, NULL, fn, err) : 0;
+    GLuint vs = compile_defs(GL_VERTEX_SHADER, vs_src, defs, vn, err);
+    GLuint fs = vs ? compile_defs(GL_FRAGMENT_SHADER, fs_src, defs, fn, err) : 0;
     return hz_gl_link(vs, fs, name, err);
 }
 

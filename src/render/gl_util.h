@@ -17,6 +17,12 @@ GLuint hz_gl_link(GLuint vs, GLuint fs, const char *name, hz_err *err);
 /* Compiles and links a vertex + fragment program; 0 + err (quoting the GL
  * log) on failure. name is used in messages ("leaf" -> leaf_vs.glsl). */
 GLuint hz_gl_program(const char *vs_src, const char *fs_src, const char *name, hz_err *err);
+/* The same with defs (e.g. "#define X 1\n", NULL for none) inserted after
+ * the #version line of both shaders: compile-time variants. llvmpipe runs
+ * both sides of a branch on a uniform under a mask, so an optional path
+ * that a uniform switches off still costs every fragment; a variant
+ * without it does not. */
+GLuint hz_gl_program_defs(const char *vs_src, const char *fs_src, const char *defs, const char *name, hz_err *err);
 /* Sets the Earth curvature uniform hz_curv (shaders/curvature.glsl) of prog
  * for cam: its eye and earth_radius (0: flat; negative: a mirrored pass).
  * Programs without it are left alone. Call wherever u_viewproj is set. */

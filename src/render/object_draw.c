@@ -9,6 +9,7 @@
 #include "horizon/scene_render.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -21,14 +22,22 @@ typedef struct draw_cmd {
     GLuint base_instance;
 } draw_cmd;
 
+/* The object program's variants (object_fs.glsl): the paths a pass needs. */
+enum { OBJ_SUN_HEIGHTS = 1, OBJ_HEIGHT_FOG = 2, OBJ_FAR_FADE = 4, OBJ_VARIANTS = 8 };
+
+typedef struct obj_prog {
+    GLuint prog;
+    GLint u_viewproj, u_clip, u_color, u_sun, u_sky, u_eye, u_fog, u_ambient, u_fog_far;
+    GLint u_sunh_tex, u_sunh_map, u_sunh, u_sun_h, u_height_fog, u_zenith;
+} obj_prog;
+
 struct hz_scene_gpu {
-    GLuint prog, vao, vbo, ibo, inst_buf, cmd_buf;
+    obj_prog var[OBJ_VARIANTS]; /* compiled on first use */
+    GLuint vao, vbo, ibo, inst_buf, cmd_buf;
     GLuint box_prog, box_vao, box_vbo, box_ibo;  /* occlusion query proxies */
     GLint ub_viewproj, ub_min, ub_max;
     GLuint *queries;
     uint32_t query_cap;
-    GLint u_viewproj, u_clip, u_color, u_sun, u_sky, u_eye, u_fog, u_ambient, u_fog_far;
-    GLint u_sunh_tex, u_sunh_map, u_sunh, u_sun_h, u_height_fog, u_zenith;
     size_t inst_cap, cmd_cap;  /* bytes */
     uint32_t mesh_count;
     /* CPU scratch */
@@ -44,7 +53,8 @@ void hz_scene_gpu_destroy(hz_scene_gpu *g)
     if (!g)
         return;
     if (hz_gl_has_context()) {
-        glDeleteProgram(g->prog);
+        for (int k = 0; k < OBJ_VARIANTS; k++)
+            glDeleteProgram(g->var[k].prog);
         glDeleteVertexArrays(1, &g->vao);
         GLuint b[6] = {g->vbo, g->ibo, g->inst_buf, g->cmd_buf, g->box_vbo, g->box_ibo};
         glDeleteBuffers(6, b);
@@ -63,6 +73,53 @@ void hz_scene_gpu_destroy(hz_scene_gpu *g)
     free(g);
 }
 
+/* The program variant with the paths of key (OBJ_*), compiled on first
+ * use; NULL + err if it does not compile. */
+static const obj_prog *obj_program(hz_scene_gpu *g, unsigned key, hz_err *err)
+{
+    obj_prog *v = &g->var[key];
+    if (v->prog)
+        return v;
+    char defs[128];
+    snprintf(defs, sizeof defs, "#define OBJ_SUN_HEIGHTS %d\n#define OBJ_HEIGHT_FOG %d\n#define OBJ_FAR_FADE %d\n",
+             (key & OBJ_SUN_HEIGHTS) != 0, (key & OBJ_HEIGHT_FOG) != 0, (key & OBJ_FAR_FADE) != 0);
+    const GLuint p = hz_gl_program_defs(hz_shader_object_vs, hz_shader_object_fs, defs, "object", err);
+    if (!p)
+        return NULL;
+    v->prog = p;
+    v->u_viewproj = glGetUniformLocation(p, "u_viewproj");
+    v->u_clip = glGetUniformLocation(p, "u_clip_plane");
+    v->u_color = glGetUniformLocation(p, "u_color");
+    v->u_sun = glGetUniformLocation(p, "u_sun_dir");
+    v->u_sky = glGetUniformLocation(p, "u_sky_horizon");
+    v->u_eye = glGetUniformLocation(p, "u_eye");
+    v->u_fog = glGetUniformLocation(p, "u_fog_density");
+    v->u_ambient = glGetUniformLocation(p, "u_ambient");
+    v->u_fog_far = glGetUniformLocation(p, "u_fog_far");
+    v->u_sunh_tex = glGetUniformLocation(p, "u_sun_heights");
+    v->u_sunh_map = glGetUniformLocation(p, "u_sunh_map");
+    v->u_sunh = glGetUniformLocation(p, "u_sunh");
+    v->u_sun_h = glGetUniformLocation(p, "u_sun_h");
+    v->u_height_fog = glGetUniformLocation(p, "u_height_fog");
+    v->u_zenith = glGetUniformLocation(p, "u_zenith");
+    return v;
+}
+
+/* The variant a pass needs: the sun heights when it has them, the height
+ * fog when it is on, the fade to the sky over the last stretch of the view
+ * when that stretch is set. */
+static unsigned obj_key(const hz_pass_info *pass)
+{
+    unsigned key = 0;
+    if (pass->sun_heights_tex)
+        key |= OBJ_SUN_HEIGHTS;
+    if (pass->height_fog[2] > 0 && pass->height_fog[0] > 0)
+        key |= OBJ_HEIGHT_FOG;
+    if (pass->fog_far[1] > pass->fog_far[0])
+        key |= OBJ_FAR_FADE;
+    return key;
+}
+
 hz_scene_gpu *hz_scene_gpu_create(const hz_scene *s, hz_err *err)
 {
     if (!hz_gl_has_context()) {
@@ -74,26 +131,11 @@ hz_scene_gpu *hz_scene_gpu_create(const hz_scene *s, hz_err *err)
         hz_err_set(err, HZ_ERR_MEMORY, "scene: out of memory");
         return NULL;
     }
-    g->prog = hz_gl_program(hz_shader_object_vs, hz_shader_object_fs, "object", err);
-    if (!g->prog) {
+    /* The plain variant now: a broken shader shows at creation. */
+    if (!obj_program(g, 0, err)) {
         hz_scene_gpu_destroy(g);
         return NULL;
     }
-    g->u_viewproj = glGetUniformLocation(g->prog, "u_viewproj");
-    g->u_clip = glGetUniformLocation(g->prog, "u_clip_plane");
-    g->u_color = glGetUniformLocation(g->prog, "u_color");
-    g->u_sun = glGetUniformLocation(g->prog, "u_sun_dir");
-    g->u_sky = glGetUniformLocation(g->prog, "u_sky_horizon");
-    g->u_eye = glGetUniformLocation(g->prog, "u_eye");
-    g->u_fog = glGetUniformLocation(g->prog, "u_fog_density");
-    g->u_ambient = glGetUniformLocation(g->prog, "u_ambient");
-    g->u_fog_far = glGetUniformLocation(g->prog, "u_fog_far");
-    g->u_sunh_tex = glGetUniformLocation(g->prog, "u_sun_heights");
-    g->u_sunh_map = glGetUniformLocation(g->prog, "u_sunh_map");
-    g->u_sunh = glGetUniformLocation(g->prog, "u_sunh");
-    g->u_sun_h = glGetUniformLocation(g->prog, "u_sun_h");
-    g->u_height_fog = glGetUniformLocation(g->prog, "u_height_fog");
-    g->u_zenith = glGetUniformLocation(g->prog, "u_zenith");
     uint32_t vc, ic;
     const hz_vertex *v = hz_scene_vertices(s, &vc);
     const uint32_t *ix = hz_scene_indices(s, &ic);
@@ -199,23 +241,21 @@ static void stream(GLenum target, GLuint buf, size_t *cap, const void *data, siz
 
 /* The light map's sun heights of the pass (or none): shade from the terrain
  * and the other objects. */
-static void set_sun_heights(const hz_scene_gpu *g, const hz_pass_info *pass)
+static void set_sun_heights(const obj_prog *v, const hz_pass_info *pass)
 {
-    if (!pass->sun_heights_tex) {
-        glUniform4f(g->u_sunh, 0, 0, 0, 0);
+    if (!pass->sun_heights_tex)
         return;
-    }
     const float *s = pass->sun_dir, hl = sqrtf(s[0] * s[0] + s[2] * s[2]);
     const float sp = pass->sun_heights_spacing;
     glActiveTexture(GL_TEXTURE0 + SUNH_UNIT);
     glBindTexture(GL_TEXTURE_2D, pass->sun_heights_tex);
     glActiveTexture(GL_TEXTURE0);
-    glUniform1i(g->u_sunh_tex, SUNH_UNIT);
-    glUniform4fv(g->u_sunh_map, 1, pass->sun_heights_map);
+    glUniform1i(v->u_sunh_tex, SUNH_UNIT);
+    glUniform4fv(v->u_sunh_map, 1, pass->sun_heights_map);
     /* Soft over a tenth of a sample (0.5 .. 3 m): the heights are bilinear between samples. */
     const float soft = fminf(fmaxf(0.1f * sp, 0.5f), 3.0f);
-    glUniform4f(g->u_sunh, 1.0f, sp, hl > 1e-6f ? s[1] / hl : 0.0f, soft);
-    glUniform2f(g->u_sun_h, hl > 1e-6f ? s[0] / hl : 0.0f, hl > 1e-6f ? s[2] / hl : 0.0f);
+    glUniform4f(v->u_sunh, 1.0f, sp, hl > 1e-6f ? s[1] / hl : 0.0f, soft);
+    glUniform2f(v->u_sun_h, hl > 1e-6f ? s[0] / hl : 0.0f, hl > 1e-6f ? s[2] / hl : 0.0f);
 }
 
 /* Queues, uploads the world matrices of and draws nodes[0..n) (n <= the
@@ -236,23 +276,25 @@ static hz_result submit(hz_scene_gpu *g, const hz_scene *s, const hz_pass_info *
         memcpy(g->mats + 16 * (size_t)k, m, sizeof m);
     }
     st->cull_ms += hz_time_ms() - t0;
-    glUseProgram(g->prog);
+    const obj_prog *v = obj_program(g, obj_key(pass), err);
+    if (!v)
+        return HZ_ERR_GL;
+    glUseProgram(v->prog);
     glBindVertexArray(g->vao);
     st->state_changes += 2;
     stream(GL_ARRAY_BUFFER, g->inst_buf, &g->inst_cap, g->mats, (size_t)n * 64);
-    glUniformMatrix4fv(g->u_viewproj, 1, GL_FALSE, (const float *)pass->viewproj);
-    hz_gl_set_curvature(g->prog, pass->cam);
-    glUniform4fv(g->u_clip, 1, pass->clip_plane);
-    glUniform3fv(g->u_sun, 1, pass->sun_dir);
-    glUniform3fv(g->u_sky, 1, pass->sky_color);
-    glUniform3fv(g->u_eye, 1, pass->cam->pos);
-    glUniform1f(g->u_fog, pass->fog_density);
-    glUniform1f(g->u_ambient, pass->ambient > 0 ? pass->ambient : 0.3f);
-    glUniform2fv(g->u_fog_far, 1, pass->fog_far);
-    glUniform3f(g->u_height_fog, pass->height_fog[2] > 0 ? pass->height_fog[0] : 0.0f, pass->height_fog[1],
-                pass->height_fog[2]);
-    glUniform3fv(g->u_zenith, 1, pass->zenith_color);
-    set_sun_heights(g, pass);
+    glUniformMatrix4fv(v->u_viewproj, 1, GL_FALSE, (const float *)pass->viewproj);
+    hz_gl_set_curvature(v->prog, pass->cam);
+    glUniform4fv(v->u_clip, 1, pass->clip_plane);
+    glUniform3fv(v->u_sun, 1, pass->sun_dir);
+    glUniform3fv(v->u_sky, 1, pass->sky_color);
+    glUniform3fv(v->u_eye, 1, pass->cam->pos);
+    glUniform1f(v->u_fog, pass->fog_density);
+    glUniform1f(v->u_ambient, pass->ambient > 0 ? pass->ambient : 0.3f);
+    glUniform2fv(v->u_fog_far, 1, pass->fog_far);
+    glUniform3f(v->u_height_fog, pass->height_fog[0], pass->height_fog[1], pass->height_fog[2]);
+    glUniform3fv(v->u_zenith, 1, pass->zenith_color);
+    set_sun_heights(v, pass);
     /* Closed outward meshes: back faces culled (mirrored passes flip the
      * front face, set by the renderer). */
     glEnable(GL_CULL_FACE);
@@ -263,7 +305,7 @@ static hz_result submit(hz_scene_gpu *g, const hz_scene *s, const hz_pass_info *
             const hz_mesh_range *m = hz_scene_mesh(s, it->mesh);
             if (it->material != last_mat) {
                 const hz_material *mt = hz_scene_material(s, it->material);
-                glUniform3fv(g->u_color, 1, mt ? mt->color : (const float[3]){0.7f, 0.7f, 0.7f});
+                glUniform3fv(v->u_color, 1, mt ? mt->color : (const float[3]){0.7f, 0.7f, 0.7f});
                 last_mat = it->material;
                 st->state_changes++;
             }
@@ -290,7 +332,7 @@ static hz_result submit(hz_scene_gpu *g, const hz_scene *s, const hz_pass_info *
             while (e < ni && g->items[e].material == g->items[k].material && g->items[e].shader == g->items[k].shader)
                 e++;
             const hz_material *mt = hz_scene_material(s, g->items[k].material);
-            glUniform3fv(g->u_color, 1, mt ? mt->color : (const float[3]){0.7f, 0.7f, 0.7f});
+            glUniform3fv(v->u_color, 1, mt ? mt->color : (const float[3]){0.7f, 0.7f, 0.7f});
             st->state_changes++;
             glMultiDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT,
                                         (const void *)(uintptr_t)((size_t)k * sizeof(draw_cmd)), (GLsizei)(e - k), 0);

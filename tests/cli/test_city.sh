@@ -237,6 +237,29 @@ assert on <= 20 and off >= 40, (on, off)
 PY
 then ok "a far box is fogged as the ground with the fog effect"; else bad "fog on objects (exit $r1 $r2)"; fi
 
+# ---- the fog effect's fade over the last fifth of the view distance: a box
+# at 97 % of it is nearly the sky (fog itself too thin to matter), and
+# stands out without the effect
+sed 's/"position": \[2100, 0, 1280\]/"position": [2300, 0, 1280]/' "$TMP/fogbox.json" > "$TMP/fadebox.json"
+V="--scene $TMP/fadebox.json --fog 1e-7 --far 2250 --camera 100,20,1280,90,0 --pick 640,357 --json"
+j1=$($HZ render --quiet --effects fog $V --out "$TMP/fade_on.png"); r1=$?
+j2=$($HZ render --quiet --effects none $V --out "$TMP/fade_off.png"); r2=$?
+if [ $r1 -eq 0 ] && [ $r2 -eq 0 ] && python3 - "$j1" "$j2" "$TMP" "$(dirname "$0")" <<'PY'
+import json, sys
+sys.path.insert(0, sys.argv[4])
+import pngstat
+for s in sys.argv[1:3]:
+    assert json.loads(s)['pick']['node'] == 'A', s
+def gap(path):  # the box's pixel against the horizon just above it
+    w, h, rows = pngstat.read(path)
+    return max(abs(a - b) for a, b in zip(rows[357][640], rows[340][640]))
+on, off = gap(sys.argv[3] + "/fade_on.png"), gap(sys.argv[3] + "/fade_off.png")
+print("box at 97 %% of the view distance: %d levels from the horizon with the fog effect, %d without" % (on, off),
+      file=sys.stderr)
+assert on <= 25 and off >= 100, (on, off)
+PY
+then ok "a box at the end of the view fades into the sky with the fog effect"; else bad "far fade on objects (exit $r1 $r2)"; fi
+
 # ---- refusals
 printf '{"type":"CityJSON","version":"2.0","CityObjects":{},"vertices":[]}' > "$TMP/notransform.city.json"
 expect_fail "city without transform"  "transform: missing"       $R --city "$TMP/notransform.city.json"
