@@ -1,15 +1,19 @@
 #version 330 core
-// Bark (u_hull = 0) or crown hull (1), Lambert and fog (per vertex). The hull is shaded
+// Bark (BARK_HULL 0) or crown hull (1), Lambert and fog (per vertex). The hull is shaded
 // from the tree's own impostor: each fragment looks up the baked view
 // nearest the eye (albedo with alpha, model-space normal) where it projects,
 // so the hull reads as the same foliage as the impostor and the leaves, with
-// the hull's depth; transparent texels are holes.
+// the hull's depth; transparent texels are holes. Two programs, not a
+// uniform: llvmpipe runs both sides of a branch under a mask, and every bark
+// fragment would pay the hull's two filtered fetches.
+#ifndef BARK_HULL
+#define BARK_HULL 0
+#endif
 uniform vec3 u_color;
 uniform vec3 u_sun_dir, u_sky_horizon;
 uniform float u_ambient;
 uniform vec3 u_tree_eye;         // hulls: unit, from the tree toward the eye, model space
 uniform vec3 u_sun_model;        // hulls: the sun, model space
-uniform int u_hull;
 uniform vec2 u_dither;           // keep pixels whose dither value is in [x, y)
 uniform sampler2DArray u_albedo, u_normals;
 uniform float u_layer;           // the model's atlas layer
@@ -33,7 +37,8 @@ void main()
         discard;
     vec3 albedo = u_color;
     float light;
-    if (u_hull != 0) {
+#if BARK_HULL
+    {
         // Filtered: a hull is seen nearer than its bounding centre, often
         // with several pixels per texel, where single texels show as blocks.
         vec3 uv = vec3(u_tile.xy + clamp(v_q, 0.0, 1.0) * u_tile.zw, u_layer);
@@ -47,9 +52,10 @@ void main()
             n = -n;
         float ndl = dot(n, u_sun_model);
         light = max(ndl, 0.0) + 0.35 * max(-ndl, 0.0);
-    } else {
-        light = max(dot(normalize(v_normal), u_sun_dir), 0.0);
     }
+#else
+    light = max(dot(normalize(v_normal), u_sun_dir), 0.0);
+#endif
     vec3 c = albedo * (u_ambient + (1.0 - u_ambient) * light * vec3(1.0, 0.97, 0.90));
     o_color = vec4(mix(u_sky_horizon, c, v_fog), 1.0);
 }

@@ -49,15 +49,15 @@ typedef struct model_gpu {
 
 typedef struct prog_u {
     GLint leaves, kept, scales, kept_base, model, viewproj, mvp, clip, color, sun, sky, eye, fog, ambient,
-        hull, dither, albedo, normals, layer, tile, right, up, bound, trees, models, order, band, max_dist, views,
+        dither, albedo, normals, layer, tile, right, up, bound, trees, models, order, band, max_dist, views,
         el_step, rects, px_scale, tile_px, max_lod, lod, size, viewport, tree_eye, sun_model;
 } prog_u;
 
 struct hz_forest_gpu {
     model_gpu *m;
     uint32_t nm;
-    GLuint leaf_prog, point_prog, bark_prog, imp_prog;
-    prog_u lu, pu, bu, iu;
+    GLuint leaf_prog, point_prog, bark_prog, hull_prog, imp_prog;
+    prog_u lu, pu, bu, hu, iu;
     GLuint empty_vao;
     GLuint kept_buf, kept_tex;  /* R32UI per (tree, node) */
     GLuint scale_buf, scale_tex;/* R32F per (tree, node) */
@@ -93,7 +93,6 @@ static void get_u(GLuint p, prog_u *u)
     u->eye = glGetUniformLocation(p, "u_eye");
     u->fog = glGetUniformLocation(p, "u_fog_density");
     u->ambient = glGetUniformLocation(p, "u_ambient");
-    u->hull = glGetUniformLocation(p, "u_hull");
     u->dither = glGetUniformLocation(p, "u_dither");
     u->albedo = glGetUniformLocation(p, "u_albedo");
     u->normals = glGetUniformLocation(p, "u_normals");
@@ -174,6 +173,7 @@ void hz_forest_gpu_destroy(hz_forest_gpu *g)
         glDeleteProgram(g->leaf_prog);
         glDeleteProgram(g->point_prog);
         glDeleteProgram(g->bark_prog);
+        glDeleteProgram(g->hull_prog);
         glDeleteProgram(g->imp_prog);
         glDeleteVertexArrays(1, &g->empty_vao);
         glDeleteBuffers(1, &g->kept_buf);
@@ -616,6 +616,9 @@ hz_forest_gpu *hz_forest_gpu_create_with(const hz_forest *f, const hz_forest_gpu
     g->bark_prog = hz_gl_program(hz_shader_bark_vs, hz_shader_bark_fs, "bark", err);
     if (!g->bark_prog)
         goto fail;
+    g->hull_prog = hz_gl_program_defs(hz_shader_bark_vs, hz_shader_bark_fs, "#define BARK_HULL 1\n", "hull", err);
+    if (!g->hull_prog)
+        goto fail;
     g->imp_prog = hz_gl_program(hz_shader_impostor_vs, hz_shader_impostor_fs, "impostor", err);
     if (!g->imp_prog)
         goto fail;
@@ -626,6 +629,7 @@ hz_forest_gpu *hz_forest_gpu_create_with(const hz_forest *f, const hz_forest_gpu
     get_u(g->leaf_prog, &g->lu);
     get_u(g->point_prog, &g->pu);
     get_u(g->bark_prog, &g->bu);
+    get_u(g->hull_prog, &g->hu);
     get_u(g->imp_prog, &g->iu);
     glGenVertexArrays(1, &g->empty_vao);
     g->point_px = POINT_LEAF_PX;
@@ -998,11 +1002,12 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
     glEnable(GL_CULL_FACE);
     glCullFace(GL_BACK);
     glFrontFace(pass->pass == HZ_PASS_REFLECTION ? GL_CW : GL_CCW);
-    glUseProgram(g->bark_prog);
-    common_uniforms(g->bark_prog, &g->bu, pass);
-    bind_atlas(&g->bu);
     for (int hull = 0; hull < 2; hull++) {
-        glUniform1i(g->bu.hull, hull);
+        const GLuint prog = hull ? g->hull_prog : g->bark_prog;
+        const prog_u *u = hull ? &g->hu : &g->bu;
+        glUseProgram(prog);
+        common_uniforms(prog, u, pass);
+        bind_atlas(u);
         for (uint32_t d = 0; d < fr->draw_count; d++) {
             const hz_forest_draw *dr = &fr->draws[d];
             if (hull && !dr->hull && !(dr->fade > 0))
@@ -1014,13 +1019,13 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
             if (!count)
                 continue;
             hz_forest_tree_matrix(f, dr->tree, model);
-            glUniformMatrix4fv(g->bu.model, 1, GL_FALSE, model);
+            glUniformMatrix4fv(u->model, 1, GL_FALSE, model);
             if (hull && !dr->hull)
-                glUniform2f(g->bu.dither, 0.0f, dr->fade); /* fading in from the leaves */
+                glUniform2f(u->dither, 0.0f, dr->fade); /* fading in from the leaves */
             else if (dr->hull)
-                glUniform2f(g->bu.dither, dr->fade, 1.0f); /* fading out to the impostor */
+                glUniform2f(u->dither, dr->fade, 1.0f); /* fading out to the impostor */
             else
-                glUniform2f(g->bu.dither, 0.0f, 1.0f);
+                glUniform2f(u->dither, 0.0f, 1.0f);
             if (hull) {
                 const hz_forest_tree *tr = &hz_forest_trees(f)[dr->tree];
                 /* the view the impostor would show */
@@ -1035,26 +1040,26 @@ hz_result hz_forest_gpu_draw(hz_forest_gpu *g, const hz_forest *f, const hz_fore
                 if (l <= 0)
                     l = 1;
                 dm[0] = (c * e[0] - s * e[2]) / l, dm[1] = e[1] / l, dm[2] = (s * e[0] + c * e[2]) / l;
-                glUniform3fv(g->bu.tree_eye, 1, dm);
+                glUniform3fv(u->tree_eye, 1, dm);
                 const float *sun = pass->sun_dir;
-                glUniform3f(g->bu.sun_model, c * sun[0] - s * sun[2], sun[1], s * sun[0] + c * sun[2]);
+                glUniform3f(u->sun_model, c * sun[0] - s * sun[2], sun[1], s * sun[0] + c * sun[2]);
                 int ia, ie;
                 nearest_view(dm, &ia, &ie);
                 float right[3], up[3], fwd[3];
                 view_axes(ia, ie, right, up, fwd);
-                glUniform3fv(g->bu.right, 1, right);
-                glUniform3fv(g->bu.up, 1, up);
-                glUniform4f(g->bu.tile, (float)ia / IMP_AZ, (float)ie / IMP_EL, 1.0f / IMP_AZ, 1.0f / IMP_EL);
-                glUniform4f(g->bu.bound, bc[0], bc[1], bc[2], t->bound_radius);
-                glUniform1f(g->bu.layer, (float)dr->model);
+                glUniform3fv(u->right, 1, right);
+                glUniform3fv(u->up, 1, up);
+                glUniform4f(u->tile, (float)ia / IMP_AZ, (float)ie / IMP_EL, 1.0f / IMP_AZ, 1.0f / IMP_EL);
+                glUniform4f(u->bound, bc[0], bc[1], bc[2], t->bound_radius);
+                glUniform1f(u->layer, (float)dr->model);
                 /* the level with about one texel per pixel */
                 float px = 2.0f * tr->scale * t->bound_radius / l * pass->proj[1][1] * 0.5f * (float)pass->height;
                 int lod = (int)floorf(log2f(fmaxf((float)IMP_TILE / fmaxf(px, 1e-3f), 1.0f)) + 0.5f);
                 lod = lod < 0 ? 0 : lod >= imp_levels() ? imp_levels() - 1 : lod;
-                glUniform1i(g->bu.lod, lod);
-                glUniform2f(g->bu.size, (float)((IMP_AZ * IMP_TILE) >> lod), (float)((IMP_EL * IMP_TILE) >> lod));
+                glUniform1i(u->lod, lod);
+                glUniform2f(u->size, (float)((IMP_AZ * IMP_TILE) >> lod), (float)((IMP_EL * IMP_TILE) >> lod));
             } else {
-                glUniform3fv(g->bu.color, 1, t->bark_color);
+                glUniform3fv(u->color, 1, t->bark_color);
             }
             glBindVertexArray(mesh->vao);
             glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);

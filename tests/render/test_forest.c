@@ -438,6 +438,82 @@ static void test_point_leaves_match_quads(void **state)
     hz_renderer_destroy(ren);
 }
 
+/* A crown hull is shaded from the tree's own impostor: drawn as a hull and
+ * as an impostor from the same place, one tree covers about as many pixels in
+ * nearly the same colours (a hull drawn with the bark's shading would be
+ * solid and bark-coloured). */
+static void test_hull_looks_like_impostor(void **state)
+{
+    (void)state;
+    enum { W = 256, H = 192 };
+    hz_err err = {0};
+    hz_renderer *ren = hz_renderer_create(&(hz_renderer_desc){.width = W, .height = H}, &err);
+    assert_non_null(ren);
+    hz_forest_tree trees[1] = {{.pos = {0, 0, 0}, .scale = 1, .yaw = 0.3f}};
+    one_model om = one_model_forest(&(hz_tree_desc){.species = "oak", .seed = 2, .leaves = 8000}, trees, 1);
+    const hz_tree *t = om.t;
+    const float *bc = t->bound_center, r = t->bound_radius;
+    hz_camera cam = {.pos = {bc[0], bc[1], bc[2] + 3.0f * r}, .yaw = 0, .pitch = 0, .fov_y = 45,
+                     .aspect = (float)W / H, .znear = 0.3f, .zfar = 3000};
+    uint8_t *sky = malloc(W * H * 3), *hull = malloc(W * H * 3), *imp = malloc(W * H * 3);
+    hz_scene_params none = {.fog_density = -1};
+    assert_int_equal(hz_renderer_draw(ren, &cam, &none, NULL, 0, NULL, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_rgb(ren, sky, &err), HZ_OK);
+    hz_forest_frame fr;
+    hz_forest_hook hook = {.gpu = om.gpu, .forest = om.f, .frame = &fr};
+    hz_scene_params sp = {.fog_density = -1, .draw_objects = hz_forest_draw_hook, .draw_objects_user = &hook};
+    /* The tree is 3 radii away: a hull beyond 0.1 radius, or an impostor
+     * beyond 0.2 radius (both well past their fade bands). */
+    const hz_forest_params fp[2] = {{.simplify = true, .hull_dist = 0.1f * r, .impostor_dist = 1e4f},
+                                    {.simplify = true, .hull_dist = 0.1f * r, .impostor_dist = 0.2f * r}};
+    uint8_t *outs[2] = {hull, imp};
+    for (int k = 0; k < 2; k++) {
+        assert_int_equal(hz_forest_update(om.f, &cam, &fp[k], 0, &fr, &err), HZ_OK);
+        assert_int_equal(k ? fr.trees_impostor : fr.trees_hull, 1);
+        assert_int_equal(fr.trees_fading, 0);
+        assert_int_equal(hz_renderer_draw(ren, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
+        if (hook.failed)
+            fail_msg("forest draw: %s", hook.err.msg);
+        assert_int_equal(hz_renderer_read_rgb(ren, outs[k], &err), HZ_OK);
+    }
+    char path[512];
+    snprintf(path, sizeof path, "%s/forest_hull.png", HZ_TEST_TMP);
+    hz_image_write_png(path, hull, W, H, &err);
+    snprintf(path, sizeof path, "%s/forest_impostor.png", HZ_TEST_TMP);
+    hz_image_write_png(path, imp, W, H, &err);
+    uint64_t th = 0, ti = 0, both = 0;
+    double mh[3] = {0}, mi[3] = {0};
+    for (size_t p = 0; p < (size_t)W * H; p++) {
+        bool a = count_diff(hull + p * 3, sky + p * 3, 1) > 0, b = count_diff(imp + p * 3, sky + p * 3, 1) > 0;
+        th += a, ti += b, both += a && b;
+        for (int c = 0; c < 3; c++) {
+            mh[c] += a ? hull[p * 3 + c] : 0;
+            mi[c] += b ? imp[p * 3 + c] : 0;
+        }
+    }
+    assert_true(th > 0 && ti > 0);
+    double dmax = 0;
+    for (int c = 0; c < 3; c++) {
+        mh[c] /= (double)th, mi[c] /= (double)ti;
+        dmax = fmax(dmax, fabs(mh[c] - mi[c]));
+    }
+    /* Not pixel for pixel: the hull is nearer than the impostor's plane, so
+     * its holes fall elsewhere (about 40 % of the tree pixels are shared). */
+    const double ratio = (double)th / (double)ti;
+    print_message("tree pixels: hull %llu, impostor %llu, both %llu; mean colour hull %.0f,%.0f,%.0f impostor "
+                  "%.0f,%.0f,%.0f\n",
+                  (unsigned long long)th, (unsigned long long)ti, (unsigned long long)both, mh[0], mh[1], mh[2], mi[0],
+                  mi[1], mi[2]);
+    assert_true(ti > (uint64_t)(W * H) / 20);
+    assert_true(ratio > 0.8 && ratio < 1.25);
+    assert_true(dmax < 10.0);
+    free(sky);
+    free(hull);
+    free(imp);
+    one_model_free(&om);
+    hz_renderer_destroy(ren);
+}
+
 /* The effects' billboards show the forest's trees: a sprite from the
  * impostor's side view stands on its trunk at the bottom centre, reaches the
  * top of the image, and is mostly foliage-coloured where it is opaque. */
@@ -578,6 +654,7 @@ int main(void)
         cmocka_unit_test(test_vmi_beats_random),
         cmocka_unit_test(test_forest_draw),
         cmocka_unit_test(test_point_leaves_match_quads),
+        cmocka_unit_test(test_hull_looks_like_impostor),
         cmocka_unit_test(test_forest_sprite),
         cmocka_unit_test(test_impostor_given),
     };
