@@ -19,19 +19,28 @@
 #define FX_CHAIN_FORMAT GL_RGBA8
 
 
+/* Variants of the last pass (post_final_fs.glsl): it copies the scene depth
+ * (windows), adds bloom, applies a gamma other than 1. */
+enum { FINAL_DEPTH = 1, FINAL_BLOOM = 2, FINAL_GAMMA = 4, FINAL_ALL = 7 };
+
+/* The last pass's variant for key, linked on first use (FX_VARIANT = key | 8:
+ * the define is always there); 0 + err if it does not link. */
+static GLuint final_program(hz_renderer *r, unsigned key, hz_err *err)
+{
+    if (!r->final_prog[key])
+        r->final_prog[key] = link_program(hz_shader_post_vs, hz_shader_post_final_fs, "post_final", 0, key | 8u, err);
+    return r->final_prog[key];
+}
+
 hz_result fx_post_ensure(hz_renderer *r, hz_err *err)
 {
-    if (r->final_prog)
+    if (r->final_prog[FINAL_ALL])
         return HZ_OK;
-    /* Variant 1 of the last pass also copies the scene depth (windows). */
-    r->final_depth_prog = link_program(hz_shader_post_vs, hz_shader_post_final_fs, "post_final_depth", 0, 1, err);
-    if (!r->final_depth_prog)
-        return HZ_ERR_GL;
     r->blur_prog = link_program(hz_shader_post_vs, hz_shader_post_blur_fs, "post_blur", 0, 0, err);
     r->bright_prog = r->blur_prog ? link_program(hz_shader_post_vs, hz_shader_post_bright_fs, "post_bright", 0, 0, err) : 0;
     r->gauss_prog = r->bright_prog ? link_program(hz_shader_post_vs, hz_shader_post_gauss_fs, "post_gauss", 0, 0, err) : 0;
-    r->final_prog = r->gauss_prog ? link_program(hz_shader_post_vs, hz_shader_post_final_fs, "post_final", 0, 0, err) : 0;
-    if (!r->final_prog)
+    /* The variant that does everything, kept as the fallback of the others. */
+    if (!r->gauss_prog || !final_program(r, FINAL_ALL, err))
         return HZ_ERR_GL;
     return hz_gl_check(err, "post chain setup");
 }
@@ -152,7 +161,14 @@ void fx_post_run(hz_renderer *r, const fx_frame *f, GLuint out_fbo)
     /* A window draws its overlay against the depth buffer: the scene's depth
      * goes along into it (GL_ALWAYS: it was never cleared). Headless, the
      * sky mask reads the scene target's depth directly. */
-    const GLuint fp = out_fbo == 0 ? r->final_depth_prog : r->final_prog;
+    const unsigned key = (out_fbo == 0 ? FINAL_DEPTH : 0u) | (bloom_tex ? FINAL_BLOOM : 0u) |
+                         (f->fx.gamma != 1.0f ? FINAL_GAMMA : 0u);
+    hz_err ignored = {0};
+    GLuint fp = final_program(r, key, &ignored);
+    if (!fp) {
+        fp = r->final_prog[FINAL_ALL]; /* depth copy aside, the same picture */
+        hz_gl_drain();
+    }
     glUseProgram(fp);
     glUniform1i(glGetUniformLocation(fp, "u_scene"), 0);
     glUniform1i(glGetUniformLocation(fp, "u_bloom"), 1);
@@ -163,7 +179,6 @@ void fx_post_run(hz_renderer *r, const fx_frame *f, GLuint out_fbo)
         glDepthFunc(GL_ALWAYS);
         glDepthMask(GL_TRUE);
     }
-    glUniform1i(glGetUniformLocation(fp, "u_has_bloom"), bloom_tex != 0);
     glUniform1f(glGetUniformLocation(fp, "u_bloom_strength"), f->fx.bloom_strength);
     glUniform1f(glGetUniformLocation(fp, "u_exposure"), f->fx.exposure);
     glUniform1f(glGetUniformLocation(fp, "u_gamma"), f->fx.gamma);
@@ -182,9 +197,11 @@ void fx_post_destroy(hz_renderer *r)
     glDeleteProgram(r->blur_prog);
     glDeleteProgram(r->bright_prog);
     glDeleteProgram(r->gauss_prog);
-    glDeleteProgram(r->final_prog);
-    glDeleteProgram(r->final_depth_prog);
-    r->blur_prog = r->bright_prog = r->gauss_prog = r->final_prog = r->final_depth_prog = 0;
+    for (int k = 0; k < 8; k++) {
+        glDeleteProgram(r->final_prog[k]);
+        r->final_prog[k] = 0;
+    }
+    r->blur_prog = r->bright_prog = r->gauss_prog = 0;
     glDeleteFramebuffers(1, &r->scene_fbo);
     glDeleteTextures(1, &r->scene_color);
     glDeleteTextures(1, &r->scene_depth);

@@ -223,7 +223,8 @@ struct hz_renderer {
     hist_slot hist[HZ_MAX_HISTORY];
     GLuint bloom_fbo[3], bloom_tex[3];
     uint32_t bloom_w, bloom_h;
-    GLuint blur_prog, bright_prog, gauss_prog, final_prog, final_depth_prog;
+    GLuint blur_prog, bright_prog, gauss_prog;
+    GLuint final_prog[8];     /* by FINAL_* bits (fx_post.c), made on first use */
 };
 
 /* ---- renderer.c helpers ---- */
