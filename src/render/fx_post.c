@@ -1,5 +1,5 @@
 /* The effect chain over a render-to-texture of the scene (R7, R8): the scene
- * is drawn into an RGBA16F texture, then a list of full-screen passes runs
+ * is drawn into an RGBA8 texture (see the NOTE below), then a list of full-screen passes runs
  * over it, each reading the previous one's output:
  *   motion blur  P = (1 - f) P_now + f P_prev, P_prev its own previous output,
  *                kept per history slot (ping-pong textures);
