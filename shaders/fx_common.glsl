@@ -39,11 +39,15 @@ vec3 fx_horizon_color(vec3 d)
     vec3 c = fx_horizon.rgb;
     if (fx_on(FX_SKY)) {
         vec2 h = normalize(d.xz + vec2(1e-6, 0.0)), s = normalize(fx_sun.xz + vec2(1e-6, 0.0));
-        float toward = pow(max(dot(h, s), 0.0), 3.0);
+        float toward = max(dot(h, s), 0.0);
+        toward *= toward * toward;
         c = mix(c, vec3(1.0, 0.72, 0.48) * (0.6 + 0.4 * dot(c, vec3(0.333))), fx_horizon.w * toward * 0.6);
         // Haze lit by the sun: the aureole, wider when the sun is low.
-        float a = max(dot(d, fx_sun.xyz), 0.0);
-        c += fx_sun_color.rgb * (0.25 * pow(a, 64.0) + 0.12 * fx_horizon.w * pow(a, 6.0));
+        // Powers by squaring: pow() is a log and an exp per pixel on llvmpipe,
+        // and the fog colour is worked out for every fogged pixel.
+        float a = max(dot(d, fx_sun.xyz), 0.0), a2 = a * a, a6 = a2 * a2 * a2, a64 = a2;
+        a64 *= a64; a64 *= a64; a64 *= a64; a64 *= a64; a64 *= a64; // a^64
+        c += fx_sun_color.rgb * (0.25 * a64 + 0.12 * fx_horizon.w * a6);
     }
     return c;
 }
@@ -63,8 +67,11 @@ vec3 fx_fog_color(vec3 d)
     vec3 c = fx_horizon_color(d);
     if (fx_on(FX_FOG) && d.y > 0.0) {
         c = mix(c, fx_zenith.rgb, fx_zenith_k(d.y));
-        if (!fx_on(FX_SKY)) // the plain sky's sun glow (sky_fs.glsl)
-            c += vec3(1.0, 0.9, 0.7) * 0.25 * pow(max(dot(d, fx_sun.xyz), 0.0), 64.0) * smoothstep(0.0, 0.05, d.y);
+        if (!fx_on(FX_SKY)) { // the plain sky's sun glow (sky_fs.glsl)
+            float g = max(dot(d, fx_sun.xyz), 0.0);
+            g *= g; g *= g; g *= g; g *= g; g *= g; g *= g; // ^64
+            c += vec3(1.0, 0.9, 0.7) * 0.25 * g * smoothstep(0.0, 0.05, d.y);
+        }
     }
     return c;
 }
@@ -142,7 +149,8 @@ vec4 fx_clouds(vec3 e, vec3 d)
     vec3 lit = fx_sun_color.rgb * (0.75 + 0.25 * sun_up) * 1.03;
     vec3 shade = mix(vec3(0.58, 0.61, 0.68), fx_zenith.rgb, 0.2) * (0.65 + 0.35 * sun_up);
     vec3 c = mix(lit, shade, 0.8 * cd.y);
-    float fwd = pow(max(dot(d, fx_sun.xyz), 0.0), 10.0);
+    float x = max(dot(d, fx_sun.xyz), 0.0), x2 = x * x, x4 = x2 * x2;
+    float fwd = x4 * x4 * x2; // x^10
     c += fx_sun_color.rgb * fwd * (1.0 - cd.y) * 1.2;
     // Far clouds fade into the horizon haze.
     float fade = exp(-t / 45000.0) * smoothstep(0.01, 0.12, d.y);
