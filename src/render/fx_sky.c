@@ -38,7 +38,9 @@ hz_result fx_sky_ensure(hz_renderer *r, const fx_frame *f, hz_err *err)
     glGenTextures(1, &r->noise_tex);
     glBindTexture(GL_TEXTURE_2D, r->noise_tex);
     glTexImage2D(GL_TEXTURE_2D, 0, GL_RG8, NOISE_SIZE, NOISE_SIZE, 0, GL_RG, GL_UNSIGNED_BYTE, NULL);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+    /* Nearest mip level: half the texels of trilinear (two fetches per sky
+     * pixel); the smooth noise shows no seam between levels. */
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_NEAREST);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_REPEAT);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_REPEAT);
