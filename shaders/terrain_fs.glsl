@@ -85,11 +85,20 @@ vec3 splat(vec3 albedo, float slope, float dist)
     float s = fx_map.z;
     const mat2 r1 = mat2(0.8660, 0.5, -0.5, 0.8660), r2 = mat2(0.2588, -0.9659, 0.9659, 0.2588);
     float macro = texture(u_detail, xz / (s * 97.3)).r;
-    vec4 d = mix(texture(u_detail, r1 * xz / s), texture(u_detail, r2 * xz / (s * 4.37)), 0.35 + 0.3 * macro) * 2.0;
-    float w_rock = smoothstep(0.16, 0.32, slope);
+    // A very slow brightness variation breaks uniform far colour.
+    float far_var = 0.92 + 0.16 * macro;
     float w_snow = snow_weight(v_world.y, slope);
     float w_sand = fx_on(FX_WATER) ? 1.0 - smoothstep(fx_map.y + 1.0, fx_map.y + 5.0, v_world.y) : 0.0;
     float w_desert = desert_weight(slope);
+    if (FX_DETAIL_FAR) {
+        // Patches entirely beyond the fade (the renderer picks them): the
+        // same colour without the detail's fetches, which llvmpipe would
+        // run for every pixel even behind a branch.
+        albedo = mix(albedo, sand, w_sand * (1.0 - w_snow) * (1.0 - w_desert));
+        return albedo * far_var;
+    }
+    vec4 d = mix(texture(u_detail, r1 * xz / s), texture(u_detail, r2 * xz / (s * 4.37)), 0.35 + 0.3 * macro) * 2.0;
+    float w_rock = smoothstep(0.16, 0.32, slope);
     vec4 w = vec4((1.0 - w_rock) * (1.0 - w_snow), w_rock * (1.0 - w_snow), w_snow, 0.0);
     w = mix(w, vec4(0.0, 0.0, 0.0, 1.0), max(w_sand, w_desert) * (1.0 - w_snow));
     vec4 present = step(vec4(0.01), w);
@@ -100,9 +109,8 @@ vec3 splat(vec3 albedo, float slope, float dist)
     // Sand is a colour of its own, the others modulate the class colour.
     albedo = mix(albedo, sand, w_sand * (1.0 - w_snow) * (1.0 - w_desert));
     // Fade the detail with distance (its mean is 1): no shimmer far away.
+    // (FX_DETAIL_FADE_NEAR and _FAR in render_internal.h.)
     float k = 1.0 - smoothstep(s * 150.0, s * 900.0, dist);
-    // A very slow brightness variation breaks uniform far colour.
-    float far_var = 0.92 + 0.16 * macro;
     return albedo * mix(1.0, m, k) * far_var;
 }
 

@@ -161,6 +161,8 @@ typedef struct hz_draw_stats {
     uint32_t billboards;      /* vegetation billboards drawn (main pass) */
     uint32_t particles;       /* weather particles drawn */
     uint32_t reflections;     /* water reflection passes rendered */
+    uint32_t far_patches;     /* cdlod patches entirely beyond the ground detail's fade, drawn
+                                 without its texture fetches (HZ_FX_DETAIL) */
 } hz_draw_stats;
 
 /* Draws sky then terrain triangles (count indices, a multiple of 3, into the

@@ -69,6 +69,12 @@ typedef struct fx_frame {
 #define FX_VARIANT_MASK (1u << 20)  /* cdlod patches over samples without data: discard there */
 #define FX_VARIANT_IMAGERY (1u << 21) /* draped imagery */
 #define FX_VARIANT_STREAM (1u << 22)  /* cdlod patches over a streamed pyramid (terrain_patch_vs.glsl's STREAM) */
+#define FX_VARIANT_DETAIL_FAR (1u << 23) /* patches beyond the ground detail's fade: its far colour only */
+/* The ground detail fades out between these multiples of its scale
+ * (terrain_fs.glsl, splat); beyond the far one only its slow brightness
+ * variation is left. */
+#define FX_DETAIL_FADE_NEAR 150.0f
+#define FX_DETAIL_FADE_FAR 900.0f
 #define FX_MAX_LOCS 24
 #define FX_MAX_VARIANTS 40 /* the --effect-costs run uses about 16 terrain variants */
 
@@ -146,12 +152,15 @@ struct hz_renderer {
     uint32_t *inst_scratch;
     size_t inst_scratch_cap, inst_cap, inst_bytes;
     uint32_t n_inst;           /* instances uploaded for this frame */
+    uint32_t n_inst_near;      /* the first n_inst_near of them reach nearer than the detail's fade
+                                  (patch_detail_split); the rest draw with terrain_patch_far */
 
     GLuint sky_prog;          /* the plain sky */
     sky_uniforms su;
     prog_cache terrain;       /* variant 0: the plain terrain */
     const prog_variant *terrain_cur, *terrain_plain;
     const prog_variant *terrain_patch_cur; /* this frame's patch variant (NULL: no patches) */
+    const prog_variant *terrain_patch_far; /* the same beyond the detail's fade (NULL: no detail) */
     const prog_variant *terrain_clip_cur;  /* this frame's reflection-pass variant (NULL: no water) */
 
     /* Current heightmap, world units (metres, zscale applied). */
@@ -251,8 +260,13 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
 /* ---- terrain_patch.c: cdlod patches ---- */
 /* Converts and uploads a frame's patches (instances). */
 hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, hz_err *err);
-/* Draws the uploaded patches with the bound terrain program (its uniform locations). */
-void patch_draw(hz_renderer *r, const GLint *loc);
+/* How many of the uploaded patches (nearest first) come nearer to the eye
+ * than dist, horizontally (a bound for any point they draw, whatever its
+ * height or morph): every patch after that many lies entirely beyond it. */
+uint32_t patch_detail_split(const hz_renderer *r, const hz_patch *p, uint32_t count, const float eye[3], float dist);
+/* Draws uploaded patches [first, end) with the bound terrain program (its
+ * uniform locations), flushed at the chunk ends (PATCH_CHUNKS) they reach. */
+void patch_draw(hz_renderer *r, const GLint *loc, uint32_t first, uint32_t end);
 void patch_destroy(hz_renderer *r);
 
 /* ---- fx_ground.c: light map, detail, colour map, forest cover ---- */

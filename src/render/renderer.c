@@ -66,7 +66,7 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
         if (!r->terrain_clip_cur)
             return HZ_ERR_GL;
     }
-    r->terrain_patch_cur = NULL;
+    r->terrain_patch_cur = r->terrain_patch_far = NULL;
     if (patches) {
         const uint32_t pkey = key | FX_VARIANT_PATCH | (r->tile_masked ? FX_VARIANT_MASK : 0u) |
                               (r->streamed ? FX_VARIANT_STREAM : 0u);
@@ -74,6 +74,13 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
                                               hz_shader_terrain_fs, "terrain (patches)", 2, terrain_names, err);
         if (!r->terrain_patch_cur)
             return HZ_ERR_GL;
+        if (key & HZ_FX_DETAIL) {
+            r->terrain_patch_far =
+                prog_cache_get(&r->terrain, pkey | FX_VARIANT_DETAIL_FAR, hz_shader_terrain_patch_vs,
+                               hz_shader_terrain_fs, "terrain (far patches)", 2, terrain_names, err);
+            if (!r->terrain_patch_far)
+                return HZ_ERR_GL;
+        }
     }
     return HZ_OK;
 }
@@ -645,6 +652,44 @@ static void draw_objects(hz_renderer *r, const fx_frame *f, const fx_view *v)
     }
 }
 
+/* Makes tp the current terrain program, with its textures and uniforms for
+ * view v (patches: the main view's cdlod patches, morphing on). */
+static void terrain_program(hz_renderer *r, const fx_frame *f, const fx_view *v, const prog_variant *tp, bool patches)
+{
+    const hz_scene_params *sp = &f->sp;
+    const GLint *tl = tp->loc;
+    glUseProgram(tp->prog);
+    glActiveTexture(GL_TEXTURE0 + FX_UNIT_HEIGHTS);
+    glBindTexture(GL_TEXTURE_BUFFER, r->height_tex);
+    if (tp->key)
+        fx_ground_bind(r);
+    glUniform1i(tl[TL_SIZE], (GLint)r->size);
+    glUniform1f(tl[TL_SPACING], r->spacing);
+    glUniform1f(tl[TL_HSCALE], r->hscale);
+    glUniform1f(tl[TL_HOFFSET], r->hoffset);
+    glUniformMatrix4fv(tl[TL_VIEWPROJ], 1, GL_FALSE, (const float *)v->viewproj);
+    hz_gl_set_curvature(tp->prog, &v->cam);
+    glUniform3fv(tl[TL_SUN], 1, sp->sun_dir);
+    glUniform3fv(tl[TL_HORIZON], 1, sp->sky_color);
+    glUniform3fv(tl[TL_EYE], 1, v->eye);
+    glUniform1f(tl[TL_FOG], sp->fog_density);
+    glUniform1f(tl[TL_AMBIENT], sp->ambient);
+    glUniform2f(tl[TL_HRANGE], r->hmin, r->hmax);
+    /* Lines in world units (metres times zscale), as v_world.y. */
+    glUniform4f(tl[TL_CLIMATE], r->climate.snow_line * r->zscale, r->climate.tree_line * r->zscale,
+                r->climate.aridity, r->zscale);
+    glUniform1i(tl[TL_WIRE], 0);
+    glUniform4fv(tl[TL_IMG_MAP], 1, r->img_map);
+    glUniform2fv(tl[TL_IMG_TILE], 1, r->img_tile);
+    /* cdlod geomorphing (patches, main view only); reflections are unmorphed. */
+    glUniform1f(tl[TL_MORPH_SCALE], patches ? sp->morph_scale : 0.0f);
+    glUniform1f(tl[TL_MORPH_START], sp->morph_start);
+    glActiveTexture(GL_TEXTURE0 + FX_UNIT_NORMALS);
+    glBindTexture(GL_TEXTURE_2D, r->normal_tex);
+    glUniform1i(tl[TL_NORMAL_TEX], r->normal_tex != 0);
+    glUniform2f(tl[TL_NRM_SCALE], 1.0f / (r->spacing * (float)r->size), 0.5f / (float)r->size);
+}
+
 static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v, GLuint ibo, uint32_t count)
 {
     const hz_scene_params *sp = &f->sp;
@@ -680,39 +725,15 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
             patches ? r->terrain_patch_cur
                     : (mirrored && r->terrain_clip_cur ? r->terrain_clip_cur
                                                        : (r->terrain_cur ? r->terrain_cur : r->terrain_plain));
-        const GLint *tl = tp->loc;
-        glUseProgram(tp->prog);
-        glActiveTexture(GL_TEXTURE0 + FX_UNIT_HEIGHTS);
-        glBindTexture(GL_TEXTURE_BUFFER, r->height_tex);
-        if (tp->key)
-            fx_ground_bind(r);
-        glUniform1i(tl[TL_SIZE], (GLint)r->size);
-        glUniform1f(tl[TL_SPACING], r->spacing);
-        glUniform1f(tl[TL_HSCALE], r->hscale);
-        glUniform1f(tl[TL_HOFFSET], r->hoffset);
-        glUniformMatrix4fv(tl[TL_VIEWPROJ], 1, GL_FALSE, (const float *)v->viewproj);
-        hz_gl_set_curvature(tp->prog, &v->cam);
-        glUniform3fv(tl[TL_SUN], 1, sp->sun_dir);
-        glUniform3fv(tl[TL_HORIZON], 1, sp->sky_color);
-        glUniform3fv(tl[TL_EYE], 1, v->eye);
-        glUniform1f(tl[TL_FOG], sp->fog_density);
-        glUniform1f(tl[TL_AMBIENT], sp->ambient);
-        glUniform2f(tl[TL_HRANGE], r->hmin, r->hmax);
-        /* Lines in world units (metres times zscale), as v_world.y. */
-        glUniform4f(tl[TL_CLIMATE], r->climate.snow_line * r->zscale, r->climate.tree_line * r->zscale,
-                    r->climate.aridity, r->zscale);
-        glUniform1i(tl[TL_WIRE], 0);
-        glUniform4fv(tl[TL_IMG_MAP], 1, r->img_map);
-        glUniform2fv(tl[TL_IMG_TILE], 1, r->img_tile);
-        /* cdlod geomorphing (patches, main view only); reflections are unmorphed. */
-        glUniform1f(tl[TL_MORPH_SCALE], patches ? sp->morph_scale : 0.0f);
-        glUniform1f(tl[TL_MORPH_START], sp->morph_start);
-        glActiveTexture(GL_TEXTURE0 + FX_UNIT_NORMALS);
-        glBindTexture(GL_TEXTURE_2D, r->normal_tex);
-        glUniform1i(tl[TL_NORMAL_TEX], r->normal_tex != 0);
-        glUniform2f(tl[TL_NRM_SCALE], 1.0f / (r->spacing * (float)r->size), 0.5f / (float)r->size);
+        terrain_program(r, f, v, tp, patches);
         if (patches) {
-            patch_draw(r, tl);
+            /* Patches beyond the ground detail's fade: its far variant. */
+            const uint32_t near = r->terrain_patch_far ? r->n_inst_near : r->n_inst;
+            patch_draw(r, tp->loc, 0, near);
+            if (near < r->n_inst) {
+                terrain_program(r, f, v, r->terrain_patch_far, true);
+                patch_draw(r, r->terrain_patch_far->loc, near, r->n_inst);
+            }
         } else {
             glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo);
             glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
@@ -745,7 +766,7 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
             glDepthMask(GL_FALSE);
             glUniform1i(tl[TL_WIRE], 1);
             if (patches)
-                patch_draw(r, tl);
+                patch_draw(r, tl, 0, r->n_inst);
             else
                 glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
             glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
@@ -908,10 +929,15 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         glBindVertexArray(0);
         return HZ_ERR_GL;
     }
-    r->n_inst = 0;
+    r->n_inst = r->n_inst_near = 0;
     if (npatch > 0 && patch_upload(r, params->patches, npatch, err) != HZ_OK) {
         glBindVertexArray(0);
         return HZ_ERR_GL;
+    }
+    if (r->terrain_patch_far) {
+        /* 0.1 % more: the shader's distance is rounded. */
+        const float fade = FX_DETAIL_FADE_FAR * fr.fx.detail_scale * 1.001f;
+        r->n_inst_near = patch_detail_split(r, params->patches, r->n_inst, cam->pos, fade);
     }
     float levels[FX_MAX_REFLECTIONS];
     r->n_refl = (fr.bits & HZ_FX_WATER) ? fx_water_visible(r, &fr, &mv, levels, r->refl_rect) : 0;
@@ -996,6 +1022,7 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         stats->billboards = (fr.bits & HZ_FX_BILLBOARDS) ? (uint32_t)r->n_trees : 0;
         stats->particles = (fr.bits & HZ_FX_WEATHER) ? (uint32_t)r->n_particles : 0;
         stats->reflections = r->n_refl;
+        stats->far_patches = r->terrain_patch_far ? r->n_inst - r->n_inst_near : 0;
     }
     return hz_gl_check(err, "frame draw");
 }

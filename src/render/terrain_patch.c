@@ -7,6 +7,7 @@
  * The CPU work and the upload per frame are proportional to the nodes. */
 #include "render_internal.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -263,9 +264,33 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, hz_err
     return hz_gl_check(err, "patch instance upload");
 }
 
-void patch_draw(hz_renderer *r, const GLint *loc)
+uint32_t patch_detail_split(const hz_renderer *r, const hz_patch *p, uint32_t count, const float eye[3], float dist)
 {
-    if (!r->n_inst)
+    /* From the farthest back: the first patch from which on every patch's
+     * footprint (x0.. x0 + P << shift samples, z alike) is at least dist
+     * from the eye horizontally (the order is nearest first only to within
+     * 3 %, so each is checked). */
+    const double sp = r->spacing, d2 = (double)dist * dist;
+    uint32_t k = count;
+    while (k > 0) {
+        const hz_patch *q = &p[k - 1];
+        const double x0 = r->wrap ? (double)(int32_t)q->x0 : (double)q->x0;
+        const double z0 = r->wrap ? (double)(int32_t)q->z0 : (double)q->z0;
+        const double span = (double)((uint64_t)r->patch_cells << (q->shift > 30 ? 30 : q->shift));
+        const double dx = fmax(fmax(x0 * sp - eye[0], eye[0] - (x0 + span) * sp), 0.0);
+        const double dz = fmax(fmax(z0 * sp - eye[2], eye[2] - (z0 + span) * sp), 0.0);
+        if (!(dx * dx + dz * dz >= d2))
+            break;
+        k--;
+    }
+    return k;
+}
+
+void patch_draw(hz_renderer *r, const GLint *loc, uint32_t first, uint32_t end)
+{
+    if (end > r->n_inst)
+        end = r->n_inst;
+    if (first >= end)
         return;
     glActiveTexture(GL_TEXTURE0 + FX_UNIT_TILES);
     glBindTexture(GL_TEXTURE_2D_ARRAY, r->tiles_tex);
@@ -286,13 +311,18 @@ void patch_draw(hz_renderer *r, const GLint *loc)
     const uint32_t chunks = r->n_inst >= PATCH_CHUNKS * PATCH_CHUNK_MIN ? PATCH_CHUNKS : 1;
     glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
     for (uint32_t c = 0; c < chunks; c++) {
-        const uint32_t a = (uint32_t)((uint64_t)r->n_inst * c / chunks);
-        const uint32_t b = (uint32_t)((uint64_t)r->n_inst * (c + 1) / chunks);
+        /* chunk c of all the patches, as far as it lies in [first, end) */
+        const uint32_t ca = (uint32_t)((uint64_t)r->n_inst * c / chunks);
+        const uint32_t cb = (uint32_t)((uint64_t)r->n_inst * (c + 1) / chunks);
+        const uint32_t a = ca > first ? ca : first, b = cb < end ? cb : end;
+        if (a >= b)
+            continue;
         patch_attribs(r, a);
         glDrawElementsInstanced(GL_TRIANGLES, (GLsizei)r->patch_index_count, GL_UNSIGNED_SHORT, (const void *)0,
                                 (GLsizei)(b - a));
-        glFlush(); /* the last one too: the terrain is rasterised while the sky,
-                      forest and objects are binned */
+        if (b == cb)
+            glFlush(); /* at each chunk's end, the last one's too: the terrain is
+                          rasterised while the sky, forest and objects are binned */
     }
     patch_attribs(r, 0);
     glBindBuffer(GL_ARRAY_BUFFER, 0);

@@ -321,6 +321,67 @@ static void test_patch_chunks_draw_every_patch(void **state)
     free(pl.data);
 }
 
+/* With the ground detail on, the patches entirely beyond its fade are drawn
+ * by a variant without its texture fetches: the picture is that of the same
+ * patches expanded to triangles, whose shader works the detail out (faded to
+ * nothing there) for every pixel. */
+static void test_far_patches_keep_the_detail_colour(void **state)
+{
+    ctx *c = *state;
+    hz_err err = {0};
+    hz_camera cam;
+    hz_index_list il = {0};
+    hz_patch_list pl = {0};
+    hz_lod_stats st;
+    cdlod_frame(c, 1.0f, &cam, &pl, &il, &st);
+    /* 60 m over the middle of the map, looking north along the ground: full
+     * detail near, the fade (450 m to 2.7 km at the default 3 m scale) and
+     * beyond it in view. */
+    cam.pos[0] = cam.pos[2] = 0.5f * c->t->spacing * (float)(c->t->hm.size - 1);
+    cam.pos[1] = hz_terrain_height_at(c->t, cam.pos[0], cam.pos[2]) + 60.0f;
+    cam.yaw = 0;
+    cam.pitch = -4;
+    pl.count = il.count = 0;
+    hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = 1.0f, .viewport_height = H};
+    assert_int_equal(hz_lod_select_patches(c->t->lod, &cam, &p, &pl, &st), HZ_OK);
+    assert_int_equal(hz_lod_patches_to_indices(c->t->lod, pl.data, pl.count, &il), HZ_OK);
+    uint8_t *a = malloc(W * H * 3), *b = malloc(W * H * 3), *sky = malloc(W * H);
+    /* A high sun: the ground bright enough for its detail to show. */
+    hz_scene_params sp = {.patches = pl.data, .patch_count = (uint32_t)pl.count, .effects = HZ_FX_DETAIL,
+                          .sun_dir = {0.3f, 0.9f, 0.3f}};
+    hz_draw_stats ds;
+    assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, &ds, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_rgb(c->r, a, &err), HZ_OK);
+    hz_image_write_png(HZ_TEST_TMP "/frame_far_detail.png", a, W, H, NULL);
+    hz_scene_params si = {.effects = HZ_FX_DETAIL, .sun_dir = {0.3f, 0.9f, 0.3f}};
+    assert_int_equal(hz_renderer_draw(c->r, &cam, &si, il.data, (uint32_t)il.count, NULL, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_rgb(c->r, b, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_sky_mask(c->r, sky, &err), HZ_OK);
+    size_t ground = 0, off = 0;
+    for (size_t k = 0; k < (size_t)W * H; k++) {
+        if (sky[k])
+            continue;
+        ground++;
+        int d = 0;
+        for (int ch = 0; ch < 3; ch++)
+            d = abs(a[3 * k + ch] - b[3 * k + ch]) > d ? abs(a[3 * k + ch] - b[3 * k + ch]) : d;
+        off += d > 0;
+    }
+    fprintf(stderr, "%u of %zu patches beyond the detail's fade; %zu of %zu ground pixels differ\n", ds.far_patches,
+            pl.count, off, ground);
+    assert_true(ds.far_patches * 4 >= pl.count); /* a good part of the frame is far */
+    assert_true(ds.far_patches < pl.count);      /* and some is near */
+    assert_true(ground > (size_t)W * H / 5);
+    /* Not one level off: with the split at half the fade distance, 6 951
+     * pixels of the fade band differ by one or two levels. */
+    assert_true(off * 10000 <= ground);
+    free(a);
+    free(b);
+    free(sky);
+    free(il.data);
+    free(pl.data);
+}
+
 /* Issue 15: the default camera frames the highest ground, wherever it is:
  * a cone in the south-west corner of a 257^2 map (the old camera above the
  * middle, looking north-north-east, never saw it) sits near the middle of the
@@ -499,6 +560,7 @@ int main(void)
         cmocka_unit_test(test_modes_close_to_reference),
         cmocka_unit_test(test_gpu_morph_matches_cpu),
         cmocka_unit_test(test_patch_chunks_draw_every_patch),
+        cmocka_unit_test(test_far_patches_keep_the_detail_colour),
         cmocka_unit_test(test_default_camera_frames_the_summit),
         cmocka_unit_test(test_stream_tiles_slide_in),
     };
