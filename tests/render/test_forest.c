@@ -366,11 +366,11 @@ static void test_forest_draw(void **state)
 }
 
 /* Leaves drawn as points cut to the leaf's projected outline give the picture
- * the quads give: the same tree pixels, the same colours. The tree is far
- * enough for its leaves to be a few pixels long. */
-static void test_point_leaves_match_quads(void **state)
+ * the quads give: the same tree pixels, the same colours. Looked at from a
+ * zoom where the forest's own threshold (POINT_LEAF_PX) draws them as points:
+ * a view field of 20 degrees, and 10, the narrowest where it still does. */
+static void point_leaves_at(float fov, double max_one_only)
 {
-    (void)state;
     enum { W = 320, H = 240 };
     hz_err err = {0};
     hz_renderer *ren = hz_renderer_create(&(hz_renderer_desc){.width = W, .height = H}, &err);
@@ -380,10 +380,9 @@ static void test_point_leaves_match_quads(void **state)
     const hz_tree *t = om.t;
     hz_forest *f = om.f;
     hz_forest_gpu *gpu = om.gpu;
-    /* Looking at the crown from a little above it, zoomed in: leaves up to
-     * about ten pixels long. */
+    /* Looking at the crown from a little above it, zoomed in. */
     const float *bc = t->bound_center, r = t->bound_radius;
-    hz_camera cam = {.pos = {bc[0], bc[1] + 0.4f * r, bc[2] + 1.8f * r}, .yaw = 0, .pitch = -12, .fov_y = 20,
+    hz_camera cam = {.pos = {bc[0], bc[1] + 0.4f * r, bc[2] + 1.8f * r}, .yaw = 0, .pitch = -12, .fov_y = fov,
                      .aspect = (float)W / H, .znear = 0.3f, .zfar = 3000};
     uint8_t *sky = malloc(W * H * 3), *quads = malloc(W * H * 3), *points = malloc(W * H * 3);
     hz_scene_params none = {.fog_density = -1};
@@ -400,6 +399,7 @@ static void test_point_leaves_match_quads(void **state)
     uint8_t *outs[2] = {quads, points};
     const float px[2] = {0.0f, 1e6f};
     uint32_t drawn_as_points[2];
+    const float default_px = hz_forest_gpu_point_leaves(gpu, 0.0f);
     for (int k = 0; k < 2; k++) {
         hz_forest_gpu_point_leaves(gpu, px[k]);
         assert_int_equal(hz_renderer_draw(ren, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
@@ -410,10 +410,14 @@ static void test_point_leaves_match_quads(void **state)
     }
     assert_int_equal(drawn_as_points[0], 0);
     assert_int_equal(drawn_as_points[1], 1);
+    /* At this zoom the forest's own threshold draws them as points too. */
+    hz_forest_gpu_point_leaves(gpu, default_px);
+    assert_int_equal(hz_renderer_draw(ren, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
+    assert_int_equal(hz_forest_gpu_point_trees(gpu), 1);
     char path[512];
-    snprintf(path, sizeof path, "%s/forest_leaf_quads.png", HZ_TEST_TMP);
+    snprintf(path, sizeof path, "%s/forest_leaf_quads_fov%.0f.png", HZ_TEST_TMP, (double)fov);
     hz_image_write_png(path, quads, W, H, &err);
-    snprintf(path, sizeof path, "%s/forest_leaf_points.png", HZ_TEST_TMP);
+    snprintf(path, sizeof path, "%s/forest_leaf_points_fov%.0f.png", HZ_TEST_TMP, (double)fov);
     hz_image_write_png(path, points, W, H, &err);
     /* Tree pixels: differ from the empty frame. */
     uint64_t tq = 0, tp = 0, both = 0, either = 0;
@@ -426,16 +430,23 @@ static void test_point_leaves_match_quads(void **state)
                 colour += abs(quads[p * 3 + c] - points[p * 3 + c]);
     }
     double xor_frac = (double)(either - both) / (double)either, mean_colour = colour / (3.0 * (double)(both ? both : 1));
-    print_message("tree pixels: quads %llu, points %llu, in one only %.2f %%, mean colour difference %.2f\n",
-                  (unsigned long long)tq, (unsigned long long)tp, 100.0 * xor_frac, mean_colour);
+    print_message("fov %.0f: tree pixels: quads %llu, points %llu, in one only %.2f %%, mean colour difference %.2f\n",
+                  (double)fov, (unsigned long long)tq, (unsigned long long)tp, 100.0 * xor_frac, mean_colour);
     assert_true(tq > (uint64_t)(W * H) / 20);
-    assert_true(xor_frac < 0.005);
+    assert_true(xor_frac < max_one_only);
     assert_true(mean_colour < 6.0);
     free(sky);
     free(quads);
     free(points);
     one_model_free(&om);
     hz_renderer_destroy(ren);
+}
+
+static void test_point_leaves_match_quads(void **state)
+{
+    (void)state;
+    point_leaves_at(20.0f, 0.005); /* 0.20 % of the tree pixels in one picture only */
+    point_leaves_at(10.0f, 0.005); /* 0.34 %; at 9 degrees the forest keeps quads */
 }
 
 /* A crown hull is shaded from the tree's own impostor: drawn as a hull and
