@@ -219,10 +219,17 @@ cat > "$TMP/fogbox.json" <<'EOF'
  "models": {"a": {"box": [40, 40, 40], "material": "red"}},
  "nodes": [{"name": "A", "model": "a", "position": [2100, 0, 1280], "clamp": "ground"}]}
 EOF
-V="--scene $TMP/fogbox.json --fog 0.0005 --camera 100,20,1280,90,0 --pick 640,357 --json"
-j1=$($HZ render --quiet --effects fog $V --out "$TMP/fog_on.png"); r1=$?
-j2=$($HZ render --quiet --effects none $V --out "$TMP/fog_off.png"); r2=$?
-if [ $r1 -eq 0 ] && [ $r2 -eq 0 ] && python3 - "$j1" "$j2" "$TMP" "$(dirname "$0")" <<'PY'
+# box_vs_horizon NAME MAX_ON MIN_OFF ARGS...: renders ARGS with the fog effect
+# and without it; the box A is picked at 640,357 in both, and its pixel lies
+# at most MAX_ON levels from the horizon just above it with the effect, at
+# least MIN_OFF without.
+box_vs_horizon() {
+  local name=$1 max_on=$2 min_off=$3 j1 j2 r1 r2
+  shift 3
+  local view=(--camera 100,20,1280,90,0 --pick 640,357 --json)
+  j1=$($HZ render --quiet --effects fog "$@" "${view[@]}" --out "$TMP/${name}_on.png"); r1=$?
+  j2=$($HZ render --quiet --effects none "$@" "${view[@]}" --out "$TMP/${name}_off.png"); r2=$?
+  [ $r1 -eq 0 ] && [ $r2 -eq 0 ] && python3 - "$j1" "$j2" "$TMP/$name" "$(dirname "$0")" "$max_on" "$min_off" <<'PY'
 import json, sys
 sys.path.insert(0, sys.argv[4])
 import pngstat
@@ -231,34 +238,21 @@ for s in sys.argv[1:3]:
 def gap(path):  # the box's pixel against the horizon just above it
     w, h, rows = pngstat.read(path)
     return max(abs(a - b) for a, b in zip(rows[357][640], rows[340][640]))
-on, off = gap(sys.argv[3] + "/fog_on.png"), gap(sys.argv[3] + "/fog_off.png")
-print("box against the horizon: %d levels with the fog effect, %d without" % (on, off), file=sys.stderr)
-assert on <= 20 and off >= 40, (on, off)
+on, off = gap(sys.argv[3] + "_on.png"), gap(sys.argv[3] + "_off.png")
+print("%s: box %d levels from the horizon with the fog effect, %d without" % (sys.argv[3].split("/")[-1], on, off),
+      file=sys.stderr)
+assert on <= int(sys.argv[5]) and off >= int(sys.argv[6]), (on, off)
 PY
-then ok "a far box is fogged as the ground with the fog effect"; else bad "fog on objects (exit $r1 $r2)"; fi
+}
+if box_vs_horizon fog 20 40 --scene "$TMP/fogbox.json" --fog 0.0005
+then ok "a far box is fogged as the ground with the fog effect"; else bad "fog on objects"; fi
 
 # ---- the fog effect's fade over the last fifth of the view distance: a box
 # at 97 % of it is nearly the sky (fog itself too thin to matter), and
 # stands out without the effect
 sed 's/"position": \[2100, 0, 1280\]/"position": [2300, 0, 1280]/' "$TMP/fogbox.json" > "$TMP/fadebox.json"
-V="--scene $TMP/fadebox.json --fog 1e-7 --far 2250 --camera 100,20,1280,90,0 --pick 640,357 --json"
-j1=$($HZ render --quiet --effects fog $V --out "$TMP/fade_on.png"); r1=$?
-j2=$($HZ render --quiet --effects none $V --out "$TMP/fade_off.png"); r2=$?
-if [ $r1 -eq 0 ] && [ $r2 -eq 0 ] && python3 - "$j1" "$j2" "$TMP" "$(dirname "$0")" <<'PY'
-import json, sys
-sys.path.insert(0, sys.argv[4])
-import pngstat
-for s in sys.argv[1:3]:
-    assert json.loads(s)['pick']['node'] == 'A', s
-def gap(path):  # the box's pixel against the horizon just above it
-    w, h, rows = pngstat.read(path)
-    return max(abs(a - b) for a, b in zip(rows[357][640], rows[340][640]))
-on, off = gap(sys.argv[3] + "/fade_on.png"), gap(sys.argv[3] + "/fade_off.png")
-print("box at 97 %% of the view distance: %d levels from the horizon with the fog effect, %d without" % (on, off),
-      file=sys.stderr)
-assert on <= 25 and off >= 100, (on, off)
-PY
-then ok "a box at the end of the view fades into the sky with the fog effect"; else bad "far fade on objects (exit $r1 $r2)"; fi
+if box_vs_horizon fade 25 100 --scene "$TMP/fadebox.json" --fog 1e-7 --far 2250
+then ok "a box at the end of the view fades into the sky with the fog effect"; else bad "far fade on objects"; fi
 
 # ---- refusals
 printf '{"type":"CityJSON","version":"2.0","CityObjects":{},"vertices":[]}' > "$TMP/notransform.city.json"

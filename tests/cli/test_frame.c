@@ -196,16 +196,22 @@ static void test_modes_close_to_reference(void **state)
     free(simg);
 }
 
-/* cdlod patches for the default camera looking 4 degrees down at tau,
- * and the same patches expanded to triangles. */
-static void cdlod_frame(ctx *c, float tau, hz_camera *cam, hz_patch_list *pl, hz_index_list *il, hz_lod_stats *st)
+/* cdlod patches at tau for the camera at (NULL: the default camera looking
+ * 4 degrees down), which goes to cam, and the same patches expanded to
+ * triangles. */
+static void cdlod_frame(ctx *c, float tau, const hz_camera *at, hz_camera *cam, hz_patch_list *pl,
+                        hz_index_list *il, hz_lod_stats *st)
 {
     hz_err err = {0};
     hz_terrain *t = c->t;
     assert_int_equal(hz_lod_prepare(t->lod, HZ_LOD_CDLOD), HZ_OK);
     assert_int_equal(hz_renderer_set_cdlod(c->r, t->lod, NULL, &err), HZ_OK);
-    *cam = hz_terrain_default_camera(t, W, H);
-    cam->pitch = -4;
+    if (at) {
+        *cam = *at;
+    } else {
+        *cam = hz_terrain_default_camera(t, W, H);
+        cam->pitch = -4;
+    }
     hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = tau, .viewport_height = H};
     assert_int_equal(hz_lod_select_patches(t->lod, cam, &p, pl, st), HZ_OK);
     assert_int_equal(hz_lod_patches_to_indices(t->lod, pl->data, pl->count, il), HZ_OK);
@@ -226,7 +232,7 @@ static void test_gpu_morph_matches_cpu(void **state)
     hz_index_list il = {0};
     hz_patch_list pl = {0};
     hz_lod_stats st;
-    cdlod_frame(c, 12.0f, &cam, &pl, &il, &st);
+    cdlod_frame(c, 12.0f, NULL, &cam, &pl, &il, &st);
     assert_true(st.morph_scale > 0);
     size_t stitched = 0;
     for (size_t k = 0; k < pl.count; k++)
@@ -287,7 +293,7 @@ static void test_patch_chunks_draw_every_patch(void **state)
     hz_index_list il = {0};
     hz_patch_list pl = {0};
     hz_lod_stats st;
-    cdlod_frame(c, 0.5f, &cam, &pl, &il, &st);
+    cdlod_frame(c, 0.5f, NULL, &cam, &pl, &il, &st);
     fprintf(stderr, "%zu patches\n", pl.count);
     assert_true(pl.count >= 4 * 64);
     float *dp = malloc(W * H * sizeof *dp), *di = malloc(W * H * sizeof *di);
@@ -333,18 +339,15 @@ static void test_far_patches_keep_the_detail_colour(void **state)
     hz_index_list il = {0};
     hz_patch_list pl = {0};
     hz_lod_stats st;
-    cdlod_frame(c, 1.0f, &cam, &pl, &il, &st);
     /* 60 m over the middle of the map, looking north along the ground: full
      * detail near, the fade (450 m to 2.7 km at the default 3 m scale) and
      * beyond it in view. */
-    cam.pos[0] = cam.pos[2] = 0.5f * c->t->spacing * (float)(c->t->hm.size - 1);
-    cam.pos[1] = hz_terrain_height_at(c->t, cam.pos[0], cam.pos[2]) + 60.0f;
-    cam.yaw = 0;
-    cam.pitch = -4;
-    pl.count = il.count = 0;
-    hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = 1.0f, .viewport_height = H};
-    assert_int_equal(hz_lod_select_patches(c->t->lod, &cam, &p, &pl, &st), HZ_OK);
-    assert_int_equal(hz_lod_patches_to_indices(c->t->lod, pl.data, pl.count, &il), HZ_OK);
+    hz_camera at = hz_terrain_default_camera(c->t, W, H);
+    at.pos[0] = at.pos[2] = 0.5f * c->t->spacing * (float)(c->t->hm.size - 1);
+    at.pos[1] = hz_terrain_height_at(c->t, at.pos[0], at.pos[2]) + 60.0f;
+    at.yaw = 0;
+    at.pitch = -4;
+    cdlod_frame(c, 1.0f, &at, &cam, &pl, &il, &st);
     uint8_t *a = malloc(W * H * 3), *b = malloc(W * H * 3), *sky = malloc(W * H);
     /* A high sun: the ground bright enough for its detail to show. */
     hz_scene_params sp = {.patches = pl.data, .patch_count = (uint32_t)pl.count, .effects = HZ_FX_DETAIL,
