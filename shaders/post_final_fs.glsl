@@ -6,7 +6,7 @@
 // uniforms: llvmpipe runs both sides of a branch, and a pow per channel of
 // every pixel costs 1-2 ms at 1280x720.
 #ifndef FX_VARIANT
-#define FX_VARIANT 6
+#define FX_VARIANT 0
 #endif
 uniform sampler2D u_scene, u_bloom;
 uniform sampler2D u_depth;      // the scene's depth, copied to the output's

@@ -618,7 +618,7 @@ hz_forest_gpu *hz_forest_gpu_create_with(const hz_forest *f, const hz_forest_gpu
     g->bark_prog = hz_gl_program(hz_shader_bark_vs, hz_shader_bark_fs, "bark", err);
     if (!g->bark_prog)
         goto fail;
-    g->hull_prog = hz_gl_program_defs(hz_shader_bark_vs, hz_shader_bark_fs, "#define BARK_HULL 1\n", "hull", err);
+    g->hull_prog = hz_gl_program_defs(hz_shader_bark_vs, hz_shader_bark_fs, "#define BARK_HULL 1\n", "bark", err);
     if (!g->hull_prog)
         goto fail;
     g->imp_prog = hz_gl_program(hz_shader_impostor_vs, hz_shader_impostor_fs, "impostor", err);

@@ -23,12 +23,12 @@
  * (windows), adds bloom, applies a gamma other than 1. */
 enum { FINAL_DEPTH = 1, FINAL_BLOOM = 2, FINAL_GAMMA = 4, FINAL_ALL = 7 };
 
-/* The last pass's variant for key, linked on first use (FX_VARIANT = key | 8:
- * the define is always there); 0 + err if it does not link. */
+/* The last pass's variant for key (FX_VARIANT), linked on first use; 0 +
+ * err if it does not link. */
 static GLuint final_program(hz_renderer *r, unsigned key, hz_err *err)
 {
     if (!r->final_prog[key])
-        r->final_prog[key] = link_program(hz_shader_post_vs, hz_shader_post_final_fs, "post_final", 0, key | 8u, err);
+        r->final_prog[key] = link_program(hz_shader_post_vs, hz_shader_post_final_fs, "post_final", 0, key, err);
     return r->final_prog[key];
 }
 
@@ -197,7 +197,7 @@ void fx_post_destroy(hz_renderer *r)
     glDeleteProgram(r->blur_prog);
     glDeleteProgram(r->bright_prog);
     glDeleteProgram(r->gauss_prog);
-    for (int k = 0; k < 8; k++) {
+    for (size_t k = 0; k < sizeof r->final_prog / sizeof r->final_prog[0]; k++) {
         glDeleteProgram(r->final_prog[k]);
         r->final_prog[k] = 0;
     }

@@ -52,15 +52,9 @@ static GLuint compile_shader(GLenum type, const char *src, const char *name, boo
         const GLint lens[6] = {(GLint)(nl + 1 - src), -1, -1, -1, -1, -1};
         return hz_gl_compile(type, 6, parts, lens, name, err);
     }
-    if (!nl) {
-        hz_err_set(err, HZ_ERR_GL, "GL: shader %s is one line", name);
-        return 0;
-    }
     char def[64];
-    snprintf(def, sizeof def, "#define FX_VARIANT %u\n#line 2\n", variant);
-    const char *parts[3] = {src, def, nl + 1};
-    const GLint lens[3] = {(GLint)(nl + 1 - src), -1, -1};
-    return hz_gl_compile(type, 3, parts, lens, name, err);
+    snprintf(def, sizeof def, "#define FX_VARIANT %u\n", variant);
+    return hz_gl_compile_defs(type, src, def, name, err);
 }
 
 GLuint link_program(const char *vs_src, const char *fs_src, const char *name, int common, uint32_t variant,

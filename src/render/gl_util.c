@@ -131,9 +131,7 @@ GLuint hz_gl_program(const char *vs_src, const char *fs_src, const char *name, h
     return hz_gl_program_defs(vs_src, fs_src, NULL, name, err);
 }
 
-/* One shader with defs after its #version line (the line numbers of the
- * rest stay those of the file). */
-static GLuint compile_defs(GLenum type, const char *src, const char *defs, const char *name, hz_err *err)
+GLuint hz_gl_compile_defs(GLenum type, const char *src, const char *defs, const char *name, hz_err *err)
 {
     if (!defs || !defs[0])
         return hz_gl_compile(type, 1, &src, NULL, name, err);
@@ -152,8 +150,8 @@ GLuint hz_gl_program_defs(const char *vs_src, const char *fs_src, const char *de
     char vn[64], fn[64];
     snprintf(vn, sizeof vn, "%s_vs.glsl", name);
     snprintf(fn, sizeof fn, "%s_fs.glsl", name);
-    GLuint vs = compile_defs(GL_VERTEX_SHADER, vs_src, defs, vn, err);
-    GLuint fs = vs ? compile_defs(GL_FRAGMENT_SHADER, fs_src, defs, fn, err) : 0;
+    GLuint vs = hz_gl_compile_defs(GL_VERTEX_SHADER, vs_src, defs, vn, err);
+    GLuint fs = vs ? hz_gl_compile_defs(GL_FRAGMENT_SHADER, fs_src, defs, fn, err) : 0;
     return hz_gl_link(vs, fs, name, err);
 }
 

@@ -14,6 +14,10 @@ GLuint hz_gl_compile(GLenum type, GLsizei count, const char *const *parts, const
 /* Links a program from two compiled shaders and deletes them (the program
  * keeps them alive); either 0 -> 0 (err already set by the compile). */
 GLuint hz_gl_link(GLuint vs, GLuint fs, const char *name, hz_err *err);
+/* Compiles one shader with defs (e.g. "#define X 1\n"; NULL or "" for none)
+ * inserted after its #version line; the rest keeps the file's line numbers.
+ * 0 + err on failure. */
+GLuint hz_gl_compile_defs(GLenum type, const char *src, const char *defs, const char *name, hz_err *err);
 /* Compiles and links a vertex + fragment program; 0 + err (quoting the GL
  * log) on failure. name is used in messages ("leaf" -> leaf_vs.glsl). */
 GLuint hz_gl_program(const char *vs_src, const char *fs_src, const char *name, hz_err *err);
