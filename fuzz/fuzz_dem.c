@@ -30,8 +30,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     const size_t nn = sizeof names / sizeof *names;
     const char *name = names[data[0] % nn];
+    /* A new name per input: GDAL keeps what it learnt about the last
+     * /vsigzip/ file by name (its size), so reusing one name would make an
+     * input's outcome depend on the one before, and a finding would not
+     * reproduce on its own. */
+    static unsigned long serial;
     char path[512];
-    snprintf(path, sizeof path, "%s_%s", dir, name);
+    snprintf(path, sizeof path, "%s_%lu_%s", dir, serial++, name);
     FILE *f = fopen(path, "wb");
     if (!f)
         return 0;

@@ -67,12 +67,28 @@ static void gdal_name(const char *path, char *out, size_t cap)
         snprintf(out, cap, "%s", path);
 }
 
+/* The GDAL drivers allowed to open name, or NULL for any. A name that says
+ * SRTM (.hgt, .hgt.gz, .hgt.zip) is read as SRTM or refused: a tile whose
+ * bytes look like another format (netCDF, HDF) must not reach that driver. */
+static const char *const *drivers_for(const char *name)
+{
+    static const char *const srtm[] = {"SRTMHGT", NULL};
+    if (ends_with(name, ".hgt") || ends_with(name, ".hgt.gz") || ends_with(name, ".hgt.zip"))
+        return srtm;
+    return NULL;
+}
+
+static GDALDatasetH open_raster(const char *name)
+{
+    return GDALOpenEx(name, GDAL_OF_RASTER | GDAL_OF_READONLY, drivers_for(name), NULL, NULL);
+}
+
 static bool identifies(const char *path)
 {
     char name[4096];
     gdal_name(path, name, sizeof name);
     CPLPushErrorHandler(CPLQuietErrorHandler);
-    GDALDriverH drv = GDALIdentifyDriverEx(name, GDAL_OF_RASTER, NULL, NULL);
+    GDALDriverH drv = GDALIdentifyDriverEx(name, GDAL_OF_RASTER, drivers_for(name), NULL);
     CPLPopErrorHandler();
     if (!drv)
         return false;
@@ -200,7 +216,7 @@ static int CPL_STDCALL gdal_progress(double done, const char *msg, void *user)
 static GDALDatasetH open_inputs(const name_list *l, hz_err *err)
 {
     if (l->n == 1) {
-        GDALDatasetH ds = GDALOpenEx(l->v[0], GDAL_OF_RASTER | GDAL_OF_READONLY, NULL, NULL, NULL);
+        GDALDatasetH ds = open_raster(l->v[0]);
         if (!ds)
             hz_err_set(err, HZ_ERR_FORMAT, "'%s': %s", l->v[0], gdal_msg("GDAL cannot read it"));
         return ds;
@@ -208,7 +224,7 @@ static GDALDatasetH open_inputs(const name_list *l, hz_err *err)
     /* Every input must open on its own first: a clear message naming the
      * broken file instead of a hole in the mosaic. */
     for (uint32_t k = 0; k < l->n; k++) {
-        GDALDatasetH ds = GDALOpenEx(l->v[k], GDAL_OF_RASTER | GDAL_OF_READONLY, NULL, NULL, NULL);
+        GDALDatasetH ds = open_raster(l->v[k]);
         if (!ds) {
             hz_err_set(err, HZ_ERR_FORMAT, "'%s': %s", l->v[k], gdal_msg("GDAL cannot read it"));
             return NULL;

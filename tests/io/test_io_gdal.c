@@ -20,6 +20,7 @@
 #include "horizon/dem.h"
 #include "horizon/georef.h"
 #include "horizon/terrain.h"
+#include "io_fixtures.h"
 #include "io_tests.h"
 
 static const char *tmp(const char *name)
@@ -629,6 +630,25 @@ void test_gdal_broken(void **state)
     assert_int_not_equal(hz_dem_load(&(hz_dem_desc){.path = tmp("N10E010.hgt.zip")}, &g, NULL, &err), HZ_OK);
     print_message("bad zip: %s\n", err.msg);
     assert_non_null(strstr(err.msg, "N10E010.hgt.zip"));
+    /* Other formats under an SRTM name are refused, not read as what their
+     * bytes say: a GeoTIFF and a netCDF named .hgt, the netCDF gzipped. */
+    float *v = make_surface(64, 64);
+    const double gt[6] = {10.0, 1.0 / 64, 0, 11.0, 0, -1.0 / 64};
+    write_raster("GTiff", tmp("N10E010.hgt"), v, 64, 64, gt, "EPSG:4326", NULL, GDT_Float32, NULL);
+    assert_int_not_equal(hz_dem_load(&(hz_dem_desc){.path = tmp("N10E010.hgt")}, &g, NULL, &err), HZ_OK);
+    print_message("GeoTIFF named .hgt: %s\n", err.msg);
+    assert_null(g.z);
+    assert_non_null(strstr(err.msg, "N10E010.hgt"));
+    write_raster("netCDF", tmp("N11E010.nc"), v, 64, 64, gt, "EPSG:4326", NULL, GDT_Float32, NULL);
+    free(v);
+    size_t nc_n = 0;
+    uint8_t *nc = fx_read(tmp("N11E010.nc"), &nc_n);
+    assert_non_null(nc);
+    assert_true(fx_write_gz(tmp("N11E010.hgt.gz"), nc, nc_n));
+    free(nc);
+    assert_int_not_equal(hz_dem_load(&(hz_dem_desc){.path = tmp("N11E010.hgt.gz")}, &g, NULL, &err), HZ_OK);
+    print_message("netCDF named .hgt.gz: %s\n", err.msg);
+    assert_null(g.z);
     /* A missing input of a mosaic. */
     const char *missing[] = {HZ_DATA_DIR "/N46E008.tif", tmp("nope.tif")};
     assert_int_equal(hz_dem_load(&(hz_dem_desc){.paths = missing, .path_count = 2}, &g, NULL, &err), HZ_ERR_IO);
