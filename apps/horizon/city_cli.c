@@ -1243,7 +1243,25 @@ int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *
     }
     if (json)
         printf("]}\n");
+    /* --out: the path's last frame with every stage on (the default). */
+    if (o->out) {
+        hz_outfile of;
+        uint32_t def = 0;
+        while (strcmp(bench_cfgs[def].name, "occlusion_sorted"))
+            def++;
+        const uint8_t *last = img + px * def;
+        if (hz_outfile_begin(&of, o->out, &err) != HZ_OK)
+            goto fail;
+        if (hz_image_write_png(of.tmp, last, o->width, o->height, &err) != HZ_OK ||
+            hz_outfile_commit(&of, &err) != HZ_OK) {
+            hz_outfile_discard(&of);
+            goto fail;
+        }
+    }
     rc = 0;
+    goto out;
+fail:
+    fprintf(stderr, "horizon render: %s\n", err.msg);
 out:
     cli_lod_frame_free(&lf);
     free(ms);

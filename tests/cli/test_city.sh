@@ -142,6 +142,21 @@ printf '{"nodes": [{"name": "a", "crs": [1, 2, 3]}]}' > "$TMP/crsnogeo.json"
 expect_fail "scene crs without georef" "nodes\[0\].crs: needs a terrain with a georeference" \
   $R --generate perlin --size 257 --scene "$TMP/crsnogeo.json"
 expect_fail "--city-bench without objects" "need --city or --scene" $R --generate perlin --size 257 --city-bench street
+# --city-bench: every stage's figures, the culled frames equal to the unculled
+# ones, and the path's last frame (every stage on) written to --out
+j=$($R --scene "$TMP/c3.json" --city-bench overview --city-bench-frames 2 --json --out "$TMP/c3bench.png"); rc=$?
+if [ $rc -eq 0 ] && python3 - "$TMP/c3bench.png" "$j" "$(dirname "$0")" <<'PY'
+import json, sys
+sys.path.insert(0, sys.argv[3])
+import pngstat
+w, h, rows = pngstat.read(sys.argv[1])
+assert (w, h) == (320, 180), (w, h)
+assert len({tuple(p) for r in rows for p in r}) > 20, "a flat image"
+d = json.loads(sys.argv[2])
+c = {x["config"]: x for x in d["configs"]}
+assert c["occlusion_sorted"]["diff_pixels_max"] == 0 and c["frustum_sorted"]["diff_pixels_max"] == 0, c
+PY
+then ok "--city-bench writes its figures and the last frame"; else bad "--city-bench (exit $rc): $j"; fi
 
 # ---- a forest over the city: no tree is planted where a building stands
 out=$($HZ render --width 320 --height 180 --scene "$TMP/c3.json" --forest 2000 --out "$TMP/c3f.png" 2>&1 >/dev/null); rc=$?
