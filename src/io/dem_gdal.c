@@ -24,7 +24,7 @@
 
 static void gdal_init(void)
 {
-    GDALAllRegister();
+    hz_io_gdal_setup();
 }
 
 /* The last GDAL error, or a fallback. */

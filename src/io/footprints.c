@@ -2,6 +2,7 @@
  * hz_city so they place, draw and pick like CityJSON buildings. */
 #define _GNU_SOURCE
 #include "horizon/city.h"
+#include "io_internal.h"
 
 #include <float.h>
 #include <jansson.h>
@@ -200,7 +201,7 @@ hz_city *hz_city_load_footprints(const char *path, const hz_footprint_desc *desc
     const char *lf = desc && desc->levels_field ? desc->levels_field : "building:levels";
     const double lh = desc && desc->level_height > 0 ? desc->level_height : 3.0;
     const double dh = desc && desc->default_height > 0 ? desc->default_height : 10.0;
-    GDALAllRegister();
+    hz_io_gdal_setup();
     CPLPushErrorHandler(CPLQuietErrorHandler);
     GDALDatasetH ds = GDALOpenEx(path, GDAL_OF_VECTOR | GDAL_OF_READONLY, NULL, NULL, NULL);
     CPLPopErrorHandler();

@@ -3,6 +3,7 @@
  * in the terrain's CRS; the warped VRT is read tile by tile, so memory is the
  * output, never the source. See horizon/imagery.h. */
 #include "horizon/imagery.h"
+#include "io_internal.h"
 
 #include <cpl_conv.h>
 #include <cpl_error.h>
@@ -168,7 +169,7 @@ hz_result hz_imagery_load(const hz_imagery_desc *d, hz_imagery *out, hz_err *err
     if (tgt[2] != 0.0 || tgt[4] != 0.0)
         return hz_err_set(err, HZ_ERR_UNSUPPORTED, "imagery: the terrain's grid is rotated");
 
-    GDALAllRegister();
+    hz_io_gdal_setup();
     CPLErrorReset();
     CPLPushErrorHandler(CPLQuietErrorHandler);
     hz_result res = HZ_OK;

@@ -601,6 +601,37 @@ void test_fit_keeps_every_sample(void **state)
     }
 }
 
+/* Nothing is written beside the inputs: GDAL's /vsigzip/ would leave an
+ * index (FILE.gz.properties) next to a large .hgt.gz it read. */
+void test_gdal_leaves_inputs_alone(void **state)
+{
+    (void)state;
+    char dir[1024];
+    snprintf(dir, sizeof dir, "%s/untouched", HZ_TEST_TMP);
+    mkdir(dir, 0755);
+    char path[1100], side[1200];
+    snprintf(path, sizeof path, "%s/S46W066.hgt.gz", dir);
+    snprintf(side, sizeof side, "%s.properties", path);
+    remove(side);
+    size_t n = 0;
+    uint8_t *gz = fx_read(HZ_DATA_DIR "/S46W066.hgt.gz", &n);
+    assert_non_null(gz);
+    assert_true(fx_write(path, gz, n));
+    free(gz);
+    hz_grid g;
+    hz_dem_info info;
+    hz_err err = {0};
+    assert_int_equal(hz_dem_load(&(hz_dem_desc){.path = path, .format = HZ_DEM_GDAL}, &g, &info, &err), HZ_OK);
+    assert_int_equal(g.width, 3601);
+    hz_grid_free(&g);
+    struct stat st;
+    assert_int_not_equal(stat(side, &st), 0);
+    /* the folder holds the input and nothing else */
+    char cmd[1300];
+    snprintf(cmd, sizeof cmd, "test \"$(ls -A '%s' | wc -l)\" = 1", dir);
+    assert_int_equal(system(cmd), 0);
+}
+
 void test_gdal_broken(void **state)
 {
     (void)state;
