@@ -122,3 +122,35 @@ small = bytes((7 * i) & 0x0f for i in range(3000))
 put("blob", "small", blob(0x1234, small))
 put("blob", "tiny", blob(1, b"impostor"))
 put("blob", "bad_sum", blob(0x1234, small)[:24] + b"\0" * 8 + blob(0x1234, small)[32:])
+
+# ---- vector footprints (fuzz_footprints.c): first byte picks the format ----
+FP = {"geojson": b"\x00", "csv": b"\x01", "kml": b"\x02", "gml": b"\x03"}
+square = "[[8.69,49.41],[8.6902,49.41],[8.6902,49.4102],[8.69,49.4102],[8.69,49.41]]"
+hole = "[[8.69005,49.41005],[8.69005,49.41010],[8.69010,49.41010],[8.69010,49.41005],[8.69005,49.41005]]"
+put("footprints", "polygons.geojson", FP["geojson"] + (
+    '{"type":"FeatureCollection","features":['
+    '{"type":"Feature","properties":{"osm_id":1,"height":12.5},"geometry":{"type":"Polygon","coordinates":[%s]}},'
+    '{"type":"Feature","properties":{"id":"b2","building:levels":"4"},"geometry":{"type":"Polygon",'
+    '"coordinates":[%s,%s]}},'
+    '{"type":"Feature","properties":{},"geometry":{"type":"MultiPolygon","coordinates":[[%s]]}},'
+    '{"type":"Feature","properties":{"name":"a point"},"geometry":{"type":"Point","coordinates":[8.69,49.41]}}'
+    ']}' % (square, square, hole, square)).encode())
+put("footprints", "utm.geojson", FP["geojson"] + (
+    '{"type":"FeatureCollection","crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::32632"}},'
+    '"features":[{"type":"Feature","properties":{"height":30},"geometry":{"type":"Polygon","coordinates":'
+    '[[[477000,5473000],[477020,5473000],[477010,5473015],[477000,5473000]]]}}]}').encode())
+put("footprints", "wkt.csv", FP["csv"] + (
+    'WKT,height,osm_id\n"POLYGON ((8.69 49.41,8.6902 49.41,8.6902 49.4102,8.69 49.41))",9,7\n'
+    '"MULTIPOLYGON (((8.69 49.41,8.6901 49.41,8.6901 49.4101,8.69 49.41)))",,8\n').encode())
+put("footprints", "house.kml", FP["kml"] + (
+    '<?xml version="1.0" encoding="UTF-8"?><kml xmlns="http://www.opengis.net/kml/2.2"><Document><Placemark>'
+    '<name>house</name><Polygon><outerBoundaryIs><LinearRing><coordinates>8.69,49.41 8.6902,49.41 '
+    '8.6902,49.4102 8.69,49.41</coordinates></LinearRing></outerBoundaryIs></Polygon></Placemark>'
+    '</Document></kml>').encode())
+put("footprints", "house.gml", FP["gml"] + (
+    '<?xml version="1.0" encoding="UTF-8"?><ogr:FeatureCollection xmlns:ogr="http://ogr.maptools.org/" '
+    'xmlns:gml="http://www.opengis.net/gml"><gml:featureMember><ogr:b fid="b.0"><ogr:geometryProperty>'
+    '<gml:Polygon srsName="EPSG:32632"><gml:outerBoundaryIs><gml:LinearRing><gml:coordinates>'
+    '477000,5473000 477020,5473000 477010,5473015 477000,5473000</gml:coordinates></gml:LinearRing>'
+    '</gml:outerBoundaryIs></gml:Polygon></ogr:geometryProperty><ogr:height>8</ogr:height></ogr:b>'
+    '</gml:featureMember></ogr:FeatureCollection>').encode())

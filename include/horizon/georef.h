@@ -68,7 +68,8 @@ hz_result hz_georef_lonlat_to_local(const hz_georef *g, double lon, double lat, 
 hz_result hz_georef_corners_lonlat(const hz_georef *g, double corners[4][2], hz_err *err);
 
 /* The EPSG code of the WGS 84 UTM zone containing (lon, lat): 326zz north of
- * the equator, 327zz south (zz = 1..60). */
+ * the equator, 327zz south (zz = 1..60); 0 when lon is not finite or lat is
+ * not a latitude (finite, within +-90 degrees). */
 int hz_georef_utm_epsg(double lon, double lat);
 
 #ifdef __cplusplus

@@ -285,7 +285,10 @@ static hz_result target_crs(const hz_dem_desc *d, const hz_georef *src, char **o
             return HZ_ERR_VALUE;
         }
         int epsg = hz_georef_utm_epsg(lon, lat);
-        if (OSRImportFromEPSG(t, epsg) != OGRERR_NONE)
+        if (!epsg)
+            r = hz_err_set(err, HZ_ERR_VALUE, "the raster's centre (lon %g, lat %g) is not on the Earth: no UTM zone",
+                           lon, lat);
+        else if (OSRImportFromEPSG(t, epsg) != OGRERR_NONE)
             r = hz_err_set(err, HZ_ERR_VALUE, "cannot set up EPSG:%d (%s)", epsg, gdal_msg("PROJ database?"));
     }
     if (r == HZ_OK && OSRExportToWkt(t, out) != OGRERR_NONE)

@@ -250,7 +250,16 @@ hz_city *hz_city_load_footprints(const char *path, const hz_footprint_desc *desc
                 if (OSRIsGeographic(s2)) {
                     OGREnvelope env;
                     OGR_G_GetEnvelope(g, &env);
-                    epsg = hz_georef_utm_epsg(0.5 * (env.MinX + env.MaxX), 0.5 * (env.MinY + env.MaxY));
+                    const double lon = 0.5 * (env.MinX + env.MaxX), lat = 0.5 * (env.MinY + env.MaxY);
+                    epsg = hz_georef_utm_epsg(lon, lat);
+                    if (!epsg) {
+                        r = hz_err_set(err, HZ_ERR_VALUE,
+                                       "%s: layer %s: feature %lld lies at lon %g, lat %g, not on the Earth", path,
+                                       OGR_L_GetName(layer), (long long)OGR_F_GetFID(f), lon, lat);
+                        OSRDestroySpatialReference(s2);
+                        OGR_F_Destroy(f);
+                        goto out;
+                    }
                 } else {
                     const char *auth = OSRGetAuthorityName(s2, NULL), *code = OSRGetAuthorityCode(s2, NULL);
                     if (!(auth && code && !strcmp(auth, "EPSG")) && OSRAutoIdentifyEPSG(s2) == OGRERR_NONE) {

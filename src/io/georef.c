@@ -285,6 +285,8 @@ hz_result hz_georef_corners_lonlat(const hz_georef *g, double corners[4][2], hz_
 
 int hz_georef_utm_epsg(double lon, double lat)
 {
+    if (!isfinite(lon) || !(fabs(lat) <= 90.0))
+        return 0;
     double l = fmod(lon + 180.0, 360.0);
     if (l < 0)
         l += 360.0;

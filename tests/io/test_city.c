@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "horizon/city.h"
+#include "horizon/georef.h"
 
 /* A 10 x 8 x 6 m box as a Solid in EPSG:32734, quantised at 1 cm; faces
  * counter-clockwise from outside; semantics: 0 ground, 1 roof, 2 wall. */
@@ -515,6 +516,23 @@ static void test_footprints(void **state)
     fclose(fp);
     assert_null(hz_city_load_footprints(HZ_TEST_TMP "/fp_pt.geojson", NULL, &err));
     assert_non_null(strstr(err.msg, "no polygon"));
+    /* lon/lat off the Earth: refused by name, not placed in a made-up UTM zone. */
+    fp = fopen(HZ_TEST_TMP "/fp_off.geojson", "w");
+    fputs("{\"type\":\"FeatureCollection\",\"features\":[{\"type\":\"Feature\",\"properties\":{},"
+          "\"geometry\":{\"type\":\"Polygon\",\"coordinates\":[[[8.69,149.41],[8.6903,149.41],[8.6903,149.4102],"
+          "[8.69,149.41]]]}}]}", fp);
+    fclose(fp);
+    assert_null(hz_city_load_footprints(HZ_TEST_TMP "/fp_off.geojson", NULL, &err));
+    print_message("off the Earth: %s\n", err.msg);
+    assert_non_null(strstr(err.msg, "not on the Earth"));
+    /* The UTM zone of a point: 0 for what is no position on the Earth. */
+    assert_int_equal(hz_georef_utm_epsg(8.69, 49.41), 32632);
+    assert_int_equal(hz_georef_utm_epsg(-70.5, -33.4), 32719);
+    assert_int_equal(hz_georef_utm_epsg(180.0, 0.0), 32601);
+    assert_int_equal(hz_georef_utm_epsg(NAN, 10.0), 0);
+    assert_int_equal(hz_georef_utm_epsg(-INFINITY, 10.0), 0);
+    assert_int_equal(hz_georef_utm_epsg(10.0, 91.0), 0);
+    assert_int_equal(hz_georef_utm_epsg(10.0, NAN), 0);
 }
 
 int main(void)
