@@ -154,3 +154,46 @@ put("footprints", "house.gml", FP["gml"] + (
     '477000,5473000 477020,5473000 477010,5473015 477000,5473000</gml:coordinates></gml:LinearRing>'
     '</gml:outerBoundaryIs></gml:Polygon></ogr:geometryProperty><ogr:height>8</ogr:height></ogr:b>'
     '</gml:featureMember></ogr:FeatureCollection>').encode())
+
+# ---- imagery (fuzz_imagery.c): 0 GeoTIFF; 1 PNG, 2 JPEG: then the world file's length and text ----
+def geotiff(w, h, x0, y0, px, epsg, rgb):
+    """A minimal uncompressed RGB GeoTIFF (little-endian, one strip): pixel
+    scale, one tie point at the top-left corner, and a projected CRS key."""
+    pix = bytes(rgb(x, y)[c] for y in range(h) for x in range(w) for c in range(3))
+    entries = []  # (tag, type, count, payload bytes)
+    def e(tag, typ, vals):
+        fmt = {3: "<%dH", 4: "<%dI", 12: "<%dd"}[typ]
+        entries.append((tag, typ, len(vals), struct.pack(fmt % len(vals), *vals)))
+    hdr = 8
+    e(256, 4, [w]); e(257, 4, [h]); e(258, 3, [8, 8, 8]); e(259, 3, [1]); e(262, 3, [2])
+    e(273, 4, [0]); e(277, 3, [3]); e(278, 4, [h]); e(279, 4, [len(pix)]); e(284, 3, [1])
+    e(33550, 12, [px, px, 0.0]); e(33922, 12, [0.0, 0.0, 0.0, x0, y0, 0.0])
+    e(34735, 3, [1, 1, 0, 3, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, epsg])
+    entries.sort()
+    n = len(entries)
+    ifd_size = 2 + 12 * n + 4
+    data_at = hdr + ifd_size
+    extra, ifd = b"", struct.pack("<H", n)
+    strip_at = None
+    for tag, typ, cnt, payload in entries:
+        if len(payload) <= 4:
+            ifd += struct.pack("<HHI", tag, typ, cnt) + payload.ljust(4, b"\0")
+        else:
+            ifd += struct.pack("<HHII", tag, typ, cnt, data_at + len(extra))
+            extra += payload + (b"\0" if len(payload) % 2 else b"")
+    ifd += struct.pack("<I", 0)
+    strip_at = data_at + len(extra)
+    out = b"II*\0" + struct.pack("<I", hdr) + ifd + extra + pix
+    # patch StripOffsets (tag 273) with the strip's position
+    i = out.index(struct.pack("<HHI", 273, 4, 1))
+    return out[:i + 8] + struct.pack("<I", strip_at) + out[i + 12:]
+
+
+colour = lambda x, y: (x * 9 % 256, y * 7 % 256, (x * y) % 256)
+put("imagery", "utm.tif", b"\x00" + geotiff(32, 32, 499995.0, 5200005.0, 20.0, 32632, colour))
+put("imagery", "partial.tif", b"\x00" + geotiff(16, 8, 500200.0, 5199900.0, 5.0, 32632, colour))
+put("imagery", "other_zone.tif", b"\x00" + geotiff(8, 8, 300000.0, 5200000.0, 30.0, 32631, colour))
+wld = b"20.0\n0.0\n0.0\n-20.0\n500005.0\n5199995.0\n"
+rgbpng = png(16, 16, 8, 2, [bytes(v for x in range(16) for v in colour(x, y)) for y in range(16)])
+put("imagery", "world.png", b"\x01" + bytes([len(wld)]) + wld + rgbpng)
+put("imagery", "no_world.png", b"\x01\x00" + rgbpng)

@@ -10,7 +10,7 @@ set -uo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="$(cd "${1:?usage: fuzz.sh BUILD_DIR SECONDS}" && pwd)"
 secs="${2:?usage: fuzz.sh BUILD_DIR SECONDS}"
-targets=(dem hzt path forest_csv view_config view_script pyramid cityjson scene blob footprints)
+targets=(dem hzt path forest_csv view_config view_script pyramid cityjson scene blob footprints imagery)
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 mkdir -p "$build/fuzz-artifacts" "$build/fuzz-logs"

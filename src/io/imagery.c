@@ -18,6 +18,8 @@
 #define DEFAULT_SIDE 8192u
 #define SINGLE_MAX 4096u /* up to this side the overview alone holds the image */
 #define MIN_SIDE 64u
+/* The largest block of the source image read at once (all its bands). */
+#define MAX_BLOCK_BYTES ((uint64_t)256 << 20)
 
 static const char *gdal_msg(const char *fallback)
 {
@@ -194,6 +196,21 @@ hz_result hz_imagery_load(const hz_imagery_desc *d, hz_imagery *out, hz_err *err
                              d->path, b, GDALGetDataTypeName(GDALGetRasterDataType(GDALGetRasterBand(src, b))));
             goto done;
         }
+    /* GDAL reads an image block by block: a file whose blocks are huge (one
+     * compressed strip for the whole image, or a corrupt header claiming
+     * so) would take that much memory at once, whatever the output size. */
+    for (int b = 1; b <= nb; b++) {
+        int bx = 0, by = 0;
+        GDALGetBlockSize(GDALGetRasterBand(src, b), &bx, &by);
+        const uint64_t block = (uint64_t)(bx > 0 ? bx : 1) * (uint64_t)(by > 0 ? by : 1) * (uint64_t)nb;
+        if (block > MAX_BLOCK_BYTES) {
+            res = hz_err_set(err, HZ_ERR_UNSUPPORTED,
+                             "imagery: %s is stored in blocks of %d x %d pixels (%.0f MB each, more than %u MB): "
+                             "re-tile it (gdal_translate -co TILED=YES)",
+                             d->path, bx, by, (double)block / (1 << 20), (unsigned)(MAX_BLOCK_BYTES >> 20));
+            goto done;
+        }
+    }
     double sgt[6];
     const bool has_gt = GDALGetGeoTransform(src, sgt) == CE_None;
     const bool has_gcps = GDALGetGCPCount(src) > 0;
