@@ -143,10 +143,12 @@ static void walk(import_ctx *ic, const struct aiNode *node, struct aiMatrix4x4 p
     struct aiMatrix4x4 m = parent;
     aiMultiplyMatrix4(&m, &node->mTransformation);
     for (unsigned k = 0; k < node->mNumMeshes; k++) {
+        if (node->mMeshes[k] >= ic->sc->mNumMeshes)
+            continue; /* (ValidateDataStructure refuses it already) */
         const struct aiMesh *mesh = ic->sc->mMeshes[node->mMeshes[k]];
         bool leaf = is_leaf(ic, node, mesh);
         tri_soup *s = leaf ? &ic->leaf : &ic->bark;
-        if (leaf && !ic->leaf_rgb_set && ic->sc->mMaterials) {
+        if (leaf && !ic->leaf_rgb_set && ic->sc->mMaterials && mesh->mMaterialIndex < ic->sc->mNumMaterials) {
             struct aiColor4D col;
             if (aiGetMaterialColor(ic->sc->mMaterials[mesh->mMaterialIndex], AI_MATKEY_COLOR_DIFFUSE, &col) ==
                     aiReturn_SUCCESS &&
@@ -157,8 +159,9 @@ static void walk(import_ctx *ic, const struct aiNode *node, struct aiMatrix4x4 p
         }
         for (unsigned f = 0; f < mesh->mNumFaces; f++) {
             const struct aiFace *face = &mesh->mFaces[f];
-            if (face->mNumIndices != 3)
-                continue; /* points and lines */
+            if (face->mNumIndices != 3 || face->mIndices[0] >= mesh->mNumVertices ||
+                face->mIndices[1] >= mesh->mNumVertices || face->mIndices[2] >= mesh->mNumVertices)
+                continue; /* points and lines (and, defensively, indices out of range) */
             uint32_t w[3];
             for (int c = 0; c < 3; c++) {
                 struct aiVector3D v = mesh->mVertices[face->mIndices[c]];
@@ -341,7 +344,10 @@ hz_tree *hz_tree_import(const hz_tree_import_desc *desc, hz_err *err)
     }
     if (hz_mem_check((uint64_t)fst.st_size * 20u, d.max_memory, "import (assimp scene)", err) != HZ_OK)
         return NULL;
-    const struct aiScene *sc = aiImportFile(d.path, aiProcess_Triangulate | aiProcess_SortByPType);
+    /* ValidateDataStructure: some importers (PLY, OFF) pass faces whose
+     * indices lie past the mesh's vertices; the validation refuses them. */
+    const struct aiScene *sc =
+        aiImportFile(d.path, aiProcess_ValidateDataStructure | aiProcess_Triangulate | aiProcess_SortByPType);
     if (!sc || !sc->mRootNode) {
         hz_err_set(err, HZ_ERR_FORMAT, "import: cannot read '%s': %s", d.path, aiGetErrorString());
         if (sc)

@@ -200,9 +200,11 @@ static hz_result load_model_file(hz_scene_file *f, model *m, const char *file)
 {
     char path[1100];
     resolve(f, file, path, sizeof path);
-    const struct aiScene *sc = aiImportFile(path, aiProcess_Triangulate | aiProcess_PreTransformVertices |
-                                                      aiProcess_GenSmoothNormals | aiProcess_JoinIdenticalVertices |
-                                                      aiProcess_SortByPType);
+    /* ValidateDataStructure: some importers (PLY, OFF) pass faces whose
+     * indices lie past the mesh's vertices; the validation refuses them. */
+    const struct aiScene *sc =
+        aiImportFile(path, aiProcess_ValidateDataStructure | aiProcess_Triangulate | aiProcess_PreTransformVertices |
+                               aiProcess_GenSmoothNormals | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType);
     if (!sc)
         return fail(f, HZ_ERR_FORMAT, "cannot read model %s: %s", path, aiGetErrorString());
     uint64_t vc = 0, ic = 0;
@@ -247,10 +249,16 @@ static hz_result load_model_file(hz_scene_file *f, model *m, const char *file)
             }
         }
         for (unsigned fc = 0; fc < am->mNumFaces; fc++) {
-            if (am->mFaces[fc].mNumIndices != 3)
+            const struct aiFace *fa = &am->mFaces[fc];
+            if (fa->mNumIndices != 3)
                 continue;
+            if (fa->mIndices[0] >= am->mNumVertices || fa->mIndices[1] >= am->mNumVertices ||
+                fa->mIndices[2] >= am->mNumVertices) {
+                aiReleaseImport(sc);
+                return fail(f, HZ_ERR_FORMAT, "model %s: a face's vertex index is out of range", path);
+            }
             for (int c = 0; c < 3; c++)
-                m->idx[ni++] = nv + am->mFaces[fc].mIndices[c];
+                m->idx[ni++] = nv + fa->mIndices[c];
         }
         nv += am->mNumVertices;
     }

@@ -666,6 +666,17 @@ static void test_import_obj(void **state)
     assert_int_equal(err.code, HZ_ERR_FORMAT);
     assert_non_null(strstr(err.msg, "petal"));
     assert_null(hz_tree_import(&(hz_tree_import_desc){.path = "/nonexistent.obj"}, &err));
+    /* A leaf mesh whose second face points past its 3 vertices (assimp's
+     * PLY reader passes it on): refused, not read out of bounds. */
+    FILE *ply = fopen(HZ_TEST_TMP "/bad_index_leaf.ply", "w");
+    assert_non_null(ply);
+    fputs("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+          "element face 2\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"
+          "3 0 1 7\n", ply);
+    fclose(ply);
+    assert_null(hz_tree_import(&(hz_tree_import_desc){.path = HZ_TEST_TMP "/bad_index_leaf.ply"}, &err));
+    print_message("bad index: %s\n", err.msg);
+    assert_non_null(strstr(err.msg, "out of range"));
 }
 
 int main(void)

@@ -171,6 +171,15 @@ static void test_malformed(void **state)
     refused("{\"nodes\": [{\"name\": 7}]}", "nodes[0].name: must be a string");
     refused("{\"nodes\": [{\"name\": \"a\", \"name\": \"b\"}]}", "duplicate");
     refused("{\"models\": {\"m\": {\"file\": \"missing.glb\"}}, \"nodes\": []}", "models.m: cannot read model");
+    /* A PLY whose second face points past its 3 vertices (assimp's PLY
+     * reader passes it on): refused, not read out of bounds. */
+    FILE *ply = fopen(HZ_TEST_TMP "/bad_index.ply", "w");
+    assert_non_null(ply);
+    fputs("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+          "element face 2\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"
+          "3 0 1 7\n", ply);
+    fclose(ply);
+    refused("{\"models\": {\"m\": {\"file\": \"bad_index.ply\"}}, \"nodes\": []}", "out of range");
     refused("{\"models\": {\"m\": {\"box\": [1, 1, 1], \"file\": \"x.obj\"}}, \"nodes\": []}", "exactly one of");
     refused("{\"models\": {\"m\": {\"box\": [1, -1, 1]}}, \"nodes\": []}", "models.m.box[1]: must be in");
     refused("{\"materials\": {\"m\": {\"color\": [2, 0, 0]}}, \"nodes\": []}", "materials.m.color[0]: must be in [0, 1]");
