@@ -4,17 +4,10 @@
  * detects: GeoJSON, CSV with a WKT column, KML or GML. A file loads with
  * every triangle's vertices in range and finite coordinates, or it is
  * refused with a message. */
-#include <math.h>
 #include <string.h>
 
 #include "fuzz_util.h"
-#include "horizon/city.h"
-
-static float flat(void *user, float x, float z)
-{
-    (void)user;
-    return 0.01f * x - 0.02f * z;
-}
+#include "fuzz_city.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
@@ -32,26 +25,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         unlink(path);
         return 0;
     }
-    for (uint32_t t = 0; t < 3 * c->tri_count; t++)
-        if (c->tris[t] >= c->vert_count)
-            abort();
-    for (uint32_t t = 0; t < c->tri_count; t++)
-        if (c->tri_kind[t] >= HZ_SURF_KINDS)
-            abort();
-    for (uint32_t v = 0; v < 3 * c->vert_count; v++)
-        if (!isfinite(c->verts[v]))
-            abort();
-    hz_scene *s = hz_scene_create(NULL);
-    hz_city_placed pl;
-    hz_city_place p = {.origin = {c->extent[0], c->extent[4]}, .ground = flat};
-    if (hz_city_to_scene(c, s, &p, &pl, &err) != HZ_OK) {
-        if (!err.msg[0])
-            abort();
-    } else {
-        hz_scene_update(s);
-    }
-    hz_scene_destroy(s);
-    hz_city_destroy(c);
+    fuzz_city_check(c);
     unlink(path);
     return 0;
 }
