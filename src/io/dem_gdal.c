@@ -78,9 +78,34 @@ static const char *const *drivers_for(const char *name)
     return NULL;
 }
 
-static GDALDatasetH open_raster(const char *name)
+/* The largest block of band 1 GDAL may read at once. */
+#define MAX_BLOCK_BYTES ((uint64_t)256 << 20)
+
+/* Opens name, or NULL with err set. GDAL reads a raster block by block: a
+ * file whose blocks are huge (one compressed strip for a whole large DEM,
+ * or a corrupt header claiming so) is refused before any is read. */
+static GDALDatasetH open_raster(const char *name, hz_err *err)
 {
-    return GDALOpenEx(name, GDAL_OF_RASTER | GDAL_OF_READONLY, drivers_for(name), NULL, NULL);
+    GDALDatasetH ds = GDALOpenEx(name, GDAL_OF_RASTER | GDAL_OF_READONLY, drivers_for(name), NULL, NULL);
+    if (!ds) {
+        hz_err_set(err, HZ_ERR_FORMAT, "'%s': %s", name, gdal_msg("GDAL cannot read it"));
+        return NULL;
+    }
+    GDALRasterBandH b = GDALGetRasterCount(ds) > 0 ? GDALGetRasterBand(ds, 1) : NULL;
+    int bx = 0, by = 0;
+    if (b)
+        GDALGetBlockSize(b, &bx, &by);
+    const uint64_t bytes = (uint64_t)(bx > 0 ? bx : 1) * (uint64_t)(by > 0 ? by : 1) *
+                           (uint64_t)(b ? GDALGetDataTypeSizeBytes(GDALGetRasterDataType(b)) : 1);
+    if (bytes > MAX_BLOCK_BYTES) {
+        hz_err_set(err, HZ_ERR_UNSUPPORTED,
+                   "'%s' is stored in blocks of %d x %d samples (%.0f MB each, more than %u MB): re-tile it "
+                   "(gdal_translate -co TILED=YES)",
+                   name, bx, by, (double)bytes / (1 << 20), (unsigned)(MAX_BLOCK_BYTES >> 20));
+        GDALClose(ds);
+        return NULL;
+    }
+    return ds;
 }
 
 static bool identifies(const char *path)
@@ -215,20 +240,14 @@ static int CPL_STDCALL gdal_progress(double done, const char *msg, void *user)
 
 static GDALDatasetH open_inputs(const name_list *l, hz_err *err)
 {
-    if (l->n == 1) {
-        GDALDatasetH ds = open_raster(l->v[0]);
-        if (!ds)
-            hz_err_set(err, HZ_ERR_FORMAT, "'%s': %s", l->v[0], gdal_msg("GDAL cannot read it"));
-        return ds;
-    }
+    if (l->n == 1)
+        return open_raster(l->v[0], err);
     /* Every input must open on its own first: a clear message naming the
      * broken file instead of a hole in the mosaic. */
     for (uint32_t k = 0; k < l->n; k++) {
-        GDALDatasetH ds = open_raster(l->v[k]);
-        if (!ds) {
-            hz_err_set(err, HZ_ERR_FORMAT, "'%s': %s", l->v[k], gdal_msg("GDAL cannot read it"));
+        GDALDatasetH ds = open_raster(l->v[k], err);
+        if (!ds)
             return NULL;
-        }
         GDALClose(ds);
     }
     char *argv[] = {"-resolution", "highest", NULL};
@@ -485,7 +504,7 @@ hz_result hz_io_gdal_load(const hz_dem_desc *d, hz_grid *out, hz_dem_info *info,
         goto done;
     src = open_inputs(&inputs, err);
     if (!src) {
-        r = HZ_ERR_FORMAT;
+        r = err && err->code ? err->code : HZ_ERR_FORMAT;
         goto done;
     }
     const char *label = inputs.n == 1 ? inputs.v[0] : "mosaic";

@@ -371,3 +371,64 @@ void fx_free_cases(fx_case *cases, size_t n)
         free(cases[i].z);
     free(cases);
 }
+
+bool fx_write_tiff_claim(const char *path, uint32_t w, uint32_t h, uint16_t bands, uint16_t bits,
+                         uint16_t sample_format, uint16_t compression, double x0, double y0, double px, uint16_t epsg)
+{
+    uint8_t b[512] = {'I', 'I', 42, 0, 8, 0, 0, 0};
+    size_t at = 8, extra = 8 + 2 + 16 * 12 + 4;
+    const struct {
+        uint16_t tag, type;
+        uint32_t count;
+        double d[6];
+        uint32_t u[16];
+    } e[] = {
+        {256, 4, 1, {0}, {w}},
+        {257, 4, 1, {0}, {h}},
+        {258, 3, bands, {0}, {bits, bits, bits, bits}},
+        {259, 3, 1, {0}, {compression}},
+        {262, 3, 1, {0}, {bands >= 3 ? 2u : 1u}},
+        {273, 4, 1, {0}, {0}},
+        {277, 3, 1, {0}, {bands}},
+        {278, 4, 1, {0}, {h}},
+        {279, 4, 1, {0}, {12}},
+        {284, 3, 1, {0}, {1}},
+        {339, 3, bands, {0}, {sample_format, sample_format, sample_format, sample_format}},
+        {33550, 12, 3, {px, px, 0}, {0}},
+        {33922, 12, 6, {0, 0, 0, x0, y0, 0}, {0}},
+        {34735, 3, 16, {0}, {1, 1, 0, 3, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, epsg}},
+    };
+    const uint16_t n = sizeof e / sizeof *e;
+    if (bands < 1 || bands > 4)
+        return false;
+    memcpy(b + at, &n, 2);
+    at += 2;
+    size_t strip_entry = 0;
+    for (uint16_t k = 0; k < n; k++) {
+        memcpy(b + at, &e[k].tag, 2), memcpy(b + at + 2, &e[k].type, 2), memcpy(b + at + 4, &e[k].count, 4);
+        const size_t sz = e[k].type == 12 ? 8 : e[k].type == 4 ? 4 : 2, len = sz * e[k].count;
+        uint8_t *dst = len <= 4 ? b + at + 8 : b + extra;
+        for (uint32_t i = 0; i < e[k].count; i++) {
+            if (e[k].type == 12) {
+                memcpy(dst + 8 * i, &e[k].d[i], 8);
+            } else if (e[k].type == 4) {
+                memcpy(dst + 4 * i, &e[k].u[i], 4);
+            } else {
+                const uint16_t v = (uint16_t)e[k].u[i];
+                memcpy(dst + 2 * i, &v, 2);
+            }
+        }
+        if (len > 4) {
+            const uint32_t off = (uint32_t)extra;
+            memcpy(b + at + 8, &off, 4);
+            extra += len;
+        }
+        if (e[k].tag == 273)
+            strip_entry = at + 8;
+        at += 12;
+    }
+    const uint32_t strip = (uint32_t)extra;
+    memcpy(b + strip_entry, &strip, 4);
+    extra += 12; /* 12 bytes of data (zeros), whatever is claimed */
+    return extra <= sizeof b && fx_write(path, b, extra);
+}

@@ -29,6 +29,14 @@ bool fx_write_png(const char *path, uint32_t w, uint32_t h, int depth, int color
 bool fx_write_png_palette(const char *path, uint32_t w, uint32_t h, int depth, const uint8_t *indices,
                           const uint8_t *rgb, int n);
 
+/* A GeoTIFF header (little-endian, one strip) claiming a w x h raster of
+ * `bands` samples of `bits` bits (sample_format 1 unsigned, 3 float) with
+ * `compression` (1 none, 8 deflate), in EPSG:epsg with its top-left corner at
+ * (x0, y0) and square pixels of `px`, followed by only 12 bytes of data: a
+ * file whose size has nothing to do with what it claims. */
+bool fx_write_tiff_claim(const char *path, uint32_t w, uint32_t h, uint16_t bands, uint16_t bits,
+                         uint16_t sample_format, uint16_t compression, double x0, double y0, double px, uint16_t epsg);
+
 /* Terrarium encoding of a height in metres. */
 void fx_terrarium(float h, uint8_t rgb[3]);
 

@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "horizon/imagery.h"
+#include "io_fixtures.h"
 
 #define SAMPLES 513u
 #define SPACING 10.0
@@ -185,62 +186,9 @@ static void test_partial_transparent(void **state)
     unlink(path);
 }
 
-/* A GeoTIFF header claiming a 2^28-pixel-wide RGB image in one strip,
- * with 12 bytes of pixel data: GDAL would read it in blocks of a row
- * (805 MB), which must be refused before any is allocated. */
-static void write_wide_tiff(const char *path)
-{
-    uint8_t b[512] = {'I', 'I', 42, 0, 8, 0, 0, 0};
-    size_t at = 8, extra = 8 + 2 + 16 * 12 + 4;
-    const struct {
-        uint16_t tag, type;
-        uint32_t count;
-        double d[6];
-        uint32_t u[16];
-    } e[] = {
-        {256, 4, 1, {0}, {1u << 28}}, {257, 4, 1, {0}, {4}},   {258, 3, 3, {0}, {8, 8, 8}}, {259, 3, 1, {0}, {1}},
-        {262, 3, 1, {0}, {2}},        {273, 4, 1, {0}, {0}},   {277, 3, 1, {0}, {3}},       {278, 4, 1, {0}, {4}},
-        {279, 4, 1, {0}, {12}},       {284, 3, 1, {0}, {1}},   {33550, 12, 3, {1, 1, 0}, {0}},
-        {33922, 12, 6, {0, 0, 0, 499995, 5200005, 0}, {0}},
-        {34735, 3, 16, {0}, {1, 1, 0, 3, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, 32632}},
-    };
-    const uint16_t n = sizeof e / sizeof *e;
-    memcpy(b + at, &n, 2);
-    at += 2;
-    size_t strip_entry = 0;
-    for (uint16_t k = 0; k < n; k++) {
-        memcpy(b + at, &e[k].tag, 2), memcpy(b + at + 2, &e[k].type, 2), memcpy(b + at + 4, &e[k].count, 4);
-        const size_t sz = e[k].type == 12 ? 8 : e[k].type == 4 ? 4 : 2, len = sz * e[k].count;
-        uint8_t *dst = len <= 4 ? b + at + 8 : b + extra;
-        for (uint32_t i = 0; i < e[k].count; i++) {
-            if (e[k].type == 12)
-                memcpy(dst + 8 * i, &e[k].d[i], 8);
-            else if (e[k].type == 4)
-                memcpy(dst + 4 * i, &e[k].u[i], 4);
-            else {
-                const uint16_t v = (uint16_t)e[k].u[i];
-                memcpy(dst + 2 * i, &v, 2);
-            }
-        }
-        if (len > 4) {
-            const uint32_t off = (uint32_t)extra;
-            memcpy(b + at + 8, &off, 4);
-            extra += len;
-        }
-        if (e[k].tag == 273)
-            strip_entry = at + 8;
-        at += 12;
-    }
-    at += 4; /* no next IFD */
-    const uint32_t strip = (uint32_t)extra;
-    memcpy(b + strip_entry, &strip, 4);
-    extra += 12;
-    FILE *f = fopen(path, "wb");
-    assert_non_null(f);
-    assert_int_equal(fwrite(b, 1, extra, f), extra);
-    fclose(f);
-}
-
+/* A GeoTIFF claiming a 2^28-pixel-wide RGB image in one uncompressed strip:
+ * GDAL would read it in blocks of a row (768 MB), which must be refused
+ * before any is allocated. */
 static void test_huge_blocks_refused(void **state)
 {
     (void)state;
@@ -248,7 +196,7 @@ static void test_huge_blocks_refused(void **state)
     hz_georef *geo = terrain_georef(gt);
     char path[320];
     snprintf(path, sizeof path, "%s/wide.tif", dir);
-    write_wide_tiff(path);
+    assert_true(fx_write_tiff_claim(path, 1u << 28, 4, 3, 8, 1, 1, 499995, 5200005, 1, 32632));
     hz_imagery_desc d = {.path = path, .target = geo, .samples = SAMPLES, .spacing = SPACING, .max_side = 256};
     hz_imagery im;
     hz_err err = {0};

@@ -680,6 +680,14 @@ void test_gdal_broken(void **state)
     assert_int_not_equal(hz_dem_load(&(hz_dem_desc){.path = tmp("N11E010.hgt.gz")}, &g, NULL, &err), HZ_OK);
     print_message("netCDF named .hgt.gz: %s\n", err.msg);
     assert_null(g.z);
+    /* A 40000 x 40000 float DEM in one deflated strip, 700 bytes of file: GDAL
+     * would read the strip as one 6 GB block. Refused before reading. */
+    assert_true(fx_write_tiff_claim(tmp("one_strip.tif"), 40000, 40000, 1, 32, 3, 8, 400000, 5000000, 30, 32632));
+    hz_result one = hz_dem_load(&(hz_dem_desc){.path = tmp("one_strip.tif")}, &g, NULL, &err);
+    print_message("one strip: %s\n", err.msg);
+    assert_int_equal(one, HZ_ERR_UNSUPPORTED);
+    assert_null(g.z);
+    assert_non_null(strstr(err.msg, "re-tile"));
     /* A missing input of a mosaic. */
     const char *missing[] = {HZ_DATA_DIR "/N46E008.tif", tmp("nope.tif")};
     assert_int_equal(hz_dem_load(&(hz_dem_desc){.paths = missing, .path_count = 2}, &g, NULL, &err), HZ_ERR_IO);
