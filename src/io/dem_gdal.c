@@ -3,6 +3,7 @@
  * reprojection of geographic (or rotated, or non-square) grids to a metric
  * CRS with square cells (GDALWarp). The georeference goes to hz_georef. */
 #include "io_internal.h"
+#include "gdal_util.h"
 
 #include "horizon/safety.h"
 
@@ -22,17 +23,6 @@
 /* Folders with more rasters than this are refused (a typo'd root folder). */
 #define HZ_GDAL_MAX_FILES 100000u
 
-static void gdal_init(void)
-{
-    hz_io_gdal_setup();
-}
-
-/* The last GDAL error, or a fallback. */
-static const char *gdal_msg(const char *fallback)
-{
-    const char *m = CPLGetLastErrorMsg();
-    return m && m[0] ? m : fallback;
-}
 
 static bool ends_with(const char *s, const char *suffix)
 {
@@ -78,30 +68,17 @@ static const char *const *drivers_for(const char *name)
     return NULL;
 }
 
-/* The largest block of band 1 GDAL may read at once. */
-#define MAX_BLOCK_BYTES ((uint64_t)256 << 20)
-
-/* Opens name, or NULL with err set. GDAL reads a raster block by block: a
- * file whose blocks are huge (one compressed strip for a whole large DEM,
- * or a corrupt header claiming so) is refused before any is read. */
+/* Opens name (band 1 is what a DEM reads), or NULL with err set. */
 static GDALDatasetH open_raster(const char *name, hz_err *err)
 {
     GDALDatasetH ds = GDALOpenEx(name, GDAL_OF_RASTER | GDAL_OF_READONLY, drivers_for(name), NULL, NULL);
     if (!ds) {
-        hz_err_set(err, HZ_ERR_FORMAT, "'%s': %s", name, gdal_msg("GDAL cannot read it"));
+        hz_err_set(err, HZ_ERR_FORMAT, "'%s': %s", name, hz_io_gdal_msg("GDAL cannot read it"));
         return NULL;
     }
-    GDALRasterBandH b = GDALGetRasterCount(ds) > 0 ? GDALGetRasterBand(ds, 1) : NULL;
-    int bx = 0, by = 0;
-    if (b)
-        GDALGetBlockSize(b, &bx, &by);
-    const uint64_t bytes = (uint64_t)(bx > 0 ? bx : 1) * (uint64_t)(by > 0 ? by : 1) *
-                           (uint64_t)(b ? GDALGetDataTypeSizeBytes(GDALGetRasterDataType(b)) : 1);
-    if (bytes > MAX_BLOCK_BYTES) {
-        hz_err_set(err, HZ_ERR_UNSUPPORTED,
-                   "'%s' is stored in blocks of %d x %d samples (%.0f MB each, more than %u MB): re-tile it "
-                   "(gdal_translate -co TILED=YES)",
-                   name, bx, by, (double)bytes / (1 << 20), (unsigned)(MAX_BLOCK_BYTES >> 20));
+    char label[4200];
+    snprintf(label, sizeof label, "'%s'", name);
+    if (hz_io_gdal_blocks_ok(ds, 1, label, err) != HZ_OK) {
         GDALClose(ds);
         return NULL;
     }
@@ -129,7 +106,7 @@ bool hz_io_gdal_wants(const char *path)
 {
     if (!path)
         return false;
-    gdal_init();
+    hz_io_gdal_setup();
     if (is_dir(path))
         return true;
     /* Raw layouts without a header are ours; gzip only for SRTM tiles. */
@@ -257,7 +234,7 @@ static GDALDatasetH open_inputs(const name_list *l, hz_err *err)
     GDALBuildVRTOptionsFree(o);
     if (!vrt)
         hz_err_set(err, HZ_ERR_FORMAT, "cannot mosaic %u inputs (%s ...): %s", l->n, l->v[0],
-                   gdal_msg("GDALBuildVRT failed"));
+                   hz_io_gdal_msg("GDALBuildVRT failed"));
     return vrt;
 }
 
@@ -287,7 +264,7 @@ static hz_result target_crs(const hz_dem_desc *d, const hz_georef *src, char **o
     hz_result r = HZ_OK;
     if (d->crs) {
         if (OSRSetFromUserInput(t, d->crs) != OGRERR_NONE)
-            r = hz_err_set(err, HZ_ERR_VALUE, "--crs '%s': unknown CRS (%s)", d->crs, gdal_msg("PROJ does not know it"));
+            r = hz_err_set(err, HZ_ERR_VALUE, "--crs '%s': unknown CRS (%s)", d->crs, hz_io_gdal_msg("PROJ does not know it"));
         else if (!OSRIsProjected(t))
             r = hz_err_set(err, HZ_ERR_VALUE,
                            "--crs '%s' is not a projected CRS: the terrain needs metres (e.g. a UTM zone, EPSG:326zz)",
@@ -308,7 +285,7 @@ static hz_result target_crs(const hz_dem_desc *d, const hz_georef *src, char **o
             r = hz_err_set(err, HZ_ERR_VALUE, "the raster's centre (lon %g, lat %g) is not on the Earth: no UTM zone",
                            lon, lat);
         else if (OSRImportFromEPSG(t, epsg) != OGRERR_NONE)
-            r = hz_err_set(err, HZ_ERR_VALUE, "cannot set up EPSG:%d (%s)", epsg, gdal_msg("PROJ database?"));
+            r = hz_err_set(err, HZ_ERR_VALUE, "cannot set up EPSG:%d (%s)", epsg, hz_io_gdal_msg("PROJ database?"));
     }
     if (r == HZ_OK && OSRExportToWkt(t, out) != OGRERR_NONE)
         r = hz_err_set(err, HZ_ERR_VALUE, "cannot export the target CRS");
@@ -383,7 +360,7 @@ static GDALDatasetH warp(const hz_dem_desc *d, GDALDatasetH src, const hz_georef
     GDALWarpAppOptions *o = GDALWarpAppOptionsNew(argv, NULL);
     if (!o) {
         CPLFree(wkt);
-        hz_err_set(err, HZ_ERR_VALUE, "GDALWarp options: %s", gdal_msg("invalid"));
+        hz_err_set(err, HZ_ERR_VALUE, "GDALWarp options: %s", hz_io_gdal_msg("invalid"));
         return NULL;
     }
     prog->label = "reproject";
@@ -396,7 +373,7 @@ static GDALDatasetH warp(const hz_dem_desc *d, GDALDatasetH src, const hz_georef
     GDALWarpAppOptionsFree(o);
     CPLFree(wkt);
     if (!out)
-        hz_err_set(err, HZ_ERR_FORMAT, "reprojection failed: %s", gdal_msg("GDALWarp failed"));
+        hz_err_set(err, HZ_ERR_FORMAT, "reprojection failed: %s", hz_io_gdal_msg("GDALWarp failed"));
     return out;
 }
 
@@ -442,7 +419,7 @@ static hz_result read_band(GDALDatasetH ds, const char *label, hz_grid *g, uint6
         if (GDALRasterIO(b, GF_Read, 0, y, w, n, dst, w, n, GDT_Float32, 0, 0) != CE_None) {
             hz_grid_free(g);
             return hz_err_set(err, HZ_ERR_FORMAT, "'%s': cannot read rows %d..%d: %s", label, y, y + n - 1,
-                              gdal_msg("corrupt or truncated"));
+                              hz_io_gdal_msg("corrupt or truncated"));
         }
         for (size_t k = 0; k < (size_t)n * (size_t)w; k++) {
             float v = dst[k];
@@ -484,7 +461,7 @@ static uint64_t count_nodata(GDALDatasetH ds, bool *ok)
 hz_result hz_io_gdal_load(const hz_dem_desc *d, hz_grid *out, hz_dem_info *info, char *units, size_t units_cap,
                           hz_err *err)
 {
-    gdal_init();
+    hz_io_gdal_setup();
     out->z = NULL;
     out->width = out->height = 0;
     units[0] = 0;
@@ -534,7 +511,7 @@ hz_result hz_io_gdal_load(const hz_dem_desc *d, hz_grid *out, hz_dem_info *info,
         bool ok = true;
         info->file_voids = count_nodata(src, &ok);
         if (!ok) {
-            r = hz_err_set(err, HZ_ERR_FORMAT, "'%s': cannot read: %s", label, gdal_msg("corrupt or truncated"));
+            r = hz_err_set(err, HZ_ERR_FORMAT, "'%s': cannot read: %s", label, hz_io_gdal_msg("corrupt or truncated"));
             goto done;
         }
         warped = warp(d, src, g, &s, &prog, "MEM", err);
@@ -587,7 +564,7 @@ struct hz_io_src {
 
 hz_result hz_io_src_open(const hz_dem_desc *d, hz_io_src **out, hz_err *err)
 {
-    gdal_init();
+    hz_io_gdal_setup();
     /* Windows are read once each: GDAL's block cache need not grow to its
      * default (5 % of RAM) and would only raise the import's footprint. */
     if (GDALGetCacheMax64() > ((GIntBig)128 << 20))
@@ -697,7 +674,7 @@ hz_result hz_io_src_read(hz_io_src *s, uint32_t x0, uint32_t y0, uint32_t w, uin
     CPLPopErrorHandler();
     if (e != CE_None)
         return hz_err_set(err, HZ_ERR_FORMAT, "'%s': cannot read rows %u..%u: %s", s->label, y0, y0 + h - 1,
-                          gdal_msg("corrupt or truncated"));
+                          hz_io_gdal_msg("corrupt or truncated"));
     const float ndf = (float)s->nd;
     for (size_t k = 0; k < (size_t)w * h; k++) {
         float v = out[k];
@@ -717,7 +694,7 @@ hz_result hz_io_src_range(hz_io_src *s, double *lo, double *hi, hz_err *err)
     CPLPopErrorHandler();
     if (e != CE_None || !isfinite(mm[0]) || !isfinite(mm[1]))
         return hz_err_set(err, HZ_ERR_FORMAT, "'%s': cannot compute its height range: %s", s->label,
-                          gdal_msg("no sample with data?"));
+                          hz_io_gdal_msg("no sample with data?"));
     *lo = mm[0] * s->scale + s->off;
     *hi = mm[1] * s->scale + s->off;
     if (*lo > *hi) {

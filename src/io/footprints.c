@@ -2,7 +2,7 @@
  * hz_city so they place, draw and pick like CityJSON buildings. */
 #define _GNU_SOURCE
 #include "horizon/city.h"
-#include "io_internal.h"
+#include "gdal_util.h"
 
 #include <float.h>
 #include <jansson.h>

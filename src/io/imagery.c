@@ -3,7 +3,7 @@
  * in the terrain's CRS; the warped VRT is read tile by tile, so memory is the
  * output, never the source. See horizon/imagery.h. */
 #include "horizon/imagery.h"
-#include "io_internal.h"
+#include "gdal_util.h"
 
 #include <cpl_conv.h>
 #include <cpl_error.h>
@@ -18,14 +18,6 @@
 #define DEFAULT_SIDE 8192u
 #define SINGLE_MAX 4096u /* up to this side the overview alone holds the image */
 #define MIN_SIDE 64u
-/* The largest block of the source image read at once (all its bands). */
-#define MAX_BLOCK_BYTES ((uint64_t)256 << 20)
-
-static const char *gdal_msg(const char *fallback)
-{
-    const char *m = CPLGetLastErrorMsg();
-    return m && m[0] ? m : fallback;
-}
 
 uint64_t hz_imagery_bytes(uint32_t side)
 {
@@ -65,14 +57,14 @@ static GDALDatasetH warp_vrt(GDALDatasetH src, char **args, hz_err *err)
 {
     GDALWarpAppOptions *o = GDALWarpAppOptionsNew(args, NULL);
     if (!o) {
-        hz_err_set(err, HZ_ERR_VALUE, "imagery: GDALWarp options: %s", gdal_msg("invalid"));
+        hz_err_set(err, HZ_ERR_VALUE, "imagery: GDALWarp options: %s", hz_io_gdal_msg("invalid"));
         return NULL;
     }
     int usage = 0;
     GDALDatasetH out = GDALWarp("", NULL, 1, &src, o, &usage);
     GDALWarpAppOptionsFree(o);
     if (!out)
-        hz_err_set(err, HZ_ERR_FORMAT, "imagery: reprojection failed: %s", gdal_msg("GDALWarp failed"));
+        hz_err_set(err, HZ_ERR_FORMAT, "imagery: reprojection failed: %s", hz_io_gdal_msg("GDALWarp failed"));
     return out;
 }
 
@@ -82,14 +74,14 @@ static GDALDatasetH expand_palette(GDALDatasetH src, hz_err *err)
     char *args[] = {"-of", "VRT", "-expand", "rgba", NULL};
     GDALTranslateOptions *o = GDALTranslateOptionsNew(args, NULL);
     if (!o) {
-        hz_err_set(err, HZ_ERR_VALUE, "imagery: palette expansion: %s", gdal_msg("invalid"));
+        hz_err_set(err, HZ_ERR_VALUE, "imagery: palette expansion: %s", hz_io_gdal_msg("invalid"));
         return NULL;
     }
     int usage = 0;
     GDALDatasetH out = GDALTranslate("", src, o, &usage);
     GDALTranslateOptionsFree(o);
     if (!out)
-        hz_err_set(err, HZ_ERR_FORMAT, "imagery: palette expansion failed: %s", gdal_msg("GDALTranslate failed"));
+        hz_err_set(err, HZ_ERR_FORMAT, "imagery: palette expansion failed: %s", hz_io_gdal_msg("GDALTranslate failed"));
     return out;
 }
 
@@ -103,7 +95,7 @@ static hz_result read_window(GDALDatasetH ds, const int bands[4], uint32_t side,
     const int w = (int)(cx1 - cx0), h = (int)(cy1 - cy0);
     if (GDALDatasetRasterIO(ds, GF_Read, (int)cx0, (int)cy0, w, h, tmp, w, h, GDT_Byte, 4, (int *)bands, 4,
                             (GSpacing)4 * w, 1) != CE_None)
-        return hz_err_set(err, HZ_ERR_IO, "imagery: read failed: %s", gdal_msg("RasterIO failed"));
+        return hz_err_set(err, HZ_ERR_IO, "imagery: read failed: %s", hz_io_gdal_msg("RasterIO failed"));
     for (uint32_t j = 0; j < n; j++) {
         int64_t sy = y0 + j < cy0 ? cy0 : (y0 + j >= cy1 ? cy1 - 1 : y0 + j);
         const uint8_t *row = tmp + (size_t)(sy - cy0) * (size_t)w * 4;
@@ -180,7 +172,7 @@ hz_result hz_imagery_load(const hz_imagery_desc *d, hz_imagery *out, hz_err *err
     uint8_t *tmp = NULL;
     if (!src) {
         res = hz_err_set(err, HZ_ERR_FORMAT, "imagery: %s is not an image GDAL reads: %s", d->path,
-                         gdal_msg("unknown format"));
+                         hz_io_gdal_msg("unknown format"));
         goto done;
     }
     const int nb = GDALGetRasterCount(src);
@@ -196,20 +188,12 @@ hz_result hz_imagery_load(const hz_imagery_desc *d, hz_imagery *out, hz_err *err
                              d->path, b, GDALGetDataTypeName(GDALGetRasterDataType(GDALGetRasterBand(src, b))));
             goto done;
         }
-    /* GDAL reads an image block by block: a file whose blocks are huge (one
-     * compressed strip for the whole image, or a corrupt header claiming
-     * so) would take that much memory at once, whatever the output size. */
-    for (int b = 1; b <= nb; b++) {
-        int bx = 0, by = 0;
-        GDALGetBlockSize(GDALGetRasterBand(src, b), &bx, &by);
-        const uint64_t block = (uint64_t)(bx > 0 ? bx : 1) * (uint64_t)(by > 0 ? by : 1) * (uint64_t)nb;
-        if (block > MAX_BLOCK_BYTES) {
-            res = hz_err_set(err, HZ_ERR_UNSUPPORTED,
-                             "imagery: %s is stored in blocks of %d x %d pixels (%.0f MB each, more than %u MB): "
-                             "re-tile it (gdal_translate -co TILED=YES)",
-                             d->path, bx, by, (double)block / (1 << 20), (unsigned)(MAX_BLOCK_BYTES >> 20));
+    {
+        char label[1100];
+        snprintf(label, sizeof label, "imagery: %s", d->path);
+        res = hz_io_gdal_blocks_ok(src, nb, label, err);
+        if (res != HZ_OK)
             goto done;
-        }
     }
     double sgt[6];
     const bool has_gt = GDALGetGeoTransform(src, sgt) == CE_None;

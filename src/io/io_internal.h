@@ -34,10 +34,6 @@ hz_result hz_io_png_decode(const char *path, const uint8_t *data, size_t size, h
                            bool name_terrarium, hz_io_progress *prog, hz_grid *g, hz_png_result *res,
                            hz_err *err);
 
-/* Registers GDAL's drivers and sets what our readers need (gdal_setup.c):
- * no side files written beside the inputs. Call before any GDAL read. */
-void hz_io_gdal_setup(void);
-
 /* True if auto detection should hand path to GDAL: a folder, or a file a GDAL
  * driver other than PNG identifies (raw .r16/.r32/.raw and non-SRTM .gz stay ours). */
 bool hz_io_gdal_wants(const char *path);
