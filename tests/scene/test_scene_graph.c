@@ -451,6 +451,98 @@ static void test_occlusion(void **state)
     hz_occlusion_free(&o);
 }
 
+
+/* Signed distance in cells from point (x, y) to the inside of the convex
+ * screen polygon s (n vertices, either winding): > 0 inside. */
+static double poly_margin(const double s[4][2], int n, double x, double y)
+{
+    double area = 0;
+    for (int k = 0; k < n; k++)
+        area += s[k][0] * s[(k + 1) % n][1] - s[(k + 1) % n][0] * s[k][1];
+    double m = INFINITY;
+    for (int k = 0; k < n; k++) {
+        const double *a = s[k], *b = s[(k + 1) % n];
+        double ex = b[0] - a[0], ey = b[1] - a[1], len = sqrt(ex * ex + ey * ey);
+        double e = (ex * (y - a[1]) - ey * (x - a[0])) / len * (area > 0 ? 1 : -1);
+        m = fmin(m, e);
+    }
+    return m;
+}
+
+/* G4, the rasteriser against a brute-force reference: for random triangles
+ * and rectangles in front of the camera, a cell is written exactly when its
+ * four corners lie inside the polygon's projection (cells within 1e-3 of an
+ * edge may go either way), at the polygon's farthest depth; nothing else. */
+static void test_occlusion_raster_exact(void **state)
+{
+    (void)state;
+    hz_occlusion o;
+    assert_true(hz_occlusion_init(&o, 160, 90));
+    hz_camera cam = {.pos = {0, 0, 0}, .fov_y = 60, .aspect = 16.0f / 9.0f, .znear = 0.5f, .zfar = 1000};
+    uint32_t rng = 12345, written = 0;
+    for (int t = 0; t < 400; t++) {
+        const int n = t & 1 ? 4 : 3;
+        float p[12];
+        float c[3], u[3], v[3];
+        for (int a = 0; a < 3; a++) {
+            rng = rng * 1664525u + 1013904223u;
+            c[a] = (float)(rng >> 8) / 16777216.0f;
+            rng = rng * 1664525u + 1013904223u;
+            u[a] = (float)(rng >> 8) / 16777216.0f - 0.5f;
+            rng = rng * 1664525u + 1013904223u;
+            v[a] = (float)(rng >> 8) / 16777216.0f - 0.5f;
+        }
+        /* centre 2-40 m ahead, within the view; edges up to 16 m */
+        const float z = -2.0f - 38.0f * c[2];
+        const float cx = (c[0] - 0.5f) * 1.6f * -z, cy = (c[1] - 0.5f) * 0.9f * -z;
+        for (int a = 0; a < 3; a++) {
+            u[a] *= 16.0f;
+            v[a] *= 16.0f;
+        }
+        const float corner[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+        for (int k = 0; k < n; k++) {
+            float fu = n == 4 ? corner[k][0] : (k == 0 ? 0.0f : (k == 1 ? 1.0f : 0.0f));
+            float fv = n == 4 ? corner[k][1] : (k == 2 ? 1.0f : (k == 0 ? -0.5f : 0.3f));
+            p[3 * k] = cx + fu * u[0] + fv * v[0];
+            p[3 * k + 1] = cy + fu * u[1] + fv * v[1];
+            p[3 * k + 2] = z + fu * u[2] + fv * v[2];
+        }
+        hz_occlusion_begin(&o, &cam);
+        double sc[4][2], dmax = 0;
+        bool front = true;
+        for (int k = 0; k < n; k++) {
+            double cl[4];
+            for (int r = 0; r < 4; r++)
+                cl[r] = o.viewproj[0][r] * p[3 * k] + o.viewproj[1][r] * p[3 * k + 1] +
+                        o.viewproj[2][r] * p[3 * k + 2] + o.viewproj[3][r];
+            front = front && cl[3] >= cam.znear;
+            sc[k][0] = (cl[0] / cl[3] * 0.5 + 0.5) * o.w;
+            sc[k][1] = (cl[1] / cl[3] * 0.5 + 0.5) * o.h;
+            dmax = fmax(dmax, cl[3]);
+        }
+        if (n == 3)
+            hz_occlusion_rasterize(&o, p, 1, NULL);
+        else
+            hz_occlusion_rasterize_quads(&o, p, 1, NULL);
+        for (uint32_t j = 0; j < o.h; j++)
+            for (uint32_t i = 0; i < o.w; i++) {
+                double m = INFINITY;
+                for (int k = 0; k < 4; k++)
+                    m = fmin(m, poly_margin(sc, n, (double)(i + (k & 1)), (double)(j + (k >> 1))));
+                const float d = o.depth[(size_t)j * o.w + i];
+                if (!front || m < -1e-3) {
+                    assert_true(isinf(d));
+                } else if (m > 1e-3) {
+                    assert_false(isinf(d));
+                    assert_float_equal(d, dmax, 1e-3f * (float)dmax);
+                    written++;
+                }
+            }
+    }
+    assert_true(written > 20000); /* the polygons cover cells */
+    hz_occlusion_free(&o);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -458,7 +550,7 @@ int main(void)
         cmocka_unit_test(test_bounds_after_move), cmocka_unit_test(test_frustum_culling),
         cmocka_unit_test(test_render_queue),    cmocka_unit_test(test_raycast),
         cmocka_unit_test(test_sort_near_first),
-        cmocka_unit_test(test_depth_first),     cmocka_unit_test(test_occlusion),
+        cmocka_unit_test(test_depth_first),     cmocka_unit_test(test_occlusion), cmocka_unit_test(test_occlusion_raster_exact),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
