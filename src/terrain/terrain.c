@@ -15,8 +15,9 @@
 #define TERRAIN_BYTES_PER_SAMPLE 24u
 
 /* The terrain a side x side heightmap makes, checked against the budget and
- * the sample limit before any work. */
-static hz_result check_side(const hz_terrain_desc *d, uint32_t side, const char *what, hz_err *err)
+ * the sample limit before any work. hint: what else the user can do (after
+ * "import it as a pyramid and stream it"). */
+static hz_result check_side(const hz_terrain_desc *d, uint32_t side, const char *what, const char *hint, hz_err *err)
 {
     /* The memory first: it is what the user can raise (--max-memory). */
     const uint64_t n = (uint64_t)side * side;
@@ -29,10 +30,42 @@ static hz_result check_side(const hz_terrain_desc *d, uint32_t side, const char 
         return hz_err_set(err, HZ_ERR_UNSUPPORTED,
                           "%s: a %ux%u heightmap has %llu samples, more than this GPU takes "
                           "(GL_MAX_TEXTURE_BUFFER_SIZE = %llu texels) in memory: import it as a pyramid and stream it "
-                          "(horizon import DEM... --out NAME.hzp, then --terrain NAME.hzp), or use a coarser "
-                          "--spacing or a smaller --size",
-                          what, side, side, (unsigned long long)n, (unsigned long long)d->max_samples);
+                          "(horizon import DEM... --out NAME.hzp, then --terrain NAME.hzp), or %s",
+                          what, side, side, (unsigned long long)n, (unsigned long long)d->max_samples, hint);
     return HZ_OK;
+}
+
+/* The largest 2^n + 1 side whose square the GPU takes (0: none over 2). */
+static uint32_t largest_side(uint64_t max_samples)
+{
+    uint32_t s = 0;
+    for (uint32_t k = 1; k < 31; k++) {
+        const uint64_t side = ((uint64_t)1 << k) + 1;
+        if (side * side > max_samples)
+            break;
+        s = (uint32_t)side;
+    }
+    return s;
+}
+
+/* What a DEM of w x h samples can do instead of streaming: a georeferenced
+ * one is resampled to --spacing (the spacing that brings its longer side
+ * into the largest square the GPU takes, rounded up to 0.1 m); another one
+ * can be cropped to its centred square, when that fits, or cut. */
+static void dem_hint(const hz_terrain_desc *d, uint32_t w, uint32_t h, bool georef, float spacing, char *out,
+                     size_t cap)
+{
+    const uint32_t top = largest_side(d->max_samples), hi = w > h ? w : h;
+    const uint32_t crop = hz_grid_fit_side(w, h, HZ_FIT_CROP);
+    if (georef && top > 2 && spacing > 0 && hi > 1) {
+        const double s = ceil((double)spacing * (hi - 1) / (top - 1) * 10.0 * (1.0 + 1e-6)) / 10.0;
+        snprintf(out, cap, "resample it with --spacing %.1f (at most %ux%u samples; it is %.1f m now)", s, top, top,
+                 (double)spacing);
+    } else if (crop > 2 && crop <= top) {
+        snprintf(out, cap, "keep its centred %ux%u square with --fit crop", crop, crop);
+    } else {
+        snprintf(out, cap, "cut it to at most %ux%u samples (gdal_translate -srcwin)", top, top);
+    }
 }
 
 static const char *base_name(const char *p)
@@ -162,8 +195,11 @@ hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
         }
         /* What fitting will make of it, before filling and fitting. */
         const uint32_t side = hz_grid_fit_side(g.width, g.height, desc->fit);
+        char hint[160];
+        dem_hint(desc, g.width, g.height, geo != NULL,
+                 desc->spacing > 0 ? desc->spacing : t->info.spacing_hint, hint, sizeof hint);
         if (side && check_side(desc, side, base_name(desc->dem_path_count ? desc->dem_paths[0] : desc->dem_path),
-                               err) != HZ_OK) {
+                               hint, err) != HZ_OK) {
             hz_georef_destroy(geo);
             goto fail;
         }
@@ -184,7 +220,7 @@ hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
                           .size = desc->gen_size ? desc->gen_size : 4097,
                           .seed = desc->seed, .amplitude = desc->amplitude,
                           .progress = desc->progress, .progress_user = desc->progress_user};
-        if (check_side(desc, gd.size, "generated terrain", err) != HZ_OK)
+        if (check_side(desc, gd.size, "generated terrain", "a smaller --size", err) != HZ_OK)
             goto fail;
         if (hz_generate(&gd, &g, err) != HZ_OK)
             goto fail;

@@ -16,6 +16,7 @@ void test_gdal_units(void **state);
 void test_fit_keeps_every_sample(void **state);
 void test_gdal_broken(void **state);
 void test_gdal_leaves_inputs_alone(void **state);
+void test_gpu_limit_advice(void **state);
 void test_gdal_sierra_coast(void **state);
 
 /* FNV-1a of the float bits of hz_generate(size 257, seed 2024). */

@@ -902,6 +902,7 @@ int main(void)
         cmocka_unit_test(test_fit_keeps_every_sample),
         cmocka_unit_test(test_gdal_broken),
         cmocka_unit_test(test_gdal_leaves_inputs_alone),
+        cmocka_unit_test(test_gpu_limit_advice),
         cmocka_unit_test(test_gdal_sierra_coast),
     };
     /* Fixture files first: several tests read them. */

@@ -21,6 +21,8 @@
 #include "horizon/georef.h"
 #include "horizon/terrain.h"
 #include "io_fixtures.h"
+
+#include <png.h>
 #include "io_tests.h"
 
 static const char *tmp(const char *name)
@@ -733,4 +735,52 @@ void test_gdal_sierra_coast(void **state)
     hz_grid_free(&one);
     hz_grid_free(&g);
     hz_georef_destroy(geo);
+}
+
+/* A DEM larger than the GPU takes in memory: the refusal names the
+ * --spacing that fits a georeferenced one (and --fit crop for another), and
+ * loading with that advice works and fits. */
+void test_gpu_limit_advice(void **state)
+{
+    (void)state;
+    const int w = 300, h = 200;
+    float *v = make_surface(w, h);
+    const double gt[6] = {465000, 10, 0, 5480000, 0, -10};
+    write_raster("GTiff", tmp("big_utm.tif"), v, w, h, gt, "EPSG:32632", NULL, GDT_Float32, NULL);
+    const uint64_t limit = 257 * 257; /* a 300-wide DEM pads to 513 */
+    hz_err err = {0};
+    hz_terrain_desc d = {.dem_path = tmp("big_utm.tif"), .max_samples = limit, .max_memory = (uint64_t)1 << 32};
+    assert_null(hz_terrain_create(&d, &err));
+    assert_int_equal(err.code, HZ_ERR_UNSUPPORTED);
+    const char *adv = strstr(err.msg, "--spacing ");
+    if (!adv)
+        fail_msg("no --spacing advice in: %s", err.msg);
+    const float s = strtof(adv + 10, NULL);
+    /* 299 cells of 10 m in 256: 11.68 m, rounded up to 0.1 m */
+    assert_float_equal(s, 11.7f, 1e-4f);
+    d.spacing = s;
+    hz_terrain *t = hz_terrain_create(&d, &err);
+    if (!t)
+        fail_msg("%s", err.msg);
+    assert_int_equal(t->hm.size, 257);
+    assert_true(t->data_w > 250); /* resampled, not cropped: all 3 km are there */
+    hz_terrain_destroy(t);
+
+    /* Without a georeference the spacing resamples nothing: crop it. */
+    uint16_t *p = calloc((size_t)w * h, sizeof *p);
+    assert_non_null(p);
+    assert_true(fx_write_png(tmp("big.png"), (uint32_t)w, (uint32_t)h, 16, PNG_COLOR_TYPE_GRAY, false, p));
+    free(p);
+    hz_terrain_desc pd = {.dem_path = tmp("big.png"), .max_samples = limit, .max_memory = (uint64_t)1 << 32};
+    assert_null(hz_terrain_create(&pd, &err));
+    assert_int_equal(err.code, HZ_ERR_UNSUPPORTED);
+    assert_non_null(strstr(err.msg, "keep its centred 129x129 square with --fit crop"));
+    assert_null(strstr(err.msg, "--spacing"));
+    pd.fit = HZ_FIT_CROP;
+    t = hz_terrain_create(&pd, &err);
+    if (!t)
+        fail_msg("%s", err.msg);
+    assert_int_equal(t->hm.size, 129);
+    hz_terrain_destroy(t);
+    free(v);
 }
