@@ -48,7 +48,8 @@ typedef struct cli_opts {
     double time;          /* effect time of the (first) frame, seconds */
     int water_mode;       /* 0 auto, 1 off, 2 water_level */
     float water_level;    /* metres */
-    float fog;            /* per metre; 0 default (3 / view distance), < 0 off */
+    float fog;            /* per metre; 0 default (3 / view distance; at most CLI_FOG_CLEAR_DAY
+                             when the view distance is the default), < 0 off */
     float trees;          /* trees per hectare inside forests; 0 default, < 0 none */
     const char *colormap; /* PNG over the whole terrain */
     const char *imagery;  /* --imagery: any GDAL raster, draped by its georeference */
@@ -62,6 +63,17 @@ typedef struct cli_opts {
     curv_opts curv;       /* --curvature (curv_cli.c); resolved by cli_curvature */
 } cli_opts;
 
+/* The haze of a clear day, 30 km visibility (2 % contrast): the default fog
+ * is never thicker when the view distance follows the map's size, so a small
+ * map (a town seen from 3 km) is not lost in fog. */
+#define CLI_FOG_CLEAR_DAY (3.912f / 30000.0f)
+/* The scene's fog_density for the default fog at view distance zfar: the
+ * clear day's where 3 / zfar is thicker, else 0 (the renderer's 3 / zfar). */
+static inline float cli_fog_default(float zfar)
+{
+    return 3.0f / zfar > CLI_FOG_CLEAR_DAY ? CLI_FOG_CLEAR_DAY : 0.0f;
+}
+
 /* Effect resources of a terrain for a renderer: light map for the sun,
  * scattered trees, forest cover, water planes, colour map; and per frame the
  * scene parameters and the LOD selection for the mirrored (reflection) camera. */
@@ -69,7 +81,8 @@ typedef struct app_fx {
     uint32_t effects;
     hz_fx_settings fx;
     vec3 sun;             /* toward the sun */
-    float fog;
+    float fog;            /* --fog: 0 default, < 0 off */
+    bool fog_capped;      /* default fog with the default view distance: at most CLI_FOG_CLEAR_DAY */
     bool water;
     float water_level;
     uint8_t *lightmap;

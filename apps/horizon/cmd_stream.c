@@ -644,7 +644,8 @@ int stream_render(int argc, char **argv)
     hz_stream_stats ss = hz_stream_take_stats(c.s);
     hz_err err = {0};
     hz_scene_params sp = {.patches = c.pl.data, .patch_count = (uint32_t)c.pl.count,
-                          .morph_scale = st.morph_scale, .morph_start = st.morph_start};
+                          .morph_scale = st.morph_scale, .morph_start = st.morph_start,
+                          .fog_density = cli_fog_default(cam.zfar)};
     hz_draw_stats ds = {0};
     rc = 1;
     for (int k = 0; k < 2; k++)
@@ -909,7 +910,8 @@ int stream_bench(int argc, char **argv)
         if (hz_stream_select(c.s, &cam, &c.lp, &c.pl, &st) != HZ_OK)
             goto done;
         hz_scene_params sp = {.patches = c.pl.data, .patch_count = (uint32_t)c.pl.count,
-                              .morph_scale = st.morph_scale, .morph_start = st.morph_start};
+                              .morph_scale = st.morph_scale, .morph_start = st.morph_start,
+                              .fog_density = cli_fog_default(cam.zfar)};
         hz_draw_stats ds = {0};
         if (hz_renderer_draw(c.r, &cam, &sp, NULL, 0, &ds, &err) != HZ_OK) {
             fprintf(stderr, "horizon bench: %s\n", err.msg);

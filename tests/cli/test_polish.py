@@ -176,6 +176,30 @@ dark = sum(1 for r, g, b in px if r + g + b < 60)
 check(j and j["terrain_in_view"] and px and dark < 0.01 * len(px),
       "a view from 30 km with effects shows terrain, not black (%d dark of %d)" % (dark, len(px)), j or err)
 
+# A small map (2.5 km) seen from its default camera: the default fog is a
+# clear day's haze, not 3 / view distance (which hid most of a town seen from
+# 3 km). Against no fog at all, the ground changes a little; the old default
+# density changes it several times more.
+def ground_diff(a, b):
+    pa, pb = pngstat.pixels(a, 0.5, 1.0), pngstat.pixels(b, 0.5, 1.0)
+    return sum(abs(p[i] - q[i]) for p, q in zip(pa, pb) for i in range(3)) / (3.0 * max(len(pa), 1))
+
+
+small = ["--generate", "perlin", "--size", "257", "--effects", "sky,fog"]
+j, err = render_json(small + ["--out", tmp("fog_default.png")])
+j0, err0 = render_json(small + ["--fog", "off", "--out", tmp("fog_off.png")])
+j3 = None
+if j and j0:
+    j3, err3 = render_json(small + ["--fog", "%.8f" % (3.0 / j["far"]), "--out", tmp("fog_3far.png")])
+if j and j0 and j3:
+    light, thick = ground_diff(tmp("fog_default.png"), tmp("fog_off.png")), ground_diff(tmp("fog_3far.png"),
+                                                                                      tmp("fog_off.png"))
+    check(light < 10 and light < 0.4 * thick,
+          "a 2.5 km map is not lost in the default fog: ground %.1f from no fog, %.1f at 3 / view distance"
+          % (light, thick))
+else:
+    bad("fog renders failed: %s" % (err if not j else err0 if not j0 else "3/far"))
+
 # ---------------------------------------------------------------------------
 # 4. JSON written by a JSON library: every command's JSON parses strictly
 #    (no duplicate keys, no NaN), whatever the file names.
