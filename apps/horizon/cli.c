@@ -135,6 +135,20 @@ static int bad(const char *cmd, const char *opt, const char *val, const char *wa
     return 2;
 }
 
+int cli_unknown(const char *cmd, char **argv, int argc, int i)
+{
+    const char *a = argv[i];
+    if (!strcmp(a, "--") && i + 1 < argc)
+        fprintf(stderr, "horizon %s: unexpected argument '%s' after -- (see horizon %s --help)\n", cmd, argv[i + 1],
+                cmd);
+    else if (a[0] != '-')
+        fprintf(stderr, "horizon %s: unexpected argument '%s': options start with -- (see horizon %s --help)\n", cmd,
+                a, cmd);
+    else
+        fprintf(stderr, "horizon %s: unknown option '%s' (see horizon %s --help)\n", cmd, a, cmd);
+    return 2;
+}
+
 int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
 {
     memset(o, 0, sizeof *o);
@@ -532,8 +546,7 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             if (city_rc)
                 return city_rc;
         } else {
-            fprintf(stderr, "horizon %s: unknown option '%s' (see horizon %s --help)\n", cmd, a, cmd);
-            return 2;
+            return cli_unknown(cmd, argv, argc, i);
         }
 #undef NEEDV
     }

@@ -256,6 +256,9 @@ bool cli_read_forest_file(const char *file, const hz_terrain *t, uint32_t models
  * operands in order. An unknown option (with the nearest name suggested)
  * or a missing value: message, returns 2. */
 int cli_args_normalize(const char *cmd, int argc, char **argv, int *out_argc, char ***out_argv);
+/* Refuses argv[i], which no option of cmd took: an operand (after "--" or
+ * not) or an unknown option, with a message; returns 2. */
+int cli_unknown(const char *cmd, char **argv, int argc, int i);
 /* The option of cmd nearest to arg ("--lod-cc" -> "--lod-c"), or NULL when
  * none is close. Static storage. */
 const char *cli_args_nearest(const char *cmd, const char *arg);

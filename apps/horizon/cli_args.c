@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* Options every terrain command takes (cli_parse): with a value ... */
 static const char *const COMMON_VALUE[] = {
@@ -183,6 +184,12 @@ int cli_args_normalize(const char *cmd, int argc, char **argv, int *out_argc, ch
             /* Unknown, ambiguous, or a value given to a flag (--json=x). */
             const char *arg = optopt && optopt < 256 ? NULL : seen;
             char shortopt[3] = {'-', (char)optopt, 0};
+            /* The whole word: within a cluster of short options (-x.png)
+             * getopt has not yet moved past it. */
+            const char *elem = optopt && optopt < 256 && 1 + optind < argc && argv[1 + optind][0] == '-' &&
+                                       argv[1 + optind][1] == (char)optopt
+                                   ? argv[1 + optind]
+                                   : seen;
             if (!arg)
                 arg = shortopt;
             const char *near = cli_args_nearest(cmd, arg);
@@ -196,6 +203,9 @@ int cli_args_normalize(const char *cmd, int argc, char **argv, int *out_argc, ch
             }
             if (flag_with_value)
                 fprintf(stderr, "horizon %s: option %.*s takes no value\n", cmd, (int)(eq - arg), arg);
+            else if (!strcmp(cmd, "info") && elem[0] == '-' && access(elem, F_OK) == 0) /* info takes files */
+                fprintf(stderr, "horizon %s: unknown option '%s'; a file named '%s' goes after -- (horizon %s ... -- %s)\n",
+                        cmd, arg, elem, cmd, elem);
             else if (near)
                 fprintf(stderr, "horizon %s: unknown option '%s'; did you mean %s? (see horizon %s --help)\n", cmd,
                         arg, near, cmd);
@@ -209,6 +219,13 @@ int cli_args_normalize(const char *cmd, int argc, char **argv, int *out_argc, ch
     if (rc) {
         free(out);
         return rc;
+    }
+    /* "--" ends the options: what follows are operands (a file named
+     * -x.png), handed on after a "--" of their own. */
+    if (1 + optind < argc) {
+        out[n++] = "--";
+        for (int k = 1 + optind; k < argc; k++)
+            out[n++] = argv[k];
     }
     out[n] = NULL;
     *out_argc = n;

@@ -144,6 +144,10 @@ int cmd_info(int argc, char **argv)
                             "  --verify      terrain pyramids (.hzp): check every tile's checksum\n");
             return 0;
         }
+        if (!strcmp(argv[i], "--")) {
+            files += argc - i - 1; /* the rest are files, whatever their names */
+            break;
+        }
         if (!strcmp(argv[i], "--json"))
             json = true;
         else if (!strcmp(argv[i], "--verify"))
@@ -166,12 +170,17 @@ int cmd_info(int argc, char **argv)
     }
     int rc = 0;
     json_t *arr = json ? json_array() : NULL;
+    bool operands = false; /* after "--" */
     for (int i = 2; i < argc; i++) {
-        if (!strcmp(argv[i], "--crs")) {
+        if (!operands && !strcmp(argv[i], "--")) {
+            operands = true;
+            continue;
+        }
+        if (!operands && !strcmp(argv[i], "--crs")) {
             i++;
             continue;
         }
-        if (argv[i][0] == '-' && argv[i][1])
+        if (!operands && argv[i][0] == '-' && argv[i][1])
             continue;
         if (is_pyramid(argv[i])) {
             if (pyramid_info(argv[i], verify, arr))

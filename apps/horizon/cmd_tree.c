@@ -140,10 +140,8 @@ int cmd_tree(int argc, char **argv)
         bool is_known = flag;
         for (size_t k = 0; k < sizeof valued / sizeof valued[0] && !is_known; k++)
             is_known = !strcmp(a, valued[k]);
-        if (!is_known) {
-            fprintf(stderr, "horizon tree: unknown option '%s' (see horizon tree --help)\n", a);
-            return 2;
-        }
+        if (!is_known)
+            return cli_unknown("tree", argv, argc, i);
         if (!flag && !v) {
             fprintf(stderr, "horizon tree: option %s needs a value (see horizon tree --help)\n", a);
             return 2;

@@ -268,4 +268,33 @@ with open(tmp("hull1e30.hzt"), "wb") as f:
 rc, err, _ = run(["tree", "--in", tmp("hull1e30.hzt"), "--no-rank", "--no-hull"])
 (ok if rc == 1 and "hull vertex 0" in err else bad)("hull vertex at 1e30 refused: %s" % err.strip())
 
+# ---------------------------------------------------------------------------
+# 7. Hostile file names: a DEM named -x.png (after "--" for info, as a value
+# for render) and one with spaces and non-ASCII letters; operands where none
+# are taken are refused by name, not ignored.
+dash, odd = tmp("-x.png"), tmp("a name ü.png")
+png16(dash, 33, 33)
+png16(odd, 33, 33)
+os.chdir(TMP)  # so that "-x.png" is the bare word a user types
+for args, want, what in [
+        (["info", "--", "-x.png", odd], None, "info -- -x.png 'a name ü.png' reads both"),
+        (["info", "-x.png"], "goes after --", "info -x.png says to put the file after --"),
+        (["render", "--dem", "-x.png", "--width", "64", "--height", "64", "--out", "-x out.png"], None,
+         "render --dem -x.png --out '-x out.png'"),
+        (["render", "--dem", odd, "--width", "64", "--height", "64", "--out", tmp("ü out.png")], None,
+         "render --dem 'a name ü.png'"),
+        (["render", "--dem", odd, "--", "extra.png"], "unexpected argument 'extra.png' after --",
+         "render -- extra.png is refused, not ignored"),
+        (["render", "--dem", odd, "extra.png"], "unexpected argument 'extra.png'", "render extra.png is refused"),
+        (["tree", "--species", "oak", "--", "x"], "unexpected argument 'x' after --", "tree -- x is refused")]:
+    p = subprocess.run([HZ] + args + (["--quiet"] if args[0] == "render" and want is None else []),
+                       capture_output=True, timeout=120)
+    err = p.stderr.decode("utf-8", "replace")
+    if want is None:
+        good = p.returncode == 0 and (args[0] != "info" or p.stdout.decode("utf-8", "replace").count("driver") == 2)
+    else:
+        good = p.returncode == 2 and want in err
+    (ok if good else bad)("%s: rc %d %s" % (what, p.returncode, err.strip()[:200]))
+check(os.path.getsize("-x out.png") > 0 and os.path.getsize(tmp("ü out.png")) > 0, "both images written")
+
 finish("test_harden")
