@@ -92,7 +92,8 @@ void city_cli_usage(void)
             "city models and scene objects:\n"
             "  --city FILE.city.json   CityJSON 2.0 buildings (LoD1/LoD2 solids and surfaces) on the terrain,\n"
             "                          placed through its CRS and clamped to the ground; without --dem or\n"
-            "                          --generate the model's TINRelief is the terrain\n"
+            "                          --generate the model's TINRelief is the terrain; a CityJSON Text\n"
+            "                          Sequence (.city.jsonl: header line, then CityJSONFeatures) too\n"
             "  --scene FILE.json       a scene file (docs/scene.md): terrain, sun, materials, models\n"
             "                          (box, glTF/OBJ/FBX... through assimp) and a node tree\n"
             "  --footprints FILE       building footprints GDAL/OGR reads (GeoJSON, GeoPackage, Shapefile,\n"
@@ -752,6 +753,7 @@ void city_app_print(const city_app *a, json_t *json)
             jx_set(o, "buildings", jx_int(c->buildings));
             jx_set(o, "objects", jx_int(c->obj_count));
             jx_set(o, "geometry_instances", jx_int(c->instances));
+            jx_set(o, "features", jx_int(c->features));
             jx_set(o, "appearance_materials", jx_int(c->material_count));
             jx_set(o, "material_theme", jx_str(c->material_theme));
             jx_set(o, "faces", jx_int((long long)c->faces));
@@ -788,6 +790,8 @@ void city_app_print(const city_app *a, json_t *json)
                c->crs[0] ? c->crs : "no CRS", (unsigned long long)c->faces, (unsigned long long)a->placed.triangles);
         if (c->instances)
             printf(", %u geometry instances", c->instances);
+        if (c->features)
+            printf(", %u features of a sequence", c->features);
         if (c->material_count)
             printf(", %u materials (theme %s)", c->material_count, c->material_theme[0] ? c->material_theme : "none used");
         printf("), loaded in %.0f ms\n", c->load_ms);

@@ -14,7 +14,9 @@
  * roof, wall or ground by its normal; appearance materials (their diffuse
  * colour, per surface, of the file's default-theme-material or else each
  * geometry's first theme). TINRelief objects are the terrain. Textures are
- * not read. */
+ * not read. A CityJSON Text Sequence (CityJSONL: a CityJSON header line,
+ * then one CityJSONFeature per line with its own vertices, quantised by the
+ * header's transform) is read as one city. */
 #ifndef HORIZON_CITY_H
 #define HORIZON_CITY_H
 
@@ -69,6 +71,7 @@ typedef struct hz_city {
     uint64_t faces;
     bool semantics;       /* some surface kinds came from semantics */
     uint32_t instances;   /* GeometryInstances read (their template's vertices are appended to verts) */
+    uint32_t features;    /* CityJSONFeatures read (a CityJSON Text Sequence, .city.jsonl); 0 for a file */
     char crs[64];         /* "EPSG:32734", "" when the file has none */
     char version[16];
     double extent[6];     /* min x, y, z, max x, y, z of the vertices used */

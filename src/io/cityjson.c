@@ -34,7 +34,12 @@ typedef struct loader {
     double *tverts;       /* geometry-templates.vertices-templates (x, y, z each) */
     uint32_t tvert_count;
     uint64_t instanced;   /* vertices added by instances (bounded) */
-    uint32_t file_verts;  /* the file's own vertices (reference points index them) */
+    uint32_t file_verts;  /* the file's (or the feature's) own vertices: reference points index them */
+    uint32_t fbase;       /* where those start in c->verts (a CityJSONFeature's follow the others) */
+    double scale[3], translate[3]; /* transform: vertex = quantised * scale + translate */
+    char where[32];       /* "line N: " of a CityJSON Text Sequence, else empty */
+    double extent[6];     /* metadata.geographicalExtent, when have_extent */
+    bool have_extent, translate_checked;
     uint64_t instanced_tris; /* triangles made by instances (bounded) */
     uint32_t surf_material;  /* the appearance material of the surface being read */
     char path[512];
@@ -48,7 +53,7 @@ static hz_result fail(loader *L, hz_result code, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    return hz_err_set(L->err, code, "%s: %s%s%s", L->name, L->path, L->path[0] ? ": " : "", msg);
+    return hz_err_set(L->err, code, "%s: %s%s%s%s", L->name, L->where, L->path, L->path[0] ? ": " : "", msg);
 }
 
 static bool reserve(void **p, uint32_t *cap, uint64_t need, size_t elem)
@@ -148,31 +153,21 @@ static bool get3(json_t *a, double out[3])
     return true;
 }
 
-static hz_result read_vertices(loader *L, json_t *root)
+/* Appends the quantised vertices vs (a file's or a feature's) to the
+ * city's, dequantised by the file's transform; they become the ones that
+ * boundaries and reference points index. */
+static hz_result append_vertices(loader *L, json_t *vs)
 {
-    json_t *tr = json_object_get(root, "transform");
-    double scale[3], trans[3];
-    snprintf(L->path, sizeof L->path, "transform");
-    if (!tr)
-        return fail(L, HZ_ERR_FORMAT, "missing (CityJSON 2.0 vertices are quantised: transform.scale and "
-                                      "transform.translate are required)");
-    if (!json_is_object(tr) || !get3(json_object_get(tr, "scale"), scale) ||
-        !get3(json_object_get(tr, "translate"), trans))
-        return fail(L, HZ_ERR_FORMAT, "needs scale and translate, three finite numbers each");
-    for (int k = 0; k < 3; k++)
-        if (!(scale[k] > 0))
-            return fail(L, HZ_ERR_VALUE, "scale[%d] = %g must be > 0", k, scale[k]);
-    json_t *vs = json_object_get(root, "vertices");
     snprintf(L->path, sizeof L->path, "vertices");
     if (!json_is_array(vs))
         return fail(L, HZ_ERR_FORMAT, "missing or not an array");
     size_t n = json_array_size(vs);
-    if (n > UINT32_MAX / 4)
-        return fail(L, HZ_ERR_VALUE, "%zu vertices is too many", n);
     hz_city *c = L->c;
-    c->verts = malloc((n ? n : 1) * 3 * sizeof *c->verts);
-    if (!c->verts)
+    if (n > UINT32_MAX / 4 || (uint64_t)c->vert_count + n > UINT32_MAX / 4)
+        return fail(L, HZ_ERR_VALUE, "%zu vertices is too many", n);
+    if (!reserve((void **)&c->verts, &L->vert_cap, 3 * ((uint64_t)c->vert_count + (n ? n : 1)), sizeof *c->verts))
         return fail(L, HZ_ERR_MEMORY, "out of memory for %zu vertices", n);
+    double *d = c->verts + 3 * (size_t)c->vert_count;
     for (size_t i = 0; i < n; i++) {
         json_t *v = json_array_get(vs, i);
         if (!json_is_array(v) || json_array_size(v) != 3) {
@@ -185,47 +180,84 @@ static hz_result read_vertices(loader *L, json_t *root)
                 snprintf(L->path, sizeof L->path, "vertices[%zu][%zu]", i, k);
                 return fail(L, HZ_ERR_FORMAT, "not an integer (vertices are quantised in CityJSON 2.0)");
             }
-            c->verts[3 * i + k] = (double)json_integer_value(q) * scale[k] + trans[k];
+            d[3 * i + k] = (double)json_integer_value(q) * L->scale[k] + L->translate[k];
         }
     }
-    c->vert_count = (uint32_t)n;
-    L->vert_cap = (uint32_t)((n ? n : 1) * 3);
-    L->vbase = 0;
+    L->fbase = L->vbase = c->vert_count;
     L->vcount = L->file_verts = (uint32_t)n;
-    /* Some writers store absolute quantised vertices and still give a
-     * translate (Mamre's file: its vertices land 265 km east of its own
-     * metadata.geographicalExtent with it, exactly on it without). When the
-     * extent says so, translate is taken as already applied, with a note. */
-    json_t *md = json_object_get(root, "metadata");
-    double ge[6];
-    json_t *gej = md ? json_object_get(md, "geographicalExtent") : NULL;
-    if (n && json_is_array(gej) && json_array_size(gej) == 6) {
-        bool ok = true;
-        for (size_t k = 0; k < 6; k++) {
-            json_t *q = json_array_get(gej, k);
-            ok = ok && json_is_number(q) && isfinite(ge[k] = json_number_value(q));
+    c->vert_count += (uint32_t)n;
+    L->path[0] = 0;
+    return HZ_OK;
+}
+
+/* Some writers store absolute quantised vertices and still give a
+ * translate (Mamre's file: its vertices land 265 km east of its own
+ * metadata.geographicalExtent with it, exactly on it without). When the
+ * extent says so for the first vertices read (the file's, or a sequence's
+ * first feature's), translate is taken as already applied, with a note:
+ * they are moved back, and the vertices read later are dequantised
+ * without it. */
+static void check_translate(loader *L)
+{
+    hz_city *c = L->c;
+    const size_t first = L->fbase, n = L->file_verts;
+    if (L->translate_checked || !n)
+        return;
+    L->translate_checked = true;
+    if (!L->have_extent)
+        return;
+    const double *ge = L->extent;
+    double *trans = L->translate;
+    double lo[3] = {DBL_MAX, DBL_MAX, DBL_MAX}, hi[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
+    for (size_t i = first; i < first + n; i++)
+        for (int k = 0; k < 3; k++) {
+            lo[k] = fmin(lo[k], c->verts[3 * i + k]);
+            hi[k] = fmax(hi[k], c->verts[3 * i + k]);
         }
-        double lo[3] = {DBL_MAX, DBL_MAX, DBL_MAX}, hi[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
-        for (size_t i = 0; ok && i < n; i++)
-            for (int k = 0; k < 3; k++) {
-                lo[k] = fmin(lo[k], c->verts[3 * i + k]);
-                hi[k] = fmax(hi[k], c->verts[3 * i + k]);
-            }
-        bool fits = true, fits_without = true;
-        for (int k = 0; ok && k < 3; k++) {
-            double tol = 0.01 * (ge[3 + k] - ge[k]) + 1.0;
-            fits = fits && lo[k] >= ge[k] - tol && hi[k] <= ge[3 + k] + tol;
-            fits_without = fits_without && lo[k] - trans[k] >= ge[k] - tol && hi[k] - trans[k] <= ge[3 + k] + tol;
-        }
-        if (ok && !fits && fits_without) {
-            for (size_t i = 0; i < n; i++)
-                for (int k = 0; k < 3; k++)
-                    c->verts[3 * i + k] -= trans[k];
-            snprintf(c->note, sizeof c->note,
-                     "vertices times scale already lie in metadata.geographicalExtent: transform.translate "
-                     "(%.3f, %.3f, %.3f) ignored", trans[0], trans[1], trans[2]);
-        }
+    bool fits = true, fits_without = true;
+    for (int k = 0; k < 3; k++) {
+        double tol = 0.01 * (ge[3 + k] - ge[k]) + 1.0;
+        fits = fits && lo[k] >= ge[k] - tol && hi[k] <= ge[3 + k] + tol;
+        fits_without = fits_without && lo[k] - trans[k] >= ge[k] - tol && hi[k] - trans[k] <= ge[3 + k] + tol;
     }
+    if (fits || !fits_without)
+        return;
+    for (size_t i = first; i < first + n; i++)
+        for (int k = 0; k < 3; k++)
+            c->verts[3 * i + k] -= trans[k];
+    snprintf(c->note, sizeof c->note,
+             "vertices times scale already lie in metadata.geographicalExtent: transform.translate "
+             "(%.3f, %.3f, %.3f) ignored", trans[0], trans[1], trans[2]);
+    for (int k = 0; k < 3; k++)
+        trans[k] = 0;
+}
+
+static hz_result read_vertices(loader *L, json_t *root)
+{
+    json_t *tr = json_object_get(root, "transform");
+    double *scale = L->scale, *trans = L->translate;
+    snprintf(L->path, sizeof L->path, "transform");
+    if (!tr)
+        return fail(L, HZ_ERR_FORMAT, "missing (CityJSON 2.0 vertices are quantised: transform.scale and "
+                                      "transform.translate are required)");
+    if (!json_is_object(tr) || !get3(json_object_get(tr, "scale"), scale) ||
+        !get3(json_object_get(tr, "translate"), trans))
+        return fail(L, HZ_ERR_FORMAT, "needs scale and translate, three finite numbers each");
+    for (int k = 0; k < 3; k++)
+        if (!(scale[k] > 0))
+            return fail(L, HZ_ERR_VALUE, "scale[%d] = %g must be > 0", k, scale[k]);
+    hz_result r = append_vertices(L, json_object_get(root, "vertices"));
+    if (r != HZ_OK)
+        return r;
+    L->translate_checked = false;
+    json_t *md = json_object_get(root, "metadata");
+    json_t *gej = md ? json_object_get(md, "geographicalExtent") : NULL;
+    L->have_extent = json_is_array(gej) && json_array_size(gej) == 6;
+    for (size_t k = 0; L->have_extent && k < 6; k++) {
+        json_t *q = json_array_get(gej, k);
+        L->have_extent = json_is_number(q) && isfinite(L->extent[k] = json_number_value(q));
+    }
+    check_translate(L);
     L->path[0] = 0;
     return HZ_OK;
 }
@@ -528,7 +560,7 @@ static hz_result instance_vertices(loader *L, json_t *g, json_t **tmpl)
     if (!reserve((void **)&c->verts, &L->vert_cap, 3 * ((uint64_t)c->vert_count + L->tvert_count),
                   sizeof *c->verts))
         return fail(L, HZ_ERR_MEMORY, "out of memory for the instance's %u vertices", L->tvert_count);
-    const double *p0 = c->verts + 3 * (size_t)json_integer_value(ref);
+    const double *p0 = c->verts + 3 * ((size_t)L->fbase + (size_t)json_integer_value(ref));
     const double px = p0[0], py = p0[1], pz = p0[2];
     double *d = c->verts + 3 * (size_t)c->vert_count;
     for (uint32_t v = 0; v < L->tvert_count; v++) {
@@ -645,7 +677,7 @@ static hz_result read_object(loader *L, const char *key, json_t *obj, float want
                 : !strcmp(gt, "MultiSolid") || !strcmp(gt, "CompositeSolid")  ? 3
                                                                                 : 0;
     if (!depth) {
-        L->vbase = 0, L->vcount = L->file_verts;
+        L->vbase = L->fbase, L->vcount = L->file_verts;
         return HZ_OK; /* points and lines: nothing to draw */
     }
     o->lod = best;
@@ -668,7 +700,7 @@ static hz_result read_object(loader *L, const char *key, json_t *obj, float want
         return r;
     snprintf(L->path + strlen(L->path), sizeof L->path - strlen(L->path), ".boundaries");
     r = read_nested(L, json_object_get(shape, "boundaries"), values, mvals, mat_all, surfaces, depth, o);
-    L->vbase = 0, L->vcount = L->file_verts;
+    L->vbase = L->fbase, L->vcount = L->file_verts;
     if (r != HZ_OK)
         return r;
     /* A small instance may repeat a big template: bounded like the vertices. */
@@ -681,15 +713,123 @@ static hz_result read_object(loader *L, const char *key, json_t *obj, float want
     return HZ_OK;
 }
 
+/* The CityObjects of a file or a feature, appended to the city's. */
+static hz_result read_objects(loader *L, json_t *objs, float want_lod)
+{
+    hz_city *c = L->c;
+    if (!json_is_object(objs)) {
+        snprintf(L->path, sizeof L->path, "CityObjects");
+        return fail(L, HZ_ERR_FORMAT, "missing or not an object");
+    }
+    const size_t n = json_object_size(objs);
+    if ((uint64_t)c->obj_count + n > UINT32_MAX / 2) {
+        snprintf(L->path, sizeof L->path, "CityObjects");
+        return fail(L, HZ_ERR_VALUE, "too many objects");
+    }
+    hz_city_object *no = realloc(c->obj, ((size_t)c->obj_count + n + 1) * sizeof *no);
+    if (!no)
+        return fail(L, HZ_ERR_MEMORY, "out of memory");
+    c->obj = no;
+    const char *key;
+    json_t *val;
+    json_object_foreach(objs, key, val)
+    {
+        hz_result r = read_object(L, key, val, want_lod);
+        if (r != HZ_OK)
+            return r;
+    }
+    return HZ_OK;
+}
+
+/* The header of a file or of a CityJSON Text Sequence (its first line):
+ * type, version, transform and vertices, CRS, templates, materials, objects. */
+static hz_result read_header(loader *L, json_t *root, const hz_city_desc *desc)
+{
+    hz_city *c = L->c;
+    json_t *type = json_object_get(root, "type");
+    if (!json_is_object(root) || !json_is_string(type) || strcmp(json_string_value(type), "CityJSON"))
+        return fail(L, HZ_ERR_FORMAT, "not a CityJSON file (no \"type\": \"CityJSON\")");
+    json_t *ver = json_object_get(root, "version");
+    snprintf(c->version, sizeof c->version, "%s", json_is_string(ver) ? json_string_value(ver) : "?");
+    hz_result r;
+    if ((r = read_vertices(L, root)) != HZ_OK || (r = read_crs(L, root)) != HZ_OK ||
+        (r = read_templates(L, root)) != HZ_OK || (r = read_materials(L, root)) != HZ_OK)
+        return r;
+    return read_objects(L, json_object_get(root, "CityObjects"), desc ? desc->lod : 0);
+}
+
+/* One line of a sequence after the first: a CityJSONFeature, whose
+ * vertices (quantised by the first line's transform) its objects index. */
+static hz_result read_feature(loader *L, json_t *f, const hz_city_desc *desc)
+{
+    json_t *type = json_object_get(f, "type");
+    if (!json_is_object(f) || !json_is_string(type) || strcmp(json_string_value(type), "CityJSONFeature"))
+        return fail(L, HZ_ERR_FORMAT, "not a CityJSONFeature (no \"type\": \"CityJSONFeature\")");
+    if (json_object_get(f, "appearance")) {
+        snprintf(L->path, sizeof L->path, "appearance");
+        return fail(L, HZ_ERR_UNSUPPORTED, "materials of a feature's own are not supported (put them in the "
+                                           "first line's appearance)");
+    }
+    hz_result r = append_vertices(L, json_object_get(f, "vertices"));
+    if (r != HZ_OK)
+        return r;
+    check_translate(L);
+    r = read_objects(L, json_object_get(f, "CityObjects"), desc ? desc->lod : 0);
+    L->c->features++;
+    return r;
+}
+
+/* A CityJSON Text Sequence (CityJSONL, .city.jsonl): one JSON text per
+ * line, a CityJSON header then CityJSONFeatures. */
+static hz_result read_sequence(loader *L, const char *data, size_t size, json_t *header, size_t first_end,
+                               const hz_city_desc *desc)
+{
+    hz_result r = read_header(L, header, desc);
+    size_t line = 1;
+    for (size_t at = first_end; r == HZ_OK && at < size;) {
+        const char *nl = memchr(data + at, '\n', size - at);
+        const size_t end = nl ? (size_t)(nl - data) : size;
+        line++;
+        size_t b = at, e = end;
+        while (b < e && (data[b] == ' ' || data[b] == '\t' || data[b] == '\r'))
+            b++;
+        at = end + 1;
+        if (b == e)
+            continue; /* blank lines between features */
+        snprintf(L->where, sizeof L->where, "line %zu: ", line);
+        L->path[0] = 0;
+        json_error_t je;
+        json_t *f = json_loadb(data + b, e - b, JSON_REJECT_DUPLICATES, &je);
+        if (!f)
+            return fail(L, HZ_ERR_FORMAT, "column %d: %s", je.column, je.text);
+        r = read_feature(L, f, desc);
+        json_decref(f);
+    }
+    return r;
+}
+
 hz_city *hz_city_load_memory(const char *data, size_t size, const char *name, const hz_city_desc *desc, hz_err *err)
 {
     double t0 = hz_time_ms();
     loader L = {.name = name ? name : "CityJSON", .err = err};
     json_error_t je;
     json_t *root = json_loadb(data, size, JSON_REJECT_DUPLICATES, &je);
+    /* More than one JSON text: a sequence when its first line is a CityJSON
+     * object on its own. */
+    size_t first_end = 0;
     if (!root) {
-        hz_err_set(err, HZ_ERR_FORMAT, "%s: line %d, column %d: %s", L.name, je.line, je.column, je.text);
-        return NULL;
+        const char *nl = memchr(data, '\n', size);
+        json_error_t je1;
+        json_t *first = nl ? json_loadb(data, (size_t)(nl - data), JSON_REJECT_DUPLICATES, &je1) : NULL;
+        json_t *type = first ? json_object_get(first, "type") : NULL;
+        if (json_is_string(type) && !strcmp(json_string_value(type), "CityJSON")) {
+            root = first;
+            first_end = (size_t)(nl - data) + 1;
+        } else {
+            json_decref(first);
+            hz_err_set(err, HZ_ERR_FORMAT, "%s: line %d, column %d: %s", L.name, je.line, je.column, je.text);
+            return NULL;
+        }
     }
     hz_city *c = calloc(1, sizeof *c);
     L.c = c;
@@ -698,34 +838,12 @@ hz_city *hz_city_load_memory(const char *data, size_t size, const char *name, co
         r = hz_err_set(err, HZ_ERR_MEMORY, "%s: out of memory", L.name);
         goto out;
     }
-    json_t *type = json_object_get(root, "type");
-    if (!json_is_object(root) || !json_is_string(type) || strcmp(json_string_value(type), "CityJSON")) {
-        r = fail(&L, HZ_ERR_FORMAT, "not a CityJSON file (no \"type\": \"CityJSON\")");
+    if (first_end)
+        snprintf(L.where, sizeof L.where, "line 1: ");
+    r = first_end ? read_sequence(&L, data, size, root, first_end, desc) : read_header(&L, root, desc);
+    if (r != HZ_OK)
         goto out;
-    }
-    json_t *ver = json_object_get(root, "version");
-    snprintf(c->version, sizeof c->version, "%s", json_is_string(ver) ? json_string_value(ver) : "?");
-    if ((r = read_vertices(&L, root)) != HZ_OK || (r = read_crs(&L, root)) != HZ_OK ||
-        (r = read_templates(&L, root)) != HZ_OK || (r = read_materials(&L, root)) != HZ_OK)
-        goto out;
-    json_t *objs = json_object_get(root, "CityObjects");
-    if (!json_is_object(objs)) {
-        snprintf(L.path, sizeof L.path, "CityObjects");
-        r = fail(&L, HZ_ERR_FORMAT, "missing or not an object");
-        goto out;
-    }
-    c->obj = calloc(json_object_size(objs) + 1, sizeof *c->obj);
-    if (!c->obj) {
-        r = fail(&L, HZ_ERR_MEMORY, "out of memory");
-        goto out;
-    }
-    const char *key;
-    json_t *val;
-    json_object_foreach(objs, key, val)
-    {
-        if ((r = read_object(&L, key, val, desc ? desc->lod : 0)) != HZ_OK)
-            goto out;
-    }
+    L.where[0] = 0;
     /* The extent of the vertices the triangles use. */
     for (int k = 0; k < 3; k++) {
         c->extent[k] = DBL_MAX;

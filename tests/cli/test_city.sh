@@ -36,6 +36,49 @@ assert -33.51 < p['lonlat'][1] < -33.50 and 18.47 < p['lonlat'][0] < 18.48, p['l
 PY
 then ok "mamre: 2344 buildings on their TIN, pixel picks osm_328118446"; else bad "mamre pick (exit $rc): $j"; fi
 
+# ---- the same city as a CityJSON Text Sequence (.city.jsonl: a header line, then one
+# CityJSONFeature per building with its own vertices): same buildings, triangles, pick
+python3 - "$CITY" "$TMP/mamre.city.jsonl" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+objs, verts = d["CityObjects"], d["vertices"]
+head = {k: v for k, v in d.items() if k not in ("CityObjects", "vertices")}
+head["CityObjects"], head["vertices"] = {}, []
+def remap(b, m, local):
+    if isinstance(b, list):
+        return [remap(x, m, local) for x in b]
+    if b not in m:
+        m[b] = len(local)
+        local.append(verts[b])
+    return m[b]
+with open(sys.argv[2], "w") as f:
+    f.write(json.dumps(head) + "\n")
+    for oid, o in objs.items():
+        if o.get("parents"):
+            continue
+        group = [oid] + o.get("children", [])
+        m, local, out = {}, [], {}
+        for gid in group:
+            g = dict(objs[gid])
+            g["geometry"] = [dict(x, boundaries=remap(x["boundaries"], m, local)) for x in g.get("geometry", [])]
+            out[gid] = g
+        f.write(json.dumps({"type": "CityJSONFeature", "id": oid, "CityObjects": out, "vertices": local}) + "\n")
+PY
+j1=$($R --city "$CITY" --camera 1103.5,400,313,0,-89.9 --pick 160,90 --json --out "$TMP/pickf.png"); r1=$?
+j2=$($R --city "$TMP/mamre.city.jsonl" --camera 1103.5,400,313,0,-89.9 --pick 160,90 --json --out "$TMP/picks.png"); r2=$?
+if [ $r1 -eq 0 ] && [ $r2 -eq 0 ] && python3 - "$j1" "$j2" <<'PY'
+import json, sys
+a, b = json.loads(sys.argv[1]), json.loads(sys.argv[2])
+ca, cb = a['city'], b['city']
+for k in ('buildings', 'triangles', 'clamped', 'file_crs'):
+    assert ca[k] == cb[k], (k, ca[k], cb[k])
+assert cb['features'] > 2000 and ca['features'] == 0, (ca['features'], cb['features'])
+assert b['pick']['node'] == a['pick']['node'] == 'osm_328118446', b['pick']
+assert all(abs(x - y) < 1e-3 for x, y in zip(a['pick']['crs_xy'], b['pick']['crs_xy'])), (a['pick'], b['pick'])
+PY
+then ok "mamre as a CityJSON Text Sequence: the same $(echo "$j2" | python3 -c "import json,sys;print(json.load(sys.stdin)['city']['features'])") features' buildings, triangles and pick"
+else bad "mamre sequence (exit $r1 $r2): $j2"; fi
+
 # ---- picking the terrain: the hit lies on the surface, between buildings
 j=$($R --city "$CITY" --camera 1300,400,600,0,-89.9 --pick 10,10 --json --out "$TMP/pick2.png"); rc=$?
 if [ $rc -eq 0 ] && python3 - "$j" <<'PY'

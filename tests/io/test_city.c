@@ -535,11 +535,90 @@ static void test_footprints(void **state)
     assert_int_equal(hz_georef_utm_epsg(10.0, NAN), 0);
 }
 
+/* CityJSON Text Sequences (CityJSONL): a header line, then one
+ * CityJSONFeature per line whose boundaries and reference points index its
+ * own vertices (quantised by the header's transform). The same two boxes
+ * as one file and as a sequence give the same triangles; a GeometryInstance
+ * in a feature stands on the feature's vertex. Errors name the line. */
+#define SEQ_HEADER                                                                                                 \
+    "{\"type\":\"CityJSON\",\"version\":\"2.0\"," TRANSFORM "\"metadata\":{\"referenceSystem\":\"" CRS32734 "\"}," \
+    "\"geometry-templates\":{\"templates\":[{\"type\":\"Solid\",\"lod\":\"2\",\"boundaries\":[" BOX_FACES "]}],"  \
+    "\"vertices-templates\":" UNIT_CUBE "},\"CityObjects\":{},\"vertices\":[]}"
+#define SEQ_BOX(id, verts)                                                                                          \
+    "{\"type\":\"CityJSONFeature\",\"id\":\"" id "\",\"CityObjects\":{\"" id "\":{\"type\":\"Building\","          \
+    "\"attributes\":{\"osm_id\":7},\"geometry\":[{\"type\":\"Solid\",\"lod\":\"1\",\"boundaries\":[" BOX_FACES     \
+    "]}]}},\"vertices\":" verts "}"
+#define BOX_VERTS_EAST                                                                                              \
+    "[[5000,0,0],[6000,0,0],[6000,800,0],[5000,800,0],[5000,0,600],[6000,0,600],[6000,800,600],[5000,800,600]]"
+
+static void test_sequence(void **state)
+{
+    (void)state;
+    const char *seq = SEQ_HEADER "\n" SEQ_BOX("b1", BOX_VERTS) "\r\n\n" SEQ_BOX("b2", BOX_VERTS_EAST) "\n"
+                                 "{\"type\":\"CityJSONFeature\",\"id\":\"t\",\"CityObjects\":{\"t\":{\"type\":"
+                                 "\"Building\",\"geometry\":[{\"type\":\"GeometryInstance\",\"template\":0,"
+                                 "\"boundaries\":[1],\"transformationMatrix\":" SCALE2 "}]}},"
+                                 "\"vertices\":[[100,100,100],[20000,0,0]]}\n";
+    hz_err err = {0};
+    hz_city *c = hz_city_load_memory(seq, strlen(seq), "seq.city.jsonl", NULL, &err);
+    if (!c)
+        fail_msg("%s", err.msg);
+    assert_int_equal(c->features, 3);
+    assert_int_equal(c->buildings, 3);
+    assert_int_equal(c->instances, 1);
+    assert_int_equal(c->tri_count, 36);
+    assert_int_equal(c->vert_count, 8 + 8 + 2 + 8);
+    assert_string_equal(c->crs, "EPSG:32734");
+    /* The same two boxes in one file: the same triangles, corner for corner. */
+    char one[8192];
+    snprintf(one, sizeof one,
+             "{\"type\":\"CityJSON\",\"version\":\"2.0\"," TRANSFORM "\"metadata\":{\"referenceSystem\":\"" CRS32734
+             "\"},\"CityObjects\":{\"b1\":{\"type\":\"Building\",\"geometry\":[{\"type\":\"Solid\",\"lod\":\"1\","
+             "\"boundaries\":[" BOX_FACES "]}]},\"b2\":{\"type\":\"Building\",\"geometry\":[{\"type\":\"Solid\","
+             "\"lod\":\"1\",\"boundaries\":[%s]}]}},\"vertices\":[%.*s,%.*s]}",
+             "[[[8,11,10,9]],[[12,13,14,15]],[[8,9,13,12]],[[9,10,14,13]],[[10,11,15,14]],[[11,8,12,15]]]",
+             (int)strlen(BOX_VERTS) - 2, BOX_VERTS + 1, (int)strlen(BOX_VERTS_EAST) - 2, BOX_VERTS_EAST + 1);
+    hz_city *f = hz_city_load_memory(one, strlen(one), "one", NULL, &err);
+    if (!f)
+        fail_msg("%s", err.msg);
+    assert_int_equal(f->features, 0);
+    assert_int_equal(f->tri_count, 24);
+    for (uint32_t t = 0; t < 3 * f->tri_count; t++)
+        for (int k = 0; k < 3; k++)
+            assert_true(fabs(c->verts[3 * c->tris[t] + k] - f->verts[3 * f->tris[t] + k]) < 1e-9);
+    hz_city_destroy(f);
+    /* The instance: 2x the unit cube, +1 m in x, on the feature's vertex 1 (200 m east). */
+    const hz_city_object *o = &c->obj[2];
+    assert_string_equal(o->id, "t");
+    double lo[3], hi[3];
+    object_bounds(c, o, lo, hi);
+    const double want[6] = {265201, 6289000, 150, 265203, 6289002, 152};
+    for (int k = 0; k < 3; k++)
+        assert_true(fabs(lo[k] - want[k]) < 1e-6 && fabs(hi[k] - want[3 + k]) < 1e-6);
+    assert_string_equal(c->obj[1].attributes, "{\"osm_id\":7}");
+    hz_city_destroy(c);
+
+    /* Errors, by line. */
+    refused(SEQ_HEADER "\n" SEQ_BOX("b1", BOX_VERTS) "\n{\"type\":\"CityJSONFeature\",\n",
+            "bad.city.json: line 3: column");
+    refused(SEQ_HEADER "\n" SEQ_BOX("b1", "[[0,0,0],[1,0,0]]"),
+            "line 2: CityObjects.b1.geometry[0].boundaries[0][0]: ring 0, entry 1: vertex 3 out of range (2 vertices)");
+    refused(SEQ_HEADER "\n{\"type\":\"CityJSON\",\"CityObjects\":{},\"vertices\":[]}",
+            "line 2: not a CityJSONFeature");
+    refused(SEQ_HEADER "\n{\"type\":\"CityJSONFeature\",\"appearance\":{},\"CityObjects\":{},\"vertices\":[]}",
+            "line 2: appearance: materials of a feature's own are not supported");
+    refused(SEQ_HEADER "\n{\"type\":\"CityJSONFeature\",\"CityObjects\":{}}", "line 2: vertices: missing");
+    /* A first line that is not a CityJSON header: the plain JSON error. */
+    refused("{\"type\":\"Feature\"}\n{}", "line 2, column");
+    /* A header alone draws nothing. */
+    refused(SEQ_HEADER "\n", "no surface to draw");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_box_solid),  cmocka_unit_test(test_semantics), cmocka_unit_test(test_refusals),
-        cmocka_unit_test(test_geometry_instance), cmocka_unit_test(test_materials),
+        cmocka_unit_test(test_geometry_instance), cmocka_unit_test(test_sequence), cmocka_unit_test(test_materials),
         cmocka_unit_test(test_triangulate), cmocka_unit_test(test_mamre),  cmocka_unit_test(test_footprints),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
