@@ -3,7 +3,7 @@
 inputs of every kind each parser reads, plus a few edge cases. Run from the
 repo root: python3 fuzz/make_corpus.py. The output is committed; crashes
 found later are added next to these as regression inputs (see README)."""
-import gzip, os, struct, sys, zlib
+import gzip, json, os, struct, sys, zlib
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
 from xxh64 import xxh64  # noqa: E402
@@ -139,6 +139,13 @@ put("footprints", "utm.geojson", FP["geojson"] + (
     '{"type":"FeatureCollection","crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::32632"}},'
     '"features":[{"type":"Feature","properties":{"height":30},"geometry":{"type":"Polygon","coordinates":'
     '[[[477000,5473000],[477020,5473000],[477010,5473015],[477000,5473000]]]}}]}').encode())
+# OSM tags as GDAL's OSM driver gives them (other_tags, an hstore string), with escapes.
+put("footprints", "other_tags.geojson", FP["geojson"] + json.dumps({"type": "FeatureCollection", "features": [
+    {"type": "Feature", "properties": {"osm_way_id": "5", "other_tags":
+        '"note"=>"a \\"height\\"=>\\"99","building:levels"=>"3","height"=>"12.5 m"'},
+     "geometry": {"type": "Polygon", "coordinates": [json.loads(square)]}},
+    {"type": "Feature", "properties": {"other_tags": '"height"=>"7"'},
+     "geometry": {"type": "Polygon", "coordinates": [json.loads(square)]}}]}).encode())
 put("footprints", "wkt.csv", FP["csv"] + (
     'WKT,height,osm_id\n"POLYGON ((8.69 49.41,8.6902 49.41,8.6902 49.4102,8.69 49.41))",9,7\n'
     '"MULTIPOLYGON (((8.69 49.41,8.6901 49.41,8.6901 49.4101,8.69 49.41)))",,8\n').encode())

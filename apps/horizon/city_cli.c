@@ -21,7 +21,8 @@
 
 int city_cli_option(city_opts *c, const char *a, const char *v, const char *cmd, int *i)
 {
-    const bool takes = !strcmp(a, "--city") || !strcmp(a, "--scene") || !strcmp(a, "--footprints") || !strcmp(a, "--pick") || !strcmp(a, "--cull") ||
+    const bool takes = !strcmp(a, "--city") || !strcmp(a, "--scene") || !strcmp(a, "--footprints") ||
+                       !strcmp(a, "--height-field") || !strcmp(a, "--levels-field") || !strcmp(a, "--pick") || !strcmp(a, "--cull") ||
                        !strcmp(a, "--draw") || !strcmp(a, "--tin-cell") || !strcmp(a, "--city-bench") ||
                        !strcmp(a, "--city-bench-frames");
     if (!takes)
@@ -37,6 +38,12 @@ int city_cli_option(city_opts *c, const char *a, const char *v, const char *cmd,
         c->scene = v;
     } else if (!strcmp(a, "--footprints")) {
         c->footprints = v;
+    } else if (!strcmp(a, "--height-field") || !strcmp(a, "--levels-field")) {
+        if (!v[0] || strlen(v) > 64) {
+            fprintf(stderr, "horizon %s: %s wants a field name of 1 to 64 characters, not '%s'\n", cmd, a, v);
+            return 2;
+        }
+        *(!strcmp(a, "--height-field") ? &c->height_field : &c->levels_field) = v;
     } else if (!strcmp(a, "--city-bench")) {
         if (strcmp(v, "street") && strcmp(v, "overview")) {
             fprintf(stderr, "horizon %s: --city-bench wants street or overview, not '%s'\n", cmd, v);
@@ -97,8 +104,12 @@ void city_cli_usage(void)
             "  --scene FILE.json       a scene file (docs/scene.md): terrain, sun, materials, models\n"
             "                          (box, glTF/OBJ/FBX... through assimp) and a node tree\n"
             "  --footprints FILE       building footprints GDAL/OGR reads (GeoJSON, GeoPackage, Shapefile,\n"
-            "                          OSM PBF ...) extruded by their height, else building:levels x 3 m,\n"
+            "                          OSM PBF ...) extruded by their height, else their levels x 3 m,\n"
             "                          else 10 m, and clamped to the ground\n"
+            "  --height-field NAME     the footprints' height field (default: the first of height,\n"
+            "                          building:height, measuredHeight)\n"
+            "  --levels-field NAME     their levels field (default: the first of building:levels,\n"
+            "                          num_floors, building_l, levels)\n"
             "  --tin-cell M            grid cell of that TINRelief terrain (default 5)\n"
             "  --cull none|frustum|occlusion|gpu   object culling (default occlusion: frustum + the CPU\n"
             "                          occlusion buffer; gpu: frustum + GPU occlusion queries)\n"
@@ -205,7 +216,8 @@ city_app *city_app_load(struct cli_opts *o, const char *cmd, int *rc)
             fprintf(stderr, "horizon %s: %s: %s\n", cmd, o->city.city, a->city->note);
     }
     if (o->city.footprints) {
-        a->fp = hz_city_load_footprints(o->city.footprints, NULL, &err);
+        const hz_footprint_desc fd = {.height_field = o->city.height_field, .levels_field = o->city.levels_field};
+        a->fp = hz_city_load_footprints(o->city.footprints, &fd, &err);
         if (!a->fp) {
             fprintf(stderr, "horizon %s: %s\n", cmd, err.msg);
             city_app_destroy(a);
@@ -771,6 +783,11 @@ void city_app_print(const city_app *a, json_t *json)
             jx_set(f, "clamped", jx_int(a->fp_placed.clamped));
             jx_set(f, "without_ground", jx_int(a->fp_placed.outside));
             jx_set(f, "load_ms", jx_fix(a->fp->load_ms, 1));
+            jx_set(f, "height_from_field", jx_int(a->fp->height_from_field));
+            jx_set(f, "height_field", jx_str(a->fp->height_field));
+            jx_set(f, "height_from_levels", jx_int(a->fp->height_from_levels));
+            jx_set(f, "levels_field", jx_str(a->fp->levels_field));
+            jx_set(f, "height_default", jx_int(a->fp->height_default));
             jx_set(o, "footprints", f);
         }
         if (a->file) {
@@ -798,9 +815,14 @@ void city_app_print(const city_app *a, json_t *json)
         printf("city ground   %u clamped (mean move %.2f m, max %.2f m), %u without ground under them\n",
                a->placed.clamped, a->placed.mean_shift, a->placed.max_shift, a->placed.outside);
     }
-    if (a->fp)
+    if (a->fp) {
+        const hz_city *f = a->fp;
         printf("footprints    %u buildings extruded (%s), %u clamped (mean move %.2f m), %u without ground\n",
-               a->fp->buildings, a->fp->crs, a->fp_placed.clamped, a->fp_placed.mean_shift, a->fp_placed.outside);
+               f->buildings, f->crs, a->fp_placed.clamped, a->fp_placed.mean_shift, a->fp_placed.outside);
+        printf("heights       %u from %s, %u from %s x 3 m, %u the default 10 m\n", f->height_from_field,
+               f->height_field[0] ? f->height_field : "a height field", f->height_from_levels,
+               f->levels_field[0] ? f->levels_field : "a levels field", f->height_default);
+    }
     if (a->file)
         printf("scene file    %u nodes, %u objects (%u meshes), %u clamped to the ground, built in %.0f ms\n",
                fs->nodes, fs->objects, fs->meshes, fs->clamped, fs->ms);

@@ -16,6 +16,8 @@ typedef struct city_opts {
     const char *city;     /* --city FILE */
     const char *scene;    /* --scene FILE (docs/scene.md) */
     const char *footprints; /* --footprints FILE: OGR polygons extruded */
+    const char *height_field; /* --height-field NAME (default: height, building:height, measuredHeight) */
+    const char *levels_field; /* --levels-field NAME (default: building:levels, num_floors, building_l, levels) */
     bool have_pick;
     float pick[2];        /* --pick X,Y: pixel, x right, y down from the top-left */
     bool no_frustum;      /* --cull none|frustum|occlusion (default occlusion) */

@@ -72,6 +72,11 @@ typedef struct hz_city {
     bool semantics;       /* some surface kinds came from semantics */
     uint32_t instances;   /* GeometryInstances read (their template's vertices are appended to verts) */
     uint32_t features;    /* CityJSONFeatures read (a CityJSON Text Sequence, .city.jsonl); 0 for a file */
+    /* Footprints: how many buildings took their height from a height field,
+     * from a levels field, or the default; the fields' names (the first
+     * layer's that has them, "" when none had). */
+    uint32_t height_from_field, height_from_levels, height_default;
+    char height_field[32], levels_field[32];
     char crs[64];         /* "EPSG:32734", "" when the file has none */
     char version[16];
     double extent[6];     /* min x, y, z, max x, y, z of the vertices used */
@@ -98,15 +103,19 @@ void hz_city_destroy(hz_city *c);
  * PBF ... every layer with polygons) extruded to closed LoD1 solids: walls
  * (one quad per ring edge, outward), a flat roof and a floor. Height per
  * feature: the number in height_field, else levels_field times
- * level_height, else default_height. Every field becomes an attribute;
+ * level_height, else default_height. Without a name given, the first field
+ * a layer has of "height", "building:height", "measuredHeight" (heights),
+ * and of "building:levels", "num_floors" (Overture), "building_l" (a
+ * Shapefile's cut of building:levels), "levels" (levels); names match
+ * whatever their case. Every field becomes an attribute;
  * the object id is the field "osm_id" or "id" when present, else the
  * layer name and feature id. Geographic CRSs (lon/lat, e.g. GeoJSON's
  * default) are projected to the WGS 84 UTM zone of the data's centre. The
  * solids' bases are at height 0: place them with a ground function.
  * NULL + err on an unreadable file, no polygon, a CRS PROJ does not know. */
 typedef struct hz_footprint_desc {
-    const char *height_field;   /* NULL -> "height" */
-    const char *levels_field;   /* NULL -> "building:levels" */
+    const char *height_field;   /* NULL -> the first of "height", "building:height", "measuredHeight" */
+    const char *levels_field;   /* NULL -> the first of "building:levels", "num_floors", "building_l", "levels" */
     float level_height;         /* metres per level; 0 -> 3 */
     float default_height;       /* 0 -> 10 */
 } hz_footprint_desc;

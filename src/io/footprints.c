@@ -184,6 +184,72 @@ out:
     return res;
 }
 
+/* The index of the field a layer has, of `given` when set, else of the
+ * first of `names` it has; -1 when none. */
+static int field_of(OGRFeatureDefnH defn, const char *given, const char *const *names)
+{
+    if (given)
+        return OGR_FD_GetFieldIndex(defn, given);
+    for (; *names; names++) {
+        const int i = OGR_FD_GetFieldIndex(defn, *names);
+        if (i >= 0)
+            return i;
+    }
+    return -1;
+}
+
+/* The number under key in an hstore string ("k"=>"v","k2"=>"v2"), as
+ * GDAL's OSM driver gives the tags without a field of their own in
+ * other_tags; NAN when absent or not a number. */
+static double hstore_number(const char *s, const char *key)
+{
+    char tok[2][128];
+    int t = 0;
+    while (s && *s) {
+        while (*s && *s != '"')
+            s++;
+        if (!*s)
+            break;
+        s++;
+        size_t n = 0;
+        while (*s && *s != '"') {
+            if (*s == '\\' && s[1])
+                s++;
+            if (n + 1 < sizeof tok[0])
+                tok[t][n++] = *s;
+            s++;
+        }
+        tok[t][n] = 0;
+        if (*s)
+            s++;
+        if (t == 1 && !strcmp(tok[0], key)) {
+            char *end;
+            double v = strtod(tok[1], &end);
+            return end != tok[1] && isfinite(v) ? v : NAN;
+        }
+        t ^= 1;
+    }
+    return NAN;
+}
+
+/* The first of the keys (the one given, else the list) in the feature's
+ * other_tags (field io); its name in *which. */
+static double tags_number(OGRFeatureH f, int io, const char *given, const char *const *names, const char **which)
+{
+    if (io < 0 || !OGR_F_IsFieldSetAndNotNull(f, io))
+        return NAN;
+    const char *s = OGR_F_GetFieldAsString(f, io);
+    const char *const one[] = {given, NULL};
+    for (const char *const *k = given ? one : names; *k; k++) {
+        const double v = hstore_number(s, *k);
+        if (!isnan(v)) {
+            *which = *k;
+            return v;
+        }
+    }
+    return NAN;
+}
+
 static double field_number(OGRFeatureH f, int i)
 {
     if (i < 0 || !OGR_F_IsFieldSetAndNotNull(f, i))
@@ -197,8 +263,9 @@ static double field_number(OGRFeatureH f, int i)
 hz_city *hz_city_load_footprints(const char *path, const hz_footprint_desc *desc, hz_err *err)
 {
     double t0 = hz_time_ms();
-    const char *hf = desc && desc->height_field ? desc->height_field : "height";
-    const char *lf = desc && desc->levels_field ? desc->levels_field : "building:levels";
+    static const char *const heights[] = {"height", "building:height", "measuredHeight", NULL};
+    static const char *const levels[] = {"building:levels", "num_floors", "building_l", "levels", NULL};
+    const char *hf = desc ? desc->height_field : NULL, *lf = desc ? desc->levels_field : NULL;
     const double lh = desc && desc->level_height > 0 ? desc->level_height : 3.0;
     const double dh = desc && desc->default_height > 0 ? desc->default_height : 10.0;
     hz_io_gdal_setup();
@@ -222,7 +289,8 @@ hz_city *hz_city_load_footprints(const char *path, const hz_footprint_desc *desc
     for (int li = 0; li < GDALDatasetGetLayerCount(ds); li++) {
         OGRLayerH layer = GDALDatasetGetLayer(ds, li);
         OGRFeatureDefnH defn = OGR_L_GetLayerDefn(layer);
-        const int ih = OGR_FD_GetFieldIndex(defn, hf), il = OGR_FD_GetFieldIndex(defn, lf);
+        const int ih = field_of(defn, hf, heights), il = field_of(defn, lf, levels);
+        const int io = OGR_FD_GetFieldIndex(defn, "other_tags"); /* GDAL's OSM driver: the other tags */
         int iid = OGR_FD_GetFieldIndex(defn, "osm_id");
         if (iid < 0)
             iid = OGR_FD_GetFieldIndex(defn, "id");
@@ -297,9 +365,28 @@ hz_city *hz_city_load_footprints(const char *path, const hz_footprint_desc *desc
                     ct = OCTNewCoordinateTransformation(s2, dst);
                 OSRDestroySpatialReference(s2);
             }
-            double h = field_number(f, ih);
+            /* A field asked for by name must be there (a typo would give
+             * every building the default height). */
+            const char *missing = io >= 0 ? NULL : hf && ih < 0 ? hf : lf && il < 0 ? lf : NULL;
+            if (missing) {
+                char names[256] = "";
+                for (int fi = 0; fi < OGR_FD_GetFieldCount(defn); fi++) {
+                    const size_t len = strlen(names);
+                    snprintf(names + len, sizeof names - len, "%s%s", fi ? ", " : "",
+                             OGR_Fld_GetNameRef(OGR_FD_GetFieldDefn(defn, fi)));
+                }
+                OGR_F_Destroy(f);
+                r = hz_err_set(err, HZ_ERR_VALUE, "%s: layer %s has no field '%s' (its fields: %s)", path,
+                               OGR_L_GetName(layer), missing, names[0] ? names : "none");
+                goto out;
+            }
+            const char *hname = ih >= 0 ? OGR_Fld_GetNameRef(OGR_FD_GetFieldDefn(defn, ih)) : NULL;
+            const char *lname = il >= 0 ? OGR_Fld_GetNameRef(OGR_FD_GetFieldDefn(defn, il)) : NULL;
+            double h = ih >= 0 ? field_number(f, ih) : tags_number(f, io, hf, heights, &hname);
+            int from = 0; /* the height's source: 0 the height field, 1 levels, 2 the default */
             if (!(h > 0)) {
-                double lv = field_number(f, il);
+                double lv = il >= 0 ? field_number(f, il) : tags_number(f, io, lf, levels, &lname);
+                from = lv > 0 ? 1 : 2;
                 h = lv > 0 ? lv * lh : dh;
             }
             if (h > 2000)
@@ -351,8 +438,20 @@ hz_city *hz_city_load_footprints(const char *path, const hz_footprint_desc *desc
                 goto out;
             o->tri_count = c->tri_count - o->first_tri;
             c->faces += o->faces;
-            if (o->tri_count)
+            if (o->tri_count) {
                 c->buildings++;
+                if (from == 0) {
+                    c->height_from_field++;
+                    if (!c->height_field[0])
+                        snprintf(c->height_field, sizeof c->height_field, "%s", hname);
+                } else if (from == 1) {
+                    c->height_from_levels++;
+                    if (!c->levels_field[0])
+                        snprintf(c->levels_field, sizeof c->levels_field, "%s", lname);
+                } else {
+                    c->height_default++;
+                }
+            }
         }
     }
     if (!c->buildings)

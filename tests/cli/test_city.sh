@@ -140,11 +140,22 @@ if [ $rc -eq 0 ] && python3 - "$j" <<'PY'
 import json, sys
 d = json.loads(sys.argv[1]); f = d['city']['footprints']; p = d['pick']
 assert f['buildings'] == 2 and f['clamped'] == 2 and f['crs'] == 'EPSG:32632', f
+assert f['height_from_field'] == 1 and f['height_from_levels'] == 1 and f['height_default'] == 0, f
 assert p['node'] == '4711' and p['attributes']['osm_id'] == 4711 and p['attributes']['extruded_height'] == 15, p
 lon, lat = p['lonlat']
 assert 8.69 - 1e-5 <= lon <= 8.6903 + 1e-5 and 49.41 - 1e-5 <= lat <= 49.4102 + 1e-5, p['lonlat']
 PY
 then ok "footprints extruded on heidelberg, pixel picks osm_id 4711"; else bad "footprints (exit $rc): $j"; fi
+# A height field named on the command line; a name no layer has is refused with the fields.
+j=$($HZ render --quiet --effects none --dem "$DATA/heidelberg_dem_hd_utm32n_25m_float32.tif" --footprints "$TMP/hd.geojson" \
+     --height-field osm_id --width 160 --height 90 --json --out "$TMP/fp2.png"); rc=$?
+if [ $rc -eq 0 ] && echo "$j" | python3 -c "
+import json, sys
+f = json.load(sys.stdin)['city']['footprints']
+assert f['height_from_field'] == 2 and f['height_field'] == 'osm_id', f"
+then ok "--height-field osm_id: both buildings take it"; else bad "--height-field (exit $rc): $j"; fi
+expect_fail "--height-field typo"     "has no field 'hieght' \\(its fields: "  $R --dem "$DATA/heidelberg_dem_hd_utm32n_25m_float32.tif" \
+  --footprints "$TMP/hd.geojson" --height-field hieght
 expect_fail "footprints not vector"   "not a vector file"        $R --generate perlin --size 257 --footprints "$DATA/PROVENANCE.md"
 
 # ---- horizon city: a procedural city as a scene file, rendered with instancing

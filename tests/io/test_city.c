@@ -535,6 +535,104 @@ static void test_footprints(void **state)
     assert_int_equal(hz_georef_utm_epsg(10.0, NAN), 0);
 }
 
+/* Where footprint heights come from: an OSM file's tags (GDAL's OSM driver
+ * keeps height and building:levels in other_tags), Overture's num_floors,
+ * a field in capitals, a field named by the caller; a named field that is
+ * not there is refused with the layer's fields. The counts say which
+ * source each building took. */
+static double object_top(const hz_city *c, const char *id)
+{
+    for (uint32_t k = 0; k < c->obj_count; k++)
+        if (!strcmp(c->obj[k].id, id)) {
+            double lo[3], hi[3];
+            object_bounds(c, &c->obj[k], lo, hi);
+            return hi[2] - lo[2];
+        }
+    fail_msg("no object %s", id);
+    return NAN;
+}
+
+static void test_footprint_heights(void **state)
+{
+    (void)state;
+    FILE *fp = fopen(HZ_TEST_TMP "/fp.osm", "w");
+    assert_non_null(fp);
+    fputs("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<osm version=\"0.6\" generator=\"test\">\n"
+          " <node id=\"1\" lat=\"49.4100\" lon=\"8.6940\"/><node id=\"2\" lat=\"49.4100\" lon=\"8.6950\"/>\n"
+          " <node id=\"3\" lat=\"49.4106\" lon=\"8.6950\"/><node id=\"4\" lat=\"49.4106\" lon=\"8.6940\"/>\n"
+          " <node id=\"5\" lat=\"49.4110\" lon=\"8.6960\"/><node id=\"6\" lat=\"49.4110\" lon=\"8.6966\"/>\n"
+          " <node id=\"7\" lat=\"49.4114\" lon=\"8.6966\"/><node id=\"8\" lat=\"49.4120\" lon=\"8.6970\"/>\n"
+          " <node id=\"9\" lat=\"49.4120\" lon=\"8.6975\"/><node id=\"10\" lat=\"49.4124\" lon=\"8.6975\"/>\n"
+          " <way id=\"20\"><nd ref=\"1\"/><nd ref=\"2\"/><nd ref=\"3\"/><nd ref=\"4\"/><nd ref=\"1\"/>"
+          "<tag k=\"building\" v=\"yes\"/><tag k=\"note\" v=\"a &quot;height&quot;=&gt;&quot;99\"/>"
+          "<tag k=\"building:levels\" v=\"5\"/></way>\n"
+          " <way id=\"21\"><nd ref=\"5\"/><nd ref=\"6\"/><nd ref=\"7\"/><nd ref=\"5\"/>"
+          "<tag k=\"building\" v=\"house\"/><tag k=\"height\" v=\"12.5\"/><tag k=\"roof:height\" v=\"3\"/></way>\n"
+          " <way id=\"22\"><nd ref=\"8\"/><nd ref=\"9\"/><nd ref=\"10\"/><nd ref=\"8\"/>"
+          "<tag k=\"building\" v=\"shed\"/></way>\n"
+          " <way id=\"23\"><nd ref=\"1\"/><nd ref=\"5\"/><tag k=\"highway\" v=\"residential\"/></way>\n</osm>\n",
+          fp);
+    fclose(fp);
+    hz_err err = {0};
+    hz_city *c = hz_city_load_footprints(HZ_TEST_TMP "/fp.osm", NULL, &err);
+    if (!c)
+        fail_msg("%s", err.msg);
+    assert_int_equal(c->buildings, 3);
+    assert_int_equal(c->height_from_field, 1);
+    assert_int_equal(c->height_from_levels, 1);
+    assert_int_equal(c->height_default, 1);
+    assert_string_equal(c->height_field, "height");
+    assert_string_equal(c->levels_field, "building:levels");
+    double tops[3] = {0};
+    for (uint32_t k = 0; k < c->obj_count; k++) {
+        double lo[3], hi[3];
+        object_bounds(c, &c->obj[k], lo, hi);
+        tops[k] = hi[2] - lo[2];
+    }
+    /* (the OSM driver may order the ways as it likes) */
+    double want[3] = {15, 12.5, 10};
+    for (int w = 0; w < 3; w++) {
+        bool found = false;
+        for (int k = 0; k < 3; k++)
+            found = found || fabs(tops[k] - want[w]) < 1e-6;
+        if (!found)
+            fail_msg("no building %g m high (%g, %g, %g)", want[w], tops[0], tops[1], tops[2]);
+    }
+    hz_city_destroy(c);
+
+    /* Overture's num_floors, a height field in capitals, and a field named by the caller. */
+    fp = fopen(HZ_TEST_TMP "/fp_fields.geojson", "w");
+    fputs("{\"type\":\"FeatureCollection\",\"crs\":{\"type\":\"name\",\"properties\":{\"name\":"
+          "\"urn:ogc:def:crs:EPSG::32633\"}},\"features\":["
+          "{\"type\":\"Feature\",\"properties\":{\"id\":\"a\",\"num_floors\":6,\"hoehe\":7},\"geometry\":{\"type\":"
+          "\"Polygon\",\"coordinates\":[[[500000,4000000],[500010,4000000],[500010,4000010],[500000,4000000]]]}},"
+          "{\"type\":\"Feature\",\"properties\":{\"id\":\"b\",\"HEIGHT\":21,\"hoehe\":9},\"geometry\":{\"type\":"
+          "\"Polygon\",\"coordinates\":[[[500100,4000000],[500110,4000000],[500110,4000010],[500100,4000000]]]}}]}",
+          fp);
+    fclose(fp);
+    c = hz_city_load_footprints(HZ_TEST_TMP "/fp_fields.geojson", NULL, &err);
+    if (!c)
+        fail_msg("%s", err.msg);
+    assert_true(fabs(object_top(c, "a") - 18) < 1e-6);
+    assert_true(fabs(object_top(c, "b") - 21) < 1e-6);
+    assert_int_equal(c->height_from_levels, 1);
+    assert_string_equal(c->levels_field, "num_floors");
+    hz_city_destroy(c);
+    const hz_footprint_desc named = {.height_field = "hoehe"};
+    c = hz_city_load_footprints(HZ_TEST_TMP "/fp_fields.geojson", &named, &err);
+    if (!c)
+        fail_msg("%s", err.msg);
+    assert_true(fabs(object_top(c, "a") - 7) < 1e-6);
+    assert_true(fabs(object_top(c, "b") - 9) < 1e-6);
+    assert_int_equal(c->height_from_field, 2);
+    hz_city_destroy(c);
+    const hz_footprint_desc typo = {.height_field = "hoeh"};
+    assert_null(hz_city_load_footprints(HZ_TEST_TMP "/fp_fields.geojson", &typo, &err));
+    assert_non_null(strstr(err.msg, "has no field 'hoeh' (its fields: "));
+    assert_non_null(strstr(err.msg, "hoehe"));
+    assert_non_null(strstr(err.msg, "num_floors"));
+}
+
 /* CityJSON Text Sequences (CityJSONL): a header line, then one
  * CityJSONFeature per line whose boundaries and reference points index its
  * own vertices (quantised by the header's transform). The same two boxes
@@ -619,7 +717,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_box_solid),  cmocka_unit_test(test_semantics), cmocka_unit_test(test_refusals),
         cmocka_unit_test(test_geometry_instance), cmocka_unit_test(test_sequence), cmocka_unit_test(test_materials),
-        cmocka_unit_test(test_triangulate), cmocka_unit_test(test_mamre),  cmocka_unit_test(test_footprints),
+        cmocka_unit_test(test_triangulate), cmocka_unit_test(test_mamre),  cmocka_unit_test(test_footprints), cmocka_unit_test(test_footprint_heights),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
