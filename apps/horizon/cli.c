@@ -361,6 +361,9 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             o->forest_file = v;
             if (!o->forest_n)
                 o->forest_n = 1; /* the real count comes from the file */
+        } else if (!strcmp(a, "--forest-save")) {
+            NEEDV();
+            o->forest_save = v;
         } else if (!strcmp(a, "--forest-trees")) {
             NEEDV();
             o->forest_trees = v;
@@ -557,6 +560,10 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
     if (o->dem_count > 1) {
         o->terrain.dem_paths = o->dems;
         o->terrain.dem_path_count = o->dem_count;
+    }
+    if (o->forest_save && !o->forest_n) {
+        fprintf(stderr, "horizon %s: --forest-save needs a forest (--forest N or --forest-file)\n", cmd);
+        return 2;
     }
     if (o->terrain.dem_path && o->terrain.generate) {
         fprintf(stderr, "horizon %s: give either --dem or --generate, not both\n", cmd);

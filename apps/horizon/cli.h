@@ -32,6 +32,7 @@ typedef struct cli_opts {
     /* forest (SPEC F) */
     uint32_t forest_n;          /* trees; 0 = no forest */
     const char *forest_file;    /* CSV x,z,model,scale,yaw (instead of placing forest_n trees) */
+    const char *forest_save;    /* writes the placed trees there, in forest_file's format */
     const char *forest_trees;   /* comma-separated .hzt files; NULL -> the four species */
     const char *tree_cache;     /* where generated trees are kept; NULL -> ~/.cache/horizon/trees */
     uint32_t forest_leaves;     /* leaves per generated tree; 0 -> the species' own */
@@ -233,8 +234,9 @@ bool cli_forest_update(cli_forest *cf, const cli_opts *o, const hz_camera *cam, 
 int cli_forest_billboards(const cli_forest *cf, const cli_opts *o, hz_renderer *ren);
 /* Sets sp's object hook to draw the forest. */
 void cli_forest_hook(cli_forest *cf, hz_scene_params *sp);
-/* Where the forest stands (no GL needed). */
-void cli_forest_area(const cli_opts *o, const hz_terrain *t, float center[2], float *side);
+/* Where the forest stands (no GL needed): --forest-at, else the most plantable
+ * square (object_tops as for cli_forest_create, or NULL). */
+void cli_forest_area(const cli_opts *o, const hz_terrain *t, const float *object_tops, float center[2], float *side);
 /* A camera at the forest's edge looking across it (no GL needed). */
 hz_camera cli_forest_camera(const cli_opts *o, const hz_terrain *t);
 /* The "forest" path: 60 s low over the forest, across and back. */

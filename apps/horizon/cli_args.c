@@ -16,7 +16,7 @@
 static const char *const COMMON_VALUE[] = {
     "amplitude", "bidir-distance", "bloom", "blur", "camera", "climate", "clouds", "colormap", "criterion", "crs",
     "dem", "dump-mesh", "effects", "exposure", "far", "fit", "fog", "forest", "forest-at", "forest-density",
-    "forest-file", "forest-leaves", "forest-seed", "forest-trees", "format", "fov", "gamma", "generate", "height",
+    "forest-file", "forest-save", "forest-leaves", "forest-seed", "forest-trees", "format", "fov", "gamma", "generate", "height",
     "height-fog", "height-offset", "height-range", "hull-dist", "latitude", "layout", "lod", "lod-c", "lod-c2",
     "max-memory", "morph-start", "near", "out", "patch-cells", "pixel-error", "rate-weights", "raw-size", "repeat",
     "roam-budget", "seed", "size", "spacing", "sun", "textures", "time", "tree-cache", "tree-far", "tree-near",

@@ -1058,8 +1058,8 @@ int cmd_bench(int argc, char **argv)
         if (pl > 4 && !strcmp(path_name + pl - 4, ".csv")) /* else a built-in path's name */
             ins[nin++] = (cli_file){path_name, "--path", CLI_FILE};
         const cli_file outs[] = {{json_out, "--json", CLI_FILE}, {plot_out, "--plot", CLI_FILE},
-                                 {costs_out, "--effect-costs", CLI_FILE}};
-        if ((rc = cli_check_outputs("bench", outs, 3, ins, nin)))
+                                 {costs_out, "--effect-costs", CLI_FILE}, {b.o.forest_save, "--forest-save", CLI_FILE}};
+        if ((rc = cli_check_outputs("bench", outs, 4, ins, nin)))
             return rc;
         if (save_dir && (rc = check_frame_outputs(save_dir, ins, nin)))
             return rc;

@@ -104,8 +104,9 @@ int cmd_render(int argc, char **argv)
     const char *out = o.out ? o.out : "render.png";
     cli_file ins[8];
     const size_t nin = cli_opts_inputs(&o, ins, 0, 8);
-    const cli_file outs[] = {{out, "--out", CLI_FILE}, {o.dump_mesh, "--dump-mesh", CLI_FILE}};
-    if ((rc = cli_check_outputs("render", outs, 2, ins, nin)))
+    const cli_file outs[] = {{out, "--out", CLI_FILE}, {o.dump_mesh, "--dump-mesh", CLI_FILE},
+                             {o.forest_save, "--forest-save", CLI_FILE}};
+    if ((rc = cli_check_outputs("render", outs, 3, ins, nin)))
         return rc;
     if ((o.lod.c > 0 || o.lod.c2 > 0 || o.lod.criterion) && !o.quiet &&
         (o.lod.mode == HZ_LOD_CDLOD || o.lod.mode == HZ_LOD_ROAM))

@@ -1107,8 +1107,9 @@ int cmd_view(int argc, char **argv)
         ins[nin++] = (cli_file){vo->script, "--script", CLI_FILE};
         if (vo->path && ends_with(vo->path, ".csv"))
             ins[nin++] = (cli_file){vo->path, "--path", CLI_FILE};
-        const cli_file shot = {vo->screenshot, "--screenshot", CLI_FILE};
-        if (cli_check_outputs("view", &shot, 1, ins, nin))
+        const cli_file outs[] = {{vo->screenshot, "--screenshot", CLI_FILE},
+                                 {v->o.forest_save, "--forest-save", CLI_FILE}};
+        if (cli_check_outputs("view", outs, 2, ins, nin))
             goto out;
         for (size_t k = 0; k < v->sc.count; k++) {
             const cli_file ev = {v->sc.ev[k].file, "a screenshot event of --script", CLI_FILE};

@@ -18,7 +18,8 @@ void cli_usage_forest(void)
 {
     fprintf(stderr,
             "forest:\n"
-            "  --forest N              place N trees around --forest-at (default the map centre)\n"
+            "  --forest N              place N trees around --forest-at (default: the most plantable\n"
+            "                          ground, real data clear of buildings, near the map's middle)\n"
             "  --forest-trees A,B,...  tree models to use: .hzt files, or models assimp reads (OBJ,\n"
             "                          glTF...; imported, ranked and cached); default: oak, maple,\n"
             "                          birch, conifer, grown, VMI-ranked and cached on first use\n"
@@ -28,6 +29,7 @@ void cli_usage_forest(void)
             "  --forest-at X,Z         forest centre, metres\n"
             "  --forest-file F.csv     trees from a file instead: x,z,model,scale,yaw_degrees per line\n"
             "                          (model: 0-based index into the models; y from the terrain)\n"
+            "  --forest-save F.csv     write the placed trees there, in --forest-file's format\n"
             "  --forest-seed S         placement seed (default 1)\n"
             "  --no-simplify           every tree in the frustum at full detail (reference)\n"
             "  --no-hysteresis         update every node's rate every frame (no F6)\n"
@@ -277,9 +279,44 @@ bool cli_read_forest_file(const char *file, const hz_terrain *t, uint32_t models
     return true;
 }
 
+/* The trees as --forest-file reads them back (positions to the centimetre,
+ * yaw to a hundredth of a degree). */
+static bool write_forest_file(const char *path, const cli_forest *cf, const hz_forest_tree *trees, uint32_t n,
+                              hz_err *err)
+{
+    FILE *f = fopen(path, "w");
+    if (!f) {
+        hz_err_set(err, HZ_ERR_IO, "cannot write '%s': %s", path, strerror(errno));
+        return false;
+    }
+    fprintf(f, "# horizon forest: %u trees, x,z,model,scale,yaw_degrees (x, z in metres on the map)\n# models:", n);
+    for (uint32_t k = 0; k < cf->model_count; k++)
+        fprintf(f, " %u=%s", k, cf->models[k]->species[0] ? cf->models[k]->species : "(unnamed)");
+    fputc('\n', f);
+    for (uint32_t k = 0; k < n; k++)
+        fprintf(f, "%.2f,%.2f,%u,%.4f,%.2f\n", trees[k].pos[0], trees[k].pos[2], trees[k].model, trees[k].scale,
+                trees[k].yaw * 57.29577951308232);
+    bool ok = !ferror(f);
+    ok = (fclose(f) == 0) && ok;
+    if (!ok)
+        hz_err_set(err, HZ_ERR_IO, "cannot write '%s': %s", path, strerror(errno));
+    return ok;
+}
+
+typedef struct plant_ground {
+    const hz_terrain *t;
+    const float *tops; /* the objects standing on the ground, or NULL */
+} plant_ground;
+
+/* The ground for planting: none (NaN) on nodata or padding, which is not
+ * drawn, nor where an object stands (the crowns are checked once the models
+ * are chosen). */
 static float ground(void *user, float x, float z)
 {
-    return hz_terrain_height_at(user, x, z);
+    const plant_ground *g = user;
+    if (!hz_terrain_valid_at(g->t, x, z) || !hz_ground_clear(g->tops, g->t->hm.size, g->t->spacing, x, z, 0.0f))
+        return NAN;
+    return hz_terrain_height_at(g->t, x, z);
 }
 
 /* Where model k's baked impostor is kept in the tree cache dir
@@ -397,7 +434,7 @@ cli_forest *cli_forest_create(const cli_opts *o, const hz_terrain *t, const floa
     }
     cf->prep_ms = hz_time_ms() - t0;
     float ext = hz_terrain_extent(t);
-    cli_forest_area(o, t, cf->center, &cf->side);
+    cli_forest_area(o, t, object_tops, cf->center, &cf->side);
     float density = o->forest_density > 0 ? o->forest_density : 400.0f;
     uint32_t placed = 0;
     if (o->forest_file) {
@@ -419,10 +456,11 @@ cli_forest *cli_forest_create(const cli_opts *o, const hz_terrain *t, const floa
         goto fail;
     }
     float lo = t->min_h * t->zscale, hi = t->max_h * t->zscale;
+    plant_ground pg = {t, object_tops};
     hz_forest_desc fd = {.count = o->forest_n, .seed = o->forest_seed, .center = {cf->center[0], cf->center[1]},
                          .density = density, .min_h = lo - 1.0f, .max_h = lo + 0.8f * (hi - lo) + 1.0f,
                          .extent_limit = ext, .model_count = cf->model_count, .model_high = high,
-                         .height = ground, .height_user = (void *)t};
+                         .height = ground, .height_user = &pg};
     if (hz_forest_place(&fd, trees, &placed, &err) != HZ_OK)
         goto fail;
     if (placed < o->forest_n && !o->quiet)
@@ -443,6 +481,8 @@ cli_forest *cli_forest_create(const cli_opts *o, const hz_terrain *t, const floa
             fprintf(stderr, "horizon: %u of the trees would stand in buildings: left out\n", cf->cleared);
     }
 have_trees:
+    if (o->forest_save && !write_forest_file(o->forest_save, cf, trees, placed, &err))
+        goto fail;
     cf->forest = hz_forest_create((const hz_tree *const *)cf->models, cf->model_count, trees, placed, &err);
     if (!cf->forest)
         goto fail;
@@ -560,17 +600,20 @@ void cli_forest_hook(cli_forest *cf, hz_scene_params *sp)
     sp->objects_first = true;
 }
 
-void cli_forest_area(const cli_opts *o, const hz_terrain *t, float center[2], float *side)
+void cli_forest_area(const cli_opts *o, const hz_terrain *t, const float *object_tops, float center[2], float *side)
 {
     float ext = hz_terrain_extent(t);
     float density = o->forest_density > 0 ? o->forest_density : 400.0f;
     *side = sqrtf((float)o->forest_n) * 100.0f / sqrtf(density);
-    center[0] = o->forest_at_set ? o->forest_at[0] : 0.5f * ext;
-    center[1] = o->forest_at_set ? o->forest_at[1] : 0.5f * ext;
+    /* the middle of the data (padded DEMs: not of the map) */
+    const float mid[2] = {t->data_w ? ((float)t->data_x + 0.5f * (float)(t->data_w - 1)) * t->spacing : 0.5f * ext,
+                          t->data_h ? ((float)t->data_y + 0.5f * (float)(t->data_h - 1)) * t->spacing : 0.5f * ext};
+    center[0] = o->forest_at_set ? o->forest_at[0] : mid[0];
+    center[1] = o->forest_at_set ? o->forest_at[1] : mid[1];
     if (o->forest_at_set)
         return;
-    /* The most plantable square: gentle slopes below the tree line, the
-     * nearest to the map centre among equals. */
+    /* The most plantable square: real ground (not nodata or padding, no
+     * object standing on it) of gentle slopes below the tree line, the nearest to the data's middle among equals. */
     const float lo = t->min_h * t->zscale, hi = t->max_h * t->zscale, line = lo + 0.8f * (hi - lo);
     const float max_tan = tanf(35.0f * 0.0174532925f), e = 5.0f;
     float best = -1.0f, best_d = INFINITY, half = fminf(0.5f * *side, 0.45f * ext);
@@ -585,10 +628,12 @@ void cli_forest_area(const cli_opts *o, const hz_terrain *t, float center[2], fl
                     float h = hz_terrain_height_at(t, x, z);
                     float gxs = (hz_terrain_height_at(t, x + e, z) - hz_terrain_height_at(t, x - e, z)) / (2 * e);
                     float gzs = (hz_terrain_height_at(t, x, z + e) - hz_terrain_height_at(t, x, z - e)) / (2 * e);
-                    ok += h <= line && sqrtf(gxs * gxs + gzs * gzs) <= 0.7f * max_tan;
+                    ok += h <= line && sqrtf(gxs * gxs + gzs * gzs) <= 0.7f * max_tan &&
+                          hz_terrain_valid_at(t, x, z) &&
+                          hz_ground_clear(object_tops, t->hm.size, t->spacing, x, z, 0.0f);
                 }
             float score = (float)ok / 49.0f;
-            float d = hypotf(cx - 0.5f * ext, cz - 0.5f * ext);
+            float d = hypotf(cx - mid[0], cz - mid[1]);
             if (score > best + 1e-4f || (fabsf(score - best) <= 1e-4f && d < best_d)) {
                 best = score;
                 best_d = d;
@@ -601,7 +646,7 @@ void cli_forest_area(const cli_opts *o, const hz_terrain *t, float center[2], fl
 hz_camera cli_forest_camera(const cli_opts *o, const hz_terrain *t)
 {
     float ctr[2], side;
-    cli_forest_area(o, t, ctr, &side);
+    cli_forest_area(o, t, NULL, ctr, &side); /* a city's camera comes from the city */
     hz_camera c = hz_terrain_default_camera(t, o->width, o->height);
     float x = ctr[0], z = ctr[1] + 0.5f * side + 25.0f;
     c.pos[0] = x;

@@ -343,12 +343,9 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
             /* No trees on nodata or padding (not drawn): keep those whose
              * nearest sample is valid. */
             size_t kept = 0;
-            const uint32_t n = t->hm.size;
-            for (size_t k = 0; k < a->trees; k++) {
-                long i = lroundf(trees[k].pos[0] / t->spacing), j = lroundf(trees[k].pos[2] / t->spacing);
-                if (i >= 0 && j >= 0 && i < (long)n && j < (long)n && t->valid[(size_t)j * n + (size_t)i])
+            for (size_t k = 0; k < a->trees; k++)
+                if (hz_terrain_valid_at(t, trees[k].pos[0], trees[k].pos[2]))
                     trees[kept++] = trees[k];
-            }
             a->trees = kept;
         }
         /* None inside the buildings. */

@@ -97,6 +97,9 @@ float hz_terrain_extent(const hz_terrain *t);
 /* Height in metres (times zscale) of the sample nearest to world (x, z),
  * clamped to the map. */
 float hz_terrain_height_at(const hz_terrain *t, float x, float z);
+/* True when the sample nearest to world (x, z) is real data (not nodata, not
+ * padding) and (x, z) lies on the map (half a sample of margin). */
+bool hz_terrain_valid_at(const hz_terrain *t, float x, float z);
 /* Height in metres (times zscale) of the full-resolution surface at world
  * (x, z): the two triangles of the cell, as the reference mesh draws them;
  * clamped to the map. */

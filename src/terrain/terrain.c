@@ -331,6 +331,17 @@ float hz_terrain_height_at(const hz_terrain *t, float x, float z)
     return hz_heightmap_get(&t->hm, (uint32_t)lroundf(fi), (uint32_t)lroundf(fj)) * t->zscale;
 }
 
+bool hz_terrain_valid_at(const hz_terrain *t, float x, float z)
+{
+    const float fi = x / t->spacing, fj = z / t->spacing, m = (float)(t->hm.size - 1);
+    if (!(fi >= -0.5f && fj >= -0.5f && fi <= m + 0.5f && fj <= m + 0.5f))
+        return false;
+    long i = lroundf(fi), j = lroundf(fj);
+    i = i < 0 ? 0 : i > (long)m ? (long)m : i;
+    j = j < 0 ? 0 : j > (long)m ? (long)m : j;
+    return !t->valid || t->valid[(size_t)j * t->hm.size + (size_t)i];
+}
+
 float hz_terrain_surface_at(const hz_terrain *t, float x, float z)
 {
     const float m = (float)(t->hm.size - 1);

@@ -431,6 +431,30 @@ printf '# x,z,model,scale,yaw\n2500,2500,0,1,0\n2510,2500,1,1.2,45\n' > "$TMP/fo
 ffj=$($R --size 513 --forest-file "$TMP/forest.csv" $F --camera 2505,2500,2500,0,-89 --json --out "$TMP/ff.png" 2>&1)
 python3 -c "import json,sys; j=json.loads(sys.argv[1]); assert j['forest_trees']==2 and j['trees_in_frustum']==2" "$ffj" &&
   ok "render --forest-file" || bad "render --forest-file: $ffj"
+# --forest-save writes the placed trees; --forest-file reads them back to the same forest.
+fs1=$($R --size 513 --forest 40 $F --forest-save "$TMP/saved.csv" --json --out "$TMP/fs1.png" 2>&1) &&
+fs2=$($R --size 513 --forest-file "$TMP/saved.csv" $F --forest-save "$TMP/saved2.csv" --camera 2505,600,2500,0,-89 --json --out "$TMP/fs2.png" 2>&1) &&
+python3 - "$TMP/saved.csv" "$TMP/saved2.csv" "$fs1" "$fs2" <<'PY' && ok "--forest-save writes what --forest-file reads back" || bad "--forest-save: $fs1 $fs2"
+import json, sys
+rows = lambda f: [l for l in open(f) if not l.startswith('#')]
+a, b = rows(sys.argv[1]), rows(sys.argv[2])
+assert len(a) == 40 and a == b, (len(a), a[:2], b[:2])
+assert json.loads(sys.argv[3])["forest_trees"] == 40 and json.loads(sys.argv[4])["forest_trees"] == 40
+assert {int(l.split(',')[2]) for l in a} <= {0, 1}
+PY
+expect_fail "forest save over its input" "refusing to overwrite" $R --size 513 --forest-file "$TMP/saved.csv" $F --forest-save "$TMP/saved.csv"
+expect_fail "forest save without forest" "needs a forest"      $R --size 513 --forest-save "$TMP/saved3.csv"
+# A padded DEM: the forest stands on the data (heidelberg: 26 x 17.8 km in a 51 km grid whose
+# middle is padding), and the default camera sees it.
+hf=$($R --dem "$DATA/heidelberg_dem_hd_utm32n_25m_float32.tif" --effects none --forest 60 $F \
+     --forest-save "$TMP/hd_forest.csv" --json --out "$TMP/hdf.png" 2>&1) &&
+python3 - "$TMP/hd_forest.csv" "$hf" <<'PY' && ok "forest on a padded DEM stands on the data, in view" || bad "forest on heidelberg: $hf"
+import json, sys
+t = [tuple(map(float, l.split(',')[:2])) for l in open(sys.argv[1]) if not l.startswith('#')]
+j = json.loads(sys.argv[2])
+assert len(t) == 60 == j["forest_trees"] and j["trees_in_frustum"] > 20, (len(t), j["forest_trees"], j["trees_in_frustum"])
+assert all(0 <= x <= 1040 * 25 and 0 <= z <= 712 * 25 for x, z in t), [p for p in t if p[0] > 26000 or p[1] > 17800][:3]
+PY
 printf '2500,2500,7,1,0\n' > "$TMP/badforest.csv"
 expect_fail "forest file bad model" "badforest.csv:1"         $R --size 513 --forest-file "$TMP/badforest.csv" $F
 expect_fail "bench forest bad pr-res" "invalid value"         $HZ bench --quiet --size 257 --forest 5 --pr-res 3

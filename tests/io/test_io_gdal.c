@@ -306,6 +306,17 @@ void test_gdal_nodata_terrain(void **state)
     size_t kept = hz_terrain_filter_triangles(t, idx, 12);
     assert_int_equal(kept, 6);
     assert_int_equal(idx[3], 2 * n);
+    /* By world position: real data, the hole, the padding, off the map (25 m samples). */
+    assert_true(hz_terrain_valid_at(t, 0.0f, 0.0f));
+    assert_true(hz_terrain_valid_at(t, -12.0f, 28 * 25.0f - 40.0f)); /* within half a sample */
+    assert_false(hz_terrain_valid_at(t, -13.0f, 0.0f));
+    assert_false(hz_terrain_valid_at(t, 10 * 25.0f, 15 * 25.0f));      /* in the hole */
+    assert_true(hz_terrain_valid_at(t, 4 * 25.0f + 12.0f, 15 * 25.0f)); /* nearest: column 4 */
+    assert_false(hz_terrain_valid_at(t, 4 * 25.0f + 13.0f, 15 * 25.0f)); /* nearest: column 5 */
+    assert_true(hz_terrain_valid_at(t, 40 * 25.0f, 28 * 25.0f));       /* the last sample */
+    assert_false(hz_terrain_valid_at(t, 41 * 25.0f, 28 * 25.0f));      /* padding */
+    assert_false(hz_terrain_valid_at(t, 64 * 25.0f + 13.0f, 0.0f));    /* off the map */
+    assert_false(hz_terrain_valid_at(t, NAN, 0.0f));
     /* The local origin is the north-west sample: its CRS position is the pixel centre. */
     double cx, cy;
     hz_georef_local_to_crs(t->georef, 0, 0, &cx, &cy);
