@@ -376,14 +376,13 @@ static void terrain_occlude(city_app *a, const hz_camera *cam, float reach)
         }
 }
 
-/* The objects as the light map's shadow casters: each object's world box
- * stands on the terrain samples inside its footprint, at its top. Skipped
- * (no object shadows) beyond 64 M samples, where the grid would cost more
- * than 256 MB. */
+/* The objects as the light map's shadow casters: the highest point of their
+ * triangles over each terrain sample (hz_scene_heights). Skipped (no object
+ * shadows) beyond 64 M samples, where the grid would cost more than 256 MB. */
 static void shadow_casters(city_app *a, const hz_terrain *t)
 {
     const uint32_t n = t->hm.size;
-    if (!a->occ_nodes || (uint64_t)n * n > (64u << 20))
+    if (!hz_scene_mesh_count(a->scene) || (uint64_t)n * n > (64u << 20))
         return;
     a->casters = malloc((size_t)n * n * sizeof *a->casters);
     if (!a->casters)
@@ -391,25 +390,9 @@ static void shadow_casters(city_app *a, const hz_terrain *t)
     for (size_t k = 0; k < (size_t)n * n; k++)
         a->casters[k] = -INFINITY;
     const float sp = t->spacing;
+    a->caster_samples = hz_scene_heights(a->scene, n, sp, a->casters);
     hz_box all;
-    hz_box_empty(&all);
-    for (uint32_t k = 0; k < a->occ_nodes; k++) {
-        hz_box b;
-        hz_scene_node_bounds(a->scene, a->occ_node[k], &b);
-        if (!(b.max[1] > b.min[1]) || !isfinite(b.max[1]))
-            continue;
-        hz_box_add_box(&all, &b);
-        const float i0 = ceilf(b.min[0] / sp), i1 = floorf(b.max[0] / sp);
-        const float j0 = ceilf(b.min[2] / sp), j1 = floorf(b.max[2] / sp);
-        if (i1 < 0 || j1 < 0 || i0 > (float)(n - 1) || j0 > (float)(n - 1))
-            continue;
-        for (uint32_t j = (uint32_t)fmaxf(j0, 0); j <= (uint32_t)fminf(j1, (float)(n - 1)); j++)
-            for (uint32_t i = (uint32_t)fmaxf(i0, 0); i <= (uint32_t)fminf(i1, (float)(n - 1)); i++) {
-                float *c = &a->casters[(size_t)j * n + i];
-                a->caster_samples += *c == -INFINITY;
-                *c = fmaxf(*c, b.max[1]);
-            }
-    }
+    hz_scene_bounds(a->scene, &all);
     /* The objects' faces are shaded by the sun heights over their samples
      * and two more around (a face looks one sample outward); at most 16 M
      * samples (64 MB) and 16 384 per side. */

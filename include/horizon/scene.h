@@ -198,6 +198,18 @@ typedef struct hz_queue_stats {
 uint32_t hz_scene_queue_build(const hz_scene *s, const uint32_t *nodes, uint32_t count, bool sorted,
                               uint32_t *nodes_out, hz_draw_item *items, hz_queue_stats *stats);
 
+/* ---- what stands on the ground ------------------------------------------------ */
+
+/* Raises tops (size x size samples, row-major, sample (i, j) at world
+ * x = i * spacing, z = j * spacing) to the highest point of the scene's mesh
+ * triangles over each sample: a triangle whose ground projection covers
+ * sample points raises them to its own height there; one that covers none
+ * (smaller than a sample cell, or edge-on, as a wall) raises the sample
+ * nearest its centre to its highest vertex. Samples under nothing keep
+ * their value (-INFINITY for "nothing stands here"). After hz_scene_update.
+ * Returns how many samples were -INFINITY and were raised. */
+uint64_t hz_scene_heights(const hz_scene *s, uint32_t size, float spacing, float *tops);
+
 /* ---- picking ---------------------------------------------------------------- */
 
 typedef struct hz_scene_hit {

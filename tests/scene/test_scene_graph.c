@@ -45,6 +45,85 @@ static uint32_t add_box(hz_scene *s, float h)
     return m;
 }
 
+/* What stands on the ground: a box turned 45 degrees raises exactly the
+ * samples of its own (diamond) footprint to its top, not its world box's; a
+ * sloped triangle gives its height at each sample; a triangle smaller than
+ * a cell raises the sample nearest its centre to its highest vertex; what
+ * is off the grid or not finite raises nothing. */
+static void test_ground_heights(void **state)
+{
+    (void)state;
+    enum { N = 101 };
+    static float tops[N * N];
+    for (int k = 0; k < N * N; k++)
+        tops[k] = -INFINITY;
+    hz_scene *s = hz_scene_create(NULL);
+    uint32_t box = add_box(s, 0.5f);
+    uint32_t b = hz_scene_add_node(s, 0, "turned");
+    hz_scene_set_mesh(s, b, box, 0);
+    hz_scene_set_translation(s, b, (float[3]){30, 5, 30});
+    hz_scene_set_scale(s, b, (float[3]){10, 10, 10});
+    hz_scene_set_ypr(s, b, 45, 0, 0);
+    hz_scene_update(s);
+    uint64_t raised = hz_scene_heights(s, N, 1.0f, tops);
+    uint64_t inside = 0;
+    const float r = 5.0f * sqrtf(2.0f); /* the diamond's half diagonal */
+    for (int j = 0; j < N; j++)
+        for (int i = 0; i < N; i++) {
+            const float d = fabsf((float)i - 30) + fabsf((float)j - 30), h = tops[j * N + i];
+            if (d < r - 0.01f) {
+                inside++;
+                assert_float_equal(h, 10.0f, 1e-3f); /* the roof */
+            } else if (d > r + 0.01f) {
+                if (h != -INFINITY)
+                    fail_msg("sample (%d, %d) outside the footprint raised to %g", i, j, (double)h);
+            }
+        }
+    assert_true(inside > 90 && inside <= raised && raised < inside + 12); /* 100 m^2; the rim's few */
+    /* A sloped ground-facing triangle: its plane's height at each sample. */
+    const hz_vertex tri[3] = {{{0, 0, 0}, {0, 1, 0}}, {{20, 20, 0}, {0, 1, 0}}, {{0, 0, 20}, {0, 1, 0}}};
+    hz_err err = {0};
+    uint32_t slope = hz_scene_add_mesh(s, tri, 3, (const uint32_t[3]){0, 1, 2}, 3, &err);
+    uint32_t t1 = hz_scene_add_node(s, 0, "slope");
+    hz_scene_set_mesh(s, t1, slope, 0);
+    hz_scene_set_translation(s, t1, (float[3]){60, 0, 60});
+    /* A 0.3 m triangle (a leaf) near sample (80, 10), 7 m up at its highest. */
+    const hz_vertex tiny[3] = {{{0, 1, 0}, {0, 1, 0}}, {{0.3f, 7, 0}, {0, 1, 0}}, {{0, 2, 0.3f}, {0, 1, 0}}};
+    uint32_t leaf = hz_scene_add_mesh(s, tiny, 3, (const uint32_t[3]){0, 1, 2}, 3, &err);
+    assert_int_not_equal(leaf, HZ_MESH_NONE);
+    uint32_t t2 = hz_scene_add_node(s, 0, "leaf");
+    hz_scene_set_mesh(s, t2, leaf, 0);
+    hz_scene_set_translation(s, t2, (float[3]){80.3f, 0, 10.2f});
+    /* Off the grid, and not finite. */
+    uint32_t t3 = hz_scene_add_node(s, 0, "away"), t4 = hz_scene_add_node(s, 0, "nan");
+    hz_scene_set_mesh(s, t3, box, 0);
+    hz_scene_set_translation(s, t3, (float[3]){-50, 0, 500});
+    hz_scene_set_mesh(s, t4, box, 0);
+    hz_scene_set_translation(s, t4, (float[3]){NAN, 0, 50});
+    hz_scene_update(s);
+    for (int k = 0; k < N * N; k++)
+        tops[k] = -INFINITY;
+    raised = hz_scene_heights(s, N, 1.0f, tops);
+    uint64_t on_slope = 0;
+    for (int j = 60; j <= 80; j++)
+        for (int i = 60; i <= 80; i++)
+            if ((i - 60) + (j - 60) <= 20) {
+                on_slope++;
+                assert_float_equal(tops[j * N + i], (float)(i - 60), 1e-3f);
+            }
+    assert_float_equal(tops[10 * N + 80], 7.0f, 0.0f);
+    assert_true(tops[10 * N + 81] == -INFINITY && tops[11 * N + 80] == -INFINITY);
+    uint64_t standing = 0;
+    for (int k = 0; k < N * N; k++)
+        standing += tops[k] > -INFINITY;
+    assert_int_equal(raised, standing);
+    assert_true(standing >= inside + on_slope + 1 && standing < inside + on_slope + 1 + 12);
+    /* Nothing on a degenerate grid. */
+    assert_int_equal(hz_scene_heights(s, 1, 1.0f, tops), 0);
+    assert_int_equal(hz_scene_heights(s, N, 0.0f, tops), 0);
+    hz_scene_destroy(s);
+}
+
 /* parent: T(10, 0, 0) Ry(90 deg about +y); child: T(0, 0, -5) S(2);
  * grandchild: rotation 90 about +x then T(1, 0, 0). Expected matrices
  * written out by hand. */
@@ -548,7 +627,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_inheritance),     cmocka_unit_test(test_ypr),
         cmocka_unit_test(test_bounds_after_move), cmocka_unit_test(test_frustum_culling),
-        cmocka_unit_test(test_render_queue),    cmocka_unit_test(test_raycast),
+        cmocka_unit_test(test_render_queue),    cmocka_unit_test(test_raycast), cmocka_unit_test(test_ground_heights),
         cmocka_unit_test(test_sort_near_first),
         cmocka_unit_test(test_depth_first),     cmocka_unit_test(test_occlusion), cmocka_unit_test(test_occlusion_raster_exact),
     };
