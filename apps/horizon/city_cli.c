@@ -118,8 +118,9 @@ void city_cli_usage(void)
             "  --city-bench street|overview   (render) draw a path's frames (12, --city-bench-frames N)\n"
             "                          with every culling/queue configuration; street: 2 m above the\n"
             "                          ground from the scene's centre (or --camera's x, z, yaw) 400 m on\n"
-            "  --pick X,Y              print what is under that pixel: node, attributes, world / CRS /\n"
-            "                          lon-lat position of the hit\n");
+            "  --pick X,Y              print what is under pixel (X, Y) from the top-left (the ray\n"
+            "                          through its centre): node, attributes, world / CRS / lon-lat\n"
+            "                          position of the hit\n");
 }
 
 /* The TIN as a GeoTIFF the terrain loader reads (nodata NaN). */
@@ -683,7 +684,7 @@ void city_app_pick(const city_app *a, const hz_terrain *t, const hz_camera *cam,
     const char *attrs = n ? hz_scene_attributes(a->scene, n) : "";
     if (json) {
         json_t *pk = json_object();
-        jx_set(pk, "pixel", json_pack("[ff]", (double)x, (double)y));
+        jx_set(pk, "pixel", json_pack("[ii]", (int)floorf(x), (int)floorf(y)));
         jx_set(pk, "hit", jx_bool(r.hit));
         if (r.hit) {
             jx_set(pk, "what", jx_str(r.terrain ? "terrain" : "node"));
@@ -705,13 +706,13 @@ void city_app_pick(const city_app *a, const hz_terrain *t, const hz_camera *cam,
         return;
     }
     if (!r.hit) {
-        printf("pick          %g,%g: nothing (sky)\n", (double)x, (double)y);
+        printf("pick          %.0f,%.0f: nothing (sky)\n", (double)floorf(x), (double)floorf(y));
         return;
     }
     if (n)
-        printf("pick          %g,%g: %s %s\n", (double)x, (double)y, name, attrs);
+        printf("pick          %.0f,%.0f: %s %s\n", (double)floorf(x), (double)floorf(y), name, attrs);
     else
-        printf("pick          %g,%g: terrain\n", (double)x, (double)y);
+        printf("pick          %.0f,%.0f: terrain\n", (double)floorf(x), (double)floorf(y));
     printf("pick world    %.2f, %.2f, %.2f (%.1f m away)\n", (double)r.pos[0], (double)r.pos[1], (double)r.pos[2],
            (double)r.distance);
     if (crs)

@@ -98,9 +98,10 @@ int city_app_gpu(city_app *a, const char *cmd);
  * hook (chained in front of a hook sp already has). With the buffer, the
  * terrain's in-memory cdlod patches it hides are dropped from sp too. */
 void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam, hz_scene_params *sp);
-/* --pick: what is under pixel (x, y) of cam's image (w x h): the nearest of
- * the scene's triangles and the terrain's surface; printed as text or JSON
- * members. */
+/* --pick: what is under the point (x, y) of cam's image (w x h; continuous:
+ * pixel (i, j) spans [i, i + 1) x [j, j + 1), so its centre is i + 0.5): the
+ * nearest of the scene's triangles and the terrain's surface; printed, with
+ * the pixel it lies in, as text or JSON members. */
 void city_app_pick(const city_app *a, const hz_terrain *t, const hz_camera *cam, float x, float y, uint32_t w,
                    uint32_t h, json_t *json);
 /* The same as one line (a HUD message). */

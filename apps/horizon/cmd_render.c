@@ -101,6 +101,11 @@ int cmd_render(int argc, char **argv)
     int rc = cli_parse(argc, argv, 2, &o, "render");
     if (rc)
         return rc;
+    if (o.city.have_pick && (o.city.pick[0] >= (float)o.width || o.city.pick[1] >= (float)o.height)) {
+        fprintf(stderr, "horizon render: --pick %g,%g lies outside the %ux%u image (pixels from 0,0 at the top-left)\n",
+                (double)o.city.pick[0], (double)o.city.pick[1], o.width, o.height);
+        return 2;
+    }
     const char *out = o.out ? o.out : "render.png";
     cli_file ins[8];
     const size_t nin = cli_opts_inputs(&o, ins, 0, 8);
@@ -329,7 +334,7 @@ int cmd_render(int argc, char **argv)
         if (ca)
             city_app_print(ca, j);
         if (o.city.have_pick)
-            city_app_pick(ca, t, &cam, o.city.pick[0], o.city.pick[1], o.width, o.height, j);
+            city_app_pick(ca, t, &cam, o.city.pick[0] + 0.5f, o.city.pick[1] + 0.5f, o.width, o.height, j);
         if (jx_print(j, stdout)) {
             snprintf(err.msg, sizeof err.msg, "cannot write the JSON to stdout");
             goto done;
@@ -377,7 +382,7 @@ int cmd_render(int argc, char **argv)
         if (ca)
             city_app_print(ca, NULL);
         if (o.city.have_pick)
-            city_app_pick(ca, t, &cam, o.city.pick[0], o.city.pick[1], o.width, o.height, NULL);
+            city_app_pick(ca, t, &cam, o.city.pick[0] + 0.5f, o.city.pick[1] + 0.5f, o.width, o.height, NULL);
         printf("image         %s (%ux%u)\n", out, o.width, o.height);
     }
     rc = 0;

@@ -36,6 +36,39 @@ assert -33.51 < p['lonlat'][1] < -33.50 and 18.47 < p['lonlat'][0] < 18.48, p['l
 PY
 then ok "mamre: 2344 buildings on their TIN, pixel picks osm_328118446"; else bad "mamre pick (exit $rc): $j"; fi
 
+# ---- picks agree with the image at the building's edges: the pixels on either side of
+# its left and right edges, on three rows, pick it exactly when they show its roof
+if python3 - "$HZ" "$CITY" "$TMP" "$(dirname "$0")" <<'PY'
+import json, subprocess, sys
+hz, city, tmp = sys.argv[1:4]
+sys.path.insert(0, sys.argv[4])
+import pngstat
+base = [hz, "render", "--quiet", "--width", "320", "--height", "180", "--effects", "none", "--city", city,
+        "--camera", "1103.5,400,313,0,-89.9", "--json", "--out", tmp + "/edge.png"]
+def pick(x, y):
+    p = json.loads(subprocess.run(base + ["--pick", "%d,%d" % (x, y)], check=True, capture_output=True, text=True).stdout)["pick"]
+    assert p["pixel"] == [x, y], p
+    return p.get("node")
+subprocess.run(base, check=True, capture_output=True)
+w, h, rows = pngstat.read(tmp + "/edge.png")
+roof = lambda x, y: rows[y][x][0] > rows[y][x][1] + 20   # red roofs on green ground
+checked = 0
+for y in (87, 90, 93):
+    assert roof(160, y), (y, rows[y][160])
+    x0 = 160
+    while roof(x0 - 1, y): x0 -= 1
+    x1 = 160
+    while roof(x1 + 1, y): x1 += 1
+    for x, inside in ((x0, True), (x1, True), (x0 - 1, False), (x1 + 1, False)):
+        n = pick(x, y)
+        assert (n == "osm_328118446") == inside, (x, y, inside, n)
+        checked += 1
+assert checked == 12
+PY
+then ok "picks agree with the image on both sides of a building's edges"; else bad "picks at the building's edges"; fi
+
+expect_fail "pick outside the image" "outside the 320x180 image" $R --size 257 --pick 320,10
+
 # ---- the same city as a CityJSON Text Sequence (.city.jsonl: a header line, then one
 # CityJSONFeature per building with its own vertices): same buildings, triangles, pick
 python3 - "$CITY" "$TMP/mamre.city.jsonl" <<'PY'
