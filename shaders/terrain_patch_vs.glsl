@@ -67,9 +67,11 @@ float morph_factor(uvec4 t, vec3 p)
     return clamp((distance(hz_curve(p), u_eye) - u_morph_start * R) / ((1.0 - u_morph_start) * R), 0.0, 1.0);
 }
 
+// The morph target: half the 17-bit sum of the two neighbours' heights in b
+// and bit 0 of a (bit 1 of a is the no-data flag, not a height).
 float target_of(uvec4 t)
 {
-    return u_hoffset + u_hscale * 0.5 * (float(t.b) + 65536.0 * float(t.a));
+    return u_hoffset + u_hscale * 0.5 * (float(t.b) + 65536.0 * float(t.a & 1u));
 }
 
 // A neighbour moved one level toward its own target.

@@ -276,6 +276,64 @@ static void slot_clear(slot *q)
     q->h = NULL;
 }
 
+/* Gives the samples without data (nodata, padding) the height of the
+ * nearest sample with data in the tile (4-neighbour flood from them), and
+ * apron entries at the import's fill value that of the tile sample next to
+ * them. Nothing there is drawn, but the drawn samples next to it take their
+ * morph targets and normals from it: with the fill value (sea level, or the
+ * lowest height) a valid edge vertex would morph halfway down to it, and
+ * the data's edges would grow walls and spikes at a distance. */
+static void fill_invalid(const hz_pyr_info *in, hz_pyr_tile *t)
+{
+    if (!t->valid)
+        return;
+    const uint32_t c = t->cells, n = c + 1;
+    const size_t nn = (size_t)n * n;
+    uint32_t *queue = malloc(nn * sizeof *queue);
+    uint8_t *seen = malloc(nn);
+    size_t head = 0, tail = 0;
+    if (!queue || !seen) {
+        free(queue);
+        free(seen);
+        return; /* the fill value stays: only the look of the edges suffers */
+    }
+    for (size_t k = 0; k < nn; k++) {
+        seen[k] = t->valid[k] != 0;
+        if (seen[k])
+            queue[tail++] = (uint32_t)k;
+    }
+    while (head < tail) {
+        const uint32_t k = queue[head++], i = k % n, j = k / n;
+        const uint32_t nb[4] = {i > 0 ? k - 1 : k, i < c ? k + 1 : k, j > 0 ? k - n : k, j < c ? k + n : k};
+        for (int e = 0; e < 4; e++)
+            if (!seen[nb[e]]) {
+                seen[nb[e]] = 1;
+                t->h[nb[e]] = t->h[k];
+                queue[tail++] = nb[e];
+            }
+    }
+    free(queue);
+    free(seen);
+    if (!t->apron || tail == 0)
+        return;
+    /* the import's fill: sea level when the quantisation reaches it, else its lowest value */
+    const double zq = floor(-in->h_offset / in->h_scale + 0.5);
+    const uint16_t fill = in->h_offset <= 0.0 && in->h_offset + 65535.0 * in->h_scale >= 0.0 && zq >= 0 && zq <= 65535
+                              ? (uint16_t)zq
+                              : 0;
+    size_t a = 0;
+    for (int64_t b = -1; b <= (int64_t)c + 1; b++)
+        for (int64_t x = -1; x <= (int64_t)c + 1; x++) {
+            if (b >= 0 && b <= (int64_t)c && x >= 0 && x <= (int64_t)c)
+                continue;
+            const int64_t ii = x < 0 ? 0 : x > (int64_t)c ? (int64_t)c : x;
+            const int64_t jj = b < 0 ? 0 : b > (int64_t)c ? (int64_t)c : b;
+            if (t->apron[a] == fill)
+                t->apron[a] = t->h[(size_t)jj * n + (size_t)ii];
+            a++;
+        }
+}
+
 /* Reads slot k's tile (called without the lock; the slot is LOADING and
  * owned by the loader until it leaves that state). */
 static void load_one(hz_stream *s, uint32_t k)
@@ -286,6 +344,7 @@ static void load_one(hz_stream *s, uint32_t k)
     hz_result r = hz_pyramid_read_tile(s->pyr, q->level, q->tx, q->tz, &t, &e);
     uint16_t *tex = NULL, *nd = NULL, *h = NULL;
     if (r == HZ_OK) {
+        fill_invalid(&s->info, &t);
         tex = build_texels(s, q, &t);
         const size_t kk = (size_t)t.nodes * t.nodes, k2 = (size_t)(t.nodes + 2) * (t.nodes + 2);
         nd = malloc((k2 + 2 * kk) * sizeof *nd + kk);

@@ -48,6 +48,39 @@ assert -118.1 < c['se'][0] < -117.5 and 35.8 < c['se'][1] < 36.1, c" && ok "corn
   $HZ render --terrain "$TMP/sierra.hzp" --out "$TMP/sierra.png" --camera 540000,4200,400000,60,-6 \
      --width 320 --height 180 --json > "$TMP/srender.json" && ok "render --terrain sierra" || bad "render sierra"
   [ "$(json "$TMP/srender.json" "d['terrain_in_view']")" = True ] && ok "sierra in view" || bad "sierra not in view"
+  # The data's east edge (lon -118, padding beyond) at a distance, where coarse tiles draw it: from
+  # inside, looking across it, and from outside, along it. Against the same view at a fine pixel
+  # error, nothing grows out of the edge into the sky (no wall up, no teeth down): vertices next
+  # to the padding morph toward plausible heights, not toward the fill value or the no-data flag.
+  for cam in 615000,7000,410000,90,-20 640000,2500,440000,-20,-3; do
+    $HZ render --terrain "$TMP/sierra.hzp" --camera $cam --pixel-error 0.3 --out "$TMP/edge_fine.png" >/dev/null &&
+    $HZ render --terrain "$TMP/sierra.hzp" --camera $cam --pixel-error 3 --out "$TMP/edge_3.png" >/dev/null &&
+    $HZ render --terrain "$TMP/sierra.hzp" --camera $cam --out "$TMP/edge_1.png" >/dev/null &&
+    python3 - "$TMP" "$(dirname "$0")" <<'PY' && ok "sierra's edge from $cam: no wall, no teeth" || bad "sierra's edge from $cam"
+import sys
+sys.path.insert(0, sys.argv[2])
+import pngstat
+t = sys.argv[1]
+w, h, ref = pngstat.read(t + "/edge_fine.png")
+jump = lambda p, q: max(abs(p[c] - q[c]) for c in range(3))
+def grown(img):
+    # pixels that differ from the reference where it shows sky (a smooth gradient) above the
+    # terrain, and below it when the view looks at the edge from off the map
+    n = 0
+    for x in range(w):
+        y = 1
+        while y < h and jump(ref[y][x], ref[y - 1][x]) <= 6: y += 1
+        n += sum(jump(img[k][x], ref[k][x]) > 20 for k in range(0, max(y - 3, 0)))
+        if y < h:
+            z = h - 2
+            while z > y and jump(ref[z][x], ref[z + 1][x]) <= 6: z -= 1
+            n += sum(jump(img[k][x], ref[k][x]) > 20 for k in range(min(z + 4, h), h))
+    return n
+for name in ("edge_3", "edge_1"):
+    n = grown(pngstat.read(t + "/" + name + ".png")[2])
+    assert n < 300, (name, n)
+PY
+  done
 fi
 
 # Streaming under a tiny cache: the flight completes with evictions and no hole.
