@@ -598,10 +598,53 @@ hz_camera default_camera(const hz_pyr_info *in, uint32_t w, uint32_t h)
     return c;
 }
 
-hz_camera stream_camera(sopts *o, const hz_pyr_info *in, uint32_t w, uint32_t h)
+static float stream_ground(void *user, float x, float z)
 {
-    stream_curvature(o, in);
+    return hz_stream_height_at(user, x, z);
+}
+
+static int load_all(sctx *c, const hz_camera *cam, uint32_t *rounds, uint32_t *loads, uint64_t *requested);
+
+/* The first view of a pyramid, as of an in-memory DEM (hz_camera_summit_view):
+ * the highest ground, found on the coarse tiles an overview from high above
+ * loads (a 256 x 256 grid over the data), seen from 3x the relief away.
+ * The plain default_camera when nothing loads. */
+static hz_camera summit_camera(sctx *c, const hz_pyr_info *in, uint32_t w, uint32_t h)
+{
     hz_camera cam = default_camera(in, w, h);
+    const float ex = (float)((in->data_w - 1) * in->spacing), ez = (float)((in->data_h - 1) * in->spacing);
+    const float hmax = (float)(in->h_offset + in->h_scale * in->h_max);
+    const float hmin = (float)(in->h_offset + in->h_scale * in->h_min);
+    hz_camera over = cam;
+    over.pos[0] = 0.5f * ex;
+    over.pos[2] = 0.5f * ez;
+    over.pos[1] = hmax + fmaxf(ex, ez);
+    over.pitch = -89.9f;
+    over.zfar = 3.0f * fmaxf(ex, ez) + (hmax - hmin);
+    uint32_t rounds = 0, loads = 0;
+    if (load_all(c, &over, &rounds, &loads, NULL))
+        return cam;
+    float focus[3] = {0, -INFINITY, 0};
+    for (int j = 0; j < 256; j++)
+        for (int i = 0; i < 256; i++) {
+            const float x = ex * ((float)i + 0.5f) / 256.0f, z = ez * ((float)j + 0.5f) / 256.0f;
+            const float y = hz_stream_height_at(c->s, x, z);
+            if (y > focus[1])
+                focus[0] = x, focus[1] = y, focus[2] = z;
+        }
+    if (!(focus[1] > -INFINITY))
+        return cam;
+    const float rect[4] = {0, 0, ex, ez}, centre[2] = {0.5f * ex, 0.5f * ez};
+    hz_camera s = hz_camera_summit_view(rect, centre, focus, hmax - hmin, fmaxf(ex, ez), stream_ground, c->s, w, h);
+    s.zfar = fmaxf(s.zfar, 1.5f * fmaxf(ex, ez) + (s.pos[1] - hmin));
+    return s;
+}
+
+hz_camera stream_camera(sopts *o, sctx *c, uint32_t w, uint32_t h)
+{
+    const hz_pyr_info *in = hz_stream_info(c->s);
+    stream_curvature(o, in);
+    hz_camera cam = o->have_camera ? default_camera(in, w, h) : summit_camera(c, in, w, h);
     cam.earth_radius = o->curv.radius;
     if (o->have_camera) {
         cam.pos[0] = o->camera[0], cam.pos[1] = o->camera[1], cam.pos[2] = o->camera[2];
@@ -628,7 +671,7 @@ int stream_render(int argc, char **argv)
     sctx c;
     if (sctx_open(&c, &o, "render"))
         return 1;
-    hz_camera cam = stream_camera(&o, hz_stream_info(c.s), o.width, o.height);
+    hz_camera cam = stream_camera(&o, &c, o.width, o.height);
     hz_stream_wrap_camera(c.s, &cam);
     /* One image: load until the selection asks for nothing more. */
     hz_lod_stats st = {0};

@@ -50,8 +50,9 @@ void stream_curvature(sopts *o, const hz_pyr_info *in);
 /* A first view over the pyramid's data. */
 hz_camera default_camera(const hz_pyr_info *in, uint32_t w, uint32_t h);
 /* The camera of render and view: --camera (far plane after its height) or
- * the first view, with --curvature resolved into its earth radius. */
-hz_camera stream_camera(sopts *o, const hz_pyr_info *in, uint32_t w, uint32_t h);
+ * the first view of the highest ground (loads the coarse tiles to find it),
+ * with --curvature resolved into its earth radius. */
+hz_camera stream_camera(sopts *o, sctx *c, uint32_t w, uint32_t h);
 
 int stream_view(int argc, char **argv);
 

@@ -259,7 +259,7 @@ int stream_view(int argc, char **argv)
     }
     v.c.lp.viewport_height = v.height;
     const hz_pyr_info *in = hz_stream_info(v.c.s);
-    hz_camera cam = stream_camera(&v.o, in, v.width, v.height);
+    hz_camera cam = stream_camera(&v.o, &v.c, v.width, v.height);
     const double side = (double)(in->data_w > in->data_h ? in->data_w : in->data_h) * in->spacing;
     hz_flycam_init(&v.fc, &(hz_flycam_desc){.start = cam, .speed = (float)(v.o.speed > 0 ? v.o.speed : side / 200.0),
                                             .height = ground, .height_user = v.c.s});

@@ -90,6 +90,18 @@ void hz_camera_frustum(const hz_camera *c, vec4 planes[6]);
  * LOD selection and culling of the reflection pass. */
 void hz_camera_mirror_y(const hz_camera *c, float plane_y, hz_camera *dest);
 
+/* Ground height (metres) at world (x, z), for the helpers below. */
+typedef float (*hz_ground_fn)(void *user, float x, float z);
+
+/* A first view of a place: its summit focus (x, z, height) seen from 3x the
+ * relief away (within 8 - 35 % of the shorter side of rect, the data's
+ * world rectangle x0, z0, x1, z1), back toward centre (the data's middle; a
+ * summit near it is seen from the south-south-west), above the summit and
+ * the ground under the eye (ground), looking a little below the summit.
+ * Field of view 60 degrees, far plane 1.5 x extent. */
+hz_camera hz_camera_summit_view(const float rect[4], const float centre[2], const float focus[3], float relief,
+                                float extent, hz_ground_fn ground, void *user, uint32_t width, uint32_t height);
+
 #ifdef __cplusplus
 }
 #endif

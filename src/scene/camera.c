@@ -176,3 +176,40 @@ double hz_wgs84_radius(double lat_deg)
     const double s = sin(lat_deg * 3.14159265358979323846 / 180.0);
     return a * sqrt(1.0 - e2) / (1.0 - e2 * s * s);
 }
+
+hz_camera hz_camera_summit_view(const float rect[4], const float centre[2], const float focus[3], float relief,
+                                float extent, hz_ground_fn ground, void *user, uint32_t width, uint32_t height)
+{
+    const float fx = focus[0], fh = focus[1], fz = focus[2];
+    const float side = fminf(rect[2] - rect[0], rect[3] - rect[1]);
+    /* Back from the summit toward the middle of the map (so the view crosses
+     * the map), far enough for the relief to fill the view. */
+    const float dist = fminf(fmaxf(3.0f * relief, 0.08f * side), 0.35f * side);
+    float dx = centre[0] - fx, dz = centre[1] - fz, len = sqrtf(dx * dx + dz * dz);
+    if (len < 0.1f * side) {
+        /* A summit near the middle: seen from the south-south-west (yaw 30). */
+        dx = -sinf(glm_rad(30.0f));
+        dz = cosf(glm_rad(30.0f));
+    } else {
+        dx /= len;
+        dz /= len;
+    }
+    hz_camera c = {0};
+    c.pos[0] = glm_clamp(fx + dist * dx, rect[0], rect[2]);
+    c.pos[2] = glm_clamp(fz + dist * dz, rect[1], rect[3]);
+    const float hx = fx - c.pos[0], hz = fz - c.pos[2], hd = fmaxf(sqrtf(hx * hx + hz * hz), 1.0f);
+    /* Above the summit (nothing hides it) and above the ground under the eye. */
+    float under = ground ? ground(user, c.pos[0], c.pos[2]) : -INFINITY;
+    c.pos[1] = fh + 0.2f * relief + 0.005f * side;
+    if (isfinite(under))
+        c.pos[1] = fmaxf(c.pos[1], under + 0.05f * relief + 2.0f);
+    c.yaw = glm_deg(atan2f(hx, -hz));
+    /* Aim a little below the summit: it sits above the middle of the image,
+     * its slopes below. */
+    c.pitch = -glm_deg(atanf((c.pos[1] - (fh - 0.3f * relief)) / hd));
+    c.fov_y = 60.0f;
+    c.aspect = height ? (float)width / (float)height : 16.0f / 9.0f;
+    c.znear = 0.25f; /* reverse-Z float depth: a near plane this close costs no precision */
+    c.zfar = 1.5f * extent;
+    return c;
+}

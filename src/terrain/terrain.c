@@ -411,43 +411,19 @@ static void data_rect(const hz_terrain *t, float r[4])
     r[3] = (float)(t->data_y + h - 1) * t->spacing;
 }
 
+static float ground_of(void *user, float x, float z)
+{
+    return hz_terrain_height_at(user, x, z);
+}
+
 hz_camera hz_terrain_default_camera(const hz_terrain *t, uint32_t width, uint32_t height)
 {
-    float ext = hz_terrain_extent(t);
-    float relief = (t->max_h - t->min_h) * t->zscale;
-    float rect[4], fx, fz, fh, cx, cz;
+    float rect[4], focus[3], centre[2];
     data_rect(t, rect);
-    data_centre(t, &cx, &cz);
-    hz_terrain_focus(t, &fx, &fz, &fh);
-    const float side = fminf(rect[2] - rect[0], rect[3] - rect[1]);
-    /* Back from the summit toward the middle of the map (so the view crosses
-     * the map), far enough for the relief to fill the view. */
-    const float dist = fminf(fmaxf(3.0f * relief, 0.08f * side), 0.35f * side);
-    float dx = cx - fx, dz = cz - fz, len = sqrtf(dx * dx + dz * dz);
-    if (len < 0.1f * side) {
-        /* A summit near the middle: seen from the south-south-west (yaw 30). */
-        dx = -sinf(glm_rad(30.0f));
-        dz = cosf(glm_rad(30.0f));
-    } else {
-        dx /= len;
-        dz /= len;
-    }
-    hz_camera c = {0};
-    c.pos[0] = glm_clamp(fx + dist * dx, rect[0], rect[2]);
-    c.pos[2] = glm_clamp(fz + dist * dz, rect[1], rect[3]);
-    const float hx = fx - c.pos[0], hz = fz - c.pos[2], hd = fmaxf(sqrtf(hx * hx + hz * hz), 1.0f);
-    /* Above the summit (nothing hides it) and above the ground under the eye. */
-    c.pos[1] = fmaxf(fh + 0.2f * relief + 0.005f * side,
-                     hz_terrain_height_at(t, c.pos[0], c.pos[2]) + 0.05f * relief + 2.0f);
-    c.yaw = glm_deg(atan2f(hx, -hz));
-    /* Aim a little below the summit: it sits above the middle of the image,
-     * its slopes below. */
-    c.pitch = -glm_deg(atanf((c.pos[1] - (fh - 0.3f * relief)) / hd));
-    c.fov_y = 60.0f;
-    c.aspect = height ? (float)width / (float)height : 16.0f / 9.0f;
-    c.znear = 0.25f; /* reverse-Z float depth: a near plane this close costs no precision */
-    c.zfar = 1.5f * ext;
-    return c;
+    data_centre(t, &centre[0], &centre[1]);
+    hz_terrain_focus(t, &focus[0], &focus[2], &focus[1]);
+    return hz_camera_summit_view(rect, centre, focus, (t->max_h - t->min_h) * t->zscale, hz_terrain_extent(t),
+                                 ground_of, (void *)t, width, height);
 }
 
 /* Highest ground within radius metres of (x, z), sampled on a coarse grid. */

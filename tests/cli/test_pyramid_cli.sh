@@ -83,6 +83,22 @@ PY
   done
 fi
 
+# The first view of a pyramid is the first view of the same DEM in memory: its highest ground
+# (found on the coarse tiles), from the same place.
+HD="$DATA/heidelberg_dem_hd_utm32n_25m_float32.tif"
+if $HZ import "$HD" --out "$TMP/hd.hzp" --quiet >/dev/null &&
+   $HZ render --terrain "$TMP/hd.hzp" --width 320 --height 180 --json --out "$TMP/hdp.png" > "$TMP/hdp.json" &&
+   $HZ render --dem "$HD" --effects none --quiet --width 320 --height 180 --json --out "$TMP/hdm.png" > "$TMP/hdm.json" &&
+   python3 - "$TMP/hdp.json" "$TMP/hdm.json" <<'PY'
+import json, sys
+p, m = (json.load(open(f)) for f in sys.argv[1:3])
+a, b = p["camera"], m["camera"]
+assert all(abs(a[k] - b[k]) < 260 for k in range(3)), (a, b)   # 1 % of the DEM's 26 km
+assert abs(a[3] - b[3]) < 5 and abs(a[4] - b[4]) < 3, (a, b)
+assert p["terrain_in_view"], p
+PY
+then ok "pyramid's first view = the DEM's in memory"; else bad "pyramid's first view"; fi
+
 # Streaming under a tiny cache: the flight completes with evictions and no hole.
 $HZ bench --terrain "$P" --cache-mb 4 --frames 40 --width 320 --height 180 --json > "$TMP/bench.json" \
   && ok "bench --terrain, 4 MB cache" || bad "bench --terrain"
