@@ -205,7 +205,10 @@ void main()
                 uvec4 ta, tb;
                 // A tile's corners have their neighbours outside it: there the
                 // target is the midpoint of the unmorphed neighbours.
-                if (tile_texel(a.x, a.y, org, shift, layer, ta) && tile_texel(b.x, b.y, org, shift, layer, tb))
+                // Next to a sample without data the target is the vertex itself
+                // (the CPU wrote it so): the fill height is no shape.
+                if (tile_texel(a.x, a.y, org, shift, layer, ta) && tile_texel(b.x, b.y, org, shift, layer, tb) &&
+                    ((ta.a | tb.a) & 2u) == 0u)
                     p.y = mix(h, 0.5 * (morph1_texel(ta, a.x, a.y) + morph1_texel(tb, b.x, b.y)), m);
                 else
                     p.y = mix(h, target_of(t), m);

@@ -47,6 +47,7 @@ typedef struct slot {
     uint8_t *flags;       /* k^2 */
     uint16_t *texels;     /* while READY */
     uint16_t *h;          /* (c+1)^2 heights (height queries) */
+    uint8_t *v;           /* (c+1)^2 validity, NULL when every sample has data */
     float prio;
     bool queued;
     double born;          /* clock of the first selection that could use it (NAN: not yet) */
@@ -185,7 +186,7 @@ static uint16_t sample_q(const hz_stream *s, const slot *q, uint32_t X, uint32_t
 }
 
 /* Height (h16) of level-0 sample (X, Z) from slot q's tile, if it holds it. */
-static bool slot_h(const hz_stream *s, const slot *q, int64_t Xs, int64_t Zs, uint32_t *h)
+static bool slot_h(const hz_stream *s, const slot *q, int64_t Xs, int64_t Zs, uint32_t *h, bool *valid)
 {
     const int64_t per = (int64_t)s->info.size - 1;
     if (s->info.wrap)
@@ -201,6 +202,7 @@ static bool slot_h(const hz_stream *s, const slot *q, int64_t Xs, int64_t Zs, ui
     if (a > c || b > c)
         return false;
     *h = q->h[(size_t)b * (c + 1) + a];
+    *valid = !q->v || q->v[(size_t)b * (c + 1) + a];
     return true;
 }
 
@@ -234,7 +236,13 @@ static uint16_t *build_texels(const hz_stream *s, const slot *q, const hz_pyr_ti
                     if (inside)
                         la[e] = (uint32_t)((pi[e] - t->x0) >> l), lb[e] = (uint32_t)((pj[e] - t->z0) >> l);
                 }
-                if (inside) {
+                /* Next to a sample without data (the import's fill height, sea level
+                 * or the lowest), the vertex does not morph: its target is itself.
+                 * Validity is the same in every tile, so is the target. */
+                if (inside && t->valid &&
+                    !(t->valid[(size_t)lb[0] * n + la[0]] && t->valid[(size_t)lb[1] * n + la[1]])) {
+                    t2 = 2u * t->h[k];
+                } else if (inside) {
                     t2 = (uint32_t)t->h[(size_t)lb[0] * n + la[0]] + t->h[(size_t)lb[1] * n + la[1]];
                 } else {
                     /* a tile corner: its neighbours are on the grid of the
@@ -242,9 +250,10 @@ static uint16_t *build_texels(const hz_stream *s, const slot *q, const hz_pyr_ti
                     uint32_t L = log2u(low_bit((X + ext) | (Z + ext)));
                     L = L > top ? top : L;
                     uint32_t h0, h1;
-                    if (L > l && q->anc[L] >= 0 && slot_h(s, &s->slots[q->anc[L]], pi[0], pj[0], &h0) &&
-                        slot_h(s, &s->slots[q->anc[L]], pi[1], pj[1], &h1))
-                        t2 = h0 + h1;
+                    bool v0, v1;
+                    if (L > l && q->anc[L] >= 0 && slot_h(s, &s->slots[q->anc[L]], pi[0], pj[0], &h0, &v0) &&
+                        slot_h(s, &s->slots[q->anc[L]], pi[1], pj[1], &h1, &v1))
+                        t2 = v0 && v1 ? h0 + h1 : 2u * t->h[k];
                 }
             }
             uint16_t *o = tex + ((size_t)(b + 1) * T1 + a + 1) * 4;
@@ -274,64 +283,7 @@ static void slot_clear(slot *q)
     q->flags = NULL;
     q->texels = NULL;
     q->h = NULL;
-}
-
-/* Gives the samples without data (nodata, padding) the height of the
- * nearest sample with data in the tile (4-neighbour flood from them), and
- * apron entries at the import's fill value that of the tile sample next to
- * them. Nothing there is drawn, but the drawn samples next to it take their
- * morph targets and normals from it: with the fill value (sea level, or the
- * lowest height) a valid edge vertex would morph halfway down to it, and
- * the data's edges would grow walls and spikes at a distance. */
-static void fill_invalid(const hz_pyr_info *in, hz_pyr_tile *t)
-{
-    if (!t->valid)
-        return;
-    const uint32_t c = t->cells, n = c + 1;
-    const size_t nn = (size_t)n * n;
-    uint32_t *queue = malloc(nn * sizeof *queue);
-    uint8_t *seen = malloc(nn);
-    size_t head = 0, tail = 0;
-    if (!queue || !seen) {
-        free(queue);
-        free(seen);
-        return; /* the fill value stays: only the look of the edges suffers */
-    }
-    for (size_t k = 0; k < nn; k++) {
-        seen[k] = t->valid[k] != 0;
-        if (seen[k])
-            queue[tail++] = (uint32_t)k;
-    }
-    while (head < tail) {
-        const uint32_t k = queue[head++], i = k % n, j = k / n;
-        const uint32_t nb[4] = {i > 0 ? k - 1 : k, i < c ? k + 1 : k, j > 0 ? k - n : k, j < c ? k + n : k};
-        for (int e = 0; e < 4; e++)
-            if (!seen[nb[e]]) {
-                seen[nb[e]] = 1;
-                t->h[nb[e]] = t->h[k];
-                queue[tail++] = nb[e];
-            }
-    }
-    free(queue);
-    free(seen);
-    if (!t->apron || tail == 0)
-        return;
-    /* the import's fill: sea level when the quantisation reaches it, else its lowest value */
-    const double zq = floor(-in->h_offset / in->h_scale + 0.5);
-    const uint16_t fill = in->h_offset <= 0.0 && in->h_offset + 65535.0 * in->h_scale >= 0.0 && zq >= 0 && zq <= 65535
-                              ? (uint16_t)zq
-                              : 0;
-    size_t a = 0;
-    for (int64_t b = -1; b <= (int64_t)c + 1; b++)
-        for (int64_t x = -1; x <= (int64_t)c + 1; x++) {
-            if (b >= 0 && b <= (int64_t)c && x >= 0 && x <= (int64_t)c)
-                continue;
-            const int64_t ii = x < 0 ? 0 : x > (int64_t)c ? (int64_t)c : x;
-            const int64_t jj = b < 0 ? 0 : b > (int64_t)c ? (int64_t)c : b;
-            if (t->apron[a] == fill)
-                t->apron[a] = t->h[(size_t)jj * n + (size_t)ii];
-            a++;
-        }
+    q->v = NULL;
 }
 
 /* Reads slot k's tile (called without the lock; the slot is LOADING and
@@ -343,15 +295,20 @@ static void load_one(hz_stream *s, uint32_t k)
     hz_err e = {0};
     hz_result r = hz_pyramid_read_tile(s->pyr, q->level, q->tx, q->tz, &t, &e);
     uint16_t *tex = NULL, *nd = NULL, *h = NULL;
+    uint8_t *v = NULL;
     if (r == HZ_OK) {
-        fill_invalid(&s->info, &t);
         tex = build_texels(s, q, &t);
         const size_t kk = (size_t)t.nodes * t.nodes, k2 = (size_t)(t.nodes + 2) * (t.nodes + 2);
+        const size_t nn = (size_t)(t.cells + 1) * (t.cells + 1);
         nd = malloc((k2 + 2 * kk) * sizeof *nd + kk);
-        h = malloc((size_t)(t.cells + 1) * (t.cells + 1) * sizeof *h);
+        h = malloc(nn * sizeof *h + (t.valid ? nn : 0)); /* heights, then validity when masked */
         if (tex && nd && h) {
             memcpy(nd, t.node_delta, (k2 + 2 * kk) * sizeof *nd);
-            memcpy(h, t.h, (size_t)(t.cells + 1) * (t.cells + 1) * sizeof *h);
+            memcpy(h, t.h, nn * sizeof *h);
+            if (t.valid) {
+                v = (uint8_t *)(h + nn);
+                memcpy(v, t.valid, nn);
+            }
         } else {
             r = hz_err_set(&e, HZ_ERR_MEMORY, "out of memory loading a tile");
         }
@@ -364,6 +321,7 @@ static void load_one(hz_stream *s, uint32_t k)
         memset(q->flags, 0, kk);
         q->texels = tex;
         q->h = h;
+        q->v = v;
         q->state = SLOT_READY;
     } else {
         free(tex);
