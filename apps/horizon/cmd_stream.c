@@ -622,7 +622,10 @@ static hz_camera summit_camera(sctx *c, const hz_pyr_info *in, uint32_t w, uint3
     over.pitch = -89.9f;
     over.zfar = 3.0f * fmaxf(ex, ez) + (hmax - hmin);
     uint32_t rounds = 0, loads = 0;
-    if (load_all(c, &over, &rounds, &loads, NULL))
+    const int failed = load_all(c, &over, &rounds, &loads, NULL);
+    c->first_view_loads += loads;
+    c->first_view_rounds += rounds;
+    if (failed)
         return cam;
     float focus[3] = {0, -INFINITY, 0};
     for (int j = 0; j < 256; j++)
@@ -671,12 +674,13 @@ int stream_render(int argc, char **argv)
     sctx c;
     if (sctx_open(&c, &o, "render"))
         return 1;
+    const double t0 = hz_time_ms();
     hz_camera cam = stream_camera(&o, &c, o.width, o.height);
     hz_stream_wrap_camera(c.s, &cam);
-    /* One image: load until the selection asks for nothing more. */
+    /* One image: load until the selection asks for nothing more (the tiles
+     * the first view was found on count too). */
     hz_lod_stats st = {0};
-    uint32_t rounds = 0, loads = 0;
-    const double t0 = hz_time_ms();
+    uint32_t rounds = c.first_view_rounds, loads = c.first_view_loads;
     if (load_all(&c, &cam, &rounds, &loads, NULL)) {
         fprintf(stderr, "horizon render: out of memory in the selection\n");
         sctx_free(&c);

@@ -34,6 +34,7 @@ typedef struct sctx {
     hz_renderer *r;
     hz_patch_list pl;
     hz_lod_params lp;
+    uint32_t first_view_loads, first_view_rounds; /* tiles loaded to find the first view */
 } sctx;
 
 /* Parses argv[2..] for cmd ("render", "bench", "view"). 0, or 2 after a message. */
