@@ -295,14 +295,17 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
 
     if (o->water_mode != 1) {
         bool sea = false;
-        a->water_level = o->water_mode == 2 ? o->water_level : hz_water_level_auto(&t->hm, t->zscale, 0, &sea);
+        a->water_level =
+            o->water_mode == 2 ? o->water_level : hz_water_level_auto(&t->hm, t->valid, t->zscale, 0, &sea);
         a->water = true;
         if (o->water_mode == 0) {
             /* A georeferenced DEM's sea is at 0 m: a flat plain higher up
-             * is land, not a sea. Deserts and steppes have no lakes. */
+             * is land, not a sea. A real place gets no invented lakes (its
+             * lowest 4 % is a valley or a plain people live on: Heidelberg's
+             * Rhine plain), nor do deserts and steppes. */
             if (sea && a->climate_known && fabsf(a->water_level / t->zscale) > 10.0f)
                 a->water = false;
-            else if (!sea && dry)
+            else if (!sea && (dry || a->climate_known))
                 a->water = false;
         }
         if (a->water && (fx & HZ_FX_WATER)) {

@@ -174,7 +174,7 @@ void hz_forest_cover_map(const hz_heightmap *hm, float spacing, float zscale, co
         }
 }
 
-float hz_water_level_auto(const hz_heightmap *hm, float zscale, float fraction, bool *is_sea)
+float hz_water_level_auto(const hz_heightmap *hm, const uint8_t *valid, float zscale, float fraction, bool *is_sea)
 {
     if (is_sea)
         *is_sea = false;
@@ -187,10 +187,17 @@ float hz_water_level_auto(const hz_heightmap *hm, float zscale, float fraction, 
     uint32_t *hist = calloc(65536, sizeof *hist);
     if (!hist)
         return zscale * hm->offset;
+    uint64_t total = 0;
     for (uint32_t j = 0; j < n; j++)
         for (uint32_t i = 0; i < n; i++)
-            hist[hz_heightmap_get16(hm, i, j)]++;
-    const uint64_t total = (uint64_t)n * n;
+            if (!valid || valid[(size_t)j * n + i]) {
+                hist[hz_heightmap_get16(hm, i, j)]++;
+                total++;
+            }
+    if (total == 0) {
+        free(hist);
+        return zscale * hm->offset;
+    }
     uint32_t lo = 0;
     while (lo < 65535 && hist[lo] == 0)
         lo++;

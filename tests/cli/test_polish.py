@@ -166,6 +166,11 @@ if os.path.exists(S46):
           "S46W066: the sea just above 0 m, not a 1 m sea over the land", j and j["water_level"] or err)
 else:
     bad("missing " + S46)
+# ... nor invents lakes on a real place: Heidelberg's lowest 4 % is the Rhine plain, farmland.
+HD = os.path.join(DATA, "heidelberg_dem_hd_utm32n_25m_float32.tif")
+j, err = render_json(["--dem", HD, "--out", tmp("hd_water.png")])
+check(j and j["water_level"] is None and j["climate_from_place"] and j["reflections"] == 0,
+      "heidelberg: no lakes invented over the Rhine plain", j and (j["water_level"], j["reflections"]) or err)
 
 # A camera far above the height fog (30 km up) with every effect on: the
 # terrain is hazy, never black (the height-fog integral overflowed to NaN).

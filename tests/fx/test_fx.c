@@ -419,13 +419,13 @@ static void test_trees_and_water(void **state)
     make_hm(&hm, 513, 0.1f);
     const float spacing = 20.0f;
     bool sea = false;
-    float level = hz_water_level_auto(&hm, 1.0f, 0, &sea);
+    float level = hz_water_level_auto(&hm, NULL, 1.0f, 0, &sea);
     assert_true(sea);
     printf("auto water level with a sea: %.2f m\n", (double)level);
     assert_true(fabsf(level - 0.1f) < 0.01f); /* just above the sea: no coastal land drowned */
     hz_heightmap no_sea;
     make_hm(&no_sea, 257, 0.0f);
-    float lake = hz_water_level_auto(&no_sea, 2.0f, 0.1f, &sea);
+    float lake = hz_water_level_auto(&no_sea, NULL, 2.0f, 0.1f, &sea);
     assert_false(sea);
     /* 10 % of the samples lie below it, 90 % above. */
     size_t below = 0;
@@ -434,6 +434,23 @@ static void test_trees_and_water(void **state)
             below += 2.0f * hz_heightmap_get(&no_sea, i, j) <= lake;
     printf("auto lake level: %.1f m, %.3f below\n", (double)lake, (double)below / (257.0 * 257.0));
     assert_true(fabs((double)below / (257.0 * 257.0) - 0.1) < 0.01);
+    /* Only valid samples count: the sea strip masked (nodata, as SRTM oceans
+     * are), no sea is found, and the lakes fill 4 % of the valid rest. */
+    uint8_t *valid = malloc(513u * 513u);
+    size_t nvalid = 0;
+    for (uint32_t j = 0; j < 513; j++)
+        for (uint32_t i = 0; i < 513; i++)
+            nvalid += valid[(size_t)j * 513 + i] = (float)i / 512.0f >= 0.1f;
+    float masked = hz_water_level_auto(&hm, valid, 1.0f, 0, &sea);
+    assert_false(sea);
+    size_t under = 0;
+    for (uint32_t j = 0; j < 513; j++)
+        for (uint32_t i = 0; i < 513; i++)
+            under += valid[(size_t)j * 513 + i] && hz_heightmap_get(&hm, i, j) <= masked;
+    printf("auto lake level over the valid samples: %.1f m, %.3f of them below\n", (double)masked,
+           (double)under / (double)nvalid);
+    assert_true(fabs((double)under / (double)nvalid - 0.04) < 0.005);
+    free(valid);
 
     hz_scatter_desc td = {.water_level = level, .seed = 9, .texture0 = 4};
     hz_billboard *t1 = NULL, *t2 = NULL;
