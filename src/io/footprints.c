@@ -270,10 +270,19 @@ hz_city *hz_city_load_footprints(const char *path, const hz_footprint_desc *desc
     const double dh = desc && desc->default_height > 0 ? desc->default_height : 10.0;
     hz_io_gdal_setup();
     CPLPushErrorHandler(CPLQuietErrorHandler);
-    GDALDatasetH ds = GDALOpenEx(path, GDAL_OF_VECTOR | GDAL_OF_READONLY, NULL, NULL, NULL);
+    /* The formats footprints come in, and no others: every driver GDAL has
+     * would be every parser GDAL has exposed to a user's file (fuzzing found
+     * a leak in the NAS driver's probe of an XML file). */
+    static const char *const drivers[] = {"GeoJSON", "GeoJSONSeq", "ESRIJSON", "GPKG", "SQLite", "ESRI Shapefile",
+                                          "OSM", "CSV", "KML", "LIBKML", "GML", "FlatGeobuf", "OpenFileGDB",
+                                          "MapInfo File", "Parquet", "Arrow", NULL};
+    GDALDatasetH ds = GDALOpenEx(path, GDAL_OF_VECTOR | GDAL_OF_READONLY, drivers, NULL, NULL);
     CPLPopErrorHandler();
     if (!ds) {
-        hz_err_set(err, HZ_ERR_IO, "%s: not a vector file GDAL/OGR can read", path);
+        hz_err_set(err, HZ_ERR_IO,
+                   "%s: not a vector file of a footprint format GDAL reads here (GeoJSON, GeoPackage, Shapefile, "
+                   "OSM PBF/XML, CSV with WKT, KML, GML, FlatGeobuf, FileGDB, MapInfo, GeoParquet)",
+                   path);
         return NULL;
     }
     hz_city *c = calloc(1, sizeof *c);
