@@ -26,7 +26,8 @@ int main(int argc, char **argv)
     hz_index_list il = {0};
     uint8_t *rgb = malloc((size_t)W * H * 3);
     int rc = 1;
-    if (!r || !rgb || hz_renderer_set_heightmap(r, &t->hm, t->spacing, t->zscale, &err) != HZ_OK)
+    if (!r || !rgb || hz_renderer_set_heightmap(r, &t->hm, t->spacing, t->zscale, &err) != HZ_OK ||
+        hz_renderer_set_valid(r, t->valid, &err) != HZ_OK)
         goto out;
     /* The default camera frames the highest ground; the LOD selects the
      * triangles for it (1 px screen-space error), masked samples dropped. */

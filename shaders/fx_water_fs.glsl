@@ -8,6 +8,8 @@ uniform sampler2D u_reflection;
 uniform int u_has_reflection;
 uniform vec2 u_viewport;       // pixels
 uniform samplerBuffer u_heights;
+uniform samplerBuffer u_valid; // a byte per sample: has data (bound when u_has_valid)
+uniform int u_has_valid;
 uniform int u_size;
 uniform float u_spacing, u_hscale, u_hoffset;
 uniform float u_level;
@@ -23,13 +25,20 @@ float h_at(int i, int j)
     return u_hoffset + u_hscale * h16;
 }
 
-// Bilinear ground height; far below everything outside the map (open sea).
+// Bilinear ground height; far below everything outside the map and where
+// there is no data (open sea).
 float ground(vec2 xz)
 {
     vec2 g = xz / u_spacing;
     float n1 = float(u_size - 1);
     if (g.x < 0.0 || g.y < 0.0 || g.x > n1 || g.y > n1)
         return -1e6;
+    // Over a sample without data (an SRTM sea is nodata), as deep as the open sea.
+    if (u_has_valid != 0) {
+        ivec2 c = ivec2(floor(g + 0.5));
+        if (texelFetch(u_valid, c.y * u_size + c.x).r == 0.0) // GL_R8: 1 reads 1/255
+            return -1e6;
+    }
     ivec2 i = min(ivec2(floor(g)), ivec2(u_size - 2));
     vec2 f = g - vec2(i);
     float a = h_at(i.x, i.y), b = h_at(i.x + 1, i.y), c = h_at(i.x, i.y + 1), d = h_at(i.x + 1, i.y + 1);

@@ -796,6 +796,8 @@ void cli_lod_frame_free(cli_lod_frame *f)
 hz_result cli_renderer_setup(hz_renderer *r, hz_terrain *t, const cli_opts *o, hz_err *err)
 {
     hz_result res = hz_renderer_set_heightmap(r, &t->hm, t->spacing, t->zscale, err);
+    if (res == HZ_OK)
+        res = hz_renderer_set_valid(r, t->valid, err);
     return res != HZ_OK ? res : cli_renderer_morph(r, t, o->lod.mode, err);
 }
 

@@ -1154,7 +1154,8 @@ int cmd_bench(int argc, char **argv)
     if (!gl)
         goto done;
     b.ren = hz_renderer_create(&(hz_renderer_desc){.width = b.o.width, .height = b.o.height}, &b.err);
-    if (!b.ren || hz_renderer_set_heightmap(b.ren, &b.t->hm, b.t->spacing, b.t->zscale, &b.err) != HZ_OK)
+    if (!b.ren || hz_renderer_set_heightmap(b.ren, &b.t->hm, b.t->spacing, b.t->zscale, &b.err) != HZ_OK ||
+        hz_renderer_set_valid(b.ren, b.t->valid, &b.err) != HZ_OK)
         goto done;
     for (int m = 0; m < nmodes; m++)
         if (cli_renderer_morph(b.ren, b.t, modes[m], &b.err) != HZ_OK)

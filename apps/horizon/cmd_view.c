@@ -1201,7 +1201,8 @@ int cmd_view(int argc, char **argv)
     v->ren = hz_renderer_create(&(hz_renderer_desc){.width = v->width, .height = v->height,
                                                     .to_default_framebuffer = true},
                                 &v->err);
-    if (!v->ren || hz_renderer_set_heightmap(v->ren, &v->t->hm, v->t->spacing, v->t->zscale, &v->err) != HZ_OK) {
+    if (!v->ren || hz_renderer_set_heightmap(v->ren, &v->t->hm, v->t->spacing, v->t->zscale, &v->err) != HZ_OK ||
+        hz_renderer_set_valid(v->ren, v->t->valid, &v->err) != HZ_OK) {
         fprintf(stderr, "horizon view: %s\n", v->err.msg);
         goto out;
     }

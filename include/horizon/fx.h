@@ -234,11 +234,11 @@ void hz_sprite_mip_next(const uint8_t *in, uint32_t w, uint32_t h, double cover0
 
 /* A water level for a heightmap that has none given (metres, zscale applied):
  * a flat area among the lowest tenth of the heights (at least 0.5 % of the
- * samples within 0.5 m of each other, e.g. a sea in a DEM) gives a sea 0.1 m
- * above it (*is_sea true); otherwise lakes fill the lowest `fraction` of the
- * samples (0 -> 0.04). Only the samples with valid[k] != 0 count (valid:
- * size x size, row-major, or NULL for all: nodata and padding hold filled
- * heights nobody sees). is_sea may be NULL. */
+ * samples within 0.5 m of each other, e.g. a sea in a DEM, often nodata
+ * filled flat along its coast) gives a sea 0.1 m above it (*is_sea true);
+ * otherwise lakes fill the lowest `fraction` (0 -> 0.04) of the samples with
+ * valid[k] != 0 (valid: size x size, row-major, or NULL for all: the filled
+ * heights of nodata and padding are no ground to flood). is_sea may be NULL. */
 float hz_water_level_auto(const hz_heightmap *hm, const uint8_t *valid, float zscale, float fraction, bool *is_sea);
 
 #ifdef __cplusplus

@@ -42,6 +42,11 @@ hz_result hz_renderer_resize(hz_renderer *r, uint32_t width, uint32_t height, hz
  * metres between samples; zscale multiplies heights. Replaces any previous one. */
 hz_result hz_renderer_set_heightmap(hz_renderer *r, const hz_heightmap *hm, float spacing,
                                     float zscale, hz_err *err);
+/* Which samples of that heightmap have data (size * size bytes, 0 = none,
+ * e.g. hz_terrain.valid), or NULL: all. Water is deep over samples without
+ * data (an SRTM sea is nodata: its filled heights are no sea floor). Set
+ * again after every hz_renderer_set_heightmap, which clears it. */
+hz_result hz_renderer_set_valid(hz_renderer *r, const uint8_t *valid, hz_err *err);
 
 /* Scene passes: the main view, and (with water) a mirrored reflection view. */
 typedef enum hz_pass {

@@ -184,20 +184,20 @@ float hz_water_level_auto(const hz_heightmap *hm, const uint8_t *valid, float zs
         fraction = 0.04f;
     fraction = fraction > 1.0f ? 1.0f : fraction;
     const uint32_t n = hm->size;
-    uint32_t *hist = calloc(65536, sizeof *hist);
+    /* every sample (a sea is often nodata, filled flat along its coast) and
+     * the samples with data (lakes fill real ground only) */
+    uint32_t *hist = calloc(2 * 65536, sizeof *hist), *hv = hist + 65536;
     if (!hist)
         return zscale * hm->offset;
-    uint64_t total = 0;
+    uint64_t nvalid = 0;
     for (uint32_t j = 0; j < n; j++)
-        for (uint32_t i = 0; i < n; i++)
-            if (!valid || valid[(size_t)j * n + i]) {
-                hist[hz_heightmap_get16(hm, i, j)]++;
-                total++;
-            }
-    if (total == 0) {
-        free(hist);
-        return zscale * hm->offset;
-    }
+        for (uint32_t i = 0; i < n; i++) {
+            const uint16_t q = hz_heightmap_get16(hm, i, j);
+            hist[q]++;
+            if (!valid || valid[(size_t)j * n + i])
+                hv[q]++, nvalid++;
+        }
+    const uint64_t total = (uint64_t)n * n;
     uint32_t lo = 0;
     while (lo < 65535 && hist[lo] == 0)
         lo++;
@@ -230,11 +230,13 @@ float hz_water_level_auto(const hz_heightmap *hm, const uint8_t *valid, float zs
         if (is_sea)
             *is_sea = true;
     } else {
-        uint64_t want = (uint64_t)((double)fraction * (double)total), acc = 0;
-        uint32_t v = lo;
+        const uint64_t want = (uint64_t)((double)fraction * (double)(nvalid ? nvalid : total));
+        const uint32_t *h = nvalid ? hv : hist;
+        uint64_t acc = 0;
+        uint32_t v = 0;
         for (; v < 65535; v++) {
-            acc += hist[v];
-            if (acc >= want)
+            acc += h[v];
+            if (acc >= want && acc > 0)
                 break;
         }
         level = zscale * hm->offset + step * (float)v;

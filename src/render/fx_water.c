@@ -33,7 +33,7 @@ hz_result fx_water_ensure(hz_renderer *r, const fx_frame *f, hz_err *err)
 {
     static const char *const names[] = {"u_rect",    "u_level",   "u_viewproj", "u_has_reflection", "u_viewport",
                                         "u_size",    "u_spacing", "u_hscale",   "u_hoffset",        "u_deep",
-                                        "u_clarity", "u_waves",   "u_reflectivity", "u_grid", NULL};
+                                        "u_clarity", "u_waves",   "u_reflectivity", "u_grid", "u_has_valid", NULL};
     r->water_cur = prog_cache_get(&r->water, f->bits & (HZ_FX_SKY | HZ_FX_FOG), hz_shader_fx_water_vs,
                                   hz_shader_fx_water_fs, "fx_water", 3, names, err);
     return r->water_cur ? HZ_OK : HZ_ERR_GL;
@@ -355,6 +355,9 @@ void fx_water_draw(hz_renderer *r, const fx_frame *f, const fx_view *v)
     glUniform1f(u[WL_HOFFSET], r->hoffset);
     glActiveTexture(GL_TEXTURE0 + FX_UNIT_HEIGHTS);
     glBindTexture(GL_TEXTURE_BUFFER, r->height_tex);
+    glActiveTexture(GL_TEXTURE0 + FX_UNIT_VALID);
+    glBindTexture(GL_TEXTURE_BUFFER, r->has_valid ? r->valid_tex : 0);
+    glUniform1i(u[WL_HAS_VALID], r->has_valid);
     glActiveTexture(GL_TEXTURE0 + FX_UNIT_REFLECTION);
     glEnable(GL_BLEND);
     glBlendFunc(GL_ONE, GL_SRC_ALPHA); /* src + alpha x (terrain below) */

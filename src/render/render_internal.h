@@ -31,6 +31,7 @@ _Static_assert(offsetof(fx_common_ubo, bits) == 12 * 16, "FxCommon.fx_bits offse
 #define FX_UNIT_TILES 11    /* cdlod height tiles (texture array) */
 #define FX_UNIT_IMG_OV 12   /* imagery overview */
 #define FX_UNIT_IMG_TILES 13 /* imagery tiles (texture array) */
+#define FX_UNIT_VALID 14    /* samples with data (water depth) */
 #define FX_MAX_REFLECTIONS 4
 
 /* What one scene pass sees: the main view or a mirrored reflection view. */
@@ -104,7 +105,7 @@ enum { TL_SIZE, TL_SPACING, TL_HSCALE, TL_HOFFSET, TL_VIEWPROJ, TL_SUN, TL_HORIZ
        TL_BASE, TL_CLIMATE, TL_IMG_MAP, TL_IMG_TILE, TL_TILE_SHIFT };
 enum { BL_VIEWPROJ, BL_CAM_RIGHT, BL_CAM_UP, BL_PX_PER_M, BL_BLEND, BL_FIRST, BL_FACING };
 enum { WL_RECT, WL_LEVEL, WL_VIEWPROJ, WL_HAS_REFLECTION, WL_VIEWPORT, WL_SIZE, WL_SPACING, WL_HSCALE, WL_HOFFSET,
-       WL_DEEP, WL_CLARITY, WL_WAVES, WL_REFLECTIVITY, WL_GRID };
+       WL_DEEP, WL_CLARITY, WL_WAVES, WL_REFLECTIVITY, WL_GRID, WL_HAS_VALID };
 enum { QL_CENTER, QL_HALF, QL_Z, QL_CLOUDS };
 enum { SL_INV_VP, SL_SKY_Z };
 
@@ -138,6 +139,9 @@ struct hz_renderer {
     size_t ibo2_cap;
     GLuint height_buf;  /* GL_TEXTURE_BUFFER storage, uint16 per sample */
     GLuint height_tex;  /* GL_R16 view of height_buf */
+    GLuint valid_buf;   /* GL_TEXTURE_BUFFER, a byte per sample: has data */
+    GLuint valid_tex;   /* GL_R8 view of valid_buf */
+    bool has_valid;     /* valid_tex holds the heightmap's validity */
     GLuint normal_tex;  /* GL_RG8_SNORM 2D texture of per-sample normals (x, z), 0: none */
 
     /* cdlod patches (terrain_patch.c) */

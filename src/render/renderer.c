@@ -203,6 +203,8 @@ hz_renderer *hz_renderer_create(const hz_renderer_desc *desc, hz_err *err)
     glBindBuffer(GL_UNIFORM_BUFFER, 0);
     glGenBuffers(1, &r->height_buf);
     glGenTextures(1, &r->height_tex);
+    glGenBuffers(1, &r->valid_buf);
+    glGenTextures(1, &r->valid_tex);
     if (hz_gl_check(err, "renderer object creation") != HZ_OK)
         goto fail;
     if (!r->to_default && fbo_alloc(r, r->width, r->height, err) != HZ_OK)
@@ -246,6 +248,8 @@ void hz_renderer_destroy(hz_renderer *r)
     glDeleteBuffers(1, &r->ibo);
     glDeleteTextures(1, &r->height_tex);
     glDeleteBuffers(1, &r->height_buf);
+    glDeleteTextures(1, &r->valid_tex);
+    glDeleteBuffers(1, &r->valid_buf);
     glDeleteTextures(1, &r->normal_tex);
     patch_destroy(r);
     glDeleteFramebuffers(1, &r->fbo);
@@ -412,6 +416,28 @@ static hz_result make_wet_grid(hz_renderer *r, const hz_heightmap *hm, hz_err *e
     return HZ_OK;
 }
 
+hz_result hz_renderer_set_valid(hz_renderer *r, const uint8_t *valid, hz_err *err)
+{
+    HZ_ASSERT(r);
+    r->has_valid = false;
+    if (!valid)
+        return HZ_OK;
+    if (!r->has_heights)
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: hz_renderer_set_valid needs the heightmap set first");
+    hz_result res = fx_check_context(r, err, "hz_renderer_set_valid");
+    if (res != HZ_OK)
+        return res;
+    glBindBuffer(GL_TEXTURE_BUFFER, r->valid_buf);
+    glBufferData(GL_TEXTURE_BUFFER, (GLsizeiptr)r->size * r->size, valid, GL_STATIC_DRAW);
+    glBindTexture(GL_TEXTURE_BUFFER, r->valid_tex);
+    glTexBuffer(GL_TEXTURE_BUFFER, GL_R8, r->valid_buf);
+    glBindTexture(GL_TEXTURE_BUFFER, 0);
+    glBindBuffer(GL_TEXTURE_BUFFER, 0);
+    res = hz_gl_check(err, "validity texture buffer upload (GL_R8)");
+    r->has_valid = res == HZ_OK;
+    return res;
+}
+
 hz_result hz_renderer_set_heightmap(hz_renderer *r, const hz_heightmap *hm, float spacing,
                                     float zscale, hz_err *err)
 {
@@ -448,6 +474,7 @@ hz_result hz_renderer_set_heightmap(hz_renderer *r, const hz_heightmap *hm, floa
     hz_gl_drain();
     const GLsizeiptr bytes = (GLsizeiptr)(samples * sizeof(uint16_t));
     r->has_heights = false;
+    r->has_valid = false;
     glBindBuffer(GL_TEXTURE_BUFFER, r->height_buf);
     glBufferData(GL_TEXTURE_BUFFER, bytes, NULL, GL_STATIC_DRAW);
     hz_result res = hz_gl_check(err, "height buffer allocation");

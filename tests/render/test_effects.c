@@ -590,6 +590,45 @@ static void test_water_reflects_known_shape(void **state)
     glDeleteProgram(tw.prog);
 }
 
+/* Water over samples without data is deep, whatever heights fill them: an
+ * SRTM sea is nodata, and its filled heights are no sea floor to see
+ * through to (nor, with the terrain masked there, is anything else). */
+static void test_water_deep_without_data(void **state)
+{
+    fixture *fx = *state;
+    hz_err err = {0};
+    hz_water_plane lake = {.height = 110.0f, .rect = {0, 0, 5120, 5120}};
+    hz_water_material clear = {.clarity = 20.0f};
+    assert_int_equal(hz_renderer_set_water(fx->flat, &lake, 1, &clear, 1, &err), HZ_OK);
+    hz_camera down = camera(2560, 1200, 2560, 0, -89.9f);
+    hz_scene_params sp = {.effects = HZ_FX_WATER, .fog_density = -1.0f};
+    draw_read(fx->flat, &down, &sp, fx->idx, fx->count, fx->b, NULL);
+    const uint32_t n = fx->flat_hm.size;
+    uint8_t *valid = malloc((size_t)n * n);
+    assert_non_null(valid);
+    for (size_t k = 0; k < (size_t)n * n; k++)
+        valid[k] = k % n >= n / 2; /* the west half without data */
+    assert_int_equal(hz_renderer_set_valid(fx->flat, valid, &err), HZ_OK);
+    draw_read(fx->flat, &down, &sp, fx->idx, fx->count, fx->c, NULL);
+    save("water_nodata", fx->c);
+    const uint8_t *west_b = px(fx->b, 40, H / 2), *west_c = px(fx->c, 40, H / 2);
+    const uint8_t *east_b = px(fx->b, W - 40, H / 2), *east_c = px(fx->c, W - 40, H / 2);
+    const int d = abs(west_b[0] - west_c[0]) + abs(west_b[1] - west_c[1]) + abs(west_b[2] - west_c[2]);
+    printf("water without data: west (%d %d %d) -> (%d %d %d), east (%d %d %d) -> (%d %d %d)\n", west_b[0], west_b[1],
+           west_b[2], west_c[0], west_c[1], west_c[2], east_b[0], east_b[1], east_b[2], east_c[0], east_c[1], east_c[2]);
+    assert_memory_equal(east_b, east_c, 3); /* with data: the same clear lake */
+    assert_true(d > 20);                    /* without: the ground below no longer shows */
+    /* deep: the same whatever lies under it (the wall's side against the plain) */
+    const uint8_t *west_far = px(fx->c, W / 2 - 60, H / 4);
+    assert_true(abs(west_far[1] - west_c[1]) <= 3);
+    /* cleared: as before */
+    assert_int_equal(hz_renderer_set_valid(fx->flat, NULL, &err), HZ_OK);
+    draw_read(fx->flat, &down, &sp, fx->idx, fx->count, fx->c, NULL);
+    assert_memory_equal(fx->b, fx->c, NPX * 3);
+    free(valid);
+    assert_int_equal(hz_renderer_set_water(fx->flat, NULL, 0, NULL, 0, &err), HZ_OK);
+}
+
 /* The reflection pass is drawn only where water can show: a plane under
  * the ground needs none (and changes nothing), and a small lake's pixels are
  * those of the same water in a lake covering the map, whose mirror image is
@@ -1008,6 +1047,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_flare_hidden_by_mountain),
         cmocka_unit_test(test_shadow_light_map_formula),
         cmocka_unit_test(test_water_reflects_known_shape),
+        cmocka_unit_test(test_water_deep_without_data),
         cmocka_unit_test(test_water_only_where_it_shows),
         cmocka_unit_test(test_motion_blur_feedback),
         cmocka_unit_test(test_exposure_gamma_bloom),
