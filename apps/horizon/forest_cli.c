@@ -308,15 +308,19 @@ typedef struct plant_ground {
     const float *tops; /* the objects standing on the ground, or NULL */
 } plant_ground;
 
-/* The ground for planting: none (NaN) on nodata or padding, which is not
- * drawn, nor where an object stands (the crowns are checked once the models
- * are chosen). */
+/* Ground a tree may stand on: real data (not nodata or padding, which is not
+ * drawn) where no object stands (the crowns are checked once the models are
+ * chosen). */
+static bool plantable(const hz_terrain *t, const float *tops, float x, float z)
+{
+    return hz_terrain_valid_at(t, x, z) && hz_ground_clear(tops, t->hm.size, t->spacing, x, z, 0.0f);
+}
+
+/* The ground for planting: none (NaN) where it is not plantable. */
 static float ground(void *user, float x, float z)
 {
     const plant_ground *g = user;
-    if (!hz_terrain_valid_at(g->t, x, z) || !hz_ground_clear(g->tops, g->t->hm.size, g->t->spacing, x, z, 0.0f))
-        return NAN;
-    return hz_terrain_height_at(g->t, x, z);
+    return plantable(g->t, g->tops, x, z) ? hz_terrain_height_at(g->t, x, z) : NAN;
 }
 
 /* Where model k's baked impostor is kept in the tree cache dir
@@ -605,15 +609,14 @@ void cli_forest_area(const cli_opts *o, const hz_terrain *t, const float *object
     float ext = hz_terrain_extent(t);
     float density = o->forest_density > 0 ? o->forest_density : 400.0f;
     *side = sqrtf((float)o->forest_n) * 100.0f / sqrtf(density);
-    /* the middle of the data (padded DEMs: not of the map) */
-    const float mid[2] = {t->data_w ? ((float)t->data_x + 0.5f * (float)(t->data_w - 1)) * t->spacing : 0.5f * ext,
-                          t->data_h ? ((float)t->data_y + 0.5f * (float)(t->data_h - 1)) * t->spacing : 0.5f * ext};
+    float mid[2]; /* the middle of the data (padded DEMs: not of the map) */
+    hz_terrain_data_centre(t, &mid[0], &mid[1]);
     center[0] = o->forest_at_set ? o->forest_at[0] : mid[0];
     center[1] = o->forest_at_set ? o->forest_at[1] : mid[1];
     if (o->forest_at_set)
         return;
-    /* The most plantable square: real ground (not nodata or padding, no
-     * object standing on it) of gentle slopes below the tree line, the nearest to the data's middle among equals. */
+    /* The most plantable square: plantable ground of gentle slopes below the
+     * tree line, the nearest to the data's middle among equals. */
     const float lo = t->min_h * t->zscale, hi = t->max_h * t->zscale, line = lo + 0.8f * (hi - lo);
     const float max_tan = tanf(35.0f * 0.0174532925f), e = 5.0f;
     float best = -1.0f, best_d = INFINITY, half = fminf(0.5f * *side, 0.45f * ext);
@@ -629,8 +632,7 @@ void cli_forest_area(const cli_opts *o, const hz_terrain *t, const float *object
                     float gxs = (hz_terrain_height_at(t, x + e, z) - hz_terrain_height_at(t, x - e, z)) / (2 * e);
                     float gzs = (hz_terrain_height_at(t, x, z + e) - hz_terrain_height_at(t, x, z - e)) / (2 * e);
                     ok += h <= line && sqrtf(gxs * gxs + gzs * gzs) <= 0.7f * max_tan &&
-                          hz_terrain_valid_at(t, x, z) &&
-                          hz_ground_clear(object_tops, t->hm.size, t->spacing, x, z, 0.0f);
+                          plantable(t, object_tops, x, z);
                 }
             float score = (float)ok / 49.0f;
             float d = hypotf(cx - mid[0], cz - mid[1]);

@@ -245,8 +245,8 @@ static hz_climate app_climate(const cli_opts *o, const hz_terrain *t, bool *know
     double lon = 0, lat = o->have_latitude ? o->latitude : 45.0;
     *known = false;
     if (t->georef) {
-        const float cx = ((float)t->data_x + 0.5f * (float)(t->data_w ? t->data_w - 1 : t->hm.size - 1)) * t->spacing;
-        const float cz = ((float)t->data_y + 0.5f * (float)(t->data_h ? t->data_h - 1 : t->hm.size - 1)) * t->spacing;
+        float cx, cz;
+        hz_terrain_data_centre(t, &cx, &cz);
         if (hz_georef_local_to_lonlat(t->georef, cx, cz, &lon, &lat, NULL) == HZ_OK)
             *known = true;
     }

@@ -108,6 +108,9 @@ float hz_terrain_surface_at(const hz_terrain *t, float x, float z);
  * among every k-th sample, k = size / 1024): world x, z and the height in
  * metres (times zscale). */
 void hz_terrain_focus(const hz_terrain *t, float *x, float *z, float *h);
+/* World x, z of the middle of the DEM's samples (of the data, not of a padded
+ * map). */
+void hz_terrain_data_centre(const hz_terrain *t, float *x, float *z);
 /* The default camera: frames the highest ground (hz_terrain_focus) from
  * 3x the relief away (within 8 - 35 % of the map's side), back toward the
  * map's middle, above the summit, looking at it. */

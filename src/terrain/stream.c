@@ -185,7 +185,7 @@ static uint16_t sample_q(const hz_stream *s, const slot *q, uint32_t X, uint32_t
     return r;
 }
 
-/* Height (h16) of level-0 sample (X, Z) from slot q's tile, if it holds it. */
+/* Height (h16) and validity of level-0 sample (X, Z) from slot q's tile, if it holds it. */
 static bool slot_h(const hz_stream *s, const slot *q, int64_t Xs, int64_t Zs, uint32_t *h, bool *valid)
 {
     const int64_t per = (int64_t)s->info.size - 1;

@@ -368,7 +368,7 @@ float hz_terrain_surface_at(const hz_terrain *t, float x, float z)
 }
 
 /* The centre of the DEM's samples (not of the padded map), world metres. */
-static void data_centre(const hz_terrain *t, float *x, float *z)
+void hz_terrain_data_centre(const hz_terrain *t, float *x, float *z)
 {
     uint32_t w = t->data_w ? t->data_w : t->hm.size, h = t->data_h ? t->data_h : t->hm.size;
     *x = ((float)t->data_x + 0.5f * (float)(w - 1)) * t->spacing;
@@ -420,7 +420,7 @@ hz_camera hz_terrain_default_camera(const hz_terrain *t, uint32_t width, uint32_
 {
     float rect[4], focus[3], centre[2];
     data_rect(t, rect);
-    data_centre(t, &centre[0], &centre[1]);
+    hz_terrain_data_centre(t, &centre[0], &centre[1]);
     hz_terrain_focus(t, &focus[0], &focus[2], &focus[1]);
     return hz_camera_summit_view(rect, centre, focus, (t->max_h - t->min_h) * t->zscale, hz_terrain_extent(t),
                                  ground_of, (void *)t, width, height);
@@ -445,7 +445,7 @@ hz_result hz_terrain_path(const hz_terrain *t, const char *name, hz_path *out, h
     const uint32_t dmin = t->data_w && t->data_h ? (t->data_w < t->data_h ? t->data_w : t->data_h) : t->hm.size;
     const float E = (float)(dmin - 1) * t->spacing;
     float cx, cz;
-    data_centre(t, &cx, &cz);
+    hz_terrain_data_centre(t, &cx, &cz);
     const float relief = (t->max_h - t->min_h) * t->zscale;
     const float duration = 60.0f;
     if (!strcmp(name, "flyover")) {
