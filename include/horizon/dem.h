@@ -52,6 +52,13 @@ typedef struct hz_dem_desc {
     void *progress_user;
     uint64_t max_memory;   /* bytes the decoded grid (and decompressed data) may take, checked
                               before allocating; 0 -> hz_mem_budget_default() */
+    /* optional: GDAL inputs call it with the size the returned grid will have
+     * (and its metres per sample, 0 if unknown, and whether it has a
+     * georeference) before reading or reprojecting a sample; a result other
+     * than HZ_OK ends the load with it. The caller's own limits are refused
+     * at once, not after the work. */
+    hz_result (*size_check)(void *user, uint32_t width, uint32_t height, double spacing, bool georef, hz_err *err);
+    void *size_check_user;
 } hz_dem_desc;
 
 typedef struct hz_dem_info {

@@ -366,7 +366,7 @@ static GDALDatasetH warp(const hz_dem_desc *d, GDALDatasetH src, const hz_georef
     prog->label = "reproject";
     prog->total = 1000;
     prog->last_pct = -1;
-    if (prog->fn)
+    if (prog->fn && strcmp(format, "VRT") != 0) /* a virtual warp does no work yet */
         GDALWarpAppOptionsSetProgress(o, gdal_progress, prog);
     int usage = 0;
     GDALDatasetH out = GDALWarp("", NULL, 1, &src, o, &usage);
@@ -514,6 +514,19 @@ hz_result hz_io_gdal_load(const hz_dem_desc *d, hz_grid *out, hz_dem_info *info,
             r = hz_err_set(err, HZ_ERR_FORMAT, "'%s': cannot read: %s", label, hz_io_gdal_msg("corrupt or truncated"));
             goto done;
         }
+        if (d->size_check) {
+            /* A virtual warp has the real warp's exact size at no cost. */
+            GDALDatasetH v = warp(d, src, g, &s, &prog, "VRT", err);
+            if (!v) {
+                r = err && err->code ? err->code : HZ_ERR_FORMAT;
+                goto done;
+            }
+            r = d->size_check(d->size_check_user, (uint32_t)GDALGetRasterXSize(v), (uint32_t)GDALGetRasterYSize(v), s,
+                              true, err);
+            GDALClose(v);
+            if (r != HZ_OK)
+                goto done;
+        }
         warped = warp(d, src, g, &s, &prog, "MEM", err);
         if (!warped) {
             r = err && err->code ? err->code : HZ_ERR_FORMAT;
@@ -524,6 +537,15 @@ hz_result hz_io_gdal_load(const hz_dem_desc *d, hz_grid *out, hz_dem_info *info,
         info->reprojected = true;
         r = read_band(warped, label, out, &info->voids, &prog, d->max_memory, err);
     } else {
+        if (d->size_check) {
+            double sx = 0, sy = 0;
+            if (g)
+                hz_georef_spacing(g, &sx, &sy);
+            r = d->size_check(d->size_check_user, info->file_width, info->file_height, sx < sy ? sx : sy, g != NULL,
+                              err);
+            if (r != HZ_OK)
+                goto done;
+        }
         r = read_band(src, label, out, &info->voids, &prog, d->max_memory, err);
         info->file_voids = info->voids;
     }

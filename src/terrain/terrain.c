@@ -74,6 +74,19 @@ static const char *base_name(const char *p)
     return s ? s + 1 : p;
 }
 
+/* A DEM of w x h samples against the budget and the sample limit, as the
+ * terrain will fit it (hz_dem_desc.size_check: before the samples are read). */
+static hz_result dem_size_ok(void *user, uint32_t w, uint32_t h, double spacing, bool georef, hz_err *err)
+{
+    const hz_terrain_desc *d = user;
+    const uint32_t side = hz_grid_fit_side(w, h, d->fit);
+    if (!side)
+        return HZ_OK; /* too small: refused by name later */
+    char hint[160];
+    dem_hint(d, w, h, georef, d->spacing > 0 ? d->spacing : (float)spacing, hint, sizeof hint);
+    return check_side(d, side, base_name(d->dem_path_count ? d->dem_paths[0] : d->dem_path), hint, err);
+}
+
 /* Marks every invalid sample that is not connected (4-neighbours, through
  * invalid samples) to the grid's edge as valid: voids enclosed by data are
  * drawn with their filled heights. Returns false if out of memory. */
@@ -184,7 +197,7 @@ hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
                           .width = desc->raw_width, .height = desc->raw_height, .metric = true, .crs = desc->crs,
                           .spacing = desc->spacing, .georef = &geo,
                           .progress = desc->progress, .progress_user = desc->progress_user,
-                          .max_memory = desc->max_memory};
+                          .max_memory = desc->max_memory, .size_check = dem_size_ok, .size_check_user = (void *)desc};
         if (hz_dem_load(&dd, &g, &t->info, err) != HZ_OK)
             goto fail;
         if (ranged && !(t->info.full_scale > 0)) {
@@ -193,13 +206,9 @@ hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
             hz_georef_destroy(geo);
             goto fail;
         }
-        /* What fitting will make of it, before filling and fitting. */
-        const uint32_t side = hz_grid_fit_side(g.width, g.height, desc->fit);
-        char hint[160];
-        dem_hint(desc, g.width, g.height, geo != NULL,
-                 desc->spacing > 0 ? desc->spacing : t->info.spacing_hint, hint, sizeof hint);
-        if (side && check_side(desc, side, base_name(desc->dem_path_count ? desc->dem_paths[0] : desc->dem_path),
-                               hint, err) != HZ_OK) {
+        /* What fitting will make of it, before filling and fitting (GDAL
+         * inputs were checked before reading; the others are checked here). */
+        if (dem_size_ok((void *)desc, g.width, g.height, t->info.spacing_hint, geo != NULL, err) != HZ_OK) {
             hz_georef_destroy(geo);
             goto fail;
         }

@@ -748,6 +748,14 @@ void test_gdal_sierra_coast(void **state)
     hz_georef_destroy(geo);
 }
 
+/* Counts progress steps that did work (done > 0) on the samples. */
+static void count_work(void *user, const char *label, uint64_t done, uint64_t total)
+{
+    (void)total;
+    if (done > 0 && (!strcmp(label, "reproject") || !strcmp(label, "read")))
+        ++*(uint64_t *)user;
+}
+
 /* A DEM larger than the GPU takes in memory: the refusal names the
  * --spacing that fits a georeferenced one (and --fit crop for another), and
  * loading with that advice works and fits. */
@@ -792,6 +800,25 @@ void test_gpu_limit_advice(void **state)
     if (!t)
         fail_msg("%s", err.msg);
     assert_int_equal(t->hm.size, 129);
+    hz_terrain_destroy(t);
+
+    /* A geographic DEM is refused before a sample is reprojected or read:
+     * the refusal costs no work. */
+    const double geo_gt[6] = {8.0, 0.0001, 0, 49.5, 0, -0.0001};
+    write_raster("GTiff", tmp("big_geo.tif"), v, w, h, geo_gt, "EPSG:4326", NULL, GDT_Float32, NULL);
+    uint64_t steps = 0;
+    hz_terrain_desc gd = {.dem_path = tmp("big_geo.tif"), .max_samples = limit, .max_memory = (uint64_t)1 << 32,
+                          .progress = count_work, .progress_user = &steps};
+    assert_null(hz_terrain_create(&gd, &err));
+    assert_int_equal(err.code, HZ_ERR_UNSUPPORTED);
+    assert_non_null(strstr(err.msg, "--spacing "));
+    assert_int_equal(steps, 0);
+    /* and with room, the same file is reprojected with progress */
+    gd.max_samples = 0;
+    t = hz_terrain_create(&gd, &err);
+    if (!t)
+        fail_msg("%s", err.msg);
+    assert_true(steps > 0);
     hz_terrain_destroy(t);
     free(v);
 }
