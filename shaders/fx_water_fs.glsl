@@ -10,6 +10,9 @@ uniform vec2 u_viewport;       // pixels
 uniform samplerBuffer u_heights;
 uniform samplerBuffer u_valid; // a byte per sample: has data (bound when u_has_valid)
 uniform int u_has_valid;
+uniform int u_sea;             // a DEM's sea: the ground below the level is flat fill, not a floor
+uniform samplerBuffer u_coast; // a byte per sample along each edge of the data: 1 = sea (hz_coast)
+uniform ivec4 u_coast_rect;    // the data's rectangle in samples; z < x: no coast
 uniform int u_size;
 uniform float u_spacing, u_hscale, u_hoffset;
 uniform float u_level;
@@ -33,16 +36,48 @@ float ground(vec2 xz)
     float n1 = float(u_size - 1);
     if (g.x < 0.0 || g.y < 0.0 || g.x > n1 || g.y > n1)
         return -1e6;
-    // Over a sample without data (an SRTM sea is nodata), as deep as the open sea.
-    if (u_has_valid != 0) {
-        ivec2 c = ivec2(floor(g + 0.5));
-        if (texelFetch(u_valid, c.y * u_size + c.x).r == 0.0) // GL_R8: 1 reads 1/255
-            return -1e6;
-    }
     ivec2 i = min(ivec2(floor(g)), ivec2(u_size - 2));
     vec2 f = g - vec2(i);
     float a = h_at(i.x, i.y), b = h_at(i.x + 1, i.y), c = h_at(i.x, i.y + 1), d = h_at(i.x + 1, i.y + 1);
-    return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
+    // A sample without data (an SRTM sea is nodata) is as deep as the open
+    // sea: its filled height is no sea floor, nor is it beside one.
+    if (u_has_valid != 0) {
+        int k = i.y * u_size + i.x;
+        a = texelFetch(u_valid, k).r == 0.0 ? -1e6 : a; // GL_R8: 1 reads 1/255
+        b = texelFetch(u_valid, k + 1).r == 0.0 ? -1e6 : b;
+        c = texelFetch(u_valid, k + u_size).r == 0.0 ? -1e6 : c;
+        d = texelFetch(u_valid, k + u_size + 1).r == 0.0 ? -1e6 : d;
+    }
+    float h = mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
+    // A DEM's sea is flat fill just under the plane: as deep as the open sea.
+    return u_sea != 0 && h < u_level ? -1e6 : h;
+}
+
+bool coast_sea(int k)
+{
+    return texelFetch(u_coast, k).r > 0.0;
+}
+
+// Beyond the data's rectangle a sea goes on only off the edge's sea samples
+// (the coast runs straight out); inside it, everywhere.
+bool sea_here(vec2 xz)
+{
+    ivec4 r = u_coast_rect;
+    if (u_sea == 0 || r.z < r.x)
+        return true;
+    vec2 g = xz / u_spacing;
+    int rows = r.w - r.y + 1, cols = r.z - r.x + 1;
+    ivec2 c = clamp(ivec2(floor(g + 0.5)), r.xy, r.zw);
+    bool sea = true;
+    if (g.x < float(r.x) - 0.5)
+        sea = sea && coast_sea(c.y - r.y);
+    else if (g.x > float(r.z) + 0.5)
+        sea = sea && coast_sea(rows + c.y - r.y);
+    if (g.y < float(r.y) - 0.5)
+        sea = sea && coast_sea(2 * rows + c.x - r.x);
+    else if (g.y > float(r.w) + 0.5)
+        sea = sea && coast_sea(2 * rows + cols + c.x - r.x);
+    return sea;
 }
 
 // Sum of wind-driven directional waves (deep-water speeds), as a slope.
@@ -69,6 +104,8 @@ vec2 wave_slope(vec2 xz, float t, float fade)
 
 void main()
 {
+    if (!sea_here(v_world.xz))
+        discard;
     vec3 e = fx_eye.xyz;
     vec3 to_eye = e - v_world;
     float dist = length(to_eye);

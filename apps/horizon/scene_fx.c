@@ -311,11 +311,11 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
         if (a->water && (fx & HZ_FX_WATER)) {
             /* A sea reaches the horizon; lakes (and a given level) stay on the map. */
             const float ext = hz_terrain_extent(t);
-            hz_water_plane plane = {.height = a->water_level, .rect = {0, 0, ext, ext}};
+            hz_water_plane plane = {.height = a->water_level, .rect = {0, 0, ext, ext}, .sea = sea};
             if (sea)
                 memset(plane.rect, 0, sizeof plane.rect);
-            if (t->valid) {
-                /* A masked DEM (nodata, padding): water only over the DEM's own
+            if (t->valid && !sea) {
+                /* A masked DEM (nodata, padding): lakes only over the DEM's own
                  * rectangle; the level may come from the smooth fill of the
                  * padding, which is not ground anyone sees. */
                 plane.rect[0] = (float)t->data_x * t->spacing;
@@ -323,8 +323,22 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
                 plane.rect[2] = (float)(t->data_x + t->data_w - 1) * t->spacing;
                 plane.rect[3] = (float)(t->data_y + t->data_h - 1) * t->spacing;
             }
-            /* A DEM's sea has no bathymetry (flat just under the plane): make it
-             * look deep, murky within a metre. */
+            /* A real place's sea goes on beyond its data where the coast does,
+             * not over the land the DEM stops short of (a generated one is an
+             * island in an open sea). Its sea has no bathymetry (flat just
+             * under the plane): the plane's .sea draws it deep. */
+            hz_coast coast = {0};
+            if (sea && (t->valid || t->georef)) {
+                const uint32_t dr[4] = {t->data_x, t->data_y, t->data_x + t->data_w - 1, t->data_y + t->data_h - 1};
+                if (hz_coast_make(&t->hm, t->valid, t->zscale, a->water_level, t->data_w ? dr : NULL, &coast, &err) !=
+                        HZ_OK ||
+                    hz_renderer_set_coast(r, &coast, &err) != HZ_OK) {
+                    hz_coast_free(&coast);
+                    fprintf(stderr, "horizon %s: water: %s\n", cmd, err.msg);
+                    return 1;
+                }
+                hz_coast_free(&coast);
+            }
             hz_water_material mat = {.clarity = sea ? 0.3f : 0.0f};
             if (hz_renderer_set_water(r, &plane, 1, &mat, 1, &err) != HZ_OK) {
                 fprintf(stderr, "horizon %s: water: %s\n", cmd, err.msg);

@@ -241,6 +241,27 @@ void hz_sprite_mip_next(const uint8_t *in, uint32_t w, uint32_t h, double cover0
  * heights of nodata and padding are no ground to flood). is_sea may be NULL. */
 float hz_water_level_auto(const hz_heightmap *hm, const uint8_t *valid, float zscale, float fraction, bool *is_sea);
 
+/* Where a DEM's sea goes on beyond the DEM's data. A DEM ends where its data
+ * ends, not where the sea does: beyond each edge of the data's rectangle the
+ * coast is carried straight out, sea where the edge is sea and land where it
+ * is land. edge holds one byte per sample along each edge (1 = sea): the
+ * west edge's rows z0..z1, then the east's, then the north edge's columns
+ * x0..x1 (z = z0), then the south's. An edge sample is sea when the first
+ * sample with data inward from it, along its row or column, lies below the
+ * level (or none has data: a missing tile of open sea). */
+typedef struct hz_coast {
+    uint32_t x0, z0, x1, z1; /* the data's rectangle in samples, inclusive */
+    uint8_t *edge;           /* 2 (z1 - z0 + 1) + 2 (x1 - x0 + 1) bytes */
+} hz_coast;
+
+/* The coast of heightmap hm (valid: size x size bytes, 0 = no data, or NULL
+ * for all) at water level `level` (metres, zscale applied) around rect
+ * (x0, z0, x1, z1 samples, inclusive; NULL -> the whole map). Free with
+ * hz_coast_free. */
+hz_result hz_coast_make(const hz_heightmap *hm, const uint8_t *valid, float zscale, float level, const uint32_t rect[4],
+                        hz_coast *out, hz_err *err);
+void hz_coast_free(hz_coast *c);
+
 #ifdef __cplusplus
 }
 #endif

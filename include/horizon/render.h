@@ -268,10 +268,20 @@ typedef struct hz_water_plane {
     float rect[4];    /* x0, z0, x1, z1 world metres; all 0 -> the map and the view distance
                          around it (a sea to the horizon) */
     uint32_t material; /* index into the materials */
+    bool sea;         /* a DEM's sea: the ground below the plane is the DEM's flat fill, not a sea
+                         floor (drawn deep), and beyond the data the sea follows the coast of
+                         hz_renderer_set_coast */
 } hz_water_plane;
 
 hz_result hz_renderer_set_water(hz_renderer *r, const hz_water_plane *planes, uint32_t count,
                                 const hz_water_material *materials, uint32_t material_count, hz_err *err);
+
+/* Where the planes with .sea go on beyond the heightmap's data (hz_coast_make
+ * at their level): past each edge of c's rectangle, water only off the edge's
+ * sea samples, so a coast runs straight out and land beyond the data is not
+ * flooded. NULL (and after hz_renderer_set_heightmap): sea everywhere beyond
+ * the map. Copied. */
+hz_result hz_renderer_set_coast(hz_renderer *r, const hz_coast *c, hz_err *err);
 
 /* Writes RGB8 (top row first) as PNG. */
 hz_result hz_image_write_png(const char *path, const uint8_t *rgb, uint32_t width,

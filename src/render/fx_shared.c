@@ -124,7 +124,8 @@ void fx_program_setup(GLuint p)
                  {"u_colormap", FX_UNIT_COLORMAP},   {"u_cover", FX_UNIT_COVER},       {"u_tex", FX_UNIT_SPRITE},
                  {"u_reflection", FX_UNIT_REFLECTION}, {"u_cloud_noise", FX_UNIT_CLOUDS}, {"u_bb", FX_UNIT_BB},
                  {"u_normals", FX_UNIT_NORMALS}, {"u_tiles", FX_UNIT_TILES},
-                 {"u_img_ov", FX_UNIT_IMG_OV}, {"u_img_tiles", FX_UNIT_IMG_TILES}, {"u_valid", FX_UNIT_VALID}};
+                 {"u_img_ov", FX_UNIT_IMG_OV}, {"u_img_tiles", FX_UNIT_IMG_TILES}, {"u_valid", FX_UNIT_VALID},
+                 {"u_coast", FX_UNIT_COAST}};
     glUseProgram(p);
     for (size_t k = 0; k < sizeof units / sizeof units[0]; k++) {
         GLint loc = glGetUniformLocation(p, units[k].name);

@@ -33,7 +33,8 @@ hz_result fx_water_ensure(hz_renderer *r, const fx_frame *f, hz_err *err)
 {
     static const char *const names[] = {"u_rect",    "u_level",   "u_viewproj", "u_has_reflection", "u_viewport",
                                         "u_size",    "u_spacing", "u_hscale",   "u_hoffset",        "u_deep",
-                                        "u_clarity", "u_waves",   "u_reflectivity", "u_grid", "u_has_valid", NULL};
+                                        "u_clarity", "u_waves",   "u_reflectivity", "u_grid", "u_has_valid", "u_sea",
+                                        "u_coast_rect", NULL};
     r->water_cur = prog_cache_get(&r->water, f->bits & (HZ_FX_SKY | HZ_FX_FOG), hz_shader_fx_water_vs,
                                   hz_shader_fx_water_fs, "fx_water", 3, names, err);
     return r->water_cur ? HZ_OK : HZ_ERR_GL;
@@ -358,6 +359,9 @@ void fx_water_draw(hz_renderer *r, const fx_frame *f, const fx_view *v)
     glActiveTexture(GL_TEXTURE0 + FX_UNIT_VALID);
     glBindTexture(GL_TEXTURE_BUFFER, r->has_valid ? r->valid_tex : 0);
     glUniform1i(u[WL_HAS_VALID], r->has_valid);
+    glActiveTexture(GL_TEXTURE0 + FX_UNIT_COAST);
+    glBindTexture(GL_TEXTURE_BUFFER, r->coast_rect[2] >= r->coast_rect[0] ? r->coast_tex : 0);
+    glUniform4i(u[WL_COAST_RECT], r->coast_rect[0], r->coast_rect[1], r->coast_rect[2], r->coast_rect[3]);
     glActiveTexture(GL_TEXTURE0 + FX_UNIT_REFLECTION);
     glEnable(GL_BLEND);
     glBlendFunc(GL_ONE, GL_SRC_ALPHA); /* src + alpha x (terrain below) */
@@ -393,6 +397,7 @@ void fx_water_draw(hz_renderer *r, const fx_frame *f, const fx_view *v)
             glUniform1i(u[WL_HAS_REFLECTION], best >= 0);
             glUniform4fv(u[WL_RECT], 1, rc);
             glUniform1f(u[WL_LEVEL], p->height);
+            glUniform1i(u[WL_SEA], p->sea);
             if (v->cam.earth_radius != 0.0f) {
                 /* Earth curvature: the plane as a grid that can bend (a quad's
                  * four corners dropped 100 km would sink its middle too). */

@@ -32,6 +32,7 @@ _Static_assert(offsetof(fx_common_ubo, bits) == 12 * 16, "FxCommon.fx_bits offse
 #define FX_UNIT_IMG_OV 12   /* imagery overview */
 #define FX_UNIT_IMG_TILES 13 /* imagery tiles (texture array) */
 #define FX_UNIT_VALID 14    /* samples with data (water depth) */
+#define FX_UNIT_COAST 15    /* a sea's coast beyond the data (hz_coast edges) */
 #define FX_MAX_REFLECTIONS 4
 
 /* What one scene pass sees: the main view or a mirrored reflection view. */
@@ -105,7 +106,7 @@ enum { TL_SIZE, TL_SPACING, TL_HSCALE, TL_HOFFSET, TL_VIEWPROJ, TL_SUN, TL_HORIZ
        TL_BASE, TL_CLIMATE, TL_IMG_MAP, TL_IMG_TILE, TL_TILE_SHIFT };
 enum { BL_VIEWPROJ, BL_CAM_RIGHT, BL_CAM_UP, BL_PX_PER_M, BL_BLEND, BL_FIRST, BL_FACING };
 enum { WL_RECT, WL_LEVEL, WL_VIEWPROJ, WL_HAS_REFLECTION, WL_VIEWPORT, WL_SIZE, WL_SPACING, WL_HSCALE, WL_HOFFSET,
-       WL_DEEP, WL_CLARITY, WL_WAVES, WL_REFLECTIVITY, WL_GRID, WL_HAS_VALID };
+       WL_DEEP, WL_CLARITY, WL_WAVES, WL_REFLECTIVITY, WL_GRID, WL_HAS_VALID, WL_SEA, WL_COAST_RECT };
 enum { QL_CENTER, QL_HALF, QL_Z, QL_CLOUDS };
 enum { SL_INV_VP, SL_SKY_Z };
 
@@ -142,6 +143,9 @@ struct hz_renderer {
     GLuint valid_buf;   /* GL_TEXTURE_BUFFER, a byte per sample: has data */
     GLuint valid_tex;   /* GL_R8 view of valid_buf */
     bool has_valid;     /* valid_tex holds the heightmap's validity */
+    GLuint coast_buf;   /* GL_TEXTURE_BUFFER, hz_coast edge bytes */
+    GLuint coast_tex;   /* GL_R8 view of coast_buf */
+    int32_t coast_rect[4]; /* x0, z0, x1, z1 samples; x1 < x0: no coast */
     GLuint normal_tex;  /* GL_RG8_SNORM 2D texture of per-sample normals (x, z), 0: none */
 
     /* cdlod patches (terrain_patch.c) */

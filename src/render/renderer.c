@@ -205,6 +205,9 @@ hz_renderer *hz_renderer_create(const hz_renderer_desc *desc, hz_err *err)
     glGenTextures(1, &r->height_tex);
     glGenBuffers(1, &r->valid_buf);
     glGenTextures(1, &r->valid_tex);
+    glGenBuffers(1, &r->coast_buf);
+    glGenTextures(1, &r->coast_tex);
+    r->coast_rect[2] = -1;
     if (hz_gl_check(err, "renderer object creation") != HZ_OK)
         goto fail;
     if (!r->to_default && fbo_alloc(r, r->width, r->height, err) != HZ_OK)
@@ -250,6 +253,8 @@ void hz_renderer_destroy(hz_renderer *r)
     glDeleteBuffers(1, &r->height_buf);
     glDeleteTextures(1, &r->valid_tex);
     glDeleteBuffers(1, &r->valid_buf);
+    glDeleteTextures(1, &r->coast_tex);
+    glDeleteBuffers(1, &r->coast_buf);
     glDeleteTextures(1, &r->normal_tex);
     patch_destroy(r);
     glDeleteFramebuffers(1, &r->fbo);
@@ -438,6 +443,34 @@ hz_result hz_renderer_set_valid(hz_renderer *r, const uint8_t *valid, hz_err *er
     return res;
 }
 
+hz_result hz_renderer_set_coast(hz_renderer *r, const hz_coast *c, hz_err *err)
+{
+    HZ_ASSERT(r);
+    r->coast_rect[0] = 0, r->coast_rect[2] = -1;
+    if (!c)
+        return HZ_OK;
+    if (!r->has_heights)
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: hz_renderer_set_coast needs the heightmap set first");
+    if (!c->edge || c->x0 > c->x1 || c->z0 > c->z1 || c->x1 >= r->size || c->z1 >= r->size)
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: coast (%u, %u)-(%u, %u) is not a rectangle of the %ux%u map",
+                          c->x0, c->z0, c->x1, c->z1, r->size, r->size);
+    hz_result res = fx_check_context(r, err, "hz_renderer_set_coast");
+    if (res != HZ_OK)
+        return res;
+    const size_t bytes = 2 * ((size_t)(c->z1 - c->z0) + 1) + 2 * ((size_t)(c->x1 - c->x0) + 1);
+    glBindBuffer(GL_TEXTURE_BUFFER, r->coast_buf);
+    glBufferData(GL_TEXTURE_BUFFER, (GLsizeiptr)bytes, c->edge, GL_STATIC_DRAW);
+    glBindTexture(GL_TEXTURE_BUFFER, r->coast_tex);
+    glTexBuffer(GL_TEXTURE_BUFFER, GL_R8, r->coast_buf);
+    glBindTexture(GL_TEXTURE_BUFFER, 0);
+    glBindBuffer(GL_TEXTURE_BUFFER, 0);
+    res = hz_gl_check(err, "coast texture buffer upload (GL_R8)");
+    if (res == HZ_OK)
+        r->coast_rect[0] = (int32_t)c->x0, r->coast_rect[1] = (int32_t)c->z0, r->coast_rect[2] = (int32_t)c->x1,
+        r->coast_rect[3] = (int32_t)c->z1;
+    return res;
+}
+
 hz_result hz_renderer_set_heightmap(hz_renderer *r, const hz_heightmap *hm, float spacing,
                                     float zscale, hz_err *err)
 {
@@ -475,6 +508,7 @@ hz_result hz_renderer_set_heightmap(hz_renderer *r, const hz_heightmap *hm, floa
     const GLsizeiptr bytes = (GLsizeiptr)(samples * sizeof(uint16_t));
     r->has_heights = false;
     r->has_valid = false;
+    r->coast_rect[0] = 0, r->coast_rect[2] = -1;
     glBindBuffer(GL_TEXTURE_BUFFER, r->height_buf);
     glBufferData(GL_TEXTURE_BUFFER, bytes, NULL, GL_STATIC_DRAW);
     hz_result res = hz_gl_check(err, "height buffer allocation");

@@ -412,6 +412,74 @@ static void make_hm(hz_heightmap *hm, uint32_t n, float sea_frac)
     hz_grid_free(&g);
 }
 
+/* The coast beyond a DEM's data: each edge sample is sea when the first
+ * sample with data inward from it is below the level, or none has data. A
+ * 9x9 map whose data is the rectangle (1, 1)-(7, 6): sea (0 m) in columns
+ * 1-3, land (50 m) from column 4, a missing tile (no data) over columns 1-2 of
+ * rows 5-6, and the land's edge samples in rows 1-2 of column 7 without data
+ * (a reprojected footprint's corner), beyond which the scan finds land. */
+static void test_coast(void **state)
+{
+    (void)state;
+    const uint32_t n = 9;
+    hz_grid g;
+    assert_int_equal(hz_grid_alloc(&g, n, n, NULL), HZ_OK);
+    uint8_t valid[81];
+    for (uint32_t j = 0; j < n; j++)
+        for (uint32_t i = 0; i < n; i++) {
+            g.z[j * n + i] = i >= 4 ? 50.0f : 0.0f;
+            const bool in = i >= 1 && i <= 7 && j >= 1 && j <= 6;
+            valid[j * n + i] = in && !(i <= 2 && j >= 5) && !(i == 7 && j <= 2);
+        }
+    hz_heightmap hm;
+    assert_int_equal(hz_heightmap_create(&hm, &g, HZ_LAYOUT_LINEAR, NULL), HZ_OK);
+    hz_grid_free(&g);
+    hz_coast c;
+    hz_err err = {0};
+    const uint32_t rect[4] = {1, 1, 7, 6};
+    assert_int_equal(hz_coast_make(&hm, valid, 1.0f, 0.1f, rect, &c, &err), HZ_OK);
+    assert_int_equal(c.x0, 1);
+    assert_int_equal(c.z1, 6);
+    /* west: rows 1-6 (rows 5, 6 start in the missing tile, then sea); east: land */
+    static const uint8_t west[6] = {1, 1, 1, 1, 1, 1}, east[6] = {0, 0, 0, 0, 0, 0};
+    /* north (row 1) and south (row 6): columns 1-7, sea up to column 3 */
+    static const uint8_t north[7] = {1, 1, 1, 0, 0, 0, 0}, south[7] = {1, 1, 1, 0, 0, 0, 0};
+    assert_memory_equal(c.edge, west, 6);
+    assert_memory_equal(c.edge + 6, east, 6);
+    assert_memory_equal(c.edge + 12, north, 7);
+    assert_memory_equal(c.edge + 19, south, 7);
+    hz_coast_free(&c);
+    /* the level decides: at 60 m everything is sea; zscale applies */
+    assert_int_equal(hz_coast_make(&hm, valid, 1.0f, 60.0f, rect, &c, &err), HZ_OK);
+    for (uint32_t k = 0; k < 26; k++)
+        assert_int_equal(c.edge[k], 1);
+    hz_coast_free(&c);
+    assert_int_equal(hz_coast_make(&hm, valid, 2.0f, 60.0f, rect, &c, &err), HZ_OK);
+    assert_int_equal(c.edge[6], 0); /* east: 100 m land */
+    hz_coast_free(&c);
+    /* a column without any data is open sea; the whole map without a mask */
+    for (uint32_t j = 0; j < n; j++)
+        valid[j * n + 5] = 0;
+    const uint32_t col[4] = {5, 1, 5, 6};
+    assert_int_equal(hz_coast_make(&hm, valid, 1.0f, 0.1f, col, &c, &err), HZ_OK);
+    assert_int_equal(c.edge[12], 1);
+    hz_coast_free(&c);
+    assert_int_equal(hz_coast_make(&hm, NULL, 1.0f, 0.1f, NULL, &c, &err), HZ_OK);
+    assert_int_equal(c.x1, 8);
+    assert_int_equal(c.edge[0], 1);  /* west: sea */
+    assert_int_equal(c.edge[9], 0);  /* east: land */
+    assert_int_equal(c.edge[18 + 3], 1);
+    assert_int_equal(c.edge[18 + 4], 0);
+    hz_coast_free(&c);
+    /* not a rectangle of the map */
+    const uint32_t bad[2][4] = {{3, 1, 2, 6}, {1, 1, 9, 6}};
+    for (int k = 0; k < 2; k++) {
+        assert_int_equal(hz_coast_make(&hm, valid, 1.0f, 0.1f, bad[k], &c, &err), HZ_ERR_VALUE);
+        assert_null(c.edge);
+    }
+    hz_heightmap_destroy(&hm);
+}
+
 static void test_trees_and_water(void **state)
 {
     (void)state;
@@ -560,7 +628,7 @@ int main(void)
         cmocka_unit_test(test_detail_textures),
         cmocka_unit_test(test_sprites),
         cmocka_unit_test(test_sprite_mips_keep_coverage),
-        cmocka_unit_test(test_trees_and_water),
+        cmocka_unit_test(test_coast), cmocka_unit_test(test_trees_and_water),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

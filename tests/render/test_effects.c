@@ -629,6 +629,127 @@ static void test_water_deep_without_data(void **state)
     assert_int_equal(hz_renderer_set_water(fx->flat, NULL, 0, NULL, 0, &err), HZ_OK);
 }
 
+/* A DEM's sea at 0 m over the west half, land at 40-80 m over the east. */
+static float sea_west(float x, float z)
+{
+    return x < 2560.0f ? 0.0f : 40.0f + 40.0f * sinf(z * 0.003f) * sinf(x * 0.002f) * sinf(x * 0.002f);
+}
+
+static int rgb_diff(const uint8_t *a, const uint8_t *b)
+{
+    return abs(a[0] - b[0]) + abs(a[1] - b[1]) + abs(a[2] - b[2]);
+}
+
+/* A DEM's sea (hz_water_plane.sea, hz_renderer_set_coast), on a 25.6 km map:
+ * - beyond the map it goes on off the sea's edges only, never over the land
+ *   the DEM stops short of;
+ * - it is deep over the DEM's flat fill 0.1 m under it (no sea floor shows);
+ * - with the Earth's curvature its flat cells (km wide out at sea) never dip
+ *   under that fill: the water looks the same with and without the ground
+ *   drawn below it. */
+static void test_sea_coast(void **state)
+{
+    fixture *fx = *state;
+    hz_err err = {0};
+    const float sp_m = 100.0f, ext = 256.0f * sp_m;
+    hz_heightmap hm;
+    make_hm(&hm, sea_west);
+    hz_renderer *r = hz_renderer_create(&(hz_renderer_desc){.width = W, .height = H}, &err);
+    assert_non_null(r);
+    assert_int_equal(hz_renderer_set_heightmap(r, &hm, sp_m, 1.0f, &err), HZ_OK);
+    hz_coast coast;
+    assert_int_equal(hz_coast_make(&hm, NULL, 1.0f, 0.1f, NULL, &coast, &err), HZ_OK);
+    hz_water_plane sea = {.height = 0.1f, .sea = true};
+    assert_int_equal(hz_renderer_set_water(r, &sea, 1, NULL, 0, &err), HZ_OK);
+    hz_scene_params sp = {.effects = HZ_FX_WATER, .fog_density = -1.0f};
+
+    /* From 30 km up: the map and 4 km around it. */
+    hz_camera top = camera(ext / 2, 30000.0f, ext / 2, 0, -89.9f);
+    top.zfar = 200000.0f;
+    const float pts[4][3] = {{-2000.0f, 0, ext / 2},      /* west of the sea */
+                             {ext + 2000.0f, 0, ext / 2}, /* east of the land */
+                             {ext * 0.25f, 0, -2000.0f},  /* north of the sea */
+                             {ext * 0.75f, 0, -2000.0f}}; /* north of the land */
+    int pix[4][2];
+    for (int k = 0; k < 4; k++) {
+        float sx, sy;
+        assert_true(project(&top, pts[k], &sx, &sy));
+        pix[k][0] = (int)sx, pix[k][1] = (int)sy;
+    }
+    draw_read(r, &top, &sp, fx->idx, fx->count, fx->a, NULL); /* without a coast: sea all round */
+    assert_int_equal(hz_renderer_set_coast(r, &coast, &err), HZ_OK);
+    draw_read(r, &top, &sp, fx->idx, fx->count, fx->b, NULL);
+    save("sea_coast", fx->b);
+    assert_int_equal(hz_renderer_set_water(r, NULL, 0, NULL, 0, &err), HZ_OK);
+    draw_read(r, &top, &sp, fx->idx, fx->count, fx->c, NULL); /* no water: the background */
+    for (int k = 0; k < 4; k++) {
+        const uint8_t *all = px(fx->a, pix[k][0], pix[k][1]), *cst = px(fx->b, pix[k][0], pix[k][1]),
+                      *none = px(fx->c, pix[k][0], pix[k][1]);
+        printf("sea beyond the map, point %d: everywhere (%d %d %d), coast (%d %d %d), no water (%d %d %d)\n", k,
+               all[0], all[1], all[2], cst[0], cst[1], cst[2], none[0], none[1], none[2]);
+        assert_true(rgb_diff(all, none) > 30); /* without a coast, water everywhere */
+        if (k % 2 == 0)
+            assert_true(rgb_diff(cst, all) <= 3); /* off the sea: water */
+        else
+            assert_memory_equal(cst, none, 3); /* off the land: none */
+    }
+    if (g_gl33) {
+        /* Without glClipControl the depth buffer cannot tell 0.1 m apart at
+         * these distances: the rest needs the GL 4.5 path's reverse Z. */
+        hz_coast_free(&coast);
+        hz_renderer_destroy(r);
+        free(hm.h);
+        return;
+    }
+    /* Deep over the fill: a pixel over the sea inside the map looks like the
+     * open sea beyond it, not like ground under 0.1 m of water. */
+    float sx, sy;
+    assert_true(project(&top, (const float[3]){ext * 0.2f, 0, ext / 2}, &sx, &sy));
+    const uint8_t *inside = px(fx->b, (int)sx, (int)sy), *open = px(fx->b, pix[0][0], pix[0][1]);
+    printf("sea inside the map (%d %d %d), open sea (%d %d %d)\n", inside[0], inside[1], inside[2], open[0], open[1],
+           open[2]);
+    assert_true(rgb_diff(inside, open) <= 6);
+    hz_water_plane lake = sea;
+    lake.sea = false;
+    assert_int_equal(hz_renderer_set_water(r, &lake, 1, NULL, 0, &err), HZ_OK);
+    draw_read(r, &top, &sp, fx->idx, fx->count, fx->c, NULL);
+    assert_true(rgb_diff(px(fx->c, (int)sx, (int)sy), inside) > 20); /* a lake shows its floor */
+
+    /* Curved: low over the sea near its coast, looking west across it to
+     * the open sea. The ground drawn only where the land is, then everywhere. */
+    assert_int_equal(hz_renderer_set_water(r, &sea, 1, NULL, 0, &err), HZ_OK);
+    hz_camera low = camera(ext * 0.45f, 150.0f, ext / 2, 270.0f, -1.5f); /* yaw 270: west */
+    low.zfar = 200000.0f;
+    low.earth_radius = (float)HZ_EARTH_RADIUS;
+    float wx, wy;
+    assert_true(project(&(hz_camera){.pos = {ext * 0.45f, 150.0f, ext / 2}, .yaw = 270.0f, .pitch = -1.5f, .fov_y = 60.0f,
+                                     .aspect = (float)W / (float)H, .znear = 1.0f, .zfar = 200000.0f},
+                        (const float[3]){ext * 0.1f, 0, ext / 2}, &wx, &wy)); /* looking at the sea */
+    uint32_t land_count = 0;
+    uint32_t *land = malloc((size_t)fx->count * sizeof *land);
+    assert_non_null(land);
+    for (uint32_t k = 0; k + 2 < fx->count; k += 3) {
+        uint32_t lo = N;
+        for (int v = 0; v < 3; v++)
+            lo = fx->idx[k + v] % N < lo ? fx->idx[k + v] % N : lo;
+        if (lo >= 127) /* cells from the last sea column on */
+            for (int v = 0; v < 3; v++)
+                land[land_count++] = fx->idx[k + v];
+    }
+    draw_read(r, &low, &sp, land, land_count, fx->a, NULL);
+    draw_read(r, &low, &sp, fx->idx, fx->count, fx->b, NULL);
+    save("sea_curved", fx->b);
+    size_t differ = 0;
+    for (size_t k = 0; k < NPX; k++)
+        differ += rgb_diff(fx->a + 3 * k, fx->b + 3 * k) > 6;
+    printf("sea with curvature: %zu of %zu pixels differ with the ground drawn under it\n", differ, NPX);
+    assert_true(differ <= NPX / 1000);
+    free(land);
+    hz_coast_free(&coast);
+    hz_renderer_destroy(r);
+    free(hm.h);
+}
+
 /* The reflection pass is drawn only where water can show: a plane under
  * the ground needs none (and changes nothing), and a small lake's pixels are
  * those of the same water in a lake covering the map, whose mirror image is
@@ -1048,6 +1169,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_shadow_light_map_formula),
         cmocka_unit_test(test_water_reflects_known_shape),
         cmocka_unit_test(test_water_deep_without_data),
+        cmocka_unit_test(test_sea_coast),
         cmocka_unit_test(test_water_only_where_it_shows),
         cmocka_unit_test(test_motion_blur_feedback),
         cmocka_unit_test(test_exposure_gamma_bloom),
