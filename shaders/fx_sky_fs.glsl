@@ -11,7 +11,7 @@ void main()
     vec3 horizon = fx_horizon_color(d);
     if (d.y <= 0.0) {
         // At and below the horizon: exactly the fog colour.
-        o_color = vec4(horizon, 1.0);
+        o_color = vec4(horizon, 0.0); // alpha 0: no ground (a streamed sea shows over it)
         return;
     }
     vec3 c = mix(horizon, fx_zenith.rgb, fx_zenith_k(d.y)); // = fx_fog_color(d) with the fog effect
@@ -23,5 +23,5 @@ void main()
     // Clouds in front of all that.
     vec4 cl = fx_clouds(fx_eye.xyz, d);
     c = mix(c, cl.rgb, cl.a);
-    o_color = vec4(c, 1.0);
+    o_color = vec4(c, 0.0);
 }

@@ -13,6 +13,7 @@ uniform int u_has_valid;
 uniform int u_sea;             // a DEM's sea: the ground below the level is flat fill, not a floor
 uniform samplerBuffer u_coast; // a byte per sample along each edge of the data: 1 = sea (hz_coast)
 uniform ivec4 u_coast_rect;    // the data's rectangle in samples; z < x: no coast
+uniform float u_coast_spacing; // metres between those samples
 uniform int u_size;
 uniform float u_spacing, u_hscale, u_hoffset;
 uniform float u_level;
@@ -65,7 +66,7 @@ bool sea_here(vec2 xz)
     ivec4 r = u_coast_rect;
     if (u_sea == 0 || r.z < r.x)
         return true;
-    vec2 g = xz / u_spacing;
+    vec2 g = xz / u_coast_spacing;
     int rows = r.w - r.y + 1, cols = r.z - r.x + 1;
     ivec2 c = clamp(ivec2(floor(g + 0.5)), r.xy, r.zw);
     bool sea = true;

@@ -12,6 +12,7 @@ uniform float u_ambient;
 uniform vec2 u_hrange;    // min, max world height of the heightmap
 uniform vec4 u_climate;   // snow line, tree line (world metres: zscale applied), aridity 0..1, zscale
 uniform int u_wire;       // 1: wireframe overlay pass
+uniform float u_water_mask; // alpha 0 below this world height (under the water), 1 above (-1e30: none)
 uniform sampler2D u_normals; // per-sample normals (x, z), bilinear: full-resolution shading
 uniform int u_normal_tex;    // 1: use u_normals, 0: the interpolated vertex normal
 uniform vec2 u_nrm_scale;    // uv = world.xz * x + y
@@ -198,10 +199,13 @@ void main()
     if (u_wire != 0)
         c = mix(c, vec3(0.05, 0.05, 0.05), 0.7);
 
+    // Alpha: whether this ground stands above the water (a streamed sea
+    // shows where it does not: fx_water_draw).
+    float above = v_world.y >= u_water_mask ? 1.0 : 0.0;
     if (FX_ENABLED != 0) {
-        o_color = vec4(fx_fogged(c, v_world), 1.0);
+        o_color = vec4(fx_fogged(c, v_world), above);
         return;
     }
     float f = u_fog_density > 0.0 ? exp(-u_fog_density * dist) : 1.0;
-    o_color = vec4(mix(u_sky_horizon, c, f), 1.0);
+    o_color = vec4(mix(u_sky_horizon, c, f), above);
 }

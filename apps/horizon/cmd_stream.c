@@ -289,6 +289,7 @@ int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         /* bench pacing */
         {"realtime", no_argument, 0, 1006}, {"fps", required_argument, 0, 1007},
         {"deterministic", no_argument, 0, 1008},
+        {"water-level", required_argument, 0, 1011},
         {0, 0, 0, 0}};
     *o = (sopts){.cache_mb = 256, .tau = 1.0, .width = 1280, .height = 720, .frames = strcmp(cmd, "view") ? 120 : 0,
                  .fps = 30};
@@ -352,6 +353,20 @@ int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
                 return 2;
             }
             break;
+        case 1011:
+            if (!strcmp(optarg, "auto")) o->water_mode = 0;
+            else if (!strcmp(optarg, "off")) o->water_mode = 1;
+            else {
+                char *end;
+                v = strtod(optarg, &end);
+                if (end == optarg || *end || !(v >= -1e5 && v <= 1e5)) {
+                    fprintf(stderr, "horizon %s: --water-level '%s': expected metres in [-1e5, 1e5], auto or off\n",
+                            cmd, optarg);
+                    return 2;
+                }
+                o->water_mode = 2, o->water_level = (float)v;
+            }
+            break;
         case 1006: o->realtime = true; break;
         case 1007:
             if (!num("--fps", optarg, 1, 1000, &v)) return 2;
@@ -384,7 +399,7 @@ int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         default:
             fprintf(stderr, "horizon %s --terrain: options are --terrain --cache-mb --out --camera --pixel-error "
                             "--width --height --path --frames --json --quiet --disk-cache --disk-cache-mb "
-                            "--http-timeout --http-retries --http-connections --curvature --imagery --imagery-max; bench "
+                            "--http-timeout --http-retries --http-connections --curvature --imagery --imagery-max --water-level; bench "
                             "also --realtime --fps --deterministic; view also --speed --dt --script --screenshot "
                             "--no-vsync --no-hud\n", cmd);
             return 2;
@@ -482,7 +497,7 @@ int sctx_open(sctx *c, const sopts *o, const char *cmd)
         return 1;
     }
     c->lp = (hz_lod_params){.mode = HZ_LOD_CDLOD, .pixel_error = (float)o->tau, .viewport_height = o->height};
-    if (o->imagery && stream_imagery(c, o, cmd)) {
+    if ((o->imagery && stream_imagery(c, o, cmd)) || stream_water(c, o, cmd)) {
         sctx_free(c);
         return 1;
     }
@@ -692,7 +707,7 @@ int stream_render(int argc, char **argv)
     hz_err err = {0};
     hz_scene_params sp = {.patches = c.pl.data, .patch_count = (uint32_t)c.pl.count,
                           .morph_scale = st.morph_scale, .morph_start = st.morph_start,
-                          .fog_density = cli_fog_default(cam.zfar)};
+                          .fog_density = cli_fog_default(cam.zfar), .effects = stream_effects(&c)};
     hz_draw_stats ds = {0};
     rc = 1;
     for (int k = 0; k < 2; k++)
@@ -738,6 +753,7 @@ int stream_render(int argc, char **argv)
         json_object_set_new(j, "load_rounds", json_integer(rounds));
         json_object_set_new(j, "load_ms", jx_dbl(load_ms));
         json_object_set_new(j, "terrain_in_view", json_boolean(c.pl.count > 0));
+        json_object_set_new(j, "water_level", c.water ? jx_dbl(c.water_level) : json_null());
         json_object_set_new(j, "peak_rss_mb", jx_dbl((double)hz_peak_rss_bytes() / 1048576.0));
         if (http)
             json_object_set(j, "http", http);
@@ -756,64 +772,6 @@ done:
     return rc;
 }
 
-/* A coarse level (at most 8 x 8 tiles) read whole, for path planning. */
-typedef struct coarse {
-    float *h;
-    uint32_t n, step; /* samples per side, level-0 samples between them */
-    double spacing;
-} coarse;
-
-static int coarse_load(const sopts *o, coarse *g)
-{
-    hz_pyramid *p;
-    hz_err err = {0};
-    if (hz_pyramid_open_with(o->terrain, &o->remote, &p, &err) != HZ_OK) {
-        fprintf(stderr, "horizon bench: %s\n", err.msg);
-        return 1;
-    }
-    const hz_pyr_info *in = hz_pyramid_info(p);
-    uint32_t l = 0;
-    while (l + 1 < in->levels && hz_pyr_level_tiles(in, l) > 8)
-        l++;
-    const uint32_t m = hz_pyr_level_tiles(in, l), c = hz_pyr_level_cells(in, l);
-    g->n = m * c + 1;
-    g->step = 1u << l;
-    g->spacing = in->spacing;
-    g->h = malloc((size_t)g->n * g->n * sizeof *g->h);
-    int rc = g->h ? 0 : 1;
-    for (uint32_t tz = 0; !rc && tz < m; tz++)
-        for (uint32_t tx = 0; !rc && tx < m; tx++) {
-            hz_pyr_tile t;
-            if (hz_pyramid_read_tile(p, l, tx, tz, &t, &err) != HZ_OK) {
-                fprintf(stderr, "horizon bench: %s\n", err.msg);
-                rc = 1;
-                break;
-            }
-            for (uint32_t b = 0; b <= c; b++)
-                for (uint32_t a = 0; a <= c; a++)
-                    g->h[(size_t)(tz * c + b) * g->n + tx * c + a] =
-                        (float)(in->h_offset + in->h_scale * t.h[(size_t)b * (c + 1) + a]);
-            hz_pyr_tile_free(&t);
-        }
-    hz_pyramid_close(p);
-    return rc;
-}
-
-static float coarse_max(const coarse *g, float x, float z, float r, bool wrap)
-{
-    float m = -INFINITY;
-    const double d = g->spacing * g->step, per = (double)(g->n - 1);
-    for (int dz = -4; dz <= 4; dz++)
-        for (int dx = -4; dx <= 4; dx++) {
-            double fx = (x + r * (float)dx / 4.0f) / d, fz = (z + r * (float)dz / 4.0f) / d;
-            if (wrap)
-                fx -= floor(fx / per) * per, fz -= floor(fz / per) * per;
-            if (fx < 0 || fz < 0 || fx > g->n - 1 || fz > g->n - 1)
-                continue;
-            m = fmaxf(m, g->h[(size_t)(fz + 0.5) * g->n + (size_t)(fx + 0.5)]);
-        }
-    return m;
-}
 
 static int cmp_d(const void *a, const void *b)
 {
@@ -828,6 +786,7 @@ static double pct(double *v, size_t n, double q)
     return v[k < n ? k : n - 1];
 }
 
+
 int stream_bench(int argc, char **argv)
 {
     sopts o;
@@ -837,14 +796,12 @@ int stream_bench(int argc, char **argv)
     hz_path path = {0};
     hz_err err = {0};
     coarse g = {0};
-    if (coarse_load(&o, &g)) {
-        free(g.h);
+    if (coarse_load(&o, &g, "bench"))
         return 1;
-    }
     if (o.path && strcmp(o.path, "flyover")) {
         if (hz_path_load_csv(o.path, &path, &err) != HZ_OK) {
             fprintf(stderr, "horizon bench: %s (a streamed --terrain flies flyover or a CSV path)\n", err.msg);
-            free(g.h);
+            coarse_free(&g);
             return 2;
         }
     } else {
@@ -853,7 +810,7 @@ int stream_bench(int argc, char **argv)
         hz_pyramid *p;
         if (hz_pyramid_open_with(o.terrain, &o.remote, &p, &err) != HZ_OK) {
             fprintf(stderr, "horizon bench: %s\n", err.msg);
-            free(g.h);
+            coarse_free(&g);
             return 1;
         }
         const hz_pyr_info *in = hz_pyramid_info(p);
@@ -878,11 +835,11 @@ int stream_bench(int argc, char **argv)
         }
         if (hz_path_from_keys(k, 61, "flyover", &path, &err) != HZ_OK) {
             fprintf(stderr, "horizon bench: %s\n", err.msg);
-            free(g.h);
+            coarse_free(&g);
             return 1;
         }
     }
-    free(g.h);
+    coarse_free(&g);
     sctx c;
     if (sctx_open(&c, &o, "bench")) {
         hz_path_free(&path);
@@ -958,7 +915,7 @@ int stream_bench(int argc, char **argv)
             goto done;
         hz_scene_params sp = {.patches = c.pl.data, .patch_count = (uint32_t)c.pl.count,
                               .morph_scale = st.morph_scale, .morph_start = st.morph_start,
-                              .fog_density = cli_fog_default(cam.zfar)};
+                              .fog_density = cli_fog_default(cam.zfar), .effects = stream_effects(&c)};
         hz_draw_stats ds = {0};
         if (hz_renderer_draw(c.r, &cam, &sp, NULL, 0, &ds, &err) != HZ_OK) {
             fprintf(stderr, "horizon bench: %s\n", err.msg);
@@ -1022,6 +979,7 @@ int stream_bench(int argc, char **argv)
     json_object_set_new(j, "late_tile_fraction", jx_dbl(drawn_nodes ? (double)late_nodes / (double)drawn_nodes : 0));
     json_object_set_new(j, "late_nodes", json_integer((json_int_t)late_nodes));
     json_object_set_new(j, "nodes_drawn", json_integer((json_int_t)drawn_nodes));
+    json_object_set_new(j, "water_level", c.water ? jx_dbl(c.water_level) : json_null());
     json_object_set_new(j, "pacing", jx_str(o.realtime ? "realtime" : o.deterministic ? "deterministic" : "unpaced"));
     json_object_set_new(j, "path_seconds", jx_dbl(dur));
     json_object_set_new(j, "flight_seconds", jx_dbl((hz_time_ms() - fly0) / 1000.0));

@@ -330,8 +330,8 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
             hz_coast coast = {0};
             if (sea && (t->valid || t->georef)) {
                 const uint32_t dr[4] = {t->data_x, t->data_y, t->data_x + t->data_w - 1, t->data_y + t->data_h - 1};
-                if (hz_coast_make(&t->hm, t->valid, t->zscale, a->water_level, t->data_w ? dr : NULL, &coast, &err) !=
-                        HZ_OK ||
+                if (hz_coast_make(&t->hm, t->valid, t->spacing, t->zscale, a->water_level, t->data_w ? dr : NULL,
+                                  &coast, &err) != HZ_OK ||
                     hz_renderer_set_coast(r, &coast, &err) != HZ_OK) {
                     hz_coast_free(&coast);
                     fprintf(stderr, "horizon %s: water: %s\n", cmd, err.msg);

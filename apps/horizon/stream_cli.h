@@ -26,6 +26,8 @@ typedef struct sopts {
     const char *script, *screenshot;
     double speed, dt;     /* m/s (0: map side / 200); fixed seconds per frame (0: real time) */
     bool no_vsync, no_hud;
+    int water_mode;       /* --water-level: 0 auto (a real place's sea), 1 off, 2 water_level */
+    float water_level;
 } sopts;
 
 typedef struct sctx {
@@ -35,6 +37,8 @@ typedef struct sctx {
     hz_patch_list pl;
     hz_lod_params lp;
     uint32_t first_view_loads, first_view_rounds; /* tiles loaded to find the first view */
+    bool water;           /* a sea is drawn (stream_water) */
+    float water_level;
 } sctx;
 
 /* Parses argv[2..] for cmd ("render", "bench", "view"). 0, or 2 after a message. */
@@ -54,6 +58,32 @@ hz_camera default_camera(const hz_pyr_info *in, uint32_t w, uint32_t h);
  * the first view of the highest ground (loads the coarse tiles to find it),
  * with --curvature resolved into its earth radius. */
 hz_camera stream_camera(sopts *o, sctx *c, uint32_t w, uint32_t h);
+
+/* The sea of a pyramid (stream_ground.c): with --water-level auto, a real
+ * place's (georeferenced) sea at 0 m when its data has one; with a level,
+ * water at it. Drawn deep (the streamed heights are not resident to see
+ * through), going on beyond the data where its coast does (hz_coast, on a
+ * coarse level). Sets c->water. 0, or 1 after a message. */
+int stream_water(sctx *c, const sopts *o, const char *cmd);
+/* The effects of a streamed frame: water when stream_water found some. */
+static inline uint32_t stream_effects(const sctx *c)
+{
+    return c->water ? HZ_FX_WATER : 0u;
+}
+
+/* A coarse level of the pyramid (at most 8 x 8 tiles) read whole: heights
+ * and validity. */
+typedef struct coarse {
+    float *h;
+    uint8_t *v;       /* 1 = data */
+    uint32_t n, step; /* samples per side, level-0 samples between them */
+    double spacing;
+} coarse;
+/* 0, or 1 after a message naming cmd. */
+int coarse_load(const sopts *o, coarse *g, const char *cmd);
+void coarse_free(coarse *g);
+/* The highest ground within r of (x, z). */
+float coarse_max(const coarse *g, float x, float z, float r, bool wrap);
 
 int stream_view(int argc, char **argv);
 

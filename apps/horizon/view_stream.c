@@ -2,8 +2,9 @@
  * The frame never waits for the disk or the network: decoded tiles are
  * uploaded as they come, and arriving tiles slide in. The keys, mouse,
  * scripts (--script, --frames, --screenshot, --dt) and the compact HUD are
- * those of the in-memory view; effects, forests and city models are not
- * drawn on a streamed terrain. */
+ * those of the in-memory view. A real place's sea is drawn (stream_water);
+ * the other effects, forests and city models are not drawn on a streamed
+ * terrain. */
 #include "stream_cli.h"
 
 #include <math.h>
@@ -178,7 +179,7 @@ static bool frame(sview *v, bool *failed)
     v->late_frames += v->ss.late > 0;
     hz_scene_params sp = {.patches = v->c.pl.data, .patch_count = (uint32_t)v->c.pl.count,
                           .morph_scale = v->st.morph_scale, .morph_start = v->st.morph_start,
-                          .fog_density = cli_fog_default(v->fc.cam.zfar)};
+                          .fog_density = cli_fog_default(v->fc.cam.zfar), .effects = stream_effects(&v->c)};
     hz_draw_stats ds = {0};
     if (hz_renderer_draw(v->c.r, &v->fc.cam, &sp, NULL, 0, &ds, &v->err) != HZ_OK) {
         *failed = true;

@@ -251,15 +251,16 @@ float hz_water_level_auto(const hz_heightmap *hm, const uint8_t *valid, float zs
  * level (or none has data: a missing tile of open sea). */
 typedef struct hz_coast {
     uint32_t x0, z0, x1, z1; /* the data's rectangle in samples, inclusive */
+    float spacing;           /* metres between samples: world x = spacing * sample */
     uint8_t *edge;           /* 2 (z1 - z0 + 1) + 2 (x1 - x0 + 1) bytes */
 } hz_coast;
 
 /* The coast of heightmap hm (valid: size x size bytes, 0 = no data, or NULL
- * for all) at water level `level` (metres, zscale applied) around rect
- * (x0, z0, x1, z1 samples, inclusive; NULL -> the whole map). Free with
- * hz_coast_free. */
-hz_result hz_coast_make(const hz_heightmap *hm, const uint8_t *valid, float zscale, float level, const uint32_t rect[4],
-                        hz_coast *out, hz_err *err);
+ * for all; spacing: metres between its samples) at water level `level`
+ * (metres, zscale applied) around rect (x0, z0, x1, z1 samples, inclusive;
+ * NULL -> the whole map). Free with hz_coast_free. */
+hz_result hz_coast_make(const hz_heightmap *hm, const uint8_t *valid, float spacing, float zscale, float level,
+                        const uint32_t rect[4], hz_coast *out, hz_err *err);
 void hz_coast_free(hz_coast *c);
 
 #ifdef __cplusplus

@@ -1,6 +1,7 @@
 /* Where a DEM's sea goes on beyond the DEM's data (CPU). */
 #include "horizon/fx.h"
 
+#include <math.h>
 #include <stdlib.h>
 
 /* Walks from (i, j) by (di, dj) through the rectangle to the first sample
@@ -17,12 +18,15 @@ static uint8_t edge_is_sea(const hz_heightmap *hm, const uint8_t *valid, float z
     return 1;
 }
 
-hz_result hz_coast_make(const hz_heightmap *hm, const uint8_t *valid, float zscale, float level, const uint32_t rect[4],
-                        hz_coast *out, hz_err *err)
+hz_result hz_coast_make(const hz_heightmap *hm, const uint8_t *valid, float spacing, float zscale, float level,
+                        const uint32_t rect[4], hz_coast *out, hz_err *err)
 {
     *out = (hz_coast){0};
     if (!hm || !hm->h || hm->size < 2)
         return hz_err_set(err, HZ_ERR_VALUE, "coast: no heightmap");
+    if (!(spacing > 0.0f) || !isfinite(spacing) || !isfinite(level) || !isfinite(zscale))
+        return hz_err_set(err, HZ_ERR_VALUE, "coast: spacing %g, level %g, zscale %g", (double)spacing, (double)level,
+                          (double)zscale);
     const uint32_t n = hm->size;
     uint32_t r[4] = {0, 0, n - 1, n - 1};
     if (rect)
@@ -43,6 +47,7 @@ hz_result hz_coast_make(const hz_heightmap *hm, const uint8_t *valid, float zsca
         e[2 * rows + cols + k] = edge_is_sea(hm, valid, zscale, level, r[0] + k, r[3], 0, -1, r);
     }
     out->x0 = r[0], out->z0 = r[1], out->x1 = r[2], out->z1 = r[3];
+    out->spacing = spacing;
     out->edge = e;
     return HZ_OK;
 }

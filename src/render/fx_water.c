@@ -34,7 +34,7 @@ hz_result fx_water_ensure(hz_renderer *r, const fx_frame *f, hz_err *err)
     static const char *const names[] = {"u_rect",    "u_level",   "u_viewproj", "u_has_reflection", "u_viewport",
                                         "u_size",    "u_spacing", "u_hscale",   "u_hoffset",        "u_deep",
                                         "u_clarity", "u_waves",   "u_reflectivity", "u_grid", "u_has_valid", "u_sea",
-                                        "u_coast_rect", NULL};
+                                        "u_coast_rect", "u_coast_spacing", NULL};
     r->water_cur = prog_cache_get(&r->water, f->bits & (HZ_FX_SKY | HZ_FX_FOG), hz_shader_fx_water_vs,
                                   hz_shader_fx_water_fs, "fx_water", 3, names, err);
     return r->water_cur ? HZ_OK : HZ_ERR_GL;
@@ -109,7 +109,7 @@ hz_result hz_renderer_set_water(hz_renderer *r, const hz_water_plane *planes, ui
 static void plane_rect(const hz_renderer *r, const hz_water_plane *p, float zfar, float out[4])
 {
     if (p->rect[0] == 0 && p->rect[1] == 0 && p->rect[2] == 0 && p->rect[3] == 0) {
-        float ext = r->has_heights ? (float)(r->size - 1) * r->spacing : 0.0f;
+        float ext = r->has_heights || r->streamed ? (float)(r->size - 1) * r->spacing : 0.0f;
         out[0] = -zfar, out[1] = -zfar, out[2] = ext + zfar, out[3] = ext + zfar;
     } else {
         memcpy(out, p->rect, 4 * sizeof(float));
@@ -350,7 +350,8 @@ void fx_water_draw(hz_renderer *r, const fx_frame *f, const fx_view *v)
     glUniformMatrix4fv(u[WL_VIEWPROJ], 1, GL_FALSE, (const float *)v->viewproj);
     hz_gl_set_curvature(r->water_cur->prog, &v->cam);
     glUniform2f(u[WL_VIEWPORT], (float)v->w, (float)v->h);
-    glUniform1i(u[WL_SIZE], (GLint)r->size);
+    /* Without the heights (a streamed pyramid) every ground is deep: 0 samples. */
+    glUniform1i(u[WL_SIZE], r->has_heights ? (GLint)r->size : 0);
     glUniform1f(u[WL_SPACING], r->spacing);
     glUniform1f(u[WL_HSCALE], r->hscale);
     glUniform1f(u[WL_HOFFSET], r->hoffset);
@@ -362,12 +363,25 @@ void fx_water_draw(hz_renderer *r, const fx_frame *f, const fx_view *v)
     glActiveTexture(GL_TEXTURE0 + FX_UNIT_COAST);
     glBindTexture(GL_TEXTURE_BUFFER, r->coast_rect[2] >= r->coast_rect[0] ? r->coast_tex : 0);
     glUniform4i(u[WL_COAST_RECT], r->coast_rect[0], r->coast_rect[1], r->coast_rect[2], r->coast_rect[3]);
+    glUniform1f(u[WL_COAST_SPACING], r->coast_spacing);
     glActiveTexture(GL_TEXTURE0 + FX_UNIT_REFLECTION);
     glEnable(GL_BLEND);
-    glBlendFunc(GL_ONE, GL_SRC_ALPHA); /* src + alpha x (terrain below) */
-    glEnable(GL_DEPTH_TEST);
-    glDepthFunc(GL_GREATER);
-    glDepthMask(GL_TRUE);
+    if (f->water_mask > -1e29f) {
+        /* A streamed sea (deep: alpha 0): where the ground stands above it
+         * (alpha 1) the ground, elsewhere the sea. The depth test only saves
+         * the shading of what ground in front of the plane hides: the plane
+         * is lifted over the curved surface (fx_water_vs.glsl), so it never
+         * rejects the sea itself. */
+        glBlendFuncSeparate(GL_ONE_MINUS_DST_ALPHA, GL_DST_ALPHA, GL_ZERO, GL_ONE);
+        glEnable(GL_DEPTH_TEST);
+        glDepthFunc(GL_GREATER);
+        glDepthMask(GL_FALSE);
+    } else {
+        glBlendFunc(GL_ONE, GL_SRC_ALPHA); /* src + alpha x (terrain below) */
+        glEnable(GL_DEPTH_TEST);
+        glDepthFunc(GL_GREATER);
+        glDepthMask(GL_TRUE);
+    }
     glDisable(GL_CULL_FACE);
     vec4 planes[6];
     hz_camera_frustum(&v->cam, planes);
@@ -414,6 +428,8 @@ void fx_water_draw(hz_renderer *r, const fx_frame *f, const fx_view *v)
     glBindTexture(GL_TEXTURE_BUFFER, 0);
     glActiveTexture(GL_TEXTURE0);
     glDisable(GL_BLEND);
+    glEnable(GL_DEPTH_TEST);
+    glDepthMask(GL_TRUE);
 }
 
 void fx_water_destroy(hz_renderer *r)

@@ -56,6 +56,8 @@ typedef struct fx_frame {
     vec3 zenith, sun_color;
     float glow;            /* warm horizon toward a low sun, 0..1 */
     float ground_lo;       /* lowest terrain, metres (0 without heights) */
+    float water_mask;      /* a streamed sea's level: the terrain's alpha says whether it stands above
+                              it, and the sea shows where it does not (-1e30: none) */
     bool post;             /* the scene renders to a texture and the chain runs */
     const uint32_t *refl_idx;
     uint32_t refl_count;
@@ -77,7 +79,7 @@ typedef struct fx_frame {
  * variation is left. */
 #define FX_DETAIL_FADE_NEAR 150.0f
 #define FX_DETAIL_FADE_FAR 900.0f
-#define FX_MAX_LOCS 24
+#define FX_MAX_LOCS 32
 #define FX_MAX_VARIANTS 40 /* the --effect-costs run uses about 16 terrain variants */
 
 typedef struct prog_variant {
@@ -103,10 +105,11 @@ void prog_cache_clear(prog_cache *c);
 /* Uniform location slots per family. */
 enum { TL_SIZE, TL_SPACING, TL_HSCALE, TL_HOFFSET, TL_VIEWPROJ, TL_SUN, TL_HORIZON, TL_EYE, TL_FOG, TL_AMBIENT,
        TL_HRANGE, TL_WIRE, TL_MORPH_SCALE, TL_MORPH_START, TL_NORMAL_TEX, TL_NRM_SCALE, TL_MAP, TL_TILE, TL_TOP,
-       TL_BASE, TL_CLIMATE, TL_IMG_MAP, TL_IMG_TILE, TL_TILE_SHIFT };
+       TL_BASE, TL_CLIMATE, TL_IMG_MAP, TL_IMG_TILE, TL_TILE_SHIFT, TL_WATER_MASK };
 enum { BL_VIEWPROJ, BL_CAM_RIGHT, BL_CAM_UP, BL_PX_PER_M, BL_BLEND, BL_FIRST, BL_FACING };
 enum { WL_RECT, WL_LEVEL, WL_VIEWPROJ, WL_HAS_REFLECTION, WL_VIEWPORT, WL_SIZE, WL_SPACING, WL_HSCALE, WL_HOFFSET,
-       WL_DEEP, WL_CLARITY, WL_WAVES, WL_REFLECTIVITY, WL_GRID, WL_HAS_VALID, WL_SEA, WL_COAST_RECT };
+       WL_DEEP, WL_CLARITY, WL_WAVES, WL_REFLECTIVITY, WL_GRID, WL_HAS_VALID, WL_SEA, WL_COAST_RECT,
+       WL_COAST_SPACING };
 enum { QL_CENTER, QL_HALF, QL_Z, QL_CLOUDS };
 enum { SL_INV_VP, SL_SKY_Z };
 
@@ -128,6 +131,7 @@ struct hz_renderer {
     void *ctx;         /* EGLContext or GLXContext current at creation */
     uint32_t width, height;
     bool to_default;   /* draw to framebuffer 0 instead of fbo */
+    int default_alpha; /* framebuffer 0 has alpha bits: 1, 0, or -1 not asked yet */
     bool clip_control; /* GL 4.5 or ARB_clip_control: depth range [0, 1] */
     GLint max_tbo;     /* GL_MAX_TEXTURE_BUFFER_SIZE, texels */
     GLint max_tex;     /* GL_MAX_TEXTURE_SIZE */
@@ -146,6 +150,7 @@ struct hz_renderer {
     GLuint coast_buf;   /* GL_TEXTURE_BUFFER, hz_coast edge bytes */
     GLuint coast_tex;   /* GL_R8 view of coast_buf */
     int32_t coast_rect[4]; /* x0, z0, x1, z1 samples; x1 < x0: no coast */
+    float coast_spacing;   /* metres between the coast's samples */
     GLuint normal_tex;  /* GL_RG8_SNORM 2D texture of per-sample normals (x, z), 0: none */
 
     /* cdlod patches (terrain_patch.c) */

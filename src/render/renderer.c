@@ -41,7 +41,22 @@ static const char *const terrain_names[] = {
     "u_size",    "u_spacing", "u_hscale", "u_hoffset",     "u_viewproj",    "u_sun_dir",    "u_sky_horizon",
     "u_eye",     "u_fog_density", "u_ambient", "u_hrange", "u_wire",        "u_morph_scale", "u_morph_start",
     "u_normal_tex", "u_nrm_scale", "u_map",   "u_tile",     "u_top",         "u_base",       "u_climate",
-    "u_img_map", "u_img_tile", "u_tile_shift", NULL};
+    "u_img_map", "u_img_tile", "u_tile_shift", "u_water_mask", NULL};
+
+/* Whether the frame's colour target keeps alpha (the renderer's own is
+ * RGBA8; a window's may have none). */
+static bool target_has_alpha(hz_renderer *r)
+{
+    if (!r->to_default)
+        return true;
+    if (r->default_alpha < 0) {
+        GLint bits = 0;
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        glGetFramebufferAttachmentParameteriv(GL_FRAMEBUFFER, GL_BACK_LEFT, GL_FRAMEBUFFER_ATTACHMENT_ALPHA_SIZE, &bits);
+        r->default_alpha = bits > 0;
+    }
+    return r->default_alpha > 0;
+}
 
 hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_err *err)
 {
@@ -185,6 +200,7 @@ hz_renderer *hz_renderer_create(const hz_renderer_desc *desc, hz_err *err)
     r->width = d.width;
     r->height = d.height;
     r->to_default = d.to_default_framebuffer;
+    r->default_alpha = -1;
     /* Without glClipControl the reverse-Z projection still works (depth
      * lands in [0.5, 1]) but loses precision and the far-plane clip. */
     r->clip_control = ver >= 45 || epoxy_has_gl_extension("GL_ARB_clip_control");
@@ -449,11 +465,11 @@ hz_result hz_renderer_set_coast(hz_renderer *r, const hz_coast *c, hz_err *err)
     r->coast_rect[0] = 0, r->coast_rect[2] = -1;
     if (!c)
         return HZ_OK;
-    if (!r->has_heights)
-        return hz_err_set(err, HZ_ERR_VALUE, "renderer: hz_renderer_set_coast needs the heightmap set first");
-    if (!c->edge || c->x0 > c->x1 || c->z0 > c->z1 || c->x1 >= r->size || c->z1 >= r->size)
-        return hz_err_set(err, HZ_ERR_VALUE, "renderer: coast (%u, %u)-(%u, %u) is not a rectangle of the %ux%u map",
-                          c->x0, c->z0, c->x1, c->z1, r->size, r->size);
+    if (!r->has_heights && !r->streamed)
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: hz_renderer_set_coast needs the terrain set first");
+    if (!c->edge || c->x0 > c->x1 || c->z0 > c->z1 || !(c->spacing > 0.0f) || !isfinite(c->spacing))
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: coast (%u, %u)-(%u, %u) at %g m is not a rectangle", c->x0,
+                          c->z0, c->x1, c->z1, (double)c->spacing);
     hz_result res = fx_check_context(r, err, "hz_renderer_set_coast");
     if (res != HZ_OK)
         return res;
@@ -465,9 +481,11 @@ hz_result hz_renderer_set_coast(hz_renderer *r, const hz_coast *c, hz_err *err)
     glBindTexture(GL_TEXTURE_BUFFER, 0);
     glBindBuffer(GL_TEXTURE_BUFFER, 0);
     res = hz_gl_check(err, "coast texture buffer upload (GL_R8)");
-    if (res == HZ_OK)
+    if (res == HZ_OK) {
         r->coast_rect[0] = (int32_t)c->x0, r->coast_rect[1] = (int32_t)c->z0, r->coast_rect[2] = (int32_t)c->x1,
         r->coast_rect[3] = (int32_t)c->z1;
+        r->coast_spacing = c->spacing;
+    }
     return res;
 }
 
@@ -740,6 +758,7 @@ static void terrain_program(hz_renderer *r, const fx_frame *f, const fx_view *v,
     glUniform4f(tl[TL_CLIMATE], r->climate.snow_line * r->zscale, r->climate.tree_line * r->zscale,
                 r->climate.aridity, r->zscale);
     glUniform1i(tl[TL_WIRE], 0);
+    glUniform1f(tl[TL_WATER_MASK], v->pass == HZ_PASS_MAIN ? f->water_mask : -1e30f);
     glUniform4fv(tl[TL_IMG_MAP], 1, r->img_map);
     glUniform2fv(tl[TL_IMG_TILE], 1, r->img_tile);
     /* cdlod geomorphing (patches, main view only); reflections are unmorphed. */
@@ -927,9 +946,10 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
     fr.time = params ? params->time : 0.0;
     fr.zfar = zfar;
     fr.ground_lo = r->has_heights ? r->hmin : 0.0f;
+    fr.water_mask = -1e30f;
     if ((fr.bits & HZ_FX_SHADOWS) && !fx_lightmap_matches(r, fr.sp.sun_dir))
         fr.bits &= ~HZ_FX_SHADOWS; /* no light map for this sun: per-pixel Lambert */
-    if ((fr.bits & HZ_FX_WATER) && (r->n_planes == 0 || !r->has_heights))
+    if ((fr.bits & HZ_FX_WATER) && (r->n_planes == 0 || !(r->has_heights || r->streamed)))
         fr.bits &= ~HZ_FX_WATER;
     fr.post = (fr.bits & (HZ_FX_MOTIONBLUR | HZ_FX_BLOOM)) || fr.fx.exposure != 1.0f || fr.fx.gamma != 1.0f;
     /* Zenith derived from the horizon colour: the default pale blue gives a
@@ -948,6 +968,12 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         fr.sun_color[1] = 0.62f + 0.35f * noon;
         fr.sun_color[2] = 0.38f + 0.52f * noon;
     }
+    /* A streamed terrain has no heights to depth-test a sea against exactly
+     * (the flat cells of a curved plane sag under ground at its level, or
+     * flood low land when lifted): the terrain marks in alpha where it stands
+     * above the sea, and the sea shows elsewhere. Needs a target with alpha. */
+    if ((fr.bits & HZ_FX_WATER) && r->streamed && r->n_planes && r->planes[0].sea && target_has_alpha(r))
+        fr.water_mask = r->planes[0].height;
     fr.refl_idx = params && params->reflection_count ? params->reflection_indices : indices;
     fr.refl_count = params && params->reflection_count ? params->reflection_count : count;
     fr.refl_ibo = params && params->reflection_count ? r->ibo2 : r->ibo;
@@ -1001,7 +1027,9 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         r->n_inst_near = patch_detail_split(r, params->patches, r->n_inst, cam->pos, fade);
     }
     float levels[FX_MAX_REFLECTIONS];
-    r->n_refl = (fr.bits & HZ_FX_WATER) ? fx_water_visible(r, &fr, &mv, levels, r->refl_rect) : 0;
+    /* A streamed terrain's mirror image would be the sky alone (its reflection
+     * pass draws no patches): the water reflects the sky's colour instead. */
+    r->n_refl = (fr.bits & HZ_FX_WATER) && !r->streamed ? fx_water_visible(r, &fr, &mv, levels, r->refl_rect) : 0;
     for (uint32_t k = 0; k < r->n_refl; k++)
         r->refl_level[k] = levels[k];
     if (r->n_refl && params && params->reflection_count &&

@@ -81,6 +81,45 @@ for name in ("edge_3", "edge_1"):
     assert n < 300, (name, n)
 PY
   done
+  # The sea (0 m in the coastal tiles, nodata where tiles are missing) is deep water at 0.1 m; it
+  # goes on west of the data, where the coast is sea; it floods no low land (the Central Valley,
+  # 0-30 m, from 400 m up). --water-level off draws none.
+  sr() { $HZ render --terrain "$TMP/sierra.hzp" --width 320 --height 180 --camera "$@"; }
+  if sr 60000,15000,228000,90,-25 --json --out "$TMP/sea.png" > "$TMP/sea.json" &&
+     sr 60000,15000,228000,90,-25 --water-level off --out "$TMP/sea_off.png" >/dev/null &&
+     sr 20000,3000,228000,330,-10 --out "$TMP/west.png" >/dev/null &&
+     sr 20000,3000,228000,330,-10 --water-level off --out "$TMP/west_off.png" >/dev/null &&
+     sr 309200,400,221600,135,-8 --out "$TMP/valley.png" >/dev/null &&
+     sr 309200,400,221600,135,-8 --water-level off --out "$TMP/valley_off.png" >/dev/null &&
+     sr 309200,400,221600,135,-8 --water-level 60 --out "$TMP/valley_60.png" >/dev/null &&
+     python3 - "$TMP" "$(dirname "$0")" <<'PY'; then ok "sierra's sea: deep, beyond the data, not over low land"
+import json, sys
+sys.path.insert(0, sys.argv[2])
+import pngstat
+t = sys.argv[1]
+assert abs(json.load(open(t + "/sea.json"))["water_level"] - 0.1) < 0.05  # heights in steps of 0.067 m
+img = lambda n: pngstat.read(t + "/" + n + ".png")[2]
+sea = lambda p: p[2] > p[0] and sum(p) < 3 * 110  # dark blue
+def share(rows, test, y0, y1):
+    cells = [p for r in rows[y0:y1] for p in r]
+    return sum(map(test, cells)) / len(cells)
+# over the missing tile below the camera: deep sea; without water, the sky colour
+assert share(img("sea"), sea, 150, 180) > 0.95, share(img("sea"), sea, 150, 180)
+assert share(img("sea_off"), sea, 150, 180) < 0.05
+# north-west, beyond the data (away from the sun's glitter): sea
+assert share(img("west"), sea, 120, 180) > 0.95, share(img("west"), sea, 120, 180)
+assert share(img("west_off"), sea, 120, 180) < 0.05
+# the valley: the same picture but for the few channels below 0.1 m
+a, b = img("valley"), img("valley_off")
+diff = sum(max(abs(p[c] - q[c]) for c in range(3)) > 12 for ra, rb in zip(a, b) for p, q in zip(ra, rb))
+print("valley pixels under water:", diff, "of", 320 * 180)
+assert diff < 0.01 * 320 * 180, diff  # a lifted plane depth-tested alone floods 8 %
+# a level of 60 m does flood it
+c = img("valley_60")
+diff60 = sum(max(abs(p[k] - q[k]) for k in range(3)) > 12 for rc, rb in zip(c, b) for p, q in zip(rc, rb))
+assert diff60 > 2 * diff + 0.1 * 320 * 180, (diff60, diff)
+PY
+  else bad "sierra's sea"; fi
 fi
 
 # The first view of a pyramid is the first view of the same DEM in memory: its highest ground

@@ -437,9 +437,10 @@ static void test_coast(void **state)
     hz_coast c;
     hz_err err = {0};
     const uint32_t rect[4] = {1, 1, 7, 6};
-    assert_int_equal(hz_coast_make(&hm, valid, 1.0f, 0.1f, rect, &c, &err), HZ_OK);
+    assert_int_equal(hz_coast_make(&hm, valid, 10.0f, 1.0f, 0.1f, rect, &c, &err), HZ_OK);
     assert_int_equal(c.x0, 1);
     assert_int_equal(c.z1, 6);
+    assert_float_equal(c.spacing, 10.0f, 0.0f);
     /* west: rows 1-6 (rows 5, 6 start in the missing tile, then sea); east: land */
     static const uint8_t west[6] = {1, 1, 1, 1, 1, 1}, east[6] = {0, 0, 0, 0, 0, 0};
     /* north (row 1) and south (row 6): columns 1-7, sea up to column 3 */
@@ -450,21 +451,21 @@ static void test_coast(void **state)
     assert_memory_equal(c.edge + 19, south, 7);
     hz_coast_free(&c);
     /* the level decides: at 60 m everything is sea; zscale applies */
-    assert_int_equal(hz_coast_make(&hm, valid, 1.0f, 60.0f, rect, &c, &err), HZ_OK);
+    assert_int_equal(hz_coast_make(&hm, valid, 10.0f, 1.0f, 60.0f, rect, &c, &err), HZ_OK);
     for (uint32_t k = 0; k < 26; k++)
         assert_int_equal(c.edge[k], 1);
     hz_coast_free(&c);
-    assert_int_equal(hz_coast_make(&hm, valid, 2.0f, 60.0f, rect, &c, &err), HZ_OK);
+    assert_int_equal(hz_coast_make(&hm, valid, 10.0f, 2.0f, 60.0f, rect, &c, &err), HZ_OK);
     assert_int_equal(c.edge[6], 0); /* east: 100 m land */
     hz_coast_free(&c);
     /* a column without any data is open sea; the whole map without a mask */
     for (uint32_t j = 0; j < n; j++)
         valid[j * n + 5] = 0;
     const uint32_t col[4] = {5, 1, 5, 6};
-    assert_int_equal(hz_coast_make(&hm, valid, 1.0f, 0.1f, col, &c, &err), HZ_OK);
+    assert_int_equal(hz_coast_make(&hm, valid, 10.0f, 1.0f, 0.1f, col, &c, &err), HZ_OK);
     assert_int_equal(c.edge[12], 1);
     hz_coast_free(&c);
-    assert_int_equal(hz_coast_make(&hm, NULL, 1.0f, 0.1f, NULL, &c, &err), HZ_OK);
+    assert_int_equal(hz_coast_make(&hm, NULL, 10.0f, 1.0f, 0.1f, NULL, &c, &err), HZ_OK);
     assert_int_equal(c.x1, 8);
     assert_int_equal(c.edge[0], 1);  /* west: sea */
     assert_int_equal(c.edge[9], 0);  /* east: land */
@@ -474,9 +475,11 @@ static void test_coast(void **state)
     /* not a rectangle of the map */
     const uint32_t bad[2][4] = {{3, 1, 2, 6}, {1, 1, 9, 6}};
     for (int k = 0; k < 2; k++) {
-        assert_int_equal(hz_coast_make(&hm, valid, 1.0f, 0.1f, bad[k], &c, &err), HZ_ERR_VALUE);
+        assert_int_equal(hz_coast_make(&hm, valid, 10.0f, 1.0f, 0.1f, bad[k], &c, &err), HZ_ERR_VALUE);
         assert_null(c.edge);
     }
+    assert_int_equal(hz_coast_make(&hm, valid, 0.0f, 1.0f, 0.1f, rect, &c, &err), HZ_ERR_VALUE);
+    assert_int_equal(hz_coast_make(&hm, valid, 10.0f, 1.0f, NAN, rect, &c, &err), HZ_ERR_VALUE);
     hz_heightmap_destroy(&hm);
 }
 

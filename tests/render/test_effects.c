@@ -658,7 +658,7 @@ static void test_sea_coast(void **state)
     assert_non_null(r);
     assert_int_equal(hz_renderer_set_heightmap(r, &hm, sp_m, 1.0f, &err), HZ_OK);
     hz_coast coast;
-    assert_int_equal(hz_coast_make(&hm, NULL, 1.0f, 0.1f, NULL, &coast, &err), HZ_OK);
+    assert_int_equal(hz_coast_make(&hm, NULL, sp_m, 1.0f, 0.1f, NULL, &coast, &err), HZ_OK);
     hz_water_plane sea = {.height = 0.1f, .sea = true};
     assert_int_equal(hz_renderer_set_water(r, &sea, 1, NULL, 0, &err), HZ_OK);
     hz_scene_params sp = {.effects = HZ_FX_WATER, .fog_density = -1.0f};
