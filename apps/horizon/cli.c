@@ -843,8 +843,8 @@ hz_camera cli_camera(const cli_opts *o, const hz_terrain *t)
 
 void cli_curvature(cli_opts *o, const hz_terrain *t)
 {
-    const double cx = ((double)t->data_x + 0.5 * (double)(t->data_w ? t->data_w - 1 : 0)) * t->spacing;
-    const double cz = ((double)t->data_y + 0.5 * (double)(t->data_h ? t->data_h - 1 : 0)) * t->spacing;
+    float cx, cz;
+    hz_terrain_data_centre(t, &cx, &cz);
     /* The data's longer side (a padded map's padding is not terrain). */
     const uint32_t dw = t->data_w ? t->data_w : t->hm.size, dh = t->data_h ? t->data_h : t->hm.size;
     const float ext = (float)((dw > dh ? dw : dh) - 1) * t->spacing;
