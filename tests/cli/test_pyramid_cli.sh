@@ -174,6 +174,14 @@ $HZ bench --terrain "$P" --path "$TMP/p3.csv" --frames 10 --width 320 --height 1
 expect_fail "--fps without --realtime" "paces a --realtime" $HZ bench --terrain "$P" --fps 30
 expect_fail "--realtime with --deterministic" "exclude each other" $HZ bench --terrain "$P" --realtime --deterministic
 expect_fail "--deterministic outside bench" "bench options" $HZ render --terrain "$P" --deterministic
+expect_fail "bad --water-level" "metres in \\[-1e5, 1e5\\], auto or off" $HZ render --terrain "$P" --water-level deep
+expect_fail "absurd --water-level" "auto or off" $HZ render --terrain "$P" --water-level 1e9
+# A generated pyramid is no real place: no sea unless asked for.
+$HZ render --terrain "$P" --width 64 --height 36 --json --out "$TMP/nw.png" > "$TMP/nw.json" &&
+  $HZ render --terrain "$P" --width 64 --height 36 --json --water-level 20 --out "$TMP/w20.png" > "$TMP/w20.json" &&
+  [ "$(json "$TMP/nw.json" "d['water_level']")" = None ] && [ "$(json "$TMP/w20.json" "d['water_level']")" = 20.0 ] &&
+  ok "no sea on a generated pyramid; --water-level 20 gives one" || bad "water level of a generated pyramid"
+
 
 # --wrap: an endless map, flown east across two and a half periods.
 W="$TMP/wrap.hzp"

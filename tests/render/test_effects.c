@@ -1138,6 +1138,21 @@ static void test_errors(void **state)
     hz_water_material m = {.clarity = -1};
     bad.material = 0;
     assert_int_equal(hz_renderer_set_water(fx->r, &bad, 1, &m, 1, &err), HZ_ERR_VALUE);
+    uint8_t edge[8] = {1, 1, 1, 1, 1, 1, 1, 1};
+    const hz_coast coasts[3] = {{.x0 = 2, .x1 = 1, .z1 = 1, .spacing = 20, .edge = edge},
+                                {.x1 = 1, .z1 = 1, .spacing = 0, .edge = edge},
+                                {.x1 = 1, .z1 = 1, .spacing = 20, .edge = NULL}};
+    for (int k = 0; k < 3; k++) {
+        assert_int_equal(hz_renderer_set_coast(fx->r, &coasts[k], &err), HZ_ERR_VALUE);
+        assert_non_null(strstr(err.msg, "coast"));
+    }
+    hz_renderer *bare = hz_renderer_create(&(hz_renderer_desc){.width = 16, .height = 16}, &err);
+    assert_non_null(bare);
+    const hz_coast ok = {.x1 = 1, .z1 = 1, .spacing = 20, .edge = edge};
+    assert_int_equal(hz_renderer_set_coast(bare, &ok, &err), HZ_ERR_VALUE); /* no terrain yet */
+    hz_renderer_destroy(bare);
+    assert_int_equal(hz_renderer_set_coast(fx->r, &ok, &err), HZ_OK);
+    assert_int_equal(hz_renderer_set_coast(fx->r, NULL, &err), HZ_OK);
     uint8_t tex[16 * 16 * 4] = {0};
     assert_int_equal(hz_renderer_set_billboard_texture(fx->r, HZ_MAX_BB_TEXTURES, tex, 16, 16, &err), HZ_ERR_VALUE);
     assert_int_equal(hz_renderer_set_detail_texture(fx->r, HZ_GROUND_ROCK, tex, 12, &err), HZ_ERR_VALUE);
