@@ -968,11 +968,12 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         fr.sun_color[1] = 0.62f + 0.35f * noon;
         fr.sun_color[2] = 0.38f + 0.52f * noon;
     }
-    /* A streamed terrain has no heights to depth-test a sea against exactly
-     * (the flat cells of a curved plane sag under ground at its level, or
-     * flood low land when lifted): the terrain marks in alpha where it stands
-     * above the sea, and the sea shows elsewhere. Needs a target with alpha. */
-    if ((fr.bits & HZ_FX_WATER) && r->streamed && r->n_planes && r->planes[0].sea && target_has_alpha(r))
+    /* A sea cannot be depth-tested exactly against the ground: the flat cells
+     * of a curved plane sag under ground at its level, or flood low land when
+     * lifted over the sphere. The terrain marks in alpha where it stands above
+     * the sea (and every opaque pass writes 1, the sky 0), and the sea, deep
+     * and opaque, shows elsewhere. Needs a target with alpha. */
+    if ((fr.bits & HZ_FX_WATER) && r->n_planes == 1 && r->planes[0].sea && target_has_alpha(r))
         fr.water_mask = r->planes[0].height;
     fr.refl_idx = params && params->reflection_count ? params->reflection_indices : indices;
     fr.refl_count = params && params->reflection_count ? params->reflection_count : count;
@@ -1079,7 +1080,7 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
     }
     glViewport(0, 0, (GLsizei)r->width, (GLsizei)r->height);
     glDepthMask(GL_TRUE);
-    glClearColor(fr.sp.sky_color[0], fr.sp.sky_color[1], fr.sp.sky_color[2], 1.0f);
+    glClearColor(fr.sp.sky_color[0], fr.sp.sky_color[1], fr.sp.sky_color[2], 0.0f); /* alpha 0: no ground */
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     draw_scene_base(r, &fr, &mv, r->ibo, count);
     for (size_t k = 0; k < sizeof scene_passes / sizeof scene_passes[0]; k++)
