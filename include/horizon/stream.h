@@ -88,9 +88,6 @@ const char *hz_stream_warning(hz_stream *s);
 /* Height (metres) of the drawn level-0 sample nearest (x, z), from the
  * finest resident tile; NAN outside the map. */
 float hz_stream_height_at(hz_stream *s, float x, float z);
-/* The same, and whether that sample has data (*valid false also outside the
- * map and where no tile is resident). */
-float hz_stream_sample_at(hz_stream *s, float x, float z, bool *valid);
 
 #ifdef __cplusplus
 }

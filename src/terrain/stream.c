@@ -1168,13 +1168,6 @@ const char *hz_stream_warning(hz_stream *s)
 
 float hz_stream_height_at(hz_stream *s, float x, float z)
 {
-    bool valid;
-    return hz_stream_sample_at(s, x, z, &valid);
-}
-
-float hz_stream_sample_at(hz_stream *s, float x, float z, bool *valid)
-{
-    *valid = false;
     const hz_pyr_info *in = &s->info;
     double fx = x / in->spacing, fz = z / in->spacing;
     if (in->wrap) {
@@ -1193,7 +1186,6 @@ float hz_stream_sample_at(hz_stream *s, float x, float z, bool *valid)
             continue;
         const uint32_t a = ((X - tx * span) + (1u << l) / 2) >> l, b = ((Z - tz * span) + (1u << l) / 2) >> l;
         const uint32_t aa = a > c ? c : a, bb = b > c ? c : b;
-        *valid = !s->slots[k].v || s->slots[k].v[(size_t)bb * (c + 1) + aa];
         return (float)(in->h_offset + in->h_scale * s->slots[k].h[(size_t)bb * (c + 1) + aa]);
     }
     return NAN;
