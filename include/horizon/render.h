@@ -270,7 +270,10 @@ typedef struct hz_water_plane {
     uint32_t material; /* index into the materials */
     bool sea;         /* a DEM's sea: the ground below the plane is the DEM's flat fill, not a sea
                          floor (drawn deep), and beyond the data the sea follows the coast of
-                         hz_renderer_set_coast */
+                         hz_renderer_set_coast. A single sea plane shows wherever the colour
+                         target's alpha is 0 after the opaque passes: the terrain writes 1 where
+                         it stands above the sea, the sky 0, so draw_objects hooks must write
+                         alpha 1 (the target needs alpha bits; without, the depth test decides) */
 } hz_water_plane;
 
 hz_result hz_renderer_set_water(hz_renderer *r, const hz_water_plane *planes, uint32_t count,
