@@ -11,7 +11,7 @@ void main()
     vec3 horizon = fx_horizon_color(d);
     if (d.y <= 0.0) {
         // At and below the horizon: exactly the fog colour.
-        o_color = vec4(horizon, 0.0); // alpha 0: no ground (a streamed sea shows over it)
+        o_color = vec4(horizon, 0.0); // alpha 0: no ground (a sea shows over it)
         return;
     }
     vec3 c = mix(horizon, fx_zenith.rgb, fx_zenith_k(d.y)); // = fx_fog_color(d) with the fog effect

@@ -21,5 +21,5 @@ void main()
     float s = max(dot(d, u_sun_dir), 0.0);
     s *= s; s *= s; s *= s; s *= s; s *= s; s *= s;
     c += vec3(1.0, 0.9, 0.7) * 0.25 * s * smoothstep(0.0, 0.05, up);
-    o_color = vec4(c, 0.0); // alpha 0: no ground (a streamed sea shows over it)
+    o_color = vec4(c, 0.0); // alpha 0: no ground (a sea shows over it)
 }

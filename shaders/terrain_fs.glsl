@@ -199,8 +199,8 @@ void main()
     if (u_wire != 0)
         c = mix(c, vec3(0.05, 0.05, 0.05), 0.7);
 
-    // Alpha: whether this ground stands above the water (a streamed sea
-    // shows where it does not: fx_water_draw).
+    // Alpha: whether this ground stands above the water (a sea shows where
+    // it does not: fx_water_draw).
     float above = v_world.y >= u_water_mask ? 1.0 : 0.0;
     if (FX_ENABLED != 0) {
         o_color = vec4(fx_fogged(c, v_world), above);

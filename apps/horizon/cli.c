@@ -23,6 +23,19 @@ bool cli_parse_float(const char *s, double lo, double hi, float *out)
     return true;
 }
 
+bool cli_parse_water_level(const char *s, int *mode, float *level)
+{
+    if (!strcmp(s, "auto"))
+        *mode = 0;
+    else if (!strcmp(s, "off"))
+        *mode = 1;
+    else if (cli_parse_float(s, -1e5, 1e5, level))
+        *mode = 2;
+    else
+        return false;
+    return true;
+}
+
 int cli_split(char *s, char **items, int cap)
 {
     int n = 0;
@@ -476,10 +489,8 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
                 return bad(cmd, a, v, "a factor in [0.01, 8]");
         } else if (!strcmp(a, "--water-level")) {
             NEEDV();
-            if (!strcmp(v, "auto")) o->water_mode = 0;
-            else if (!strcmp(v, "off")) o->water_mode = 1;
-            else if (cli_parse_float(v, -1e5, 1e5, &o->water_level)) o->water_mode = 2;
-            else return bad(cmd, a, v, "metres, auto or off");
+            if (!cli_parse_water_level(v, &o->water_mode, &o->water_level))
+                return bad(cmd, a, v, "metres, auto or off");
         } else if (!strcmp(a, "--fog")) {
             NEEDV();
             if (!strcmp(v, "off")) o->fog = -1.0f;

@@ -129,6 +129,9 @@ void app_fx_sun_angles(const app_fx *a, float *azimuth, float *elevation);
 /* A finite number / a decimal integer in [lo, hi], the whole string; false
  * otherwise (out untouched). */
 bool cli_parse_float(const char *s, double lo, double hi, float *out);
+/* --water-level: "auto" (*mode 0), "off" (1) or metres in [-1e5, 1e5] (2,
+ * *level). False, with nothing set, otherwise. */
+bool cli_parse_water_level(const char *s, int *mode, float *level);
 bool cli_parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out);
 /* Splits s (modified in place) at commas into at most cap items. Returns the
  * count, or -1 when an item is empty ("a,,b", "a,") or there are more than

@@ -354,17 +354,10 @@ int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
             }
             break;
         case 1011:
-            if (!strcmp(optarg, "auto")) o->water_mode = 0;
-            else if (!strcmp(optarg, "off")) o->water_mode = 1;
-            else {
-                char *end;
-                v = strtod(optarg, &end);
-                if (end == optarg || *end || !(v >= -1e5 && v <= 1e5)) {
-                    fprintf(stderr, "horizon %s: --water-level '%s': expected metres in [-1e5, 1e5], auto or off\n",
-                            cmd, optarg);
-                    return 2;
-                }
-                o->water_mode = 2, o->water_level = (float)v;
+            if (!cli_parse_water_level(optarg, &o->water_mode, &o->water_level)) {
+                fprintf(stderr, "horizon %s: --water-level '%s': expected metres in [-1e5, 1e5], auto or off\n", cmd,
+                        optarg);
+                return 2;
             }
             break;
         case 1006: o->realtime = true; break;
@@ -772,7 +765,6 @@ done:
     return rc;
 }
 
-
 static int cmp_d(const void *a, const void *b)
 {
     const double x = *(const double *)a, y = *(const double *)b;
@@ -785,7 +777,6 @@ static double pct(double *v, size_t n, double q)
     size_t k = (size_t)(q * (double)(n - 1) + 0.5);
     return v[k < n ? k : n - 1];
 }
-
 
 int stream_bench(int argc, char **argv)
 {

@@ -120,12 +120,12 @@ int stream_water(sctx *c, const sopts *o, const char *cmd)
     hz_heightmap hm = {0};
     hz_coast coast = {0};
     /* the data's rectangle in coarse samples (the data starts at the origin) */
-    const uint32_t rect[4] = {0, 0, (in->data_w - 1 + g.step - 1) / g.step, (in->data_h - 1 + g.step - 1) / g.step};
-    const uint32_t r2[4] = {0, 0, rect[2] < g.n ? rect[2] : g.n - 1, rect[3] < g.n ? rect[3] : g.n - 1};
+    const uint32_t x1 = (in->data_w - 1 + g.step - 1) / g.step, z1 = (in->data_h - 1 + g.step - 1) / g.step;
+    const uint32_t rect[4] = {0, 0, x1 < g.n ? x1 : g.n - 1, z1 < g.n ? z1 : g.n - 1};
     hz_water_plane plane = {.height = level, .sea = true};
     hz_result res = hz_heightmap_create(&hm, &grid, HZ_LAYOUT_LINEAR, &err);
     if (res == HZ_OK)
-        res = hz_coast_make(&hm, g.v, (float)(g.spacing * g.step), 1.0f, level, r2, &coast, &err);
+        res = hz_coast_make(&hm, g.v, (float)(g.spacing * g.step), 1.0f, level, rect, &coast, &err);
     if (res == HZ_OK)
         res = hz_renderer_set_coast(c->r, &coast, &err);
     if (res == HZ_OK)

@@ -366,22 +366,19 @@ void fx_water_draw(hz_renderer *r, const fx_frame *f, const fx_view *v)
     glUniform1f(u[WL_COAST_SPACING], r->coast_spacing);
     glActiveTexture(GL_TEXTURE0 + FX_UNIT_REFLECTION);
     glEnable(GL_BLEND);
-    if (f->water_mask > -1e29f) {
-        /* A streamed sea (deep: alpha 0): where the ground stands above it
-         * (alpha 1) the ground, elsewhere the sea. The depth test only saves
-         * the shading of what ground in front of the plane hides: the plane
-         * is lifted over the curved surface (fx_water_vs.glsl), so it never
-         * rejects the sea itself. */
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_GREATER);
+    const bool mask = f->water_mask > -1e29f;
+    if (mask)
+        /* A sea (deep: alpha 0): where the ground stands above it (alpha 1)
+         * the ground, elsewhere the sea. The depth test only saves the
+         * shading of what ground in front of the plane hides: the plane is
+         * lifted over the curved surface (fx_water_vs.glsl), so it never
+         * rejects the sea itself; nor does it write depth. */
         glBlendFuncSeparate(GL_ONE_MINUS_DST_ALPHA, GL_DST_ALPHA, GL_ZERO, GL_ONE);
-        glEnable(GL_DEPTH_TEST);
-        glDepthFunc(GL_GREATER);
-        glDepthMask(GL_FALSE);
-    } else {
+    else
         glBlendFunc(GL_ONE, GL_SRC_ALPHA); /* src + alpha x (terrain below) */
-        glEnable(GL_DEPTH_TEST);
-        glDepthFunc(GL_GREATER);
-        glDepthMask(GL_TRUE);
-    }
+    glDepthMask(mask ? GL_FALSE : GL_TRUE);
     glDisable(GL_CULL_FACE);
     vec4 planes[6];
     hz_camera_frustum(&v->cam, planes);

@@ -56,8 +56,8 @@ typedef struct fx_frame {
     vec3 zenith, sun_color;
     float glow;            /* warm horizon toward a low sun, 0..1 */
     float ground_lo;       /* lowest terrain, metres (0 without heights) */
-    float water_mask;      /* a streamed sea's level: the terrain's alpha says whether it stands above
-                              it, and the sea shows where it does not (-1e30: none) */
+    float water_mask;      /* a sea's level: the terrain's alpha says whether it stands above it, and
+                              the sea shows where it does not (-1e30: none) */
     bool post;             /* the scene renders to a texture and the chain runs */
     const uint32_t *refl_idx;
     uint32_t refl_count;

@@ -437,6 +437,19 @@ static hz_result make_wet_grid(hz_renderer *r, const hz_heightmap *hm, hz_err *e
     return HZ_OK;
 }
 
+/* bytes bytes into buf, seen through tex as a GL_R8 texture buffer. */
+static hz_result upload_r8_buffer(GLuint buf, GLuint tex, const uint8_t *data, size_t bytes, const char *what,
+                                  hz_err *err)
+{
+    glBindBuffer(GL_TEXTURE_BUFFER, buf);
+    glBufferData(GL_TEXTURE_BUFFER, (GLsizeiptr)bytes, data, GL_STATIC_DRAW);
+    glBindTexture(GL_TEXTURE_BUFFER, tex);
+    glTexBuffer(GL_TEXTURE_BUFFER, GL_R8, buf);
+    glBindTexture(GL_TEXTURE_BUFFER, 0);
+    glBindBuffer(GL_TEXTURE_BUFFER, 0);
+    return hz_gl_check(err, what);
+}
+
 hz_result hz_renderer_set_valid(hz_renderer *r, const uint8_t *valid, hz_err *err)
 {
     HZ_ASSERT(r);
@@ -448,13 +461,8 @@ hz_result hz_renderer_set_valid(hz_renderer *r, const uint8_t *valid, hz_err *er
     hz_result res = fx_check_context(r, err, "hz_renderer_set_valid");
     if (res != HZ_OK)
         return res;
-    glBindBuffer(GL_TEXTURE_BUFFER, r->valid_buf);
-    glBufferData(GL_TEXTURE_BUFFER, (GLsizeiptr)r->size * r->size, valid, GL_STATIC_DRAW);
-    glBindTexture(GL_TEXTURE_BUFFER, r->valid_tex);
-    glTexBuffer(GL_TEXTURE_BUFFER, GL_R8, r->valid_buf);
-    glBindTexture(GL_TEXTURE_BUFFER, 0);
-    glBindBuffer(GL_TEXTURE_BUFFER, 0);
-    res = hz_gl_check(err, "validity texture buffer upload (GL_R8)");
+    res = upload_r8_buffer(r->valid_buf, r->valid_tex, valid, (size_t)r->size * r->size,
+                           "validity texture buffer upload (GL_R8)", err);
     r->has_valid = res == HZ_OK;
     return res;
 }
@@ -474,13 +482,7 @@ hz_result hz_renderer_set_coast(hz_renderer *r, const hz_coast *c, hz_err *err)
     if (res != HZ_OK)
         return res;
     const size_t bytes = 2 * ((size_t)(c->z1 - c->z0) + 1) + 2 * ((size_t)(c->x1 - c->x0) + 1);
-    glBindBuffer(GL_TEXTURE_BUFFER, r->coast_buf);
-    glBufferData(GL_TEXTURE_BUFFER, (GLsizeiptr)bytes, c->edge, GL_STATIC_DRAW);
-    glBindTexture(GL_TEXTURE_BUFFER, r->coast_tex);
-    glTexBuffer(GL_TEXTURE_BUFFER, GL_R8, r->coast_buf);
-    glBindTexture(GL_TEXTURE_BUFFER, 0);
-    glBindBuffer(GL_TEXTURE_BUFFER, 0);
-    res = hz_gl_check(err, "coast texture buffer upload (GL_R8)");
+    res = upload_r8_buffer(r->coast_buf, r->coast_tex, c->edge, bytes, "coast texture buffer upload (GL_R8)", err);
     if (res == HZ_OK) {
         r->coast_rect[0] = (int32_t)c->x0, r->coast_rect[1] = (int32_t)c->z0, r->coast_rect[2] = (int32_t)c->x1,
         r->coast_rect[3] = (int32_t)c->z1;
