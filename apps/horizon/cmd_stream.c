@@ -464,7 +464,7 @@ static int stream_imagery(sctx *c, const sopts *o, const char *cmd)
     return 0;
 }
 
-int sctx_open(sctx *c, const sopts *o, const char *cmd)
+int sctx_open(sctx *c, const sopts *o, const coarse *ground, const char *cmd)
 {
     hz_err err = {0};
     memset(c, 0, sizeof *c);
@@ -490,7 +490,7 @@ int sctx_open(sctx *c, const sopts *o, const char *cmd)
         return 1;
     }
     c->lp = (hz_lod_params){.mode = HZ_LOD_CDLOD, .pixel_error = (float)o->tau, .viewport_height = o->height};
-    if ((o->imagery && stream_imagery(c, o, cmd)) || stream_water(c, o, cmd)) {
+    if ((o->imagery && stream_imagery(c, o, cmd)) || stream_water(c, o, ground, cmd)) {
         sctx_free(c);
         return 1;
     }
@@ -680,7 +680,7 @@ int stream_render(int argc, char **argv)
         return 2;
     }
     sctx c;
-    if (sctx_open(&c, &o, "render"))
+    if (sctx_open(&c, &o, NULL, "render"))
         return 1;
     const double t0 = hz_time_ms();
     hz_camera cam = stream_camera(&o, &c, o.width, o.height);
@@ -830,9 +830,10 @@ int stream_bench(int argc, char **argv)
             return 1;
         }
     }
-    coarse_free(&g);
     sctx c;
-    if (sctx_open(&c, &o, "bench")) {
+    const int open_rc = sctx_open(&c, &o, &g, "bench"); /* the sea's coast from the same level */
+    coarse_free(&g);
+    if (open_rc) {
         hz_path_free(&path);
         return 1;
     }

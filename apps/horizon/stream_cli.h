@@ -41,11 +41,26 @@ typedef struct sctx {
     float water_level;
 } sctx;
 
+/* A coarse level of the pyramid (at most 8 x 8 tiles) read whole: heights
+ * and validity (stream_ground.c). */
+typedef struct coarse {
+    float *h;
+    uint8_t *v;       /* 1 = data */
+    uint32_t n, step; /* samples per side, level-0 samples between them */
+    double spacing;
+} coarse;
+/* 0, or 1 after a message naming cmd. */
+int coarse_load(const sopts *o, coarse *g, const char *cmd);
+void coarse_free(coarse *g);
+/* The highest ground within r of (x, z). */
+float coarse_max(const coarse *g, float x, float z, float r, bool wrap);
+
 /* Parses argv[2..] for cmd ("render", "bench", "view"). 0, or 2 after a message. */
 int parse_stream(int argc, char **argv, sopts *o, const char *cmd);
 /* Opens the stream and its renderer (and a headless GL context unless cmd
- * is "view"). 0, or 1 after a message. */
-int sctx_open(sctx *c, const sopts *o, const char *cmd);
+ * is "view"). ground: the pyramid's coarse level when the caller has read it
+ * already (the sea's coast comes from it), or NULL. 0, or 1 after a message. */
+int sctx_open(sctx *c, const sopts *o, const coarse *ground, const char *cmd);
 void sctx_free(sctx *c);
 /* Uploads the decoded tiles waiting; *n gets their count. 0, or 1 after a message. */
 int upload_ready(sctx *c, uint32_t *n);
@@ -63,27 +78,14 @@ hz_camera stream_camera(sopts *o, sctx *c, uint32_t w, uint32_t h);
  * place's (georeferenced) sea at 0 m when its data has one; with a level,
  * water at it. Drawn deep (the streamed heights are not resident to see
  * through), going on beyond the data where its coast does (hz_coast, on a
- * coarse level). Sets c->water. 0, or 1 after a message. */
-int stream_water(sctx *c, const sopts *o, const char *cmd);
+ * coarse level: ground, or read here when NULL). Sets c->water. 0, or 1
+ * after a message. */
+int stream_water(sctx *c, const sopts *o, const coarse *ground, const char *cmd);
 /* The effects of a streamed frame: water when stream_water found some. */
 static inline uint32_t stream_effects(const sctx *c)
 {
     return c->water ? HZ_FX_WATER : 0u;
 }
-
-/* A coarse level of the pyramid (at most 8 x 8 tiles) read whole: heights
- * and validity. */
-typedef struct coarse {
-    float *h;
-    uint8_t *v;       /* 1 = data */
-    uint32_t n, step; /* samples per side, level-0 samples between them */
-    double spacing;
-} coarse;
-/* 0, or 1 after a message naming cmd. */
-int coarse_load(const sopts *o, coarse *g, const char *cmd);
-void coarse_free(coarse *g);
-/* The highest ground within r of (x, z). */
-float coarse_max(const coarse *g, float x, float z, float r, bool wrap);
 
 int stream_view(int argc, char **argv);
 

@@ -101,18 +101,19 @@ static bool sea_level(const coarse *g, float *level)
     return true;
 }
 
-int stream_water(sctx *c, const sopts *o, const char *cmd)
+int stream_water(sctx *c, const sopts *o, const coarse *ground, const char *cmd)
 {
     const hz_pyr_info *in = hz_stream_info(c->s);
     c->water = false;
     if (o->water_mode == 1 || (o->water_mode == 0 && !in->wkt[0]))
         return 0;
-    coarse g;
-    if (coarse_load(o, &g, cmd))
+    coarse own = {0};
+    if (!ground && coarse_load(o, &own, cmd))
         return 1;
+    const coarse g = ground ? *ground : own;
     float level = o->water_level;
     if (o->water_mode == 0 && !sea_level(&g, &level)) {
-        coarse_free(&g);
+        coarse_free(&own);
         return 0;
     }
     hz_err err = {0};
@@ -132,7 +133,7 @@ int stream_water(sctx *c, const sopts *o, const char *cmd)
         res = hz_renderer_set_water(c->r, &plane, 1, NULL, 0, &err);
     hz_coast_free(&coast);
     hz_heightmap_destroy(&hm);
-    coarse_free(&g);
+    coarse_free(&own);
     if (res != HZ_OK) {
         fprintf(stderr, "horizon %s: water: %s\n", cmd, err.msg);
         return 1;

@@ -246,7 +246,7 @@ int stream_view(int argc, char **argv)
         fprintf(stderr, "horizon view: %s\n", v.err.msg);
         goto out;
     }
-    if (sctx_open(&v.c, &v.o, "view"))
+    if (sctx_open(&v.c, &v.o, NULL, "view"))
         goto out;
     v.ov = hz_overlay_create(&v.err);
     if (!v.ov) {
