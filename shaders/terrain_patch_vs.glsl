@@ -46,15 +46,17 @@ int low_bit(int v)
     return v == 0 ? (1 << 30) : (v & -v);
 }
 
-// The texel of any sample (i, j) of the map: from the finest level whose grid holds it.
-uvec4 sample_texel(int i, int j)
+// The texel of sample (i, j) from tile level l (m tiles per side, the first
+// layer base), where (i, j) lies on that level's grid. Every level stores a
+// sample alike, so a morph neighbour is read from the level of the node that
+// draws the vertex: it lies at least one vertex step away, on that level's
+// grid. (Finding the finest level holding each neighbour instead, with a
+// log2 and a per-lane index into u_base, cost llvmpipe 6 % more geometry time.)
+uvec4 level_texel(ivec2 s, int l, int m, int base)
 {
-    int ij = i | j | (1 << 30);
-    int l = min(int(log2(float(ij & -ij)) + 0.5), u_top); // findLSB is GLSL 4.00
-    int gi = i >> l, gj = j >> l;
-    int m = ((u_map - 1) >> l) >> u_tile_shift; // tiles per side at level l
-    int tx = min(gi >> u_tile_shift, m - 1), tz = min(gj >> u_tile_shift, m - 1);
-    return texelFetch(u_tiles, ivec3(gi - (tx << u_tile_shift), gj - (tz << u_tile_shift), u_base[l] + tz * m + tx), 0);
+    ivec2 g = s >> l;
+    ivec2 t = min(g >> u_tile_shift, ivec2(m - 1));
+    return texelFetch(u_tiles, ivec3(g - (t << u_tile_shift), base + t.y * m + t.x), 0);
 }
 
 float morph_factor(uvec4 t, vec3 p)
@@ -80,11 +82,6 @@ float morph1_texel(uvec4 t, int i, int j)
     float h = u_hoffset + u_hscale * float(t.r);
     float m = morph_factor(t, vec3(float(i) * u_spacing, h, float(j) * u_spacing));
     return mix(h, target_of(t), m);
-}
-
-float morph1(int i, int j)
-{
-    return morph1_texel(sample_texel(i, j), i, j);
 }
 
 // Streamed: the texel of sample (i, j) in the patch's tile (level shift), if it lies there.
@@ -122,6 +119,7 @@ void main()
     int u = gl_VertexID - w * c1;
     uint x0, z0, coarse;
     int shift, layer, ox, oz, ts;
+    int lv = 0, lm = 1, lbase = 0; // in memory: the node's tile level, its tiles per side, first layer
     if (STREAM != 0) {
         x0 = a_patch.x;
         z0 = a_patch.y;
@@ -143,7 +141,10 @@ void main()
         int gi = int(x0) >> l, gj = int(z0) >> l;
         int tx = gi >> u_tile_shift, tz = gj >> u_tile_shift;
         int m = ((u_map - 1) >> l) >> u_tile_shift; // tiles per side at level l
-        layer = u_base[l] + tz * m + tx;
+        lv = l;
+        lm = m;
+        lbase = u_base[l];
+        layer = lbase + tz * m + tx;
         ox = gi - (tx << u_tile_shift);
         oz = gj - (tz << u_tile_shift);
     }
@@ -200,7 +201,8 @@ void main()
                 b = ivec2(i, j + bj);
             }
             if (STREAM == 0) {
-                p.y = mix(h, 0.5 * (morph1(a.x, a.y) + morph1(b.x, b.y)), m);
+                p.y = mix(h, 0.5 * (morph1_texel(level_texel(a, lv, lm, lbase), a.x, a.y) +
+                                    morph1_texel(level_texel(b, lv, lm, lbase), b.x, b.y)), m);
             } else {
                 uvec4 ta, tb;
                 // A tile's corners have their neighbours outside it: there the

@@ -220,11 +220,10 @@ static void cdlod_frame(ctx *c, float tau, const hz_camera *at, hz_camera *cam, 
 
 /* The patch vertex shader places, stitches and morphs exactly like the CPU
  * (hz_lod_patches_to_indices, hz_lod_morph_height): a cdlod frame drawn as
- * patches with GPU morphing has the silhouette of the expanded triangles
- * drawn over a heightmap that holds the CPU-morphed heights. */
-static void test_gpu_morph_matches_cpu(void **state)
+ * patches with GPU morphing has the silhouette and the depth of the expanded
+ * triangles drawn over a heightmap that holds the CPU-morphed heights. */
+static void gpu_morph_matches_cpu(ctx *c, float tau, const hz_camera *at, bool horizon)
 {
-    ctx *c = *state;
     hz_err err = {0};
     hz_terrain *t = c->t;
     const uint32_t n = t->hm.size;
@@ -232,7 +231,7 @@ static void test_gpu_morph_matches_cpu(void **state)
     hz_index_list il = {0};
     hz_patch_list pl = {0};
     hz_lod_stats st;
-    cdlod_frame(c, 12.0f, NULL, &cam, &pl, &il, &st);
+    cdlod_frame(c, tau, at, &cam, &pl, &il, &st);
     assert_true(st.morph_scale > 0);
     size_t stitched = 0;
     for (size_t k = 0; k < pl.count; k++)
@@ -260,16 +259,42 @@ static void test_gpu_morph_matches_cpu(void **state)
     assert_int_equal(hz_renderer_read_sky_mask(c->r, gpu, &err), HZ_OK);
     assert_int_equal(hz_renderer_read_rgb(c->r, rgb, &err), HZ_OK);
     hz_image_write_png(HZ_TEST_TMP "/frame_cdlod_morph.png", rgb, W, H, NULL);
+    /* Depth too: the silhouette alone misses a morph that is wrong inside the
+     * terrain (a neighbour read from the wrong tile, say). */
+    float *dg = malloc(W * H * sizeof *dg), *dc = malloc(W * H * sizeof *dc), *df = malloc(W * H * sizeof *df);
+    assert_int_equal(hz_renderer_read_depth(c->r, dg, &err), HZ_OK);
     sp.morph_scale = 0.0f; /* the same patches, unmorphed */
     assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
     assert_int_equal(hz_renderer_read_sky_mask(c->r, flat, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_depth(c->r, df, &err), HZ_OK);
     assert_int_equal(hz_renderer_draw(r2, &cam, NULL, il.data, (uint32_t)il.count, NULL, &err), HZ_OK);
     assert_int_equal(hz_renderer_read_sky_mask(r2, cpu, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_depth(r2, dc, &err), HZ_OK);
     const double d_cpu = hz_metrics_silhouette(gpu, cpu, W * H), d_flat = hz_metrics_silhouette(gpu, flat, W * H);
     fprintf(stderr, "morphed silhouette vs CPU morph %.6f, vs unmorphed %.6f (%zu vertices morphing)\n", d_cpu,
             d_flat, moved);
-    assert_true(d_flat > 0.0001);      /* the morph is visible at this bound */
-    assert_true(d_cpu * 20 < d_flat);  /* and it is the CPU's morph */
+    if (horizon) {
+        assert_true(d_flat > 0.0001);     /* the morph is visible at this bound */
+        assert_true(d_cpu * 20 < d_flat); /* and it is the CPU's morph */
+    }
+    /* Reverse-Z depth is near / distance: a relative difference is one of
+     * distance. The CPU copy's heights are rounded to 16 bits (a few cm). */
+    size_t ground = 0, off_cpu = 0, off_flat = 0;
+    for (size_t k = 0; k < (size_t)W * H; k++) {
+        if (gpu[k] || cpu[k] || flat[k]) /* sky in one of them */
+            continue;
+        ground++;
+        off_cpu += fabsf(dg[k] - dc[k]) > 2e-4f * dc[k];
+        off_flat += fabsf(dg[k] - df[k]) > 2e-4f * df[k];
+    }
+    fprintf(stderr, "morphed depth: %zu of %zu ground pixels off the CPU morph, %zu off the unmorphed patches\n",
+            off_cpu, ground, off_flat);
+    assert_true(ground > (size_t)W * H / 8);
+    assert_true(off_flat * 20 > ground); /* the morph moves over 5 % of the ground */
+    assert_true(off_cpu * 50 < off_flat);
+    free(dg);
+    free(dc);
+    free(df);
     hz_renderer_destroy(r2);
     hz_heightmap_destroy(&hm2);
     hz_grid_free(&g);
@@ -279,6 +304,21 @@ static void test_gpu_morph_matches_cpu(void **state)
     free(gpu);
     free(cpu);
     free(flat);
+}
+
+static void test_gpu_morph_matches_cpu(void **state)
+{
+    ctx *c = *state;
+    gpu_morph_matches_cpu(c, 12.0f, NULL, true); /* from above the centre, to the horizon */
+    /* Low over the map's far quarter, looking down: fine patches morph in
+     * tiles other than the first of their level (256 cells a tile). */
+    hz_camera at = hz_terrain_default_camera(c->t, W, H);
+    const float side = c->t->spacing * (float)(c->t->hm.size - 1);
+    at.pos[0] = at.pos[2] = 0.8f * side;
+    at.pos[1] = hz_terrain_height_at(c->t, at.pos[0], at.pos[2]) + 300.0f;
+    at.yaw = 30.0f;
+    at.pitch = -25.0f;
+    gpu_morph_matches_cpu(c, 2.0f, &at, false);
 }
 
 /* A frame of many patches (the renderer draws them in 4 flushed chunks of
