@@ -4,18 +4,19 @@
 // exponential fog to the sky's horizon colour. With effects (fx_bits.x):
 // ground detail splatting (R4), the light map with shadows (R5), height fog
 // and the far fade (R6), water-plane clipping for reflections (R9).
-uniform vec3 u_sun_dir;   // unit, toward the sun
+// Without effects, colour map or imagery (FX_LIT) the colour comes lit
+// from the lit map, baked from the same shading (terrain_lit_fs.glsl).
+#include "ground_color.glsl"
 uniform vec3 u_sky_horizon;
 uniform vec3 u_eye;       // world metres
 uniform float u_fog_density; // per metre; 0 disables
-uniform float u_ambient;
 uniform vec2 u_hrange;    // min, max world height of the heightmap
-uniform vec4 u_climate;   // snow line, tree line (world metres: zscale applied), aridity 0..1, zscale
 uniform int u_wire;       // 1: wireframe overlay pass
 uniform float u_water_mask; // alpha 0 below this world height (under the water), 1 above (-1e30: none)
 uniform sampler2D u_normals; // per-sample normals (x, z), bilinear: full-resolution shading
 uniform int u_normal_tex;    // 1: use u_normals, 0: the interpolated vertex normal
 uniform vec2 u_nrm_scale;    // uv = world.xz * x + y
+uniform sampler2D u_lit;     // FX_LIT: the lit colour per sample, as u_normals (src/render/terrain_litmap.c)
 
 uniform sampler2D u_lightmap;       // R8: I = cos(r)(1 - Ie) + Ie, or Ie in shadow
 uniform sampler2D u_detail;         // luminance detail per type, mean 0.5: R grass, G rock, B snow, A sand
@@ -31,48 +32,10 @@ in vec3 v_normal;
 in float v_valid;
 out vec4 o_color;
 
-const vec3 lowland = vec3(0.26, 0.40, 0.16);
-const vec3 meadow  = vec3(0.42, 0.45, 0.22);
-const vec3 dirt    = vec3(0.45, 0.37, 0.26);
-const vec3 rock    = vec3(0.44, 0.41, 0.38);
-const vec3 snow    = vec3(0.93, 0.94, 0.97);
-const vec3 sand    = vec3(0.62, 0.56, 0.42);
-const vec3 alpine  = vec3(0.46, 0.47, 0.30);  // grass above the tree line
-const vec3 scree   = vec3(0.50, 0.48, 0.45);
-const vec3 steppe  = vec3(0.60, 0.54, 0.36);  // dry grass
-const vec3 desert  = vec3(0.80, 0.64, 0.44);  // sand and gravel plains
-const vec3 redrock = vec3(0.56, 0.42, 0.31);  // desert rock
-
-// Permanent snow (flat enough to hold it) above the climate's snow line.
-float snow_weight(float y, float slope)
-{
-    float zs = u_climate.w;
-    return smoothstep(u_climate.x - 150.0 * zs, u_climate.x + 150.0 * zs, y) * (1.0 - smoothstep(0.18, 0.34, slope));
-}
-
 // Desert sand (not the shore's) by aridity.
 float desert_weight(float slope)
 {
     return smoothstep(0.6, 0.95, u_climate.z) * (1.0 - smoothstep(0.16, 0.32, slope));
-}
-
-// Colour by absolute height y (world metres) and slope (1 - n.y): lush
-// lowland to meadow up to the tree line, alpine grass to scree above it;
-// dry grass and desert by aridity; rock on steep slopes; snow above the
-// snow line.
-vec3 ground_color(float y, float slope)
-{
-    float zs = u_climate.w, tree = u_climate.y, arid = u_climate.z;
-    float top = tree + 600.0 * zs; // the highest grass
-    vec3 green = mix(lowland, meadow, smoothstep(tree - 1500.0 * zs, tree, y));
-    green = mix(green, alpine, smoothstep(tree - 100.0 * zs, tree + 100.0 * zs, y));
-    green = mix(green, scree, smoothstep(tree + 100.0 * zs, top, y));
-    vec3 dry = mix(steppe, desert, smoothstep(0.75, 1.0, arid));
-    vec3 c = mix(green, dry, smoothstep(0.0, 0.7, arid));
-    vec3 stone = mix(mix(dirt, rock, smoothstep(tree - 1000.0 * zs, top, y)), redrock, smoothstep(0.6, 1.0, arid));
-    // slope = 1 - n.y: 0.16 ~ 33 deg, 0.32 ~ 47 deg
-    c = mix(c, stone, smoothstep(0.16, 0.32, slope));
-    return mix(c, snow, snow_weight(y, slope));
 }
 
 // Splatting: per-type weights from height and slope (the same classes as the
@@ -152,10 +115,22 @@ void main()
     // vertex without data interpolates below 1 everywhere but at its corners.
     if (FX_MASKED && v_valid < 0.999)
         discard;
+    // Alpha: whether this ground stands above the water (a sea shows where
+    // it does not: fx_water_draw).
+    float above = v_world.y >= u_water_mask ? 1.0 : 0.0;
+    if (FX_LIT) {
+        // Trilinear like the normal map: far pixels read the lit colour
+        // averaged over what they cover.
+        vec3 lit = texture(u_lit, v_world.xz * u_nrm_scale.x + u_nrm_scale.y).rgb;
+        if (u_wire != 0)
+            lit = mix(lit, vec3(0.05, 0.05, 0.05), 0.7);
+        float fl = u_fog_density > 0.0 ? exp(-u_fog_density * length(v_world - u_eye)) : 1.0;
+        o_color = vec4(mix(u_sky_horizon, lit, fl), above);
+        return;
+    }
     vec3 n;
     if (u_normal_tex != 0) {
-        vec2 nxz = texture(u_normals, v_world.xz * u_nrm_scale.x + u_nrm_scale.y).rg;
-        n = normalize(vec3(nxz.x, sqrt(max(1.0 - dot(nxz, nxz), 0.0)), nxz.y));
+        n = ground_normal(texture(u_normals, v_world.xz * u_nrm_scale.x + u_nrm_scale.y).rg);
     } else {
         n = normalize(v_normal);
     }
@@ -185,8 +160,7 @@ void main()
         // The seed's light map, multiplied into the ground colour.
         c = albedo * texture(u_lightmap, fx_lightmap_uv(v_world.xz)).r;
     } else {
-        float lambert = max(dot(n, u_sun_dir), 0.0);
-        c = albedo * (u_ambient + (1.0 - u_ambient) * lambert * vec3(1.0, 0.97, 0.90));
+        c = ground_lit(albedo, n);
     }
     // A photo carries its own light: relight it relative to flat ground, so
     // the relief still reads but a level field keeps the photo's colour.
@@ -199,9 +173,6 @@ void main()
     if (u_wire != 0)
         c = mix(c, vec3(0.05, 0.05, 0.05), 0.7);
 
-    // Alpha: whether this ground stands above the water (a sea shows where
-    // it does not: fx_water_draw).
-    float above = v_world.y >= u_water_mask ? 1.0 : 0.0;
     if (FX_ENABLED != 0) {
         o_color = vec4(fx_fogged(c, v_world), above);
         return;

@@ -27,6 +27,7 @@ typedef struct cli_opts {
     const char *dump_mesh;
     bool json;
     bool wireframe;
+    bool no_lit_map;      /* --lit-map off */
     bool quiet;
     uint32_t repeat; /* LOD selections to time; median reported */
     /* forest (SPEC F) */
@@ -84,6 +85,7 @@ typedef struct app_fx {
     vec3 sun;             /* toward the sun */
     float fog;            /* --fog: 0 default, < 0 off */
     bool fog_capped;      /* default fog with the default view distance: at most CLI_FOG_CLEAR_DAY */
+    bool no_lit_map;      /* --lit-map off: the plain terrain shaded per pixel */
     bool water;
     float water_level;
     uint8_t *lightmap;

@@ -22,7 +22,7 @@ static const char *const COMMON_VALUE[] = {
     "roam-budget", "seed", "size", "spacing", "sun", "textures", "time", "tree-cache", "tree-far", "tree-near",
     "trees", "units", "voids", "water-level", "weather", "weather-intensity", "width", "wind", "zscale",
     "city", "scene", "footprints", "imagery", "imagery-max", "pick", "cull", "draw", "tin-cell", "height-field", "levels-field", "city-bench",
-    "city-bench-frames", "curvature", NULL};
+    "city-bench-frames", "curvature", "lit-map", NULL};
 /* ... and flags. */
 static const char *const COMMON_FLAG[] = {"no-cull",   "no-enlarge", "no-hysteresis", "no-node-cull", "no-simplify",
                                           "json",      "quiet",      "wireframe",     "help",         "version",

@@ -29,6 +29,8 @@ typedef struct frame_row {
     uint32_t ref_triangles;
     uint64_t ref_hash;  /* FNV-1a of the reference image this frame was compared with */
     double sky_frac;    /* fraction of the LOD frame's pixels that are sky */
+    bool lit_map;       /* the terrain read its lit map (hz_draw_stats) */
+    double lit_bake_ms; /* the frame baked it first (in upload_ms) */
 } frame_row;
 
 static uint64_t fnv1a(const uint8_t *p, size_t n)
@@ -287,6 +289,7 @@ typedef struct bench {
     const char *save_dir;
     cli_lod_frame lf;      /* this frame's selection */
     double load_ms, setup_ms;
+    double warm_bake_ms;   /* the running mode's warm-up frame baked the lit map: its time */
     double tune_sil;       /* --tune-silhouette target, 0 = none */
     double tune_psnr;      /* --tune-psnr target (dB), 0 = none */
     hz_renderer *ren;
@@ -520,8 +523,10 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
     hz_scene_params sp0;
     frame_params(b, &cam, 0, 0, &sp0);
     cli_lod_scene(&b->lf, &sp0, &idx, &nidx);
-    if (hz_renderer_draw(b->ren, &cam, &sp0, idx, nidx, NULL, &b->err) != HZ_OK)
+    hz_draw_stats ds0;
+    if (hz_renderer_draw(b->ren, &cam, &sp0, idx, nidx, &ds0, &b->err) != HZ_OK)
         return HZ_ERR_GL;
+    b->warm_bake_ms = ds0.lit_bake_ms;
     double t_start = hz_time_ms(), last = t_start;
     char name[1024];
     for (uint32_t f = 0; f < b->frames; f++) {
@@ -549,6 +554,8 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
         row->lod_ms = st.ms;
         row->upload_ms = ds.upload_ms;
         row->draw_ms = ds.draw_ms;
+        row->lit_map = ds.lit_map;
+        row->lit_bake_ms = ds.lit_bake_ms;
         uint8_t *cur = b->img[f & 1], *prev = b->img[(f + 1) & 1];
         if (hz_renderer_read_rgb(b->ren, cur, &b->err) != HZ_OK ||
             hz_renderer_read_sky_mask(b->ren, b->sky_l, &b->err) != HZ_OK)
@@ -771,6 +778,14 @@ static json_t *bench_json(const bench *b, const hz_lod_params *lod, const frame_
     jx_set(j, "tuned_for_silhouette", jx_num(b->tune_sil));
     jx_set(j, "tuned_for_psnr_db", jx_num(b->tune_psnr));
     jx_set(j, "metrics", jx_bool(b->metrics));
+    uint32_t lit_frames = 0;
+    double lit_bake = b->warm_bake_ms;
+    for (size_t i = 0; i < b->frames; i++) {
+        lit_frames += rows[i].lit_map;
+        lit_bake += rows[i].lit_bake_ms;
+    }
+    jx_set(j, "lit_map_frames", jx_int(lit_frames));
+    jx_set(j, "lit_bake_ms", jx_fix(lit_bake, 1));
     jx_set(j, "load_ms", jx_fix(b->load_ms, 1));
     jx_set(j, "setup_ms", jx_fix(b->setup_ms, 1));
     jx_set(j, "near", jx_num(cam.znear));
@@ -792,6 +807,9 @@ static json_t *bench_json(const bench *b, const hz_lod_params *lod, const frame_
         jx_set(o, "frame_ms", jx_fix(r->frame_ms, 3));
         jx_set(o, "nodes_drawn", jx_int(r->nodes_drawn));
         jx_set(o, "upload_kb", jx_fix(r->upload_kb, 3));
+        jx_set(o, "lit_map", jx_bool(r->lit_map));
+        if (r->lit_bake_ms > 0)
+            jx_set(o, "lit_bake_ms", jx_fix(r->lit_bake_ms, 1));
         jx_set(o, "px_error_p99", jx_num(r->px_p99));
         jx_set(o, "px_error_max", jx_num(r->px_max));
         jx_set(o, "uncovered", jx_int((long long)r->uncovered));

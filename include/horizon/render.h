@@ -155,6 +155,12 @@ typedef struct hz_scene_params {
      * must be 0). Reflections still draw reflection_indices. */
     const hz_patch *patches;
     uint32_t patch_count;
+    /* Without terrain effects, a colour map or imagery, an in-memory terrain
+     * reads its colour lit from a map baked per sample by the same shading
+     * (one texture fetch a pixel instead of the normal map, the colour and
+     * Lambert), baked again when the sun, ambient or climate change and then
+     * hold still for a frame. true: shade every pixel instead. */
+    bool no_lit_map;
 } hz_scene_params;
 
 typedef struct hz_draw_stats {
@@ -168,6 +174,8 @@ typedef struct hz_draw_stats {
     uint32_t reflections;     /* water reflection passes rendered */
     uint32_t far_patches;     /* cdlod patches entirely beyond the ground detail's fade, drawn
                                  without its texture fetches (HZ_FX_DETAIL) */
+    bool lit_map;             /* the terrain read its lit map (hz_scene_params.no_lit_map) */
+    double lit_bake_ms;       /* this frame baked the lit map first: its time (in upload_ms) */
 } hz_draw_stats;
 
 /* Draws sky then terrain triangles (count indices, a multiple of 3, into the

@@ -39,15 +39,15 @@ static GLuint compile_shader(GLenum type, const char *src, const char *name, boo
             hz_err_set(err, HZ_ERR_GL, "GL: shader %s does not start with a #version line", name);
             return 0;
         }
-        char consts[400];
+        char consts[440];
         snprintf(consts, sizeof consts,
                  "const int FX_ENABLED = %u;\nconst bool FX_HAS_COLORMAP = %s;\nconst bool FX_HAS_COVER = %s;\n"
                  "const bool FX_CLIP_PASS = %s;\nconst bool FX_MASKED = %s;\nconst bool FX_HAS_IMAGERY = %s;\n"
-                 "const bool FX_DETAIL_FAR = %s;\n",
+                 "const bool FX_DETAIL_FAR = %s;\nconst bool FX_LIT = %s;\n",
                  variant & HZ_FX_ALL, (variant & FX_VARIANT_COLORMAP) ? "true" : "false",
                  (variant & FX_VARIANT_COVER) ? "true" : "false", (variant & FX_VARIANT_CLIP) ? "true" : "false",
                  (variant & FX_VARIANT_MASK) ? "true" : "false", (variant & FX_VARIANT_IMAGERY) ? "true" : "false",
-                 (variant & FX_VARIANT_DETAIL_FAR) ? "true" : "false");
+                 (variant & FX_VARIANT_DETAIL_FAR) ? "true" : "false", (variant & FX_VARIANT_LIT) ? "true" : "false");
         const char *parts[6] = {src, consts, "#line 1 1\n", hz_shader_fx_common, "\n#line 2 0\n", nl + 1};
         const GLint lens[6] = {(GLint)(nl + 1 - src), -1, -1, -1, -1, -1};
         return hz_gl_compile(type, 6, parts, lens, name, err);
@@ -123,7 +123,7 @@ void fx_program_setup(GLuint p)
     } units[] = {{"u_heights", FX_UNIT_HEIGHTS},     {"u_lightmap", FX_UNIT_LIGHTMAP}, {"u_detail", FX_UNIT_DETAIL},
                  {"u_colormap", FX_UNIT_COLORMAP},   {"u_cover", FX_UNIT_COVER},       {"u_tex", FX_UNIT_SPRITE},
                  {"u_reflection", FX_UNIT_REFLECTION}, {"u_cloud_noise", FX_UNIT_CLOUDS}, {"u_bb", FX_UNIT_BB},
-                 {"u_normals", FX_UNIT_NORMALS}, {"u_tiles", FX_UNIT_TILES},
+                 {"u_normals", FX_UNIT_NORMALS}, {"u_lit", FX_UNIT_LIT}, {"u_tiles", FX_UNIT_TILES},
                  {"u_img_ov", FX_UNIT_IMG_OV}, {"u_img_tiles", FX_UNIT_IMG_TILES}, {"u_valid", FX_UNIT_VALID},
                  {"u_coast", FX_UNIT_COAST}};
     glUseProgram(p);

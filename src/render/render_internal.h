@@ -27,6 +27,7 @@ _Static_assert(offsetof(fx_common_ubo, bits) == 12 * 16, "FxCommon.fx_bits offse
 #define FX_UNIT_REFLECTION 6
 #define FX_UNIT_CLOUDS 7
 #define FX_UNIT_BB 8
+#define FX_UNIT_LIT 9       /* the plain terrain's lit colour per sample (terrain_litmap.c) */
 #define FX_UNIT_NORMALS 10  /* per-sample normals */
 #define FX_UNIT_TILES 11    /* cdlod height tiles (texture array) */
 #define FX_UNIT_IMG_OV 12   /* imagery overview */
@@ -59,6 +60,7 @@ typedef struct fx_frame {
     float water_mask;      /* a sea's level: the terrain's alpha says whether it stands above it, and
                               the sea shows where it does not (-1e30: none) */
     bool post;             /* the scene renders to a texture and the chain runs */
+    bool lit;              /* the plain terrain reads the lit map (terrain_litmap.c) */
     const uint32_t *refl_idx;
     uint32_t refl_count;
     GLuint refl_ibo;       /* index buffer holding refl_idx */
@@ -74,6 +76,8 @@ typedef struct fx_frame {
 #define FX_VARIANT_IMAGERY (1u << 21) /* draped imagery */
 #define FX_VARIANT_STREAM (1u << 22)  /* cdlod patches over a streamed pyramid (terrain_patch_vs.glsl's STREAM) */
 #define FX_VARIANT_DETAIL_FAR (1u << 23) /* patches beyond the ground detail's fade: its far colour only */
+#define FX_VARIANT_LIT (1u << 24)        /* the plain terrain reads its colour from the lit map */
+#define LIT_KEY_LEN 8 /* the lit map's lighting: sun (3), ambient, snow line, tree line, aridity, zscale */
 /* The ground detail fades out between these multiples of its scale
  * (terrain_fs.glsl, splat); beyond the far one only its slow brightness
  * variation is left. */
@@ -152,6 +156,16 @@ struct hz_renderer {
     int32_t coast_rect[4]; /* x0, z0, x1, z1 samples; x1 < x0: no coast */
     float coast_spacing;   /* metres between the coast's samples */
     GLuint normal_tex;  /* GL_RG8_SNORM 2D texture of per-sample normals (x, z), 0: none */
+
+    /* The plain terrain's lit map (terrain_litmap.c) */
+    GLuint lit_tex;            /* GL_RGBA8, mipmapped, a texel per sample; 0: none */
+    GLuint lit_fbo, lit_prog;
+    GLint lit_loc[6];
+    bool lit_valid;            /* lit_tex holds the shading of lit_key */
+    bool lit_prev_set;         /* lit_prev holds the last plain frame's lighting */
+    bool lit_failed;           /* a bake failed (GL): per-pixel shading until the next heightmap */
+    float lit_key[LIT_KEY_LEN], lit_prev[LIT_KEY_LEN];
+    uint32_t lit_bakes;        /* bakes since creation */
 
     /* cdlod patches (terrain_patch.c) */
     GLuint tiles_tex;          /* GL_TEXTURE_2D_ARRAY, RGBA16UI tiles of the height pyramid */
@@ -269,6 +283,20 @@ typedef void (*fx_scene_fn)(hz_renderer *r, const fx_frame *f, const fx_view *v,
 
 /* The terrain variant for a frame's effects (patches: the cdlod vertex shader). */
 hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_err *err);
+
+/* ---- terrain_litmap.c: the plain terrain's lit map ---- */
+
+/* Whether the heightmap can have a lit map (in memory, with a normal map,
+ * small enough). */
+bool litmap_fits(const hz_renderer *r);
+/* use: the frame's plain terrain (plain: no terrain effect, colour map or
+ * imagery) reads the lit map, baked first if the lighting changed and has
+ * held since the previous frame. A failed bake leaves per-pixel shading. */
+void litmap_prepare(hz_renderer *r, const fx_frame *f, bool plain, bool *use);
+/* The heightmap changed: the map goes (GL objects of the last one freed). */
+void litmap_invalidate(hz_renderer *r);
+void litmap_release(hz_renderer *r);
+void litmap_destroy(hz_renderer *r);
 
 /* ---- terrain_patch.c: cdlod patches ---- */
 /* Converts and uploads a frame's patches (instances). */

@@ -58,10 +58,18 @@ static bool target_has_alpha(hz_renderer *r)
     return r->default_alpha > 0;
 }
 
+/* The effect bits the terrain shader depends on: without any of them the
+ * plain shader gives the same image. */
+static uint32_t terrain_fx_bits(const fx_frame *f)
+{
+    return f->bits & (HZ_FX_SKY | HZ_FX_SHADOWS | HZ_FX_DETAIL | HZ_FX_BILLBOARDS | HZ_FX_FOG | HZ_FX_WATER);
+}
+
 hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_err *err)
 {
-    /* Without any of these bits the plain shader gives the same image. */
-    uint32_t key = f->bits & (HZ_FX_SKY | HZ_FX_SHADOWS | HZ_FX_DETAIL | HZ_FX_BILLBOARDS | HZ_FX_FOG | HZ_FX_WATER);
+    uint32_t key = terrain_fx_bits(f);
+    if (f->lit)
+        key |= FX_VARIANT_LIT;
     if (r->has_colormap)
         key |= FX_VARIANT_COLORMAP;
     if (r->has_cover && (f->bits & HZ_FX_BILLBOARDS))
@@ -272,6 +280,7 @@ void hz_renderer_destroy(hz_renderer *r)
     glDeleteTextures(1, &r->coast_tex);
     glDeleteBuffers(1, &r->coast_buf);
     glDeleteTextures(1, &r->normal_tex);
+    litmap_destroy(r);
     patch_destroy(r);
     glDeleteFramebuffers(1, &r->fbo);
     glDeleteRenderbuffers(1, &r->color_rb);
@@ -334,6 +343,7 @@ static void copy_rows(const hz_heightmap *hm, uint16_t *dst, uint16_t *lo, uint1
 static hz_result make_normal_texture(hz_renderer *r, const hz_heightmap *hm, hz_err *err)
 {
     const uint32_t n = hm->size;
+    litmap_invalidate(r); /* baked from the last map's normals */
     if (r->normal_tex) {
         glDeleteTextures(1, &r->normal_tex);
         r->normal_tex = 0;
@@ -772,6 +782,10 @@ static void terrain_program(hz_renderer *r, const fx_frame *f, const fx_view *v,
     /* cdlod geomorphing (patches, main view only); reflections are unmorphed. */
     glUniform1f(tl[TL_MORPH_SCALE], patches ? sp->morph_scale : 0.0f);
     glUniform1f(tl[TL_MORPH_START], sp->morph_start);
+    if (tp->key & FX_VARIANT_LIT) {
+        glActiveTexture(GL_TEXTURE0 + FX_UNIT_LIT);
+        glBindTexture(GL_TEXTURE_2D, r->lit_tex);
+    }
     glActiveTexture(GL_TEXTURE0 + FX_UNIT_NORMALS);
     glBindTexture(GL_TEXTURE_2D, r->normal_tex);
     glUniform1i(tl[TL_NORMAL_TEX], r->normal_tex != 0);
@@ -861,6 +875,8 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
             glDisable(GL_POLYGON_OFFSET_LINE);
             glDepthMask(GL_TRUE);
         }
+        glActiveTexture(GL_TEXTURE0 + FX_UNIT_LIT);
+        glBindTexture(GL_TEXTURE_2D, 0);
         glActiveTexture(GL_TEXTURE0 + FX_UNIT_NORMALS);
         glBindTexture(GL_TEXTURE_2D, 0);
         glActiveTexture(GL_TEXTURE0 + FX_UNIT_TILES);
@@ -1002,8 +1018,14 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         res = fx_water_ensure(r, &fr, err);
     if (res == HZ_OK && fr.post)
         res = fx_post_ensure(r, err);
-    if (res == HZ_OK)
-        res = fx_terrain_select(r, &fr, npatch > 0, err);
+    if (res != HZ_OK)
+        return res;
+    /* The lit map, baked first when the lighting changed (timed as upload). */
+    const double tb = hz_time_ms();
+    const uint32_t bakes = r->lit_bakes;
+    litmap_prepare(r, &fr, terrain_fx_bits(&fr) == 0 && !r->has_colormap && !r->has_imagery, &fr.lit);
+    const double bake_ms = r->lit_bakes != bakes ? hz_time_ms() - tb : 0.0;
+    res = fx_terrain_select(r, &fr, npatch > 0, err);
     if (res != HZ_OK)
         return res;
 
@@ -1114,13 +1136,15 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
     glFinish();
     double t3 = hz_time_ms();
     if (stats) {
-        stats->upload_ms = t1 - t0;
+        stats->upload_ms = t1 - t0 + bake_ms;
         stats->upload_bytes = (size_t)count * sizeof(uint32_t) + (npatch ? r->inst_bytes : 0);
         stats->draw_ms = t3 - t2;
         stats->billboards = (fr.bits & HZ_FX_BILLBOARDS) ? (uint32_t)r->n_trees : 0;
         stats->particles = (fr.bits & HZ_FX_WEATHER) ? (uint32_t)r->n_particles : 0;
         stats->reflections = r->n_refl;
         stats->far_patches = r->terrain_patch_far ? r->n_inst - r->n_inst_near : 0;
+        stats->lit_map = fr.lit;
+        stats->lit_bake_ms = bake_ms;
     }
     return hz_gl_check(err, "frame draw");
 }

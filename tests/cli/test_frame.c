@@ -529,6 +529,106 @@ static double rgb_diff(const uint8_t *a, const uint8_t *b)
     return s / ((double)W * H * 3);
 }
 
+/* Per-channel differences of two RGB frames over the ground (sky mask 0):
+ * the mean and how many pixels differ by more than 8 in some channel. */
+static double ground_diff(const uint8_t *a, const uint8_t *b, const uint8_t *sky, size_t *ground, size_t *off8)
+{
+    double sum = 0;
+    *ground = *off8 = 0;
+    for (size_t k = 0; k < (size_t)W * H; k++) {
+        if (sky[k])
+            continue;
+        int m = 0;
+        for (int ch = 0; ch < 3; ch++) {
+            const int d = abs((int)a[3 * k + ch] - (int)b[3 * k + ch]);
+            sum += d;
+            m = d > m ? d : m;
+        }
+        ++*ground;
+        *off8 += m > 8;
+    }
+    return *ground ? sum / (3.0 * (double)*ground) : 0.0;
+}
+
+/* The plain terrain reads its colour from the lit map, baked per sample by
+ * the shading it replaces: the frame is that of per-pixel shading (the map
+ * holds the full-resolution surface's colour, the mesh a LOD's), for index
+ * lists and patches alike. When the sun moves, the next frame is shaded per
+ * pixel and the one after bakes the map again: it matches per-pixel shading
+ * in the new light, not the old map. */
+static void test_lit_map_matches_per_pixel_shading(void **state)
+{
+    ctx *c = *state;
+    hz_err err = {0};
+    hz_camera cam;
+    hz_index_list il = {0};
+    hz_patch_list pl = {0};
+    hz_lod_stats st;
+    cdlod_frame(c, 1.0f, NULL, &cam, &pl, &il, &st);
+    uint8_t *pix = malloc(W * H * 3), *lit = malloc(W * H * 3), *sky = malloc(W * H);
+    /* Unit vectors, neither the default sun. */
+    const float suns[2][3] = {{-0.48f, 0.60f, 0.64f}, {0.60f, 0.48f, -0.64f}};
+    hz_scene_params base = {0};
+    memcpy(base.sun_dir, suns[0], sizeof base.sun_dir);
+    /* Whatever the frames before drew, the map holds sun 0 after these two. */
+    for (int k = 0; k < 2; k++)
+        assert_int_equal(hz_renderer_draw(c->r, &cam, &base, il.data, (uint32_t)il.count, NULL, &err), HZ_OK);
+    for (int s = 0; s < 2; s++) {
+        for (int patches = 0; patches < 2; patches++) {
+            hz_scene_params sp = {.no_lit_map = true};
+            memcpy(sp.sun_dir, suns[s], sizeof sp.sun_dir);
+            if (patches) {
+                sp.patches = pl.data;
+                sp.patch_count = (uint32_t)pl.count;
+                sp.morph_scale = st.morph_scale;
+                sp.morph_start = st.morph_start;
+            }
+            const uint32_t *idx = patches ? NULL : il.data;
+            const uint32_t cnt = patches ? 0 : (uint32_t)il.count;
+            hz_draw_stats ds;
+            assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, idx, cnt, &ds, &err), HZ_OK);
+            assert_false(ds.lit_map);
+            assert_int_equal(hz_renderer_read_rgb(c->r, pix, &err), HZ_OK);
+            assert_int_equal(hz_renderer_read_sky_mask(c->r, sky, &err), HZ_OK);
+            sp.no_lit_map = false;
+            const bool moved = s == 1 && !patches;
+            if (moved) {
+                /* The sun moved since the last frame: per pixel, no bake. */
+                assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, idx, cnt, &ds, &err), HZ_OK);
+                assert_false(ds.lit_map);
+                assert_true(ds.lit_bake_ms == 0.0);
+            }
+            assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, idx, cnt, &ds, &err), HZ_OK);
+            assert_true(ds.lit_map);
+            /* Baked once the new sun held still, then read as it is. */
+            assert_true((ds.lit_bake_ms > 0.0) == moved);
+            assert_int_equal(hz_renderer_read_rgb(c->r, lit, &err), HZ_OK);
+            size_t ground, off8;
+            const double mean = ground_diff(pix, lit, sky, &ground, &off8);
+            fprintf(stderr, "lit map, sun %d, %s: mean difference %.3f of 255, %zu of %zu ground pixels off by > 8\n",
+                    s, patches ? "patches" : "indices", mean, off8, ground);
+            assert_true(ground > (size_t)W * H / 4);
+            assert_true(mean < 1.0);
+            assert_true(off8 * 200 < ground);
+        }
+    }
+    /* The other sun's map is another picture (what the bounds above tell apart). */
+    hz_scene_params sp = {.no_lit_map = true};
+    memcpy(sp.sun_dir, suns[0], sizeof sp.sun_dir);
+    assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, il.data, (uint32_t)il.count, NULL, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_rgb(c->r, pix, &err), HZ_OK);
+    size_t ground, off8;
+    const double mean = ground_diff(pix, lit, sky, &ground, &off8);
+    fprintf(stderr, "per-pixel sun 0 against the lit map of sun 1: mean difference %.3f, %zu pixels off by > 8\n",
+            mean, off8);
+    assert_true(mean > 5.0);
+    free(pix);
+    free(lit);
+    free(sky);
+    free(il.data);
+    free(pl.data);
+}
+
 /* A streamed tile that arrives slides in instead of popping: the first
  * frame that draws it looks (nearly) like the frame before, and once it
  * has slid in, like the finer level. */
@@ -605,6 +705,7 @@ int main(void)
         cmocka_unit_test(test_patch_chunks_draw_every_patch),
         cmocka_unit_test(test_far_patches_keep_the_detail_colour),
         cmocka_unit_test(test_default_camera_frames_the_summit),
+        cmocka_unit_test(test_lit_map_matches_per_pixel_shading),
         cmocka_unit_test(test_stream_tiles_slide_in),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
