@@ -77,6 +77,7 @@ typedef struct fx_frame {
 #define FX_VARIANT_STREAM (1u << 22)  /* cdlod patches over a streamed pyramid (terrain_patch_vs.glsl's STREAM) */
 #define FX_VARIANT_DETAIL_FAR (1u << 23) /* patches beyond the ground detail's fade: its far colour only */
 #define FX_VARIANT_LIT (1u << 24)        /* the plain terrain reads its colour from the lit map */
+#define SKY_CELLS (48 * 27) /* the plain sky's grid (sky_grid_vs.glsl: SKY_COLS x SKY_ROWS) */
 #define LIT_KEY_LEN 8 /* the lit map's lighting: sun (3), ambient, snow line, tree line, aridity, zscale */
 /* The ground detail fades out between these multiples of its scale
  * (terrain_fs.glsl, splat); beyond the far one only its slow brightness

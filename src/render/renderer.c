@@ -110,7 +110,7 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
 
 static hz_result make_programs(hz_renderer *r, hz_err *err)
 {
-    r->sky_prog = link_program(hz_shader_sky_vs, hz_shader_sky_fs, "sky", 0, 0, err);
+    r->sky_prog = link_program(hz_shader_sky_grid_vs, hz_shader_sky_fs, "sky", 0, 0, err);
     if (!r->sky_prog)
         return HZ_ERR_GL;
     /* NOTE: terrain_vs.glsl stays free of effect code (it is the LOD's); the
@@ -704,7 +704,7 @@ static void draw_plain_sky(hz_renderer *r, const fx_frame *f, const fx_view *v)
     glUniform3fv(r->su.sun_dir, 1, f->sp.sun_dir);
     /* the far plane: depth 0 in reverse-Z ([0, 1] clip depth, or [-1, 1] without glClipControl) */
     glUniform1f(r->su.sky_z, r->clip_control ? 0.0f : -1.0f);
-    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glDrawArrays(GL_TRIANGLES, 0, 6 * SKY_CELLS); /* sky_grid_vs.glsl's grid */
 }
 
 /* The objects hook (city, forests, user objects). */

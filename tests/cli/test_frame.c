@@ -124,6 +124,88 @@ static void test_sky_above_lit_terrain_below(void **state)
     free(sky);
 }
 
+/* The plain sky's colour in direction d (sky_grid_vs.glsl), 0..255; returns the
+ * sun glow's share of it. */
+static double sky_reference(const float horizon[3], const float sun[3], const double d_in[3], double out[3])
+{
+    const double len = sqrt(d_in[0] * d_in[0] + d_in[1] * d_in[1] + d_in[2] * d_in[2]);
+    const double d[3] = {d_in[0] / len, d_in[1] / len, d_in[2] / len};
+    const double up = d[1] > 0 ? d[1] : 0;
+    const double k = (1 - exp(-3 * up)) / (1 - exp(-3.0));
+    const double zen[3] = {horizon[0] * 0.28, horizon[1] * 0.5, horizon[2] * 0.85};
+    double s = d[0] * sun[0] + d[1] * sun[1] + d[2] * sun[2];
+    s = s > 0 ? pow(s, 64) : 0;
+    const double t = fmin(fmax(up / 0.05, 0), 1), glow = 0.25 * s * t * t * (3 - 2 * t);
+    const double tint[3] = {1.0, 0.9, 0.7};
+    for (int ch = 0; ch < 3; ch++)
+        out[ch] = 255 * fmin(horizon[ch] + (zen[ch] - horizon[ch]) * k + tint[ch] * glow, 1.0);
+    return 255 * glow;
+}
+
+/* The sky is shaded per vertex of a grid over the screen above the horizon
+ * (below it, the clear colour is the horizon's): every sky pixel still has
+ * the colour of its own view ray, within rounding, looking up, along the
+ * horizon into the sun's glow, and down. */
+static void test_sky_colour_per_ray(void **state)
+{
+    ctx *c = *state;
+    hz_err err = {0};
+    const float horizon[3] = {0.70f, 0.80f, 0.95f};
+    const float views[3][2] = {{180.0f, 40.0f}, {170.0f, 8.0f}, {120.0f, -20.0f}}; /* yaw, pitch: up, level, down */
+    uint8_t *rgb = malloc(W * H * 3), *sky = malloc(W * H);
+    for (int v = 0; v < 3; v++) {
+        hz_camera cam = hz_terrain_default_camera(c->t, W, H);
+        cam.pos[1] = c->t->max_h + 400.0f; /* above every summit: sky down to the horizon somewhere */
+        cam.yaw = views[v][0];
+        cam.pitch = views[v][1];
+        mat4 view, proj, vp, inv;
+        hz_camera_view(&cam, view);
+        view[3][0] = view[3][1] = view[3][2] = 0.0f;
+        hz_camera_proj_reverse_z(&cam, proj);
+        glm_mat4_mul(proj, view, vp);
+        glm_mat4_inv(vp, inv);
+        /* The sun 15 degrees up, in the heading of the view's centre. */
+        vec4 centre = {0.0f, 0.0f, 0.5f, 1.0f}, f;
+        glm_mat4_mulv(inv, centre, f);
+        const float fh = sqrtf(f[0] * f[0] + f[2] * f[2]);
+        float sun[3] = {0.96592583f * f[0] / fh, 0.25881905f, 0.96592583f * f[2] / fh};
+        hz_scene_params sp = {.fog_density = -1.0f};
+        memcpy(sp.sky_color, horizon, sizeof sp.sky_color);
+        memcpy(sp.sun_dir, sun, sizeof sp.sun_dir);
+        assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
+        assert_int_equal(hz_renderer_read_rgb(c->r, rgb, &err), HZ_OK);
+        assert_int_equal(hz_renderer_read_sky_mask(c->r, sky, &err), HZ_OK);
+        size_t n = 0, above = 0, glow = 0;
+        double worst = 0;
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                const size_t k = (size_t)y * W + x;
+                assert_true(sky[k]); /* nothing drawn but the sky */
+                vec4 ndc = {2.0f * ((float)x + 0.5f) / W - 1.0f, 1.0f - 2.0f * ((float)y + 0.5f) / H, 0.5f, 1.0f}, w;
+                glm_mat4_mulv(inv, ndc, w);
+                const double d[3] = {w[0] / w[3], w[1] / w[3], w[2] / w[3]};
+                double ref[3];
+                glow += sky_reference(horizon, sun, d, ref) > 20;
+                for (int ch = 0; ch < 3; ch++)
+                    worst = fmax(worst, fabs(rgb[3 * k + ch] - ref[ch]));
+                n++;
+                above += d[1] > 0;
+            }
+        fprintf(stderr,
+                "sky, yaw %.0f pitch %.0f: %zu of %zu pixels above the horizon, %zu in the glow, worst channel %.2f off\n",
+                (double)cam.yaw, (double)cam.pitch, above, n, glow, worst);
+        if (v == 0)
+            assert_true(above == n);
+        else
+            assert_true(above > n / 10 && above < n - n / 10);
+        if (v == 1)
+            assert_true(glow > n / 50);
+        assert_true(worst <= 2.5);
+    }
+    free(rgb);
+    free(sky);
+}
+
 static void test_more_detail_closer_to_reference(void **state)
 {
     ctx *c = *state;
@@ -699,6 +781,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sky_above_lit_terrain_below),
+        cmocka_unit_test(test_sky_colour_per_ray),
         cmocka_unit_test(test_more_detail_closer_to_reference),
         cmocka_unit_test(test_modes_close_to_reference),
         cmocka_unit_test(test_gpu_morph_matches_cpu),
