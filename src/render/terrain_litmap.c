@@ -55,27 +55,15 @@ static hz_result lit_setup(hz_renderer *r, hz_err *err)
     }
     if (r->lit_tex)
         return HZ_OK;
-    const GLsizei n = (GLsizei)r->size;
-    GLsizei mips = 1;
-    while ((n >> mips) > 0)
-        mips++;
-    glGenTextures(1, &r->lit_tex);
-    glBindTexture(GL_TEXTURE_2D, r->lit_tex);
-    glTexStorage2D(GL_TEXTURE_2D, mips, GL_RGBA8, n, n);
-    /* Filtered as the normal map it replaces (make_normal_texture). */
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-    glBindTexture(GL_TEXTURE_2D, 0);
-    glGenFramebuffers(1, &r->lit_fbo);
-    glBindFramebuffer(GL_FRAMEBUFFER, r->lit_fbo);
-    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, r->lit_tex, 0);
-    const GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
-    glBindFramebuffer(GL_FRAMEBUFFER, 0);
-    hz_result res = hz_gl_check(err, "lit map allocation (RGBA8)");
-    if (res == HZ_OK && status != GL_FRAMEBUFFER_COMPLETE)
-        res = hz_err_set(err, HZ_ERR_GL, "GL: lit map target of %dx%d incomplete (0x%x)", n, n, status);
+    hz_result res = fx_make_target(&r->lit_fbo, &r->lit_tex, 0, r->size, r->size, GL_RGBA8, err);
+    if (res == HZ_OK) {
+        /* Mipmapped and filtered as the normal map it replaces
+         * (make_normal_texture); each bake generates the levels. */
+        glBindTexture(GL_TEXTURE_2D, r->lit_tex);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+        glBindTexture(GL_TEXTURE_2D, 0);
+        res = hz_gl_check(err, "lit map allocation (RGBA8)");
+    }
     if (res != HZ_OK)
         litmap_release(r);
     return res;
