@@ -105,6 +105,19 @@ vec4 imagery(vec2 xz)
     return inside ? ov : vec4(0.0);
 }
 
+// The wireframe overlay pass darkens the shaded colour.
+vec3 wired(vec3 c)
+{
+    return u_wire != 0 ? mix(c, vec3(0.05, 0.05, 0.05), 0.7) : c;
+}
+
+// Without effects: exponential fog to the sky's horizon colour at distance dist.
+vec3 plain_fog(vec3 c, float dist)
+{
+    float f = u_fog_density > 0.0 ? exp(-u_fog_density * dist) : 1.0;
+    return mix(u_sky_horizon, c, f);
+}
+
 void main()
 {
     // Below a water plane in its reflection pass. Only that variant may
@@ -122,10 +135,7 @@ void main()
         // Trilinear like the normal map: far pixels read the lit colour
         // averaged over what they cover.
         vec3 lit = texture(u_lit, v_world.xz * u_nrm_scale.x + u_nrm_scale.y).rgb;
-        if (u_wire != 0)
-            lit = mix(lit, vec3(0.05, 0.05, 0.05), 0.7);
-        float fl = u_fog_density > 0.0 ? exp(-u_fog_density * length(v_world - u_eye)) : 1.0;
-        o_color = vec4(mix(u_sky_horizon, lit, fl), above);
+        o_color = vec4(plain_fog(wired(lit), length(v_world - u_eye)), above);
         return;
     }
     vec3 n;
@@ -170,13 +180,10 @@ void main()
         float rel = (u_ambient + (1.0 - u_ambient) * lambert) / max(flat_light, 0.05);
         c = mix(c, albedo * mix(1.0, rel, 0.6), photo);
     }
-    if (u_wire != 0)
-        c = mix(c, vec3(0.05, 0.05, 0.05), 0.7);
-
+    c = wired(c);
     if (FX_ENABLED != 0) {
         o_color = vec4(fx_fogged(c, v_world), above);
         return;
     }
-    float f = u_fog_density > 0.0 ? exp(-u_fog_density * dist) : 1.0;
-    o_color = vec4(mix(u_sky_horizon, c, f), above);
+    o_color = vec4(plain_fog(c, dist), above);
 }

@@ -166,7 +166,6 @@ struct hz_renderer {
     bool lit_prev_set;         /* lit_prev holds the last plain frame's lighting */
     bool lit_failed;           /* a bake failed (GL): per-pixel shading until the next heightmap */
     float lit_key[LIT_KEY_LEN], lit_prev[LIT_KEY_LEN];
-    uint32_t lit_bakes;        /* bakes since creation */
 
     /* cdlod patches (terrain_patch.c) */
     GLuint tiles_tex;          /* GL_TEXTURE_2D_ARRAY, RGBA16UI tiles of the height pyramid */
@@ -287,13 +286,11 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
 
 /* ---- terrain_litmap.c: the plain terrain's lit map ---- */
 
-/* Whether the heightmap can have a lit map (in memory, with a normal map,
- * small enough). */
-bool litmap_fits(const hz_renderer *r);
 /* use: the frame's plain terrain (plain: no terrain effect, colour map or
  * imagery) reads the lit map, baked first if the lighting changed and has
- * held since the previous frame. A failed bake leaves per-pixel shading. */
-void litmap_prepare(hz_renderer *r, const fx_frame *f, bool plain, bool *use);
+ * held since the previous frame. A failed bake leaves per-pixel shading.
+ * Returns the ms spent baking (0: no bake). */
+double litmap_prepare(hz_renderer *r, const fx_frame *f, bool plain, bool *use);
 /* The heightmap changed: the map goes (GL objects of the last one freed). */
 void litmap_invalidate(hz_renderer *r);
 void litmap_release(hz_renderer *r);

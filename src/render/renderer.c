@@ -1021,10 +1021,8 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
     if (res != HZ_OK)
         return res;
     /* The lit map, baked first when the lighting changed (timed as upload). */
-    const double tb = hz_time_ms();
-    const uint32_t bakes = r->lit_bakes;
-    litmap_prepare(r, &fr, terrain_fx_bits(&fr) == 0 && !r->has_colormap && !r->has_imagery, &fr.lit);
-    const double bake_ms = r->lit_bakes != bakes ? hz_time_ms() - tb : 0.0;
+    const double bake_ms =
+        litmap_prepare(r, &fr, terrain_fx_bits(&fr) == 0 && !r->has_colormap && !r->has_imagery, &fr.lit);
     res = fx_terrain_select(r, &fr, npatch > 0, err);
     if (res != HZ_OK)
         return res;

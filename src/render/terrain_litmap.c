@@ -20,6 +20,7 @@
 #define LIT_MAX_BYTES (96ull << 20)
 
 enum { LL_SIZE, LL_HSCALE, LL_HOFFSET, LL_CLIMATE, LL_SUN, LL_AMBIENT, LL_COUNT };
+_Static_assert(LL_COUNT == sizeof ((hz_renderer *)0)->lit_loc / sizeof(GLint), "lit_loc holds LL_COUNT locations");
 
 /* What the lit map depends on besides the heightmap. */
 static void lighting_key(const hz_renderer *r, const fx_frame *f, float key[LIT_KEY_LEN])
@@ -34,7 +35,9 @@ static void lighting_key(const hz_renderer *r, const fx_frame *f, float key[LIT_
     key[7] = r->zscale;
 }
 
-bool litmap_fits(const hz_renderer *r)
+/* Whether the heightmap can have a lit map (in memory, with a normal map,
+ * small enough). */
+static bool litmap_fits(const hz_renderer *r)
 {
     const uint64_t n = r->size;
     return r->has_heights && !r->streamed && r->normal_tex && n > 0 && n <= (uint64_t)r->max_tex &&
@@ -44,7 +47,7 @@ bool litmap_fits(const hz_renderer *r)
 static hz_result lit_setup(hz_renderer *r, hz_err *err)
 {
     if (!r->lit_prog) {
-        r->lit_prog = link_program(hz_shader_terrain_lit_vs, hz_shader_terrain_lit_fs, "terrain_lit", 0, 0, err);
+        r->lit_prog = link_program(hz_shader_post_vs, hz_shader_terrain_lit_fs, "terrain_lit", 0, 0, err);
         if (!r->lit_prog)
             return HZ_ERR_GL;
         fx_program_setup(r->lit_prog);
@@ -111,15 +114,14 @@ static hz_result bake(hz_renderer *r, const float key[LIT_KEY_LEN], hz_err *err)
     }
     memcpy(r->lit_key, key, sizeof r->lit_key);
     r->lit_valid = true;
-    r->lit_bakes++;
     return HZ_OK;
 }
 
-void litmap_prepare(hz_renderer *r, const fx_frame *f, bool plain, bool *use)
+double litmap_prepare(hz_renderer *r, const fx_frame *f, bool plain, bool *use)
 {
     *use = false;
     if (!plain || f->sp.no_lit_map || !litmap_fits(r))
-        return;
+        return 0.0;
     float key[LIT_KEY_LEN];
     lighting_key(r, f, key);
     const bool held = r->lit_prev_set && memcmp(key, r->lit_prev, sizeof key) == 0;
@@ -127,20 +129,22 @@ void litmap_prepare(hz_renderer *r, const fx_frame *f, bool plain, bool *use)
     r->lit_prev_set = true;
     if (r->lit_valid && memcmp(key, r->lit_key, sizeof key) == 0) {
         *use = true;
-        return;
+        return 0.0;
     }
     /* The lighting changed since the last bake: bake once it holds still
      * (the first bake of a map at once). */
     if ((r->lit_valid && !held) || r->lit_failed)
-        return;
+        return 0.0;
+    const double t0 = hz_time_ms();
     hz_err bake_err = {0};
     if (bake(r, key, &bake_err) != HZ_OK) {
         /* Not fatal: the terrain is shaded per pixel, as before the map. */
         hz_gl_drain();
         r->lit_failed = true;
-        return;
+        return 0.0;
     }
     *use = true;
+    return hz_time_ms() - t0;
 }
 
 void litmap_invalidate(hz_renderer *r)
