@@ -98,7 +98,7 @@ void cli_usage_terrain(void)
             "  --no-cull               disable frustum culling\n"
             "  --bidir-distance M      bidirectional: coarsen beyond M metres, split nearer (default far/4)\n"
             "  --roam-budget N         roam: at most N triangles (default: no budget)\n"
-            "  --morph-start A         cdlod: morphing starts at this fraction of a range, 0.8..0.95 (0.8)\n"
+            "  --morph-start A         cdlod: morphing starts at this fraction of a range, 0.8..0.95 (0.95)\n"
             "  --patch-cells N         cdlod: grid cells per side of the patch each node draws (default 8)\n"
             "view:\n"
             "  --camera X,Y,Z,YAW,PITCH  metres and degrees (default: above the centre)\n"

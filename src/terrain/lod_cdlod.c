@@ -369,8 +369,7 @@ static hz_result cdlod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_pa
     const float tau = p->pixel_error > 0 ? p->pixel_error : 1.0f;
     const float lambda = pixel_k(cam, p) / tau;
     const float hsw = lod->hm->scale * lod->zscale; /* metres per h16 step */
-    float a = p->morph_start > 0.0f ? p->morph_start : 1.0f / CD_GROW;
-    a = a < 1.0f / CD_GROW ? 1.0f / CD_GROW : (a > 0.95f ? 0.95f : a);
+    const float a = cd_morph_start(p->morph_start);
     lod->curv = *cam; /* box_of lowers the boxes for Earth curvature */
     cd_ctx c = {.lod = lod, .margin = frustum_margin(cam), .no_cull = p->no_cull, .culled = culled, .st = st};
     hz_camera_frustum(cam, c.planes);

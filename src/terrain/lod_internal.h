@@ -280,6 +280,24 @@ static inline float frustum_margin(const hz_camera *cam)
  * then do not overlap for morph_start >= 1 / CD_GROW. */
 #define CD_GROW 1.25f
 
+/* cdlod: where a vertex starts morphing, as a fraction of its range:
+ * params' value (0 -> CD_MORPH_START), clamped to [1 / CD_GROW, 0.95].
+ * The default is the narrowest zone: the morph keeps the error under tau
+ * whatever its width, but outside the zone every vertex is at its true
+ * height, so a narrow zone draws the same surface closer to the truth on
+ * average. On the peers' 4097^2 flight (120 frames) 0.95 at tau 1.45 has the
+ * image error of 0.8 at tau 1.35 with 10 % fewer triangles (529 246 against
+ * 590 516; PSNR 41.11 against 41.02 dB; silhouette 0.0155 % both; image
+ * popping 0.723 against 0.735); the surface moves at most 0.97 px a frame
+ * against 0.25 at 50 m a frame, still a drift, not a jump. */
+#define CD_MORPH_START 0.95f
+
+static inline float cd_morph_start(float asked)
+{
+    const float a = asked > 0.0f ? asked : CD_MORPH_START;
+    return a < 1.0f / CD_GROW ? 1.0f / CD_GROW : (a > 0.95f ? 0.95f : a);
+}
+
 /* The two neighbours sample (i, j) of an n x n map collapses between, at the
  * spacing where it first appears: along x, along z, or on the diagonal
  * (union jack by the coarser cell's parity) of the coarser cell it centres.

@@ -1026,8 +1026,7 @@ hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_para
     const float tau = p.pixel_error > 0 ? p.pixel_error : 1.0f;
     sel c = {.s = s, .cam = cam, .margin = frustum_margin(cam), .lambda = pixel_k(cam, &p) / tau,
              .hsw = (float)in->h_scale, .spacing = (float)in->spacing, .no_cull = p.no_cull, .st = &st};
-    float a = p.morph_start > 0.0f ? p.morph_start : 1.0f / CD_GROW;
-    a = a < 1.0f / CD_GROW ? 1.0f / CD_GROW : (a > 0.95f ? 0.95f : a);
+    const float a = cd_morph_start(p.morph_start);
     hz_camera_frustum(cam, c.planes);
     st.morph_scale = c.lambda * c.hsw;
     st.morph_start = a;
