@@ -2,7 +2,7 @@
 #include "curvature.glsl"
 // cdlod patches: one static grid of (P+1)^2 vertices (gl_VertexID = w (P+1) + u)
 // drawn once per selected node (instanced). Heights, morph ranges and morph
-// targets come from a texture array of tiles (one pyramid level per tile set),
+// targets come from a buffer texture of tiles (one pyramid level per tile set),
 // addressed per tile, never as one full-resolution buffer. hz_lod_morph_height
 // computes the same on the CPU.
 // Streamed: x0, z0 (samples), layer | shift << 16, ox | oz << 12 | coarse << 28.
@@ -11,7 +11,8 @@
 layout(location = 0) in uvec4 a_patch;
 layout(location = 1) in uvec2 a_slide; // streamed tiles sliding in: the least morph (0..255) of this
                                        // level's vertices inside | W << 8 | E << 16 | N << 24; S
-uniform usampler2DArray u_tiles; // RGBA16UI: h16, morph q (65535 never), target2 lo, target2 hi
+uniform usamplerBuffer u_tiles; // RGBA16UI: h16, morph q (65535 never), target2 lo, target2 hi;
+                                // square tiles back to back (layer, row, column)
 uniform int u_size;              // P: grid cells per side of a patch
 uniform float u_spacing;         // metres between samples
 uniform float u_hscale;          // metres per h16 step, times zscale
@@ -36,10 +37,26 @@ const int STREAM = 1;
 #else
 const int STREAM = 0;
 #endif
+// MORPH false: a still patch (FX_VARIANT_STILL, bit 25): the CPU found that
+// none of its vertices morphs for this eye, so the morph code, which llvmpipe
+// would run for every vertex, is compiled out. The same positions.
+#if (FX_VARIANT & 33554432) != 0
+const bool MORPH = false;
+#else
+const bool MORPH = true;
+#endif
 
 out vec3 v_world;
 out vec3 v_normal;
 out float v_valid; // 1 where the sample has data; triangles touching one without are discarded
+
+// Texel c of tile layer: the tiles are squares of u_tile + 1 texels a side
+// (+ 3 streamed: an apron of one texel around the shared border).
+uvec4 tile_fetch(ivec2 c, int layer)
+{
+    int side = u_tile + (STREAM != 0 ? 3 : 1);
+    return texelFetch(u_tiles, (layer * side + c.y) * side + c.x);
+}
 
 int low_bit(int v)
 {
@@ -56,7 +73,7 @@ uvec4 level_texel(ivec2 s, int l, int m, int base)
 {
     ivec2 g = s >> l;
     ivec2 t = min(g >> u_tile_shift, ivec2(m - 1));
-    return texelFetch(u_tiles, ivec3(g - (t << u_tile_shift), base + t.y * m + t.x), 0);
+    return tile_fetch(g - (t << u_tile_shift), base + t.y * m + t.x);
 }
 
 float morph_factor(uvec4 t, vec3 p)
@@ -90,7 +107,7 @@ bool tile_texel(int i, int j, ivec2 org, int shift, int layer, out uvec4 t)
     ivec2 l = (ivec2(i, j) - org) >> shift;
     bool ok = all(greaterThanEqual(l, ivec2(0))) && all(lessThanEqual(l, ivec2(u_tile))) &&
               ((ivec2(i, j) - org) & ((1 << shift) - 1)) == ivec2(0);
-    t = ok ? texelFetch(u_tiles, ivec3(l + 1, layer), 0) : uvec4(0u); // streamed tiles: a one-texel apron
+    t = ok ? tile_fetch(l + 1, layer) : uvec4(0u); // streamed tiles: a one-texel apron
     return ok;
 }
 
@@ -99,7 +116,7 @@ bool tile_texel(int i, int j, ivec2 org, int shift, int layer, out uvec4 t)
 float stream_h(int i, int j, ivec2 org, int shift, int layer)
 {
     ivec2 l = clamp((ivec2(i, j) - org) >> shift, ivec2(-1), ivec2(u_tile + 1));
-    return u_hoffset + u_hscale * float(texelFetch(u_tiles, ivec3(l + 1, layer), 0).r);
+    return u_hoffset + u_hscale * float(tile_fetch(l + 1, layer).r);
 }
 
 // The normal of the next coarser level at sample (i, j) of the patch's tile
@@ -155,7 +172,7 @@ void main()
         u -= 1;
     if ((w & 1) == 1 && ((u == 0 && (coarse & 1u) != 0u) || (u == u_size && (coarse & 2u) != 0u)))
         w -= 1;
-    uvec4 t = texelFetch(u_tiles, ivec3(ox + (u << ts) + STREAM, oz + (w << ts) + STREAM, layer), 0);
+    uvec4 t = tile_fetch(ivec2(ox + (u << ts) + STREAM, oz + (w << ts) + STREAM), layer);
     int i = int(x0) + (u << shift), j = int(z0) + (w << shift);
     float h = u_hoffset + u_hscale * float(t.r);
     vec3 p = vec3(float(i) * u_spacing, h, float(j) * u_spacing);
@@ -163,7 +180,7 @@ void main()
     float nm = float(slide.x & 255u) / 255.0; // how far the normal leans to the parent level's
     bool odd = ((u | w) & 1) == 1;
     ivec2 a = ivec2(i, j), b = ivec2(i, j); // an odd vertex: the two it collapses between
-    if (u_morph_scale > 0.0) {
+    if (MORPH && u_morph_scale > 0.0) {
         float m = morph_factor(t, p);
         // A tile that just arrived slides in: the vertices this level adds
         // (odd u or w) start at their parent's shape. Along an edge the value

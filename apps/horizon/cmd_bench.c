@@ -20,7 +20,7 @@
 
 typedef struct frame_row {
     double t;
-    uint32_t triangles, nodes_visited, nodes_culled, restricted, nodes_drawn;
+    uint32_t triangles, nodes_visited, nodes_culled, restricted, nodes_drawn, nodes_still;
     double lod_ms, upload_ms, draw_ms, frame_ms, upload_kb;
     double px_p99, px_max;
     uint64_t uncovered;
@@ -546,6 +546,7 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
             return HZ_ERR_GL;
         row->frame_ms = hz_time_ms() - f0;
         row->nodes_drawn = st.leaves;
+        row->nodes_still = st.still;
         row->upload_kb = (double)ds.upload_bytes / 1024.0;
         row->triangles = st.triangles;
         row->nodes_visited = st.nodes_visited;
@@ -635,26 +636,31 @@ typedef struct col {
     bool u32;
     bool pop; /* from the second frame on */
 } col;
-static const col COLS[] = {
-    {"triangles", OFF(triangles), true, false},
-    {"nodes_visited", OFF(nodes_visited), true, false},
-    {"nodes_culled", OFF(nodes_culled), true, false},
-    {"nodes_drawn", OFF(nodes_drawn), true, false},
-    {"upload_kb", OFF(upload_kb), false, false},
-    {"lod_ms", OFF(lod_ms), false, false},
-    {"upload_ms", OFF(upload_ms), false, false},
-    {"draw_ms", OFF(draw_ms), false, false},
-    {"frame_ms", OFF(frame_ms), false, false},
-    {"px_error_p99", OFF(px_p99), false, false},
-    {"px_error_max", OFF(px_max), false, false},
-    {"psnr_db", OFF(psnr), false, false},
-    {"silhouette_frac", OFF(silhouette), false, false},
-    {"popping", OFF(popping), false, true},
-    {"pop_px_max", OFF(pop_px_max), false, true},
-    {"pop_px_mean", OFF(pop_px_mean), false, true},
+/* Columns by name; those from COL_PSNR on need the reference. */
+enum {
+    COL_TRIANGLES, COL_VISITED, COL_CULLED, COL_DRAWN, COL_STILL, COL_UPLOAD_KB, COL_LOD, COL_UPLOAD_MS, COL_DRAW,
+    COL_FRAME, COL_P99, COL_PXMAX, COL_PSNR, COL_SIL, COL_POP, COL_POP_MAX, COL_POP_MEAN, NCOLS,
+    NCOLS_NOREF = COL_PSNR
 };
-enum { NCOLS = sizeof COLS / sizeof *COLS, NCOLS_NOREF = 11, COL_P99 = 9, COL_PXMAX = 10, COL_PSNR = 11,
-       COL_SIL = 12 };
+static const col COLS[NCOLS] = {
+    [COL_TRIANGLES] = {"triangles", OFF(triangles), true, false},
+    [COL_VISITED] = {"nodes_visited", OFF(nodes_visited), true, false},
+    [COL_CULLED] = {"nodes_culled", OFF(nodes_culled), true, false},
+    [COL_DRAWN] = {"nodes_drawn", OFF(nodes_drawn), true, false},
+    [COL_STILL] = {"nodes_still", OFF(nodes_still), true, false},
+    [COL_UPLOAD_KB] = {"upload_kb", OFF(upload_kb), false, false},
+    [COL_LOD] = {"lod_ms", OFF(lod_ms), false, false},
+    [COL_UPLOAD_MS] = {"upload_ms", OFF(upload_ms), false, false},
+    [COL_DRAW] = {"draw_ms", OFF(draw_ms), false, false},
+    [COL_FRAME] = {"frame_ms", OFF(frame_ms), false, false},
+    [COL_P99] = {"px_error_p99", OFF(px_p99), false, false},
+    [COL_PXMAX] = {"px_error_max", OFF(px_max), false, false},
+    [COL_PSNR] = {"psnr_db", OFF(psnr), false, false},
+    [COL_SIL] = {"silhouette_frac", OFF(silhouette), false, false},
+    [COL_POP] = {"popping", OFF(popping), false, true},
+    [COL_POP_MAX] = {"pop_px_max", OFF(pop_px_max), false, true},
+    [COL_POP_MEAN] = {"pop_px_mean", OFF(pop_px_mean), false, true},
+};
 
 typedef struct summary {
     double v[NCOLS][3]; /* median, p95, max */
@@ -806,6 +812,7 @@ static json_t *bench_json(const bench *b, const hz_lod_params *lod, const frame_
         jx_set(o, "draw_ms", jx_fix(r->draw_ms, 3));
         jx_set(o, "frame_ms", jx_fix(r->frame_ms, 3));
         jx_set(o, "nodes_drawn", jx_int(r->nodes_drawn));
+        jx_set(o, "nodes_still", jx_int(r->nodes_still));
         jx_set(o, "upload_kb", jx_fix(r->upload_kb, 3));
         jx_set(o, "lit_map", jx_bool(r->lit_map));
         if (r->lit_bake_ms > 0)

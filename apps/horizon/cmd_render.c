@@ -273,6 +273,7 @@ int cmd_render(int argc, char **argv)
         jx_set(j, "nodes_visited", jx_int(st.nodes_visited));
         jx_set(j, "nodes_culled", jx_int(st.nodes_culled));
         jx_set(j, "leaves", jx_int(st.leaves));
+        jx_set(j, "leaves_still", jx_int(st.still));
         jx_set(j, "restricted", jx_int(st.restricted));
         jx_set(j, "lod_ms", jx_fix(lod_med, 4));
         jx_set(j, "lod_runs", jx_int(o.repeat));
@@ -355,7 +356,10 @@ int cmd_render(int argc, char **argv)
                    o.lod.criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped");
         printf("triangles     %u\n", st.triangles);
         curv_cli_print(&o.curv);
-        printf("nodes         %u visited, %u culled, %u drawn\n", st.nodes_visited, st.nodes_culled, st.leaves);
+        printf("nodes         %u visited, %u culled, %u drawn", st.nodes_visited, st.nodes_culled, st.leaves);
+        if (o.lod.mode == HZ_LOD_CDLOD)
+            printf(" (%u still: no vertex morphs)", st.still);
+        printf("\n");
         printf("LOD           %.3f ms (median of %u; first %.3f ms)\n", lod_med, o.repeat, lod_first);
         printf("draw          %.1f ms (median of 3; first %.1f ms) on %s\n", draw_med, draw_first,
                hz_gl_describe(gl));

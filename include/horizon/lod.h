@@ -109,6 +109,7 @@ typedef struct hz_lod_stats {
     uint32_t forced;        /* cdlod / roam: splits forced to keep the mesh crack-free;
                                bidirectional: coarse nodes split */
     uint32_t merged;        /* bidirectional: fine subtrees coarsened; roam: merges */
+    uint32_t still;         /* cdlod patches: those none of whose vertices morphs (hz_patch.still) */
     float morph_scale;      /* cdlod: metres of morph range per h16 step of a vertex's
                                morph error (0: no morphing this frame) */
     float morph_start;      /* cdlod: morph starts at this fraction of the range */
@@ -163,6 +164,10 @@ typedef struct hz_patch {
      * sharing an edge agree on it). 0 = the distance alone decides. */
     uint8_t slide;
     uint8_t slide_edge[4];
+    /* In-memory terrains: no vertex of the patch morphs for this eye (its
+     * farthest point is nearer than its vertices' morph starts), so the
+     * renderer draws it without the morph code. 0 = may morph. */
+    uint8_t still;
 } hz_patch;
 
 typedef struct hz_patch_list {

@@ -77,6 +77,7 @@ typedef struct fx_frame {
 #define FX_VARIANT_STREAM (1u << 22)  /* cdlod patches over a streamed pyramid (terrain_patch_vs.glsl's STREAM) */
 #define FX_VARIANT_DETAIL_FAR (1u << 23) /* patches beyond the ground detail's fade: its far colour only */
 #define FX_VARIANT_LIT (1u << 24)        /* the plain terrain reads its colour from the lit map */
+#define FX_VARIANT_STILL (1u << 25)      /* patches none of whose vertices morph: no morph code */
 #define SKY_CELLS (48 * 27) /* the plain sky's grid (sky_grid_vs.glsl: SKY_COLS x SKY_ROWS) */
 #define LIT_KEY_LEN 8 /* the lit map's lighting: sun (3), ambient, snow line, tree line, aridity, zscale */
 /* The ground detail fades out between these multiples of its scale
@@ -132,6 +133,11 @@ typedef struct hist_slot {
     uint32_t w, h;
 } hist_slot;
 
+/* cdlod patches: the main view's go in at most PATCH_CHUNKS flushed draws
+ * (terrain_patch.c), cut once more where the ground detail fades. */
+#define PATCH_CHUNKS 4
+#define PATCH_SEGS (PATCH_CHUNKS + 1)
+
 struct hz_renderer {
     void *ctx;         /* EGLContext or GLXContext current at creation */
     uint32_t width, height;
@@ -168,7 +174,9 @@ struct hz_renderer {
     float lit_key[LIT_KEY_LEN], lit_prev[LIT_KEY_LEN];
 
     /* cdlod patches (terrain_patch.c) */
-    GLuint tiles_tex;          /* GL_TEXTURE_2D_ARRAY, RGBA16UI tiles of the height pyramid */
+    GLuint tiles_tex, tiles_buf; /* GL_TEXTURE_BUFFER (RGBA16UI) over tiles_buf: the tiles of the
+                                    height pyramid (or the cache slots) back to back, each a square
+                                    of tile_cells + 1 (+ 3 streamed: an apron) texels a side */
     uint32_t tile_cells, tile_top, tile_layers;
     bool streamed;             /* the tiles are a streamed pyramid's cache slots */
     bool wrap;                 /* ... of a repeating terrain: patches may lie a period off the map */
@@ -181,6 +189,10 @@ struct hz_renderer {
     uint32_t n_inst;           /* instances uploaded for this frame */
     uint32_t n_inst_near;      /* the first n_inst_near of them reach nearer than the detail's fade
                                   (patch_detail_split); the rest draw with terrain_patch_far */
+    /* The instances come in segments (the flushed chunks, split at
+     * n_inst_near), each with its still patches (hz_patch.still) first:
+     * segment k is [seg[k], seg[k + 1]), still up to seg_still[k]. */
+    uint32_t seg[PATCH_SEGS + 1], seg_still[PATCH_SEGS], n_seg;
 
     GLuint sky_prog;          /* the plain sky */
     sky_uniforms su;
@@ -188,6 +200,8 @@ struct hz_renderer {
     const prog_variant *terrain_cur, *terrain_plain;
     const prog_variant *terrain_patch_cur; /* this frame's patch variant (NULL: no patches) */
     const prog_variant *terrain_patch_far; /* the same beyond the detail's fade (NULL: no detail) */
+    const prog_variant *terrain_patch_still, *terrain_patch_far_still; /* the same two without the
+                                              morph code, for the still patches (NULL: streamed) */
     const prog_variant *terrain_clip_cur;  /* this frame's reflection-pass variant (NULL: no water) */
 
     /* Current heightmap, world units (metres, zscale applied). */
@@ -297,15 +311,18 @@ void litmap_release(hz_renderer *r);
 void litmap_destroy(hz_renderer *r);
 
 /* ---- terrain_patch.c: cdlod patches ---- */
-/* Converts and uploads a frame's patches (instances). */
-hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, hz_err *err);
+/* Converts and uploads a frame's patches (instances), in segments (the
+ * flushed chunks, split at near), each with its still patches first. */
+hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32_t near, hz_err *err);
 /* How many of the uploaded patches (nearest first) come nearer to the eye
  * than dist, horizontally (a bound for any point they draw, whatever its
  * height or morph): every patch after that many lies entirely beyond it. */
 uint32_t patch_detail_split(const hz_renderer *r, const hz_patch *p, uint32_t count, const float eye[3], float dist);
-/* Draws uploaded patches [first, end) with the bound terrain program (its
- * uniform locations), flushed at the chunk ends (PATCH_CHUNKS) they reach. */
-void patch_draw(hz_renderer *r, const GLint *loc, uint32_t first, uint32_t end);
+/* Draws uploaded patches [first, end) (segment bounds), flushed at the chunk
+ * ends (PATCH_CHUNKS) they reach: the still ones with still (when not
+ * NULL), the others with tp. Both programs' frame uniforms are set
+ * (terrain_program); tp is bound on return. */
+void patch_draw(hz_renderer *r, const prog_variant *tp, const prog_variant *still, uint32_t first, uint32_t end);
 void patch_destroy(hz_renderer *r);
 
 /* ---- fx_ground.c: light map, detail, colour map, forest cover ---- */

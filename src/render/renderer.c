@@ -89,20 +89,38 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
         if (!r->terrain_clip_cur)
             return HZ_ERR_GL;
     }
-    r->terrain_patch_cur = r->terrain_patch_far = NULL;
+    r->terrain_patch_cur = r->terrain_patch_far = r->terrain_patch_still = r->terrain_patch_far_still = NULL;
     if (patches) {
         const uint32_t pkey = key | FX_VARIANT_PATCH | (r->tile_masked ? FX_VARIANT_MASK : 0u) |
                               (r->streamed ? FX_VARIANT_STREAM : 0u);
+        /* llvmpipe runs the morph code for every vertex, morphing or not
+         * (both sides of a branch, masked): still patches get a variant
+         * without it. Streamed tiles slide in by morphing: always with it. */
+        const bool still = !r->streamed;
         r->terrain_patch_cur = prog_cache_get(&r->terrain, pkey, hz_shader_terrain_patch_vs,
                                               hz_shader_terrain_fs, "terrain (patches)", 2, terrain_names, err);
         if (!r->terrain_patch_cur)
             return HZ_ERR_GL;
+        if (still) {
+            r->terrain_patch_still =
+                prog_cache_get(&r->terrain, pkey | FX_VARIANT_STILL, hz_shader_terrain_patch_vs,
+                               hz_shader_terrain_fs, "terrain (still patches)", 2, terrain_names, err);
+            if (!r->terrain_patch_still)
+                return HZ_ERR_GL;
+        }
         if (key & HZ_FX_DETAIL) {
             r->terrain_patch_far =
                 prog_cache_get(&r->terrain, pkey | FX_VARIANT_DETAIL_FAR, hz_shader_terrain_patch_vs,
                                hz_shader_terrain_fs, "terrain (far patches)", 2, terrain_names, err);
             if (!r->terrain_patch_far)
                 return HZ_ERR_GL;
+            if (still) {
+                r->terrain_patch_far_still = prog_cache_get(
+                    &r->terrain, pkey | FX_VARIANT_DETAIL_FAR | FX_VARIANT_STILL, hz_shader_terrain_patch_vs,
+                    hz_shader_terrain_fs, "terrain (far still patches)", 2, terrain_names, err);
+                if (!r->terrain_patch_far_still)
+                    return HZ_ERR_GL;
+            }
         }
     }
     return HZ_OK;
@@ -829,12 +847,18 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
                                                        : (r->terrain_cur ? r->terrain_cur : r->terrain_plain));
         terrain_program(r, f, v, tp, patches);
         if (patches) {
-            /* Patches beyond the ground detail's fade: its far variant. */
+            /* Still patches (no vertex morphs) without the morph code;
+             * patches beyond the ground detail's fade with its far variant. */
             const uint32_t near = r->terrain_patch_far ? r->n_inst_near : r->n_inst;
-            patch_draw(r, tp->loc, 0, near);
+            if (r->terrain_patch_still)
+                terrain_program(r, f, v, r->terrain_patch_still, true);
+            terrain_program(r, f, v, tp, true);
+            patch_draw(r, tp, r->terrain_patch_still, 0, near);
             if (near < r->n_inst) {
+                if (r->terrain_patch_far_still)
+                    terrain_program(r, f, v, r->terrain_patch_far_still, true);
                 terrain_program(r, f, v, r->terrain_patch_far, true);
-                patch_draw(r, r->terrain_patch_far->loc, near, r->n_inst);
+                patch_draw(r, r->terrain_patch_far, r->terrain_patch_far_still, near, r->n_inst);
             }
         } else {
             glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo);
@@ -868,7 +892,7 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
             glDepthMask(GL_FALSE);
             glUniform1i(tl[TL_WIRE], 1);
             if (patches)
-                patch_draw(r, tl, 0, r->n_inst);
+                patch_draw(r, tp, NULL, 0, r->n_inst);
             else
                 glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
             glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
@@ -1046,15 +1070,17 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         return HZ_ERR_GL;
     }
     r->n_inst = r->n_inst_near = 0;
-    if (npatch > 0 && patch_upload(r, params->patches, npatch, err) != HZ_OK) {
+    uint32_t near = npatch;
+    if (npatch > 0 && r->terrain_patch_far) {
+        /* 0.1 % more: the shader's distance is rounded. */
+        const float fade = FX_DETAIL_FADE_FAR * fr.fx.detail_scale * 1.001f;
+        near = patch_detail_split(r, params->patches, npatch, cam->pos, fade);
+    }
+    if (npatch > 0 && patch_upload(r, params->patches, npatch, near, err) != HZ_OK) {
         glBindVertexArray(0);
         return HZ_ERR_GL;
     }
-    if (r->terrain_patch_far) {
-        /* 0.1 % more: the shader's distance is rounded. */
-        const float fade = FX_DETAIL_FADE_FAR * fr.fx.detail_scale * 1.001f;
-        r->n_inst_near = patch_detail_split(r, params->patches, r->n_inst, cam->pos, fade);
-    }
+    r->n_inst_near = r->terrain_patch_far ? near : 0;
     float levels[FX_MAX_REFLECTIONS];
     /* A streamed terrain's mirror image would be the sky alone (its reflection
      * pass draws no patches): the water reflects the sky's colour instead. */

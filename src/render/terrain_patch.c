@@ -1,4 +1,4 @@
-/* cdlod patches on the GPU: a texture array of height tiles (a pyramid,
+/* cdlod patches on the GPU: a buffer texture of height tiles (a pyramid,
  * every level cut in T x T-cell tiles with a shared border), one static
  * P x P-cell grid in a vertex buffer-less index buffer, and per frame one
  * instance per selected node (8 bytes; 24 for a streamed terrain). The
@@ -8,6 +8,7 @@
 #include "render_internal.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -24,9 +25,15 @@
  * tau 2 (2 600 patches, --effects none), without the flush after the last
  * chunk: 1 draw 42.4 / 41.8 ms a frame, 2: 39.0 / 38.7, 4: 38.6 / 38.4,
  * 8: 40.7 / 39.8; that last flush takes 0.5 ms more off, and 7 of the
- * 90 ms of a 2049^2 frame with the default effects. */
-#define PATCH_CHUNKS 4
+ * 90 ms of a 2049^2 frame with the default effects. (PATCH_CHUNKS is in
+ * render_internal.h.) */
 #define PATCH_CHUNK_MIN 64
+
+/* Flushed draws for n patches. */
+static uint32_t patch_chunks(uint32_t n)
+{
+    return n >= PATCH_CHUNKS * PATCH_CHUNK_MIN ? PATCH_CHUNKS : 1;
+}
 
 /* Tile texel: h16, morph q, morph target (sum of two h16, 17 bits) low, and
  * its high bit plus a no-data flag. */
@@ -56,6 +63,49 @@ static void tile_fill(hz_lod *lod, const uint16_t *morph, const uint8_t *valid, 
             o[3] = (uint16_t)((t2 >> 16) | (valid && !valid[(size_t)j * n + i] ? 2u : 0u));
         }
     }
+}
+
+/* The tiles as one buffer texture of layers squares of side texels,
+ * RGBA16UI; 0 texels frees them. A buffer texture, not a 2D array: llvmpipe
+ * fetches a texel of a buffer with one multiply-add per vertex, of an array
+ * through per-vertex lookups of the level's strides and offsets. On the
+ * peers' 4097^2 flight (590 k triangles) the vertex shader's fetches took
+ * about 10 ms of the frame's main thread from an array and 2 ms from a
+ * buffer. */
+static hz_result tiles_alloc(hz_renderer *r, uint32_t layers, uint32_t texels, hz_err *err)
+{
+    glDeleteTextures(1, &r->tiles_tex);
+    glDeleteBuffers(1, &r->tiles_buf);
+    r->tiles_tex = r->tiles_buf = 0;
+    if (!texels)
+        return HZ_OK;
+    GLint max_texels = 0;
+    glGetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &max_texels);
+    const uint64_t total = (uint64_t)layers * texels * texels;
+    if (total > (uint64_t)(max_texels > 0 ? max_texels : 0))
+        return hz_err_set(err, HZ_ERR_UNSUPPORTED,
+                          "renderer: %u cdlod tiles of %u^2 texels need %llu texels of buffer texture "
+                          "(GL_MAX_TEXTURE_BUFFER_SIZE %d)",
+                          layers, texels, (unsigned long long)total, max_texels);
+    glGenBuffers(1, &r->tiles_buf);
+    glBindBuffer(GL_TEXTURE_BUFFER, r->tiles_buf);
+    glBufferData(GL_TEXTURE_BUFFER, (GLsizeiptr)(total * TEXEL_CH * sizeof(uint16_t)), NULL, GL_STATIC_DRAW);
+    glGenTextures(1, &r->tiles_tex);
+    glBindTexture(GL_TEXTURE_BUFFER, r->tiles_tex);
+    glTexBuffer(GL_TEXTURE_BUFFER, GL_RGBA16UI, r->tiles_buf);
+    glBindTexture(GL_TEXTURE_BUFFER, 0);
+    glBindBuffer(GL_TEXTURE_BUFFER, 0);
+    hz_result res = hz_gl_check(err, "cdlod tile buffer allocation (GL_RGBA16UI)");
+    if (res != HZ_OK)
+        tiles_alloc(r, 0, 0, NULL);
+    return res;
+}
+
+/* Tile layer k's texels (a square of side texels). */
+static void tiles_write(uint32_t k, uint32_t texels, const uint16_t *data)
+{
+    const size_t bytes = (size_t)texels * texels * TEXEL_CH * sizeof(uint16_t);
+    glBufferSubData(GL_TEXTURE_BUFFER, (GLintptr)(k * bytes), (GLsizeiptr)bytes, data);
 }
 
 static uint32_t inst_words(const hz_renderer *r)
@@ -130,68 +180,43 @@ hz_result hz_renderer_set_cdlod(hz_renderer *r, hz_lod *lod, const uint8_t *vali
     if (!morph)
         return hz_err_set(err, HZ_ERR_MEMORY, "renderer: out of memory for cdlod's morph data");
     const uint32_t n = hm->size, P = hz_lod_patch_cells(lod);
-    GLint max_layers = 0, max_size = 0;
-    glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &max_layers);
-    glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
-    /* Tiles of T cells: 256, larger when the pyramid would need more layers
-     * than the GPU has. */
-    uint32_t T = 256, top = 0, layers = 0;
-    for (;;) {
-        if (T > n - 1)
-            T = n - 1;
-        top = 0;
-        while (((n - 1) >> top) > T)
-            top++;
-        layers = 0;
-        for (uint32_t l = 0; l <= top; l++) {
-            const uint32_t m = ((n - 1) >> l) / T;
-            layers += m * m;
-        }
-        if (layers <= (uint32_t)max_layers || T >= n - 1 || T + 1 > (uint32_t)max_size / 2)
-            break;
-        T *= 2;
+    /* Tiles of T = 256 cells (the whole map when smaller). */
+    const uint32_t T = n - 1 < 256 ? n - 1 : 256;
+    uint32_t top = 0, layers = 0;
+    while (((n - 1) >> top) > T)
+        top++;
+    for (uint32_t l = 0; l <= top; l++) {
+        const uint32_t m = ((n - 1) >> l) / T;
+        layers += m * m;
     }
     if (T & (T - 1)) /* the shader addresses tiles by shifts */
         return hz_err_set(err, HZ_ERR_UNSUPPORTED, "renderer: cdlod tiles of %u cells (a %ux%u map is not 2^k + 1)",
                           T, n, n);
-    if (layers > (uint32_t)max_layers || T + 1 > (uint32_t)max_size || top >= 16)
-        return hz_err_set(err, HZ_ERR_UNSUPPORTED,
-                          "renderer: a %ux%u cdlod pyramid needs %u tile layers of %u texels "
-                          "(GL_MAX_ARRAY_TEXTURE_LAYERS %d, GL_MAX_TEXTURE_SIZE %d)",
-                          n, n, layers, T + 1, max_layers, max_size);
+    if (top >= 16)
+        return hz_err_set(err, HZ_ERR_UNSUPPORTED, "renderer: a %ux%u cdlod pyramid has more than 16 tile levels",
+                          n, n);
     uint16_t *buf = malloc((size_t)(T + 1) * (T + 1) * TEXEL_CH * sizeof *buf);
     if (!buf)
         return hz_err_set(err, HZ_ERR_MEMORY, "renderer: out of memory for a %u-texel tile", T + 1);
     hz_gl_drain();
-    if (r->tiles_tex)
-        glDeleteTextures(1, &r->tiles_tex);
-    glGenTextures(1, &r->tiles_tex);
-    glBindTexture(GL_TEXTURE_2D_ARRAY, r->tiles_tex);
-    glTexStorage3D(GL_TEXTURE_2D_ARRAY, 1, GL_RGBA16UI, (GLsizei)(T + 1), (GLsizei)(T + 1), (GLsizei)layers);
-    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    res = hz_gl_check(err, "cdlod tile array allocation (GL_RGBA16UI)");
+    res = tiles_alloc(r, layers, T + 1, err);
     uint32_t layer = 0;
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 2);
+    glBindBuffer(GL_TEXTURE_BUFFER, r->tiles_buf);
     for (uint32_t l = 0; res == HZ_OK && l <= top; l++) {
         const uint32_t m = ((n - 1) >> l) / T;
         r->tile_base[l] = (int32_t)layer;
         for (uint32_t tz = 0; tz < m; tz++)
             for (uint32_t tx = 0; tx < m; tx++) {
                 tile_fill(lod, morph, valid, n, T, l, tx, tz, buf);
-                glTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, (GLint)layer, (GLsizei)(T + 1), (GLsizei)(T + 1), 1,
-                                GL_RGBA_INTEGER, GL_UNSIGNED_SHORT, buf);
-                layer++;
+                tiles_write(layer++, T + 1, buf);
             }
     }
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-    glBindTexture(GL_TEXTURE_2D_ARRAY, 0);
+    glBindBuffer(GL_TEXTURE_BUFFER, 0);
     free(buf);
     if (res == HZ_OK)
         res = hz_gl_check(err, "cdlod tile upload");
     if (res != HZ_OK) {
-        glDeleteTextures(1, &r->tiles_tex);
-        r->tiles_tex = 0;
+        tiles_alloc(r, 0, 0, NULL);
         return res;
     }
     r->tile_cells = T;
@@ -205,7 +230,23 @@ hz_result hz_renderer_set_cdlod(hz_renderer *r, hz_lod *lod, const uint8_t *vali
     return patch_grid(r, P, err);
 }
 
-hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, hz_err *err)
+/* The segments of count patches: the chunks, cut at near. */
+static void patch_segments(hz_renderer *r, uint32_t count, uint32_t near)
+{
+    const uint32_t chunks = patch_chunks(count);
+    r->n_seg = 0;
+    r->seg[0] = 0;
+    for (uint32_t c = 0; c < chunks; c++) {
+        const uint32_t ca = (uint32_t)((uint64_t)count * c / chunks);
+        const uint32_t cb = (uint32_t)((uint64_t)count * (c + 1) / chunks);
+        if (near > ca && near < cb)
+            r->seg[++r->n_seg] = near;
+        if (cb > r->seg[r->n_seg])
+            r->seg[++r->n_seg] = cb;
+    }
+}
+
+hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32_t near, hz_err *err)
 {
     if (!r->tiles_tex)
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: cdlod patches to draw before hz_renderer_set_cdlod");
@@ -241,17 +282,29 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, hz_err
                ((uint32_t)q->slide_edge[2] << 24);
         o[5] = q->slide_edge[3];
     }
-    for (uint32_t k = 0; !r->streamed && k < count; k++) {
-        const hz_patch *q = &p[k];
-        if (q->shift > 15 || (q->coarse & ~15u) || q->x0 > 65535 || q->z0 > 65535 ||
-            ((r->patch_cells << q->shift) + q->x0 > n - 1) || ((r->patch_cells << q->shift) + q->z0 > n - 1))
-            return hz_err_set(err, HZ_ERR_VALUE, "renderer: patch %u (%u, %u, shift %u) lies outside the map", k,
-                              q->x0, q->z0, q->shift);
-        /* the shader finds the tile: level min(shift, top), (x0 >> level) / T */
-        uint32_t *o = r->inst_scratch + words * (size_t)k;
-        o[0] = q->x0 | (q->z0 << 16);
-        o[1] = q->shift | ((uint32_t)q->coarse << 4);
+    patch_segments(r, count, near);
+    for (uint32_t g = 0; !r->streamed && g < r->n_seg; g++) {
+        /* the segment's still patches first, then the others, each in order */
+        const uint32_t a = r->seg[g], b = r->seg[g + 1];
+        uint32_t still = 0;
+        for (uint32_t k = a; k < b; k++)
+            still += p[k].still != 0;
+        uint32_t at[2] = {a, a + still};
+        r->seg_still[g] = a + still;
+        for (uint32_t k = a; k < b; k++) {
+            const hz_patch *q = &p[k];
+            if (q->shift > 15 || (q->coarse & ~15u) || q->x0 > 65535 || q->z0 > 65535 ||
+                ((r->patch_cells << q->shift) + q->x0 > n - 1) || ((r->patch_cells << q->shift) + q->z0 > n - 1))
+                return hz_err_set(err, HZ_ERR_VALUE, "renderer: patch %u (%u, %u, shift %u) lies outside the map", k,
+                                  q->x0, q->z0, q->shift);
+            /* the shader finds the tile: level min(shift, top), (x0 >> level) / T */
+            uint32_t *o = r->inst_scratch + words * (size_t)at[q->still == 0]++;
+            o[0] = q->x0 | (q->z0 << 16);
+            o[1] = q->shift | ((uint32_t)q->coarse << 4);
+        }
     }
+    for (uint32_t g = 0; r->streamed && g < r->n_seg; g++)
+        r->seg_still[g] = r->seg[g]; /* streamed patches always draw with the morph code */
     glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
     if (bytes > r->inst_cap || bytes < r->inst_cap / 4) {
         r->inst_cap = bytes + bytes / 4 + 64;
@@ -286,14 +339,11 @@ uint32_t patch_detail_split(const hz_renderer *r, const hz_patch *p, uint32_t co
     return k;
 }
 
-void patch_draw(hz_renderer *r, const GLint *loc, uint32_t first, uint32_t end)
+/* Binds program tp and sets its patch uniforms. */
+static void patch_program(const hz_renderer *r, const prog_variant *tp)
 {
-    if (end > r->n_inst)
-        end = r->n_inst;
-    if (first >= end)
-        return;
-    glActiveTexture(GL_TEXTURE0 + FX_UNIT_TILES);
-    glBindTexture(GL_TEXTURE_2D_ARRAY, r->tiles_tex);
+    const GLint *loc = tp->loc;
+    glUseProgram(tp->prog);
     glUniform1i(loc[TL_SIZE], (GLint)r->patch_cells);
     glUniform1i(loc[TL_MAP], r->streamed && r->wrap ? 0 : (GLint)r->size);
     glUniform1i(loc[TL_TILE], (GLint)r->tile_cells);
@@ -303,13 +353,43 @@ void patch_draw(hz_renderer *r, const GLint *loc, uint32_t first, uint32_t end)
     glUniform1i(loc[TL_TILE_SHIFT], shift); /* in memory tile_cells is a power of two */
     glUniform1i(loc[TL_TOP], (GLint)r->tile_top);
     glUniform1iv(loc[TL_BASE], 16, r->tile_base);
+}
+
+/* Instances [a, b) with program tp (bound when it is not the current one). */
+static void patch_run(const hz_renderer *r, const prog_variant *tp, const prog_variant **bound, uint32_t a,
+                      uint32_t b)
+{
+    if (a >= b)
+        return;
+    if (*bound != tp) {
+        glUseProgram(tp->prog);
+        *bound = tp;
+    }
+    patch_attribs(r, a);
+    glDrawElementsInstanced(GL_TRIANGLES, (GLsizei)r->patch_index_count, GL_UNSIGNED_SHORT, (const void *)0,
+                            (GLsizei)(b - a));
+}
+
+void patch_draw(hz_renderer *r, const prog_variant *tp, const prog_variant *still, uint32_t first, uint32_t end)
+{
+    if (end > r->n_inst)
+        end = r->n_inst;
+    if (first >= end)
+        return;
+    glActiveTexture(GL_TEXTURE0 + FX_UNIT_TILES);
+    glBindTexture(GL_TEXTURE_BUFFER, r->tiles_tex);
+    if (still)
+        patch_program(r, still);
+    patch_program(r, tp);
+    const prog_variant *bound = tp;
     glBindVertexArray(r->patch_vao);
     /* llvmpipe bins a whole scene on this thread before its rasteriser
      * threads start on it. Drawn in a few chunks (nearest first), each
      * flushed, the near patches are rasterised while the far ones and the
      * rest of the frame are still being binned. A GPU does not care. */
-    const uint32_t chunks = r->n_inst >= PATCH_CHUNKS * PATCH_CHUNK_MIN ? PATCH_CHUNKS : 1;
+    const uint32_t chunks = patch_chunks(r->n_inst);
     glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
+    uint32_t g = 0;
     for (uint32_t c = 0; c < chunks; c++) {
         /* chunk c of all the patches, as far as it lies in [first, end) */
         const uint32_t ca = (uint32_t)((uint64_t)r->n_inst * c / chunks);
@@ -317,13 +397,24 @@ void patch_draw(hz_renderer *r, const GLint *loc, uint32_t first, uint32_t end)
         const uint32_t a = ca > first ? ca : first, b = cb < end ? cb : end;
         if (a >= b)
             continue;
-        patch_attribs(r, a);
-        glDrawElementsInstanced(GL_TRIANGLES, (GLsizei)r->patch_index_count, GL_UNSIGNED_SHORT, (const void *)0,
-                                (GLsizei)(b - a));
+        /* its segments: still patches (with still), then the others */
+        while (g < r->n_seg && r->seg[g + 1] <= a)
+            g++;
+        for (; g < r->n_seg && r->seg[g] < b; g++) {
+            const uint32_t sa = r->seg[g] > a ? r->seg[g] : a, sb = r->seg[g + 1] < b ? r->seg[g + 1] : b;
+            const uint32_t mid = still ? (r->seg_still[g] < sa ? sa : (r->seg_still[g] > sb ? sb : r->seg_still[g])) : sa;
+            if (still)
+                patch_run(r, still, &bound, sa, mid);
+            patch_run(r, tp, &bound, mid, sb);
+            if (r->seg[g + 1] > b)
+                break; /* the segment goes on past b */
+        }
         if (b == cb)
             glFlush(); /* at each chunk's end, the last one's too: the terrain is
                           rasterised while the sky, forest and objects are binned */
     }
+    if (bound != tp)
+        glUseProgram(tp->prog);
     patch_attribs(r, 0);
     glBindBuffer(GL_ARRAY_BUFFER, 0);
     glBindVertexArray(r->vao);
@@ -331,7 +422,7 @@ void patch_draw(hz_renderer *r, const GLint *loc, uint32_t first, uint32_t end)
 
 void patch_destroy(hz_renderer *r)
 {
-    glDeleteTextures(1, &r->tiles_tex);
+    tiles_alloc(r, 0, 0, NULL);
     glDeleteVertexArrays(1, &r->patch_vao);
     glDeleteBuffers(1, &r->patch_ibo);
     glDeleteBuffers(1, &r->patch_vbo);
@@ -344,27 +435,15 @@ hz_result hz_renderer_set_stream(hz_renderer *r, const hz_pyr_info *info, uint32
     hz_result res = fx_check_context(r, err, "hz_renderer_set_stream");
     if (res != HZ_OK)
         return res;
-    GLint max_layers = 0, max_size = 0;
-    glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &max_layers);
-    glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
-    if (slots == 0 || slots > (uint32_t)max_layers || texels > (uint32_t)max_size || texels < 5 ||
-        texels - 3 > 4095)
-        return hz_err_set(err, HZ_ERR_UNSUPPORTED,
-                          "renderer: a tile cache of %u layers of %u texels exceeds the GPU "
-                          "(GL_MAX_ARRAY_TEXTURE_LAYERS %d, GL_MAX_TEXTURE_SIZE %d): lower --cache-mb",
-                          slots, texels, max_layers, max_size);
+    if (slots == 0 || texels < 5 || texels - 3 > 4095)
+        return hz_err_set(err, HZ_ERR_VALUE, "renderer: a tile cache of %u slots of %u texels", slots, texels);
     hz_gl_drain();
-    if (r->tiles_tex)
-        glDeleteTextures(1, &r->tiles_tex);
-    glGenTextures(1, &r->tiles_tex);
-    glBindTexture(GL_TEXTURE_2D_ARRAY, r->tiles_tex);
-    glTexStorage3D(GL_TEXTURE_2D_ARRAY, 1, GL_RGBA16UI, (GLsizei)texels, (GLsizei)texels, (GLsizei)slots);
-    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    glBindTexture(GL_TEXTURE_2D_ARRAY, 0);
-    res = hz_gl_check(err, "tile cache allocation (GL_RGBA16UI)");
-    if (res != HZ_OK)
-        return res;
+    res = tiles_alloc(r, slots, texels, err);
+    if (res != HZ_OK) {
+        char why[sizeof err->msg];
+        snprintf(why, sizeof why, "%s", err ? err->msg : "renderer: no room for the tile cache");
+        return hz_err_set(err, res, "%s: lower --cache-mb", why);
+    }
     r->streamed = true;
     r->wrap = info->wrap;
     r->tile_cells = texels - 3; /* a one-texel apron around each tile */
@@ -385,11 +464,8 @@ hz_result hz_renderer_stream_upload(hz_renderer *r, uint32_t slot, const uint16_
 {
     if (!r->streamed || slot >= r->tile_layers)
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: no tile slot %u (hz_renderer_set_stream first)", slot);
-    const GLsizei n = (GLsizei)(r->tile_cells + 3);
-    glBindTexture(GL_TEXTURE_2D_ARRAY, r->tiles_tex);
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 2);
-    glTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, (GLint)slot, n, n, 1, GL_RGBA_INTEGER, GL_UNSIGNED_SHORT, texels);
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-    glBindTexture(GL_TEXTURE_2D_ARRAY, 0);
+    glBindBuffer(GL_TEXTURE_BUFFER, r->tiles_buf);
+    tiles_write(slot, r->tile_cells + 3, texels);
+    glBindBuffer(GL_TEXTURE_BUFFER, 0);
     return hz_gl_check(err, "tile upload");
 }

@@ -159,6 +159,7 @@ void hz_lod_destroy(hz_lod *lod)
     free(lod->stack);
     free(lod->stack_lv);
     free(lod->cd_err);
+    free(lod->cd_qmin);
     free(lod->morph_err);
     free(lod->patch_tmp);
     for (int l = 0; l < 32; l++)
@@ -172,7 +173,7 @@ size_t hz_lod_memory_bytes(const hz_lod *lod)
     if (lod->stamp)
         b += lod->nodes;
     if (lod->cd_err)
-        b += lod->cd_nodes * sizeof(float);
+        b += lod->cd_nodes * (sizeof(float) + sizeof(uint16_t));
     if (lod->morph_err)
         b += (size_t)lod->size * lod->size * sizeof(uint16_t);
     return b + hz__lod_roam_bytes(lod);

@@ -105,9 +105,11 @@ static hz_result cdlod_prepare(hz_lod *lod)
     const size_t cd_nodes = lod->level_offset[lp] + ((size_t)1 << (2 * lp));
     float *e = malloc(cd_nodes * sizeof *e);
     uint16_t *me = malloc((size_t)n * n * sizeof *me);
-    if (!e || !me) {
+    uint16_t *qmin = malloc(cd_nodes * sizeof *qmin);
+    if (!e || !me || !qmin) {
         free(e);
         free(me);
+        free(qmin);
         return HZ_ERR_MEMORY;
     }
     const uint64_t total = cd_nodes;
@@ -195,7 +197,26 @@ static hz_result cdlod_prepare(hz_lod *lod)
         }
         prep_progress(lod, total + done, total * 2);
     }
+    /* Per node, the least morph error of the (P + 1)^2 samples its patch
+     * draws (stitched vertices are among them): while the node's farthest
+     * point is nearer than morph_start times that range, none of its
+     * vertices morphs (emit_patches marks the patch still). */
+    for (uint32_t l = 0; l <= lp; l++) {
+        const uint32_t s = half_of(lod, l), m = 1u << l, h = 2 * s / P;
+        for (uint32_t zi = 0; zi < m; zi++)
+            for (uint32_t xi = 0; xi < m; xi++) {
+                const uint32_t x0 = xi * 2 * s, z0 = zi * 2 * s;
+                uint16_t q = UINT16_MAX;
+                for (uint32_t b = 0; b <= P; b++) {
+                    const uint16_t *row = me + (size_t)(z0 + b * h) * n + x0;
+                    for (uint32_t a = 0; a <= P; a++)
+                        q = row[a * h] < q ? row[a * h] : q;
+                }
+                qmin[cd_index(lod, l, xi, zi)] = q;
+            }
+    }
     prep_progress(lod, total * 2, total * 2);
+    lod->cd_qmin = qmin;
     lod->cd_err = e;
     lod->cd_nodes = cd_nodes;
     lod->morph_err = me;
@@ -406,6 +427,29 @@ static hz_result cdlod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_pa
 }
 
 /* The leaves of the last cdlod_select as patches, nearest first. */
+/* Whether no vertex of node (l, x, z)'s patch morphs for the eye: its box's
+ * farthest point (the box as drawn, lowered for the Earth's curvature, holds
+ * every vertex before morphing, where the shader measures the distance) is
+ * nearer than the smallest range's morph start, with a margin for the
+ * shader's float rounding. */
+static uint8_t patch_still(const hz_lod *lod, const hz_lod_stats *st, uint32_t l, uint32_t x, uint32_t z,
+                           vec3 box[2], const vec3 eye)
+{
+    if (st->morph_scale <= 0.0f)
+        return 1;
+    const uint32_t shift = lod->levels - l;
+    const uint16_t q = lod->cd_qmin[cd_index(lod, l, x >> shift, z >> shift)];
+    if (q == UINT16_MAX)
+        return 1; /* nothing here ever morphs */
+    float d2 = 0.0f;
+    for (int a = 0; a < 3; a++) {
+        const float v = fmaxf(fabsf(box[0][a] - eye[a]), fabsf(box[1][a] - eye[a]));
+        d2 += v * v;
+    }
+    const float start = st->morph_start * st->morph_scale * (float)q;
+    return sqrtf(d2) * 1.001f + 0.01f < start;
+}
+
 static hz_result emit_patches(hz_lod *lod, const hz_camera *cam, hz_patch_list *out, hz_lod_stats *st)
 {
     const uint32_t lp = lod->patch_level, P = lod->patch;
@@ -429,8 +473,10 @@ static hz_result emit_patches(hz_lod *lod, const hz_camera *cam, hz_patch_list *
             box_of(lod, idx, x, z, s, box);
             out->data[out->count++] = (hz_patch){.x0 = x - s, .z0 = z - s, .shift = (uint8_t)shift,
                                                  .coarse = coarse, .level = (uint16_t)l,
-                                                 .dist = box_distance((const vec3 *)box, cam->pos)};
+                                                 .dist = box_distance((const vec3 *)box, cam->pos),
+                                                 .still = patch_still(lod, st, l, x, z, box, cam->pos)};
             st->triangles += hz__patch_triangles(P, coarse);
+            st->still += out->data[out->count - 1].still;
             st->leaves++;
             if (l > st->max_level)
                 st->max_level = l;

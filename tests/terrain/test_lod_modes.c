@@ -317,6 +317,58 @@ static void test_cdlod_patch_box_holds_drawn(void **state)
     hz_grid_free(&g);
 }
 
+/* A patch the selection marks still (drawn without the morph code) has no
+ * vertex that morphs, for any camera, bound, morph start and Earth
+ * curvature; and the mark is not vacuous: many patches carry it, and many
+ * of the others do morph. */
+static void test_cdlod_still_patches_do_not_morph(void **state)
+{
+    (void)state;
+    hz_grid g;
+    make_random_grid(&g, 257, 400.0f);
+    terrain t;
+    terrain_init(&t, "rough", &g, 10.0f);
+    hz_patch_list pl = {0};
+    size_t still = 0, moving = 0, morphing = 0, checked = 0;
+    for (int k = 0; k < 60; k++) {
+        hz_camera cam = random_camera(&t);
+        if (k % 3 == 2)
+            cam.earth_radius = 20000.0f; /* a strong curvature: the shader measures to the lowered vertex */
+        hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = frand(0.5f, 4.0f), .viewport_height = 720,
+                           .morph_start = (k & 1) ? 0.0f : frand(0.8f, 0.95f)};
+        hz_lod_stats st;
+        assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
+        const uint32_t n = t.hm.size;
+        uint32_t marked = 0;
+        for (size_t q = 0; q < pl.count; q++) {
+            const hz_patch *pt = &pl.data[q];
+            const uint32_t step = 1u << pt->shift, side = hz_lod_patch_cells(t.lod) << pt->shift;
+            bool any = false;
+            for (uint32_t j = pt->z0; j <= pt->z0 + side; j += step)
+                for (uint32_t i = pt->x0; i <= pt->x0 + side; i += step) {
+                    const float m = hz_lod_morph_factor(t.lod, &cam, &st, j * n + i);
+                    any = any || m > 0.0f;
+                    if (pt->still) {
+                        assert_true(m == 0.0f);
+                        checked++;
+                    }
+                }
+            marked += pt->still != 0;
+            still += pt->still != 0;
+            moving += pt->still == 0;
+            morphing += !pt->still && any;
+        }
+        assert_int_equal(st.still, marked);
+    }
+    fprintf(stderr, "still patches: %zu (%zu vertices, none morphing); others %zu, %zu of them morphing\n", still,
+            checked, moving, morphing);
+    assert_true(still > 0.3 * (double)(still + moving));
+    assert_true(morphing > 0.5 * (double)moving);
+    free(pl.data);
+    terrain_free(&t);
+    hz_grid_free(&g);
+}
+
 /* ---- popping ---- */
 
 /* The surface as drawn at every sample (NAN where uncovered). */
@@ -617,6 +669,7 @@ int main(void)
         cmocka_unit_test(test_modes_valid_synthetic),
         cmocka_unit_test(test_modes_valid_generated_and_real),
         cmocka_unit_test(test_cdlod_patch_box_holds_drawn),
+        cmocka_unit_test(test_cdlod_still_patches_do_not_morph),
         cmocka_unit_test(test_pixel_error_bound),
         cmocka_unit_test(test_cdlod_no_popping),
         cmocka_unit_test(test_cdlod_morph_targets),
