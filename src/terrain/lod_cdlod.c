@@ -443,11 +443,11 @@ static uint8_t patch_still(const hz_lod *lod, const hz_lod_stats *st, uint32_t l
         return 1; /* nothing here ever morphs */
     float d2 = 0.0f;
     for (int a = 0; a < 3; a++) {
-        const float v = fmaxf(fabsf(box[0][a] - eye[a]), fabsf(box[1][a] - eye[a]));
-        d2 += v * v;
+        const float lo = box[0][a] - eye[a], hi = box[1][a] - eye[a];
+        d2 += lo * lo > hi * hi ? lo * lo : hi * hi;
     }
-    const float start = st->morph_start * st->morph_scale * (float)q;
-    return sqrtf(d2) * 1.001f + 0.01f < start;
+    const float start = st->morph_start * st->morph_scale * (float)q - 0.01f;
+    return start > 0.0f && d2 * 1.002f < start * start; /* d * 1.001 + 0.01 < the start, squared */
 }
 
 static hz_result emit_patches(hz_lod *lod, const hz_camera *cam, hz_patch_list *out, hz_lod_stats *st)
