@@ -269,23 +269,36 @@ static void test_pixel_error_bound(void **state)
     hz_grid_free(&g);
 }
 
+/* A rough 257^2 terrain for the patch tests. */
+static void rough_terrain(hz_grid *g, terrain *t)
+{
+    make_random_grid(g, 257, 400.0f);
+    terrain_init(t, "rough", g, 10.0f);
+}
+
+/* cdlod patches for cam at a random bound; every other k at a random morph
+ * start, the others at the default. */
+static void random_patches(terrain *t, int k, const hz_camera *cam, hz_patch_list *pl, hz_lod_stats *st)
+{
+    hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = frand(0.5f, 4.0f), .viewport_height = 720,
+                       .morph_start = (k & 1) ? 0.0f : frand(0.8f, 0.95f)};
+    assert_int_equal(hz_lod_select_patches(t->lod, cam, &p, pl, st), HZ_OK);
+}
+
 /* The box occlusion culling tests a patch by (hz_lod_patch_box) holds every
  * vertex of the patch as drawn, morphed, for any camera and bound. */
 static void test_cdlod_patch_box_holds_drawn(void **state)
 {
     (void)state;
     hz_grid g;
-    make_random_grid(&g, 257, 400.0f);
     terrain t;
-    terrain_init(&t, "rough", &g, 10.0f);
+    rough_terrain(&g, &t);
     hz_patch_list pl = {0};
     size_t vertices = 0, moved = 0, tight = 0;
     for (int k = 0; k < 40; k++) {
         hz_camera cam = random_camera(&t);
-        hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = frand(0.5f, 4.0f), .viewport_height = 720,
-                           .morph_start = (k & 1) ? 0.0f : frand(0.8f, 0.95f)};
         hz_lod_stats st;
-        assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
+        random_patches(&t, k, &cam, &pl, &st);
         const uint32_t n = t.hm.size;
         for (size_t q = 0; q < pl.count; q++) {
             const hz_patch *pt = &pl.data[q];
@@ -325,19 +338,16 @@ static void test_cdlod_still_patches_do_not_morph(void **state)
 {
     (void)state;
     hz_grid g;
-    make_random_grid(&g, 257, 400.0f);
     terrain t;
-    terrain_init(&t, "rough", &g, 10.0f);
+    rough_terrain(&g, &t);
     hz_patch_list pl = {0};
     size_t still = 0, moving = 0, morphing = 0, checked = 0;
     for (int k = 0; k < 60; k++) {
         hz_camera cam = random_camera(&t);
         if (k % 3 == 2)
             cam.earth_radius = 20000.0f; /* a strong curvature: the shader measures to the lowered vertex */
-        hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = frand(0.5f, 4.0f), .viewport_height = 720,
-                           .morph_start = (k & 1) ? 0.0f : frand(0.8f, 0.95f)};
         hz_lod_stats st;
-        assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
+        random_patches(&t, k, &cam, &pl, &st);
         const uint32_t n = t.hm.size;
         uint32_t marked = 0;
         for (size_t q = 0; q < pl.count; q++) {
