@@ -188,7 +188,8 @@ struct hz_renderer {
     size_t inst_scratch_cap, inst_cap, inst_bytes;
     uint32_t n_inst;           /* instances uploaded for this frame */
     uint32_t n_inst_near;      /* the first n_inst_near of them reach nearer than the detail's fade
-                                  (patch_detail_split); the rest draw with terrain_patch_far */
+                                  (patch_detail_split; all of them without the detail); the rest
+                                  draw with terrain_patch_far */
     /* The instances come in segments (the flushed chunks, split at
      * n_inst_near), each with its still patches (hz_patch.still) first:
      * segment k is [seg[k], seg[k + 1]), still up to seg_still[k]. */

@@ -849,11 +849,10 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
         if (patches) {
             /* Still patches (no vertex morphs) without the morph code;
              * patches beyond the ground detail's fade with its far variant. */
-            const uint32_t near = r->terrain_patch_far ? r->n_inst_near : r->n_inst;
+            const uint32_t near = r->n_inst_near;
             if (r->terrain_patch_still)
                 terrain_program(r, f, v, r->terrain_patch_still, true);
-            terrain_program(r, f, v, tp, true);
-            patch_draw(r, tp, r->terrain_patch_still, 0, near);
+            patch_draw(r, tp, r->terrain_patch_still, 0, near); /* binds tp again */
             if (near < r->n_inst) {
                 if (r->terrain_patch_far_still)
                     terrain_program(r, f, v, r->terrain_patch_far_still, true);
@@ -1080,7 +1079,7 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         glBindVertexArray(0);
         return HZ_ERR_GL;
     }
-    r->n_inst_near = r->terrain_patch_far ? near : 0;
+    r->n_inst_near = near;
     float levels[FX_MAX_REFLECTIONS];
     /* A streamed terrain's mirror image would be the sky alone (its reflection
      * pass draws no patches): the water reflects the sky's colour instead. */
@@ -1166,7 +1165,7 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         stats->billboards = (fr.bits & HZ_FX_BILLBOARDS) ? (uint32_t)r->n_trees : 0;
         stats->particles = (fr.bits & HZ_FX_WEATHER) ? (uint32_t)r->n_particles : 0;
         stats->reflections = r->n_refl;
-        stats->far_patches = r->terrain_patch_far ? r->n_inst - r->n_inst_near : 0;
+        stats->far_patches = r->n_inst - r->n_inst_near;
         stats->lit_map = fr.lit;
         stats->lit_bake_ms = bake_ms;
     }

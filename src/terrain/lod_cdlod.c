@@ -97,6 +97,13 @@ static inline size_t cd_index(const hz_lod *lod, uint32_t l, uint32_t xi, uint32
     return lod->level_offset[l] + ((size_t)zi << l) + xi;
 }
 
+/* The same for the node of level l centred at sample (x, z). */
+static inline size_t cd_node(const hz_lod *lod, uint32_t l, uint32_t x, uint32_t z)
+{
+    const uint32_t shift = lod->levels - l;
+    return cd_index(lod, l, x >> shift, z >> shift);
+}
+
 static hz_result cdlod_prepare(hz_lod *lod)
 {
     if (lod->cd_err && lod->morph_err)
@@ -242,9 +249,8 @@ float hz_lod_patch_error(hz_lod *lod, const hz_patch *p)
 {
     if (cdlod_prepare(lod) != HZ_OK || p->level > lod->patch_level)
         return 0.0f;
-    const uint32_t shift = lod->levels - p->level;
     const uint32_t s = half_of(lod, p->level);
-    return lod->cd_err[cd_index(lod, p->level, (p->x0 + s) >> shift, (p->z0 + s) >> shift)];
+    return lod->cd_err[cd_node(lod, p->level, p->x0 + s, p->z0 + s)];
 }
 
 uint32_t hz_lod_patch_cells(const hz_lod *lod)
@@ -404,7 +410,6 @@ static hz_result cdlod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_pa
     for (uint32_t l = 0; l <= lp; l++) {
         c.cur_level = l;
         const bool can_split = l < lp;
-        const uint32_t shift = lod->levels - l;
         for (size_t k = 0; k < lod->lv_n[l]; k++) {
             const uint32_t x = lod->lv[l][k].x, z = lod->lv[l][k].z;
             const size_t idx = node_index(lod, l, x, z);
@@ -415,7 +420,7 @@ static hz_result cdlod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_pa
             if (is_culled || !can_split)
                 continue;
             /* distance to the box < range, compared squared */
-            const float range = lambda * lod->cd_err[cd_index(lod, l, x >> shift, z >> shift)] * hsw;
+            const float range = lambda * lod->cd_err[cd_node(lod, l, x, z)] * hsw;
             if (box_distance2((const vec3 *)box, cam->pos) < range * range) {
                 hz_result r = split_node(&c, l, x, z, false);
                 if (r != HZ_OK)
@@ -437,8 +442,7 @@ static uint8_t patch_still(const hz_lod *lod, const hz_lod_stats *st, uint32_t l
 {
     if (st->morph_scale <= 0.0f)
         return 1;
-    const uint32_t shift = lod->levels - l;
-    const uint16_t q = lod->cd_qmin[cd_index(lod, l, x >> shift, z >> shift)];
+    const uint16_t q = lod->cd_qmin[cd_node(lod, l, x, z)];
     if (q == UINT16_MAX)
         return 1; /* nothing here ever morphs */
     float d2 = 0.0f;
