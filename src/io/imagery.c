@@ -204,6 +204,16 @@ hz_result hz_imagery_load(const hz_imagery_desc *d, hz_imagery *out, hz_err *err
                          d->path);
         goto done;
     }
+    /* A pixel of next to no size (or not a number) makes the warper read a
+     * source window of absurd size: GDAL allocated 960 MB for a 345-byte
+     * GeoTIFF of 8 x 170 pixels of about 1e-300 units. 1e-9 is 0.1 mm in
+     * degrees, a nanometre in metres. */
+    if (has_gt && !(fabs(sgt[1]) + fabs(sgt[2]) >= 1e-9 && fabs(sgt[4]) + fabs(sgt[5]) >= 1e-9 &&
+                    isfinite(sgt[0] + sgt[1] + sgt[2] + sgt[3] + sgt[4] + sgt[5]))) {
+        res = hz_err_set(err, HZ_ERR_VALUE, "imagery: %s has a degenerate geotransform (pixel size %g x %g)", d->path,
+                         sgt[1], sgt[5]);
+        goto done;
+    }
     const char *srs = has_gt ? GDALGetProjectionRef(src) : GDALGetGCPProjection(src);
     const bool assume_crs = !srs || !srs[0];
     if (assume_crs)
