@@ -31,6 +31,11 @@ bool hz_size_parse(const char *s, uint64_t min, uint64_t max, uint64_t *out);
 /* Formats bytes as "17.2 GB" (powers of 1024, GB = GiB) into buf. */
 const char *hz_size_format(uint64_t bytes, char *buf, size_t cap);
 
+/* Grows the array *p of *cap elements of elem bytes to hold at least need,
+ * doubling from first elements. False, with *p and *cap unchanged, when need
+ * exceeds UINT32_MAX / 2 (counts stay 32-bit) or realloc fails. */
+bool hz_grow(void **p, uint32_t *cap, uint64_t need, size_t elem, uint32_t first);
+
 /* ---- file identity ---- */
 
 /* True when a and b name the same file: both exist and have the same device

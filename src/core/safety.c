@@ -37,6 +37,23 @@ const char *hz_size_format(uint64_t bytes, char *buf, size_t cap)
     return buf;
 }
 
+bool hz_grow(void **p, uint32_t *cap, uint64_t need, size_t elem, uint32_t first)
+{
+    if (need <= *cap)
+        return true;
+    if (need > UINT32_MAX / 2)
+        return false;
+    uint64_t c = *cap ? *cap : (first ? first : 1);
+    while (c < need)
+        c *= 2;
+    void *q = realloc(*p, (size_t)c * elem);
+    if (!q)
+        return false;
+    *p = q;
+    *cap = (uint32_t)c;
+    return true;
+}
+
 hz_result hz_mem_check(uint64_t bytes, uint64_t budget, const char *what, hz_err *err)
 {
     if (budget == 0)

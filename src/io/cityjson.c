@@ -3,6 +3,8 @@
 #define _GNU_SOURCE
 #include "horizon/city.h"
 
+#include "horizon/safety.h"
+
 #include <errno.h>
 #include <float.h>
 #include <jansson.h>
@@ -54,23 +56,6 @@ static hz_result fail(loader *L, hz_result code, const char *fmt, ...)
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
     return hz_err_set(L->err, code, "%s: %s%s%s%s", L->name, L->where, L->path, L->path[0] ? ": " : "", msg);
-}
-
-static bool reserve(void **p, uint32_t *cap, uint64_t need, size_t elem)
-{
-    if (need <= *cap)
-        return true;
-    if (need > UINT32_MAX / 2)
-        return false;
-    uint64_t c = *cap ? *cap : 64;
-    while (c < need)
-        c *= 2;
-    void *q = realloc(*p, (size_t)c * elem);
-    if (!q)
-        return false;
-    *p = q;
-    *cap = (uint32_t)c;
-    return true;
 }
 
 void hz_city_destroy(hz_city *c)
@@ -165,7 +150,7 @@ static hz_result append_vertices(loader *L, json_t *vs)
     hz_city *c = L->c;
     if (n > UINT32_MAX / 4 || (uint64_t)c->vert_count + n > UINT32_MAX / 4)
         return fail(L, HZ_ERR_VALUE, "%zu vertices is too many", n);
-    if (!reserve((void **)&c->verts, &L->vert_cap, 3 * ((uint64_t)c->vert_count + (n ? n : 1)), sizeof *c->verts))
+    if (!hz_grow((void **)&c->verts, &L->vert_cap, 3 * ((uint64_t)c->vert_count + (n ? n : 1)), sizeof *c->verts, 64))
         return fail(L, HZ_ERR_MEMORY, "out of memory for %zu vertices", n);
     double *d = c->verts + 3 * (size_t)c->vert_count;
     for (size_t i = 0; i < n; i++) {
@@ -292,7 +277,7 @@ static hz_result read_surface(loader *L, json_t *surf, int kind, hz_city_object 
         return fail(L, HZ_ERR_FORMAT, "a surface must be a non-empty array of rings");
     size_t nr = json_array_size(surf);
     uint64_t total = 0;
-    if (!reserve((void **)&L->rs, &L->rs_cap, nr + 1, sizeof *L->rs))
+    if (!hz_grow((void **)&L->rs, &L->rs_cap, nr + 1, sizeof *L->rs, 64))
         return fail(L, HZ_ERR_MEMORY, "out of memory");
     L->rs[0] = 0;
     for (size_t r = 0; r < nr; r++) {
@@ -300,7 +285,7 @@ static hz_result read_surface(loader *L, json_t *surf, int kind, hz_city_object 
         if (!json_is_array(ring))
             return fail(L, HZ_ERR_FORMAT, "ring %zu is not an array of vertex indices", r);
         size_t m = json_array_size(ring);
-        if (!reserve((void **)&L->pts, &L->pts_cap, 3 * (total + m), sizeof *L->pts))
+        if (!hz_grow((void **)&L->pts, &L->pts_cap, 3 * (total + m), sizeof *L->pts, 64))
             return fail(L, HZ_ERR_MEMORY, "out of memory (ring of %zu vertices)", m);
         for (size_t k = 0; k < m; k++) {
             json_t *q = json_array_get(ring, k);
@@ -316,7 +301,7 @@ static hz_result read_surface(loader *L, json_t *surf, int kind, hz_city_object 
     o->faces++;
     c->faces++;
     uint64_t tcap = total + 2 * nr;
-    if (!reserve((void **)&L->tbuf, &L->tbuf_cap, 3 * tcap, sizeof *L->tbuf))
+    if (!hz_grow((void **)&L->tbuf, &L->tbuf_cap, 3 * tcap, sizeof *L->tbuf, 64))
         return fail(L, HZ_ERR_MEMORY, "out of memory");
     int nt = hz_polygon_triangulate(L->pts, L->rs, (uint32_t)nr, L->tbuf);
     if (nt < 0)
@@ -325,7 +310,7 @@ static hz_result read_surface(loader *L, json_t *surf, int kind, hz_city_object 
         return HZ_OK; /* degenerate face: nothing to draw */
     /* The scratch points map back to the file's vertex indices. */
     uint32_t base = c->tri_count;
-    if (!reserve((void **)&c->tris, &L->tri_cap, 3 * ((uint64_t)base + (uint32_t)nt), sizeof *c->tris))
+    if (!hz_grow((void **)&c->tris, &L->tri_cap, 3 * ((uint64_t)base + (uint32_t)nt), sizeof *c->tris, 64))
         return fail(L, HZ_ERR_MEMORY, "out of memory (%u triangles)", base);
     uint8_t *nk = realloc(c->tri_kind, (size_t)L->tri_cap / 3 + 1);
     if (!nk)
@@ -557,8 +542,8 @@ static hz_result instance_vertices(loader *L, json_t *g, json_t **tmpl)
     const uint64_t limit = 8u << 20; /* 192 MB of vertices */
     if (L->instanced + L->tvert_count > limit)
         return fail(L, HZ_ERR_VALUE, "geometry instances add more than %llu vertices", (unsigned long long)limit);
-    if (!reserve((void **)&c->verts, &L->vert_cap, 3 * ((uint64_t)c->vert_count + L->tvert_count),
-                  sizeof *c->verts))
+    if (!hz_grow((void **)&c->verts, &L->vert_cap, 3 * ((uint64_t)c->vert_count + L->tvert_count),
+                 sizeof *c->verts, 64))
         return fail(L, HZ_ERR_MEMORY, "out of memory for the instance's %u vertices", L->tvert_count);
     const double *p0 = c->verts + 3 * ((size_t)L->fbase + (size_t)json_integer_value(ref));
     const double px = p0[0], py = p0[1], pz = p0[2];

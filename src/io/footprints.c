@@ -2,6 +2,7 @@
  * hz_city so they place, draw and pick like CityJSON buildings. */
 #define _GNU_SOURCE
 #include "horizon/city.h"
+#include "horizon/safety.h"
 #include "gdal_util.h"
 
 #include <float.h>
@@ -23,27 +24,10 @@ typedef struct fp_build {
     const char *path;
 } fp_build;
 
-static bool grow_arr(void **p, uint32_t *cap, uint64_t need, size_t elem)
-{
-    if (need <= *cap)
-        return true;
-    if (need > UINT32_MAX / 4)
-        return false;
-    uint64_t c = *cap ? *cap : 256;
-    while (c < need)
-        c *= 2;
-    void *q = realloc(*p, (size_t)c * elem);
-    if (!q)
-        return false;
-    *p = q;
-    *cap = (uint32_t)c;
-    return true;
-}
-
 static uint32_t add_vert(fp_build *b, double x, double y, double z)
 {
     hz_city *c = b->c;
-    if (!grow_arr((void **)&c->verts, &b->vcap, 3ull * (c->vert_count + 1), sizeof *c->verts))
+    if (!hz_grow((void **)&c->verts, &b->vcap, 3ull * (c->vert_count + 1), sizeof *c->verts, 256))
         return UINT32_MAX;
     c->verts[3 * c->vert_count] = x;
     c->verts[3 * c->vert_count + 1] = y;
@@ -55,7 +39,7 @@ static bool add_tri(fp_build *b, uint32_t a, uint32_t d, uint32_t e, hz_surface_
 {
     hz_city *c = b->c;
     uint32_t cap = b->tcap;
-    if (!grow_arr((void **)&c->tris, &b->tcap, 3ull * (c->tri_count + 1), sizeof *c->tris))
+    if (!hz_grow((void **)&c->tris, &b->tcap, 3ull * (c->tri_count + 1), sizeof *c->tris, 256))
         return false;
     if (b->tcap != cap) {
         uint8_t *nk = realloc(c->tri_kind, b->tcap / 3 + 1);
@@ -400,7 +384,7 @@ hz_city *hz_city_load_footprints(const char *path, const hz_footprint_desc *desc
             }
             if (h > 2000)
                 h = 2000;
-            if (!grow_arr((void **)&c->obj, &b.ocap, (uint64_t)c->obj_count + 1, sizeof *c->obj)) {
+            if (!hz_grow((void **)&c->obj, &b.ocap, (uint64_t)c->obj_count + 1, sizeof *c->obj, 256)) {
                 OGR_F_Destroy(f);
                 r = hz_err_set(err, HZ_ERR_MEMORY, "%s: out of memory", path);
                 goto out;

@@ -5,6 +5,8 @@
  * tree from a file cannot overflow anything. */
 #include "horizon/scene.h"
 
+#include "horizon/safety.h"
+
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
@@ -36,25 +38,6 @@ struct hz_scene {
     hz_material *mat;
     uint32_t matcount, matcap;
 };
-
-static bool grow(void **p, uint32_t *cap, uint32_t need, size_t elem)
-{
-    if (need <= *cap)
-        return true;
-    uint64_t c = *cap ? *cap : 16;
-    while (c < need)
-        c *= 2;
-    if (c > UINT32_MAX)
-        c = UINT32_MAX;
-    if (c < need)
-        return false;
-    void *q = realloc(*p, (size_t)c * elem);
-    if (!q)
-        return false;
-    *p = q;
-    *cap = (uint32_t)c;
-    return true;
-}
 
 void hz_box_empty(hz_box *b)
 {
@@ -117,7 +100,7 @@ hz_scene *hz_scene_create(const hz_scene_desc *desc)
     if (!s)
         return NULL;
     uint32_t cap = desc && desc->node_capacity ? desc->node_capacity + 1 : 65;
-    if (!grow((void **)&s->n, &s->cap, cap, sizeof *s->n)) {
+    if (!hz_grow((void **)&s->n, &s->cap, cap, sizeof *s->n, 16)) {
         free(s);
         return NULL;
     }
@@ -148,7 +131,7 @@ void hz_scene_destroy(hz_scene *s)
 
 uint32_t hz_scene_add_material(hz_scene *s, const hz_material *m)
 {
-    if (!grow((void **)&s->mat, &s->matcap, s->matcount + 1, sizeof *s->mat))
+    if (!hz_grow((void **)&s->mat, &s->matcap, s->matcount + 1, sizeof *s->mat, 16))
         return HZ_MESH_NONE;
     s->mat[s->matcount] = *m;
     s->mat[s->matcount].name[sizeof m->name - 1] = 0;
@@ -188,9 +171,9 @@ uint32_t hz_scene_add_mesh(hz_scene *s, const hz_vertex *v, uint32_t vcount, con
             return HZ_MESH_NONE;
         }
     if ((uint64_t)s->vcount + vcount > UINT32_MAX || (uint64_t)s->icount + icount > UINT32_MAX ||
-        !grow((void **)&s->v, &s->vcap, s->vcount + vcount, sizeof *s->v) ||
-        !grow((void **)&s->idx, &s->icap, s->icount + icount, sizeof *s->idx) ||
-        !grow((void **)&s->mesh, &s->mcap, s->mcount + 1, sizeof *s->mesh)) {
+        !hz_grow((void **)&s->v, &s->vcap, s->vcount + vcount, sizeof *s->v, 16) ||
+        !hz_grow((void **)&s->idx, &s->icap, s->icount + icount, sizeof *s->idx, 16) ||
+        !hz_grow((void **)&s->mesh, &s->mcap, s->mcount + 1, sizeof *s->mesh, 16)) {
         hz_err_set(err, HZ_ERR_MEMORY, "mesh: out of memory (%u vertices, %u indices so far)", s->vcount, s->icount);
         return HZ_MESH_NONE;
     }
@@ -245,7 +228,7 @@ uint32_t hz_scene_add_node(hz_scene *s, uint32_t parent, const char *name)
     char *nm = NULL;
     if (name && !(nm = strdup(name)))
         return HZ_NODE_NONE;
-    if (!grow((void **)&s->n, &s->cap, s->count + 1, sizeof *s->n)) {
+    if (!hz_grow((void **)&s->n, &s->cap, s->count + 1, sizeof *s->n, 16)) {
         free(nm);
         return HZ_NODE_NONE;
     }

@@ -63,6 +63,33 @@ static void test_mem_check(void **state)
     assert_int_equal(hz_mem_check(hz_mem_budget_default() + 1, 0, "x", &err), HZ_ERR_MEMORY);
 }
 
+/* hz_grow: doubling from the first capacity, the contents kept; a count
+ * beyond UINT32_MAX / 2 refused with the array untouched. */
+static void test_grow(void **state)
+{
+    (void)state;
+    uint32_t *a = NULL, cap = 0;
+    assert_true(hz_grow((void **)&a, &cap, 0, sizeof *a, 16));
+    assert_null(a); /* nothing needed, nothing allocated */
+    assert_true(hz_grow((void **)&a, &cap, 5, sizeof *a, 16));
+    assert_int_equal(cap, 16);
+    for (uint32_t k = 0; k < 16; k++)
+        a[k] = k * 7;
+    assert_true(hz_grow((void **)&a, &cap, 17, sizeof *a, 16));
+    assert_int_equal(cap, 32);
+    assert_true(hz_grow((void **)&a, &cap, 100, sizeof *a, 16));
+    assert_int_equal(cap, 128);
+    for (uint32_t k = 0; k < 16; k++)
+        assert_int_equal(a[k], k * 7);
+    uint32_t *keep = a;
+    assert_false(hz_grow((void **)&a, &cap, (uint64_t)UINT32_MAX / 2 + 1, sizeof *a, 16));
+    assert_ptr_equal(a, keep);
+    assert_int_equal(cap, 128);
+    assert_true(hz_grow((void **)&a, &cap, 128, sizeof *a, 16)); /* already enough */
+    assert_int_equal(cap, 128);
+    free(a);
+}
+
 static void test_fit_side(void **state)
 {
     (void)state;
@@ -385,7 +412,7 @@ static void test_blob(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_size_parse),      cmocka_unit_test(test_mem_check),
+        cmocka_unit_test(test_size_parse),      cmocka_unit_test(test_mem_check),       cmocka_unit_test(test_grow),
         cmocka_unit_test(test_fit_side),        cmocka_unit_test(test_wide_file_refused),
         cmocka_unit_test(test_gunzip_budget),   cmocka_unit_test(test_gdal_header_budget),   cmocka_unit_test(test_same_file),
         cmocka_unit_test(test_outfile),         cmocka_unit_test(test_blob),
