@@ -182,15 +182,24 @@ static hz_result collect_side(hz_lod *lod, uint32_t l, uint32_t x, uint32_t z, i
     return r;
 }
 
-hz_result hz__lod_select_remedy(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, hz_index_list *out,
-                                hz_node_list *leaves, hz_node_list *culled, hz_lod_stats *st)
+/* The selection both free modes start from: the tree split by the rule,
+ * frustum-culled unless p->no_cull. */
+static hz_result free_start(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, hz_node_list *culled,
+                            hz_lod_stats *st, free_ctx *c)
 {
     if (free_begin(lod))
         return HZ_ERR_MEMORY;
-    free_ctx c = {.lod = lod, .margin = frustum_margin(cam), .no_cull = p->no_cull, .culled = culled, .st = st,
-                  .rule = split_rule_make(cam, p)};
-    hz_camera_frustum(cam, c.planes);
-    hz_result r = free_select(&c);
+    *c = (free_ctx){.lod = lod, .margin = frustum_margin(cam), .no_cull = p->no_cull, .culled = culled, .st = st,
+                    .rule = split_rule_make(cam, p)};
+    hz_camera_frustum(cam, c->planes);
+    return free_select(c);
+}
+
+hz_result hz__lod_select_remedy(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, hz_index_list *out,
+                                hz_node_list *leaves, hz_node_list *culled, hz_lod_stats *st)
+{
+    free_ctx c;
+    hz_result r = free_start(lod, cam, p, culled, st, &c);
     if (r != HZ_OK)
         return r;
     const uint32_t n = lod->size;
@@ -409,12 +418,8 @@ static hz_result gather_leaves(hz_lod *lod, uint32_t l, uint32_t x, uint32_t z)
 hz_result hz__lod_select_bidir(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, hz_index_list *out,
                                hz_node_list *leaves, hz_node_list *culled, hz_lod_stats *st)
 {
-    if (free_begin(lod))
-        return HZ_ERR_MEMORY;
-    free_ctx c = {.lod = lod, .margin = frustum_margin(cam), .no_cull = p->no_cull, .culled = culled, .st = st,
-                  .rule = split_rule_make(cam, p)};
-    hz_camera_frustum(cam, c.planes);
-    hz_result r = free_select(&c);
+    free_ctx c;
+    hz_result r = free_start(lod, cam, p, culled, st, &c);
     if (r != HZ_OK)
         return r;
     const float m_dist = p->bidir_distance > 0 ? p->bidir_distance : 0.25f * (cam->zfar > 0 ? cam->zfar : 1e5f);
