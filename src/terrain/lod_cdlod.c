@@ -431,7 +431,6 @@ static hz_result cdlod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_pa
     return HZ_OK;
 }
 
-/* The leaves of the last cdlod_select as patches, nearest first. */
 /* Whether no vertex of node (l, x, z)'s patch morphs for the eye: its box's
  * farthest point (the box as drawn, lowered for the Earth's curvature, holds
  * every vertex before morphing, where the shader measures the distance) is
@@ -454,6 +453,7 @@ static uint8_t patch_still(const hz_lod *lod, const hz_lod_stats *st, uint32_t l
     return start > 0.0f && d2 * 1.002f < start * start; /* d * 1.001 + 0.01 < the start, squared */
 }
 
+/* The leaves of the last cdlod_select as patches, nearest first. */
 static hz_result emit_patches(hz_lod *lod, const hz_camera *cam, hz_patch_list *out, hz_lod_stats *st)
 {
     const uint32_t lp = lod->patch_level, P = lod->patch;
