@@ -192,8 +192,10 @@ struct hz_renderer {
                                   draw with terrain_patch_far */
     /* The instances come in segments (the flushed chunks, split at
      * n_inst_near), each with its still patches (hz_patch.still) first:
-     * segment k is [seg[k], seg[k + 1]), still up to seg_still[k]. */
+     * segment k is [seg[k], seg[k + 1]), still up to seg_still[k];
+     * seg_flush[k]: it ends a chunk (a glFlush follows it). */
     uint32_t seg[PATCH_SEGS + 1], seg_still[PATCH_SEGS], n_seg;
+    bool seg_flush[PATCH_SEGS];
 
     GLuint sky_prog;          /* the plain sky */
     sky_uniforms su;

@@ -237,10 +237,14 @@ static void patch_segments(hz_renderer *r, uint32_t count, uint32_t near)
     for (uint32_t c = 0; c < chunks; c++) {
         const uint32_t ca = (uint32_t)((uint64_t)count * c / chunks);
         const uint32_t cb = (uint32_t)((uint64_t)count * (c + 1) / chunks);
-        if (near > ca && near < cb)
+        if (near > ca && near < cb) {
+            r->seg_flush[r->n_seg] = false;
             r->seg[++r->n_seg] = near;
-        if (cb > r->seg[r->n_seg])
+        }
+        if (cb > r->seg[r->n_seg]) {
+            r->seg_flush[r->n_seg] = true;
             r->seg[++r->n_seg] = cb;
+        }
     }
 }
 
@@ -385,29 +389,18 @@ void patch_draw(hz_renderer *r, const prog_variant *tp, const prog_variant *stil
      * threads start on it. Drawn in a few chunks (nearest first), each
      * flushed, the near patches are rasterised while the far ones and the
      * rest of the frame are still being binned. A GPU does not care. */
-    const uint32_t chunks = patch_chunks(r->n_inst);
     glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
-    uint32_t g = 0;
-    for (uint32_t c = 0; c < chunks; c++) {
-        /* chunk c of all the patches, as far as it lies in [first, end) */
-        const uint32_t ca = (uint32_t)((uint64_t)r->n_inst * c / chunks);
-        const uint32_t cb = (uint32_t)((uint64_t)r->n_inst * (c + 1) / chunks);
-        const uint32_t a = ca > first ? ca : first, b = cb < end ? cb : end;
-        if (a >= b)
+    for (uint32_t g = 0; g < r->n_seg; g++) {
+        /* segment g as far as it lies in [first, end): its still patches
+         * (with still), then the others */
+        const uint32_t sa = r->seg[g] > first ? r->seg[g] : first, sb = r->seg[g + 1] < end ? r->seg[g + 1] : end;
+        if (sa >= sb)
             continue;
-        /* its segments: still patches (with still), then the others */
-        while (g < r->n_seg && r->seg[g + 1] <= a)
-            g++;
-        for (; g < r->n_seg && r->seg[g] < b; g++) {
-            const uint32_t sa = r->seg[g] > a ? r->seg[g] : a, sb = r->seg[g + 1] < b ? r->seg[g + 1] : b;
-            const uint32_t mid = still ? (r->seg_still[g] < sa ? sa : (r->seg_still[g] > sb ? sb : r->seg_still[g])) : sa;
-            if (still)
-                patch_run(r, still, &bound, sa, mid);
-            patch_run(r, tp, &bound, mid, sb);
-            if (r->seg[g + 1] > b)
-                break; /* the segment goes on past b */
-        }
-        if (b == cb)
+        const uint32_t mid = still ? (r->seg_still[g] < sa ? sa : (r->seg_still[g] > sb ? sb : r->seg_still[g])) : sa;
+        if (still)
+            patch_run(r, still, &bound, sa, mid);
+        patch_run(r, tp, &bound, mid, sb);
+        if (r->seg_flush[g] && sb == r->seg[g + 1])
             glFlush(); /* at each chunk's end, the last one's too: the terrain is
                           rasterised while the sky, forest and objects are binned */
     }
