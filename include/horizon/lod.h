@@ -80,7 +80,7 @@ typedef struct hz_lod_params {
     float bidir_distance; /* bidirectional: m in metres; 0 -> 0.25 x the camera's far distance */
     uint32_t roam_budget; /* roam: at most this many triangles; 0 -> no budget */
     float morph_start;    /* cdlod: fraction of a vertex's range where morphing starts,
-                             clamped to [0.8, 0.95]; 0 -> 0.95 */
+                             clamped to [0.8, 0.98]; 0 -> 0.95 */
 } hz_lod_params;
 
 /* A growable array the caller owns; free with free(list->data). */

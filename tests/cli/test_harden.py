@@ -96,7 +96,7 @@ for cmd, opt in [("render", "--morph-start"), ("render", "--spacing"), ("render"
                  ("render", "--bidir-distance"), ("render", "--blur"), ("render", "--bloom"), ("render", "--gamma"),
                  ("bench", "--fps"), ("view", "--speed"), ("view", "--mouse-sens"), ("render", "--max-memory")]:
     ((ok if (cmd, opt) in tested else bad))("%s %s bounds tested" % (cmd, opt))
-for cmd, opt, val in [("render", "--morph-start", "0.8"), ("render", "--morph-start", "0.95"),
+for cmd, opt, val in [("render", "--morph-start", "0.8"), ("render", "--morph-start", "0.98"),
                       ("render", "--spacing", "0.001"), ("render", "--amplitude", "0.001"),
                       ("render", "--bidir-distance", "0.001"), ("render", "--blur", "0.001"),
                       ("render", "--bloom", "0.001"), ("render", "--gamma", "0.1"), ("bench", "--fps", "0.1"),

@@ -82,7 +82,7 @@ static hz_lod_params random_params(hz_lod_mode mode, int k)
     if (mode == HZ_LOD_ROAM && (k % 4) == 3)
         p.roam_budget = (uint32_t)frand(50, 5000);
     if (mode == HZ_LOD_CDLOD)
-        p.morph_start = frand(0.5f, 0.95f); /* below 0.8 is clamped */
+        p.morph_start = frand(0.5f, 0.98f); /* below 0.8 is clamped */
     return p;
 }
 
@@ -281,7 +281,7 @@ static void rough_terrain(hz_grid *g, terrain *t)
 static void random_patches(terrain *t, int k, const hz_camera *cam, hz_patch_list *pl, hz_lod_stats *st)
 {
     hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = frand(0.5f, 4.0f), .viewport_height = 720,
-                       .morph_start = (k & 1) ? 0.0f : frand(0.8f, 0.95f)};
+                       .morph_start = (k & 1) ? 0.0f : frand(0.8f, 0.98f)};
     assert_int_equal(hz_lod_select_patches(t->lod, cam, &p, pl, st), HZ_OK);
 }
 
