@@ -103,6 +103,12 @@ if [ -f "$PEERS/tools/gen_testdata.py" ]; then
       lod "peers${m}_cdlod_tau$tau" 120 $P --lod cdlod --pixel-error $tau
       lod "peers${m}_cdlod_tau${tau}_speed" 120 $P --lod cdlod --pixel-error $tau --reference off --metrics off
     done
+    if [ $m = 4097 ]; then
+      # the narrowest morph zone: Ogre tau 1's image error at tau 1.5 (README, against Ogre)
+      lod "peers4097_cdlod_tau1.5_morph0.98" 120 $P --lod cdlod --pixel-error 1.5 --morph-start 0.98
+      lod "peers4097_cdlod_tau1.5_morph0.98_speed" 120 $P --lod cdlod --pixel-error 1.5 --morph-start 0.98 \
+        --reference off --metrics off
+    fi
     # at Ogre tau 1's image error (../shared/peers/RESULTS.md): median silhouette and PSNR
     if [ $m = 4097 ]; then ogre="--tune-silhouette 0.000168 --tune-psnr 41.0"; else ogre="--tune-silhouette 0.00009 --tune-psnr 46.7"; fi
     lod "peers${m}_cdlod_ogre1_image" 120 $P --lod cdlod $ogre
