@@ -28,6 +28,15 @@
  * 0.0186 %, same PSNR): the nested sums refine distant coarse nodes, whose
  * error shows on the horizon, relatively more.
  *
+ * NOTE: splitting N only when the eye nears one of its quarters (a nested
+ * bound per child area, the morph ranges derived from it) saves 6.5 % of the
+ * triangles at a given tau but shortens the morph ranges: on that flight at
+ * tau 1.5 PSNR fell from 41.02 to 40.18 dB, and at equal PSNR it needs as
+ * many triangles. It also leaves more patches morphing (not still). Drawing
+ * a leaf whose added vertices have all morphed with its parent's grid over
+ * its area is exact, but with this split only 3 % of the leaves qualify
+ * (8 % of the odd vertices drawn are fully morphed): 2 % fewer triangles.
+ *
  * Selection: N splits when the distance from the eye to N's box is below its
  * range R(N) = lambda * delta'(N), lambda = K / tau (K = pixels per metre at
  * one metre). An unsplit node is then at distance >= R, so its error projects
