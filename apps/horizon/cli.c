@@ -9,6 +9,10 @@
 #include "horizon/gl_limits.h"
 #include "horizon/safety.h"
 
+/* A macro's value as a string literal (for bounds in messages). */
+#define STR_(x) #x
+#define STR(x) STR_(x)
+
 bool cli_parse_float(const char *s, double lo, double hi, float *out)
 {
     char *end;
@@ -98,7 +102,8 @@ void cli_usage_terrain(void)
             "  --no-cull               disable frustum culling\n"
             "  --bidir-distance M      bidirectional: coarsen beyond M metres, split nearer (default far/4)\n"
             "  --roam-budget N         roam: at most N triangles (default: no budget)\n"
-            "  --morph-start A         cdlod: morphing starts at this fraction of a range, 0.8..0.98 (0.95)\n"
+            "  --morph-start A         cdlod: morphing starts at this fraction of a range, " STR(HZ_LOD_MORPH_START_MIN)
+            ".." STR(HZ_LOD_MORPH_START_MAX) " (" STR(HZ_LOD_MORPH_START_DEFAULT) ")\n"
             "  --patch-cells N         cdlod: grid cells per side of the patch each node draws (default 8)\n"
             "view:\n"
             "  --camera X,Y,Z,YAW,PITCH  metres and degrees (default: above the centre)\n"
@@ -325,8 +330,9 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
                 return bad(cmd, a, v, "a power of two in [2, 256]");
         } else if (!strcmp(a, "--morph-start")) {
             NEEDV();
-            if (!cli_parse_float(v, 0.8, 0.98, &o->lod.morph_start))
-                return bad(cmd, a, v, "a fraction in [0.8, 0.98]");
+            if (!cli_parse_float(v, HZ_LOD_MORPH_START_MIN, HZ_LOD_MORPH_START_MAX, &o->lod.morph_start))
+                return bad(cmd, a, v,
+                           "a fraction in [" STR(HZ_LOD_MORPH_START_MIN) ", " STR(HZ_LOD_MORPH_START_MAX) "]");
         } else if (!strcmp(a, "--camera")) {
             NEEDV();
             char buf[256], *it[5];

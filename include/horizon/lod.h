@@ -65,6 +65,13 @@ const char *hz_lod_mode_name(hz_lod_mode mode);
 /* False if the name is unknown. */
 bool hz_lod_mode_from_name(const char *name, hz_lod_mode *mode);
 
+/* cdlod's morph start (hz_lod_params.morph_start): the range it is clamped
+ * to and its default. The lower end is where the morph zones of two
+ * consecutive levels would begin to overlap. */
+#define HZ_LOD_MORPH_START_MIN 0.8
+#define HZ_LOD_MORPH_START_MAX 0.98
+#define HZ_LOD_MORPH_START_DEFAULT 0.95
+
 typedef struct hz_lod_params {
     hz_lod_mode mode;     /* 0 -> quadtree */
     float c;              /* distance factor C; 0 -> 25 */
@@ -79,8 +86,8 @@ typedef struct hz_lod_params {
     uint32_t viewport_height; /* pixels, for pixel_error; 0 -> 720 */
     float bidir_distance; /* bidirectional: m in metres; 0 -> 0.25 x the camera's far distance */
     uint32_t roam_budget; /* roam: at most this many triangles; 0 -> no budget */
-    float morph_start;    /* cdlod: fraction of a vertex's range where morphing starts,
-                             clamped to [0.8, 0.98]; 0 -> 0.95 */
+    float morph_start;    /* cdlod: fraction of a vertex's range where morphing starts, clamped to
+                             [HZ_LOD_MORPH_START_MIN, _MAX]; 0 -> HZ_LOD_MORPH_START_DEFAULT */
 } hz_lod_params;
 
 /* A growable array the caller owns; free with free(list->data). */

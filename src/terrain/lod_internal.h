@@ -278,11 +278,11 @@ static inline float frustum_margin(const hz_camera *cam)
 
 /* cdlod: error bounds grow at least this much per level (the dilation in
  * lod_cdlod.c and in the pyramid import); morph zones of consecutive levels
- * then do not overlap for morph_start >= 1 / CD_GROW. */
+ * then do not overlap for morph_start >= 1 / CD_GROW (HZ_LOD_MORPH_START_MIN). */
 #define CD_GROW 1.25f
 
 /* cdlod: where a vertex starts morphing, as a fraction of its range:
- * params' value (0 -> CD_MORPH_START), clamped to [1 / CD_GROW, 0.98].
+ * params' value (0 -> CD_MORPH_START), clamped to [HZ_LOD_MORPH_START_MIN, _MAX].
  * The morph keeps the error under tau whatever its width, but outside the
  * zone every vertex is at its true height, so a narrow zone draws the same
  * surface closer to the truth on average; it also crosses the zone faster.
@@ -294,12 +294,13 @@ static inline float frustum_margin(const hz_camera *cam)
  * image popping 0.714 against 0.721, but the surface moves up to 1.5 px a
  * frame (median frame, 50 m a frame) against 0.84, and 0.21 px against 0.09
  * per 2 m step in test_cdlod_no_popping. The default keeps the slower drift. */
-#define CD_MORPH_START 0.95f
+#define CD_MORPH_START ((float)HZ_LOD_MORPH_START_DEFAULT)
 
 static inline float cd_morph_start(float asked)
 {
     const float a = asked > 0.0f ? asked : CD_MORPH_START;
-    return a < 1.0f / CD_GROW ? 1.0f / CD_GROW : (a > 0.98f ? 0.98f : a);
+    const float lo = (float)HZ_LOD_MORPH_START_MIN, hi = (float)HZ_LOD_MORPH_START_MAX;
+    return a < lo ? lo : (a > hi ? hi : a);
 }
 
 /* The two neighbours sample (i, j) of an n x n map collapses between, at the
