@@ -21,6 +21,7 @@ typedef struct loader {
     const char *name;
     hz_err *err;
     uint32_t tri_cap;
+    uint32_t obj_cap; /* objects allocated in c->obj */
     /* scratch for one polygon */
     double *pts;
     uint32_t pts_cap;
@@ -309,17 +310,21 @@ static hz_result read_surface(loader *L, json_t *surf, int kind, hz_city_object 
     if (!nt)
         return HZ_OK; /* degenerate face: nothing to draw */
     /* The scratch points map back to the file's vertex indices. */
-    uint32_t base = c->tri_count;
+    uint32_t base = c->tri_count, old_cap = L->tri_cap;
     if (!hz_grow((void **)&c->tris, &L->tri_cap, 3 * ((uint64_t)base + (uint32_t)nt), sizeof *c->tris, 64))
         return fail(L, HZ_ERR_MEMORY, "out of memory (%u triangles)", base);
-    uint8_t *nk = realloc(c->tri_kind, (size_t)L->tri_cap / 3 + 1);
-    if (!nk)
-        return fail(L, HZ_ERR_MEMORY, "out of memory");
-    c->tri_kind = nk;
-    uint32_t *nm = realloc(c->tri_material, ((size_t)L->tri_cap / 3 + 1) * sizeof *nm);
-    if (!nm)
-        return fail(L, HZ_ERR_MEMORY, "out of memory");
-    c->tri_material = nm;
+    /* The per-triangle arrays follow the index array's capacity, so they grow
+     * when it does, not once per face. */
+    if (L->tri_cap != old_cap || !c->tri_kind) {
+        uint8_t *nk = realloc(c->tri_kind, (size_t)L->tri_cap / 3 + 1);
+        if (!nk)
+            return fail(L, HZ_ERR_MEMORY, "out of memory");
+        c->tri_kind = nk;
+        uint32_t *nm = realloc(c->tri_material, ((size_t)L->tri_cap / 3 + 1) * sizeof *nm);
+        if (!nm)
+            return fail(L, HZ_ERR_MEMORY, "out of memory");
+        c->tri_material = nm;
+    }
     /* Which file vertex each scratch point is: re-read the rings. */
     uint32_t *fileix = malloc((size_t)total * sizeof *fileix);
     if (!fileix)
@@ -711,10 +716,9 @@ static hz_result read_objects(loader *L, json_t *objs, float want_lod)
         snprintf(L->path, sizeof L->path, "CityObjects");
         return fail(L, HZ_ERR_VALUE, "too many objects");
     }
-    hz_city_object *no = realloc(c->obj, ((size_t)c->obj_count + n + 1) * sizeof *no);
-    if (!no)
+    /* Grown by doubling: a CityJSONSeq calls this once per feature. */
+    if (!hz_grow((void **)&c->obj, &L->obj_cap, (uint64_t)c->obj_count + n + 1, sizeof *c->obj, 64))
         return fail(L, HZ_ERR_MEMORY, "out of memory");
-    c->obj = no;
     const char *key;
     json_t *val;
     json_object_foreach(objs, key, val)
