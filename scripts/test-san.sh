@@ -3,9 +3,13 @@
 # build (make test runs this after the normal tests). Any report fails the
 # test: ASan and UBSan abort on the first error (-fno-sanitize-recover),
 # LeakSanitizer is on. Suppressed: only leaks entirely inside Mesa/X11
-# (tests/san/lsan.supp, explained there). The two program-level scripts
-# (test_cli, test_view_window, test_harden, test_polish: minutes of whole-program runs) are left to the
-# normal build to keep make test short; their parsers are fuzzed instead.
+# (tests/san/lsan.supp, explained there). The program-level scripts test_cli,
+# test_view_window, test_harden and test_polish (minutes of whole-program runs)
+# are left to the normal build to keep make test short; their parsers are
+# fuzzed instead.
+# test_progress_cli (generating 4097^2 and 8193^2 maps to watch progress lines
+# arrive: three minutes under ASan) is left out too: the progress lines'
+# logic runs here in the unit test test_progress.
 # usage: scripts/test-san.sh BUILD_DIR [ctest args...]
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -24,7 +28,7 @@ if [ -n "$dri" ] && [ -f "$build/tests/san/libhz_keep_dri.so" ]; then
 fi
 echo "== unit tests under ASan + UBSan ($build)" >&2
 cd "$build"
-ctest --output-on-failure -j"${JOBS:-2}" -E '^(test_cli|test_view_window|test_harden|test_polish|test_http)$' "$@"
+ctest --output-on-failure -j"${JOBS:-2}" -E '^(test_cli|test_view_window|test_harden|test_polish|test_progress_cli|test_http)$' "$@"
 # test_http (pyramids over HTTP: loader threads, libcurl, disk cache) under ASan + UBSan, without
 # LeakSanitizer: its tracer crashes inside the sanitizer runtime (signal 11, no report) at the exit
 # of some renders reading the disk cache; ASan and UBSan stay on.
