@@ -48,6 +48,13 @@ static uint32_t largest_side(uint64_t max_samples)
     return s;
 }
 
+/* The spacing (rounded up to 0.1 m) at which hi samples spaced spacing
+ * apart take at most side samples. */
+static double spacing_to_fit(float spacing, uint32_t hi, uint32_t side)
+{
+    return ceil((double)spacing * (hi - 1) / (side - 1) * 10.0 * (1.0 + 1e-6)) / 10.0;
+}
+
 /* What a DEM of w x h samples can do instead of streaming: a georeferenced
  * one is resampled to --spacing (the spacing that brings its longer side
  * into the largest square the GPU takes, rounded up to 0.1 m); another one
@@ -58,14 +65,31 @@ static void dem_hint(const hz_terrain_desc *d, uint32_t w, uint32_t h, bool geor
     const uint32_t top = largest_side(d->max_samples), hi = w > h ? w : h;
     const uint32_t crop = hz_grid_fit_side(w, h, HZ_FIT_CROP);
     if (georef && top > 2 && spacing > 0 && hi > 1) {
-        const double s = ceil((double)spacing * (hi - 1) / (top - 1) * 10.0 * (1.0 + 1e-6)) / 10.0;
-        snprintf(out, cap, "resample it with --spacing %.1f (at most %ux%u samples; it is %.1f m now)", s, top, top,
-                 (double)spacing);
+        snprintf(out, cap, "resample it with --spacing %.1f (at most %ux%u samples; it is %.1f m now)",
+                 spacing_to_fit(spacing, hi, top), top, top, (double)spacing);
     } else if (crop > 2 && crop <= top) {
         snprintf(out, cap, "keep its centred %ux%u square with --fit crop", crop, crop);
     } else {
         snprintf(out, cap, "cut it to at most %ux%u samples (gdal_translate -srcwin)", top, top);
     }
+}
+
+/* A DEM kept whole on a square grid that is mostly padding (a tile that
+ * reprojection made taller than wide, just past a power of two): the
+ * spacing that fits its longer side in the next smaller grid, a quarter of
+ * the samples, memory and setup time, is appended to the fitting note. Only
+ * when the user chose no spacing and a georeference allows resampling. */
+static void padding_hint(const hz_terrain_desc *d, const hz_grid_fit_info *fi, uint32_t side, bool georef,
+                         float spacing, char *note, size_t cap)
+{
+    const uint32_t hi = fi->data_w > fi->data_h ? fi->data_w : fi->data_h, half = (side - 1) / 2 + 1;
+    if (d->fit != HZ_FIT_AUTO || d->spacing > 0 || !georef || !(spacing > 0) || side < 5 || hi <= half ||
+        2 * (uint64_t)fi->data_w * fi->data_h >= (uint64_t)side * side)
+        return;
+    const size_t n = strlen(note);
+    snprintf(note + n, cap - n, "%s%.0f %% padding: --spacing %.1f fits it in %ux%u, a quarter of the memory",
+             n ? "; " : "", 100.0 * (1.0 - (double)fi->data_w * fi->data_h / ((double)side * side)),
+             spacing_to_fit(spacing, hi, half), half, half);
 }
 
 static const char *base_name(const char *p)
@@ -250,6 +274,7 @@ hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
     }
     t->valid = fi.valid;
     t->valid_count = fi.valid_count;
+    padding_hint(desc, &fi, g.width, geo != NULL, t->info.spacing_hint, t->note, sizeof t->note);
     if (t->valid && desc->fill_voids && !unmask_enclosed(t->valid, g.width, &t->valid_count)) {
         hz_georef_destroy(geo);
         hz_err_set(err, HZ_ERR_MEMORY, "terrain: out of memory finding the enclosed voids");

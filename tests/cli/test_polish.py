@@ -3,7 +3,7 @@
 the default LOD is cdlod at 1 px (the seed's modes one --lod away), ...
 
 usage: test_polish.py HORIZON DATA TMPDIR"""
-import json, os, subprocess, sys
+import json, os, re, subprocess, sys
 
 HZ, DATA, TMP = sys.argv[1], sys.argv[2], sys.argv[3]
 os.makedirs(TMP, exist_ok=True)
@@ -161,9 +161,22 @@ if j:
 # The automatic water level does not drown land: S46W066's sea is at 0 m.
 S46 = os.path.join(DATA, "S46W066.hgt.gz")
 if os.path.exists(S46):
-    j, err = render_json(["--dem", S46, "--out", tmp("s46.png")])
+    rc, out, err = run(["render", "--width", "320", "--height", "180", "--json", "--dem", S46, "--out", tmp("s46.png")])
+    j = json.loads(out) if rc == 0 else None
     check(j and j["water_level"] is not None and 0 <= j["water_level"] <= 0.5,
           "S46W066: the sea just above 0 m, not a 1 m sea over the land", j and j["water_level"] or err)
+    # Reprojected to 3759x5231 it is kept whole on 8193^2, 71 % padding: the
+    # note names the spacing that fits 4097^2, and that spacing does.
+    m = re.search(r"(\d+) % padding: --spacing ([0-9.]+) fits it in 4097x4097", err)
+    check(j and j["heightmap_size"] == 8193 and m and int(m.group(1)) > 50,
+          "S46W066 on a mostly padded 8193^2 grid: the note gives the spacing for 4097^2", err[-400:])
+    if m:
+        rc, out, err = run(["render", "--width", "320", "--height", "180", "--json", "--dem", S46,
+                            "--spacing", m.group(2), "--out", tmp("s46s.png")])
+        j = json.loads(out) if rc == 0 else None
+        check(j and j["heightmap_size"] == 4097 and 4000 < max(j["data_size"]) <= 4097 and "% padding" not in err,
+              "S46W066 at --spacing %s: every sample on 4097^2, no padding note" % m.group(2),
+              j and (j["heightmap_size"], j["data_size"]) or err[-400:])
 else:
     bad("missing " + S46)
 # ... nor invents lakes on a real place: Heidelberg's lowest 4 % is the Rhine plain, farmland.
