@@ -87,7 +87,7 @@ static void padding_hint(const hz_terrain_desc *d, const hz_grid_fit_info *fi, u
         2 * (uint64_t)fi->data_w * fi->data_h >= (uint64_t)side * side)
         return;
     const size_t n = strlen(note);
-    snprintf(note + n, cap - n, "%s%.0f %% padding: --spacing %.1f fits it in %ux%u, a quarter of the memory",
+    snprintf(note + n, cap - n, "%s%.0f %% padding: --spacing %.1f fits it in %ux%u, a quarter of the samples",
              n ? "; " : "", 100.0 * (1.0 - (double)fi->data_w * fi->data_h / ((double)side * side)),
              spacing_to_fit(spacing, hi, half), half, half);
 }
