@@ -180,6 +180,16 @@ hz_result hz_imagery_load(const hz_imagery_desc *d, hz_imagery *out, hz_err *err
         res = hz_err_set(err, HZ_ERR_FORMAT, "imagery: %s has no raster band", d->path);
         goto done;
     }
+    /* Every band is warped, and the drape uses at most four (grey or RGB,
+     * and alpha): a 477-byte TIFF claiming 65 282 bands kept the warp busy
+     * for minutes. */
+    if (nb > HZ_IMAGERY_MAX_BANDS) {
+        res = hz_err_set(err, HZ_ERR_UNSUPPORTED,
+                         "imagery: %s has %d bands, more than the %d supported (keep the colour ones with "
+                         "gdal_translate -b 1 -b 2 -b 3)",
+                         d->path, nb, HZ_IMAGERY_MAX_BANDS);
+        goto done;
+    }
     for (int b = 1; b <= nb; b++)
         if (GDALGetRasterDataType(GDALGetRasterBand(src, b)) != GDT_Byte) {
             res = hz_err_set(err, HZ_ERR_UNSUPPORTED,
@@ -207,11 +217,16 @@ hz_result hz_imagery_load(const hz_imagery_desc *d, hz_imagery *out, hz_err *err
     /* A pixel of next to no size (or not a number) makes the warper read a
      * source window of absurd size: GDAL allocated 960 MB for a 345-byte
      * GeoTIFF of 8 x 170 pixels of about 1e-300 units. 1e-9 is 0.1 mm in
-     * degrees, a nanometre in metres. */
-    if (has_gt && !(fabs(sgt[1]) + fabs(sgt[2]) >= 1e-9 && fabs(sgt[4]) + fabs(sgt[5]) >= 1e-9 &&
+     * degrees, a nanometre in metres. A pixel of absurd size means nothing
+     * either (the same image with pixels of 1.7e98 units took fuzz_imagery
+     * over its 1 GB under ASan); 1e8 units is 2.5 times round the Earth in
+     * metres, in feet 0.8 times. */
+    const double px = has_gt ? fabs(sgt[1]) + fabs(sgt[2]) : 1.0, py = has_gt ? fabs(sgt[4]) + fabs(sgt[5]) : 1.0;
+    if (has_gt && !(px >= 1e-9 && py >= 1e-9 && px <= 1e8 && py <= 1e8 &&
                     isfinite(sgt[0] + sgt[1] + sgt[2] + sgt[3] + sgt[4] + sgt[5]))) {
-        res = hz_err_set(err, HZ_ERR_VALUE, "imagery: %s has a degenerate geotransform (pixel size %g x %g)", d->path,
-                         sgt[1], sgt[5]);
+        res = hz_err_set(err, HZ_ERR_VALUE,
+                         "imagery: %s has a degenerate geotransform (pixel size %g x %g; expected 1e-9 to 1e8 units)",
+                         d->path, sgt[1], sgt[5]);
         goto done;
     }
     const char *srs = has_gt ? GDALGetProjectionRef(src) : GDALGetGCPProjection(src);

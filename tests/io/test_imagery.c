@@ -207,6 +207,77 @@ static void test_huge_blocks_refused(void **state)
     unlink(path);
 }
 
+/* Pixels of next to no size or of absurd size make GDAL's warper read (and
+ * allocate) an absurd source window: both are refused with a message, before
+ * any warp; a sane pixel size over the same footprint loads. */
+static void test_absurd_pixel_sizes_refused(void **state)
+{
+    (void)state;
+    double gt[6];
+    hz_georef *geo = terrain_georef(gt);
+    const double sizes[] = {1e-300, 1.7e98, 10.0};
+    for (int k = 0; k < 3; k++) {
+        char path[320];
+        snprintf(path, sizeof path, "%s/px%d.tif", dir, k);
+        double g[6] = {gt[0], sizes[k], 0, gt[3], 0, -sizes[k]};
+        GDALAllRegister();
+        GDALDatasetH ds = GDALCreate(GDALGetDriverByName("GTiff"), path, 8, 170, 3, GDT_Byte, NULL);
+        assert_non_null(ds);
+        GDALSetGeoTransform(ds, g);
+        GDALSetProjection(ds, "EPSG:32632");
+        GDALClose(ds);
+        hz_imagery_desc d = {.path = path, .target = geo, .samples = SAMPLES, .spacing = SPACING, .max_side = 256,
+                             .max_bytes = (uint64_t)64 << 20};
+        hz_imagery im;
+        hz_err err = {0};
+        const hz_result r = hz_imagery_load(&d, &im, &err);
+        print_message("pixel %g: %s\n", sizes[k], r == HZ_OK ? "loaded" : err.msg);
+        if (k < 2) {
+            assert_int_equal(r, HZ_ERR_VALUE);
+            assert_non_null(strstr(err.msg, "degenerate geotransform"));
+        } else {
+            assert_int_equal(r, HZ_OK);
+            hz_imagery_free(&im);
+        }
+        unlink(path);
+    }
+    hz_georef_destroy(geo);
+}
+
+/* An image of more bands than HZ_IMAGERY_MAX_BANDS is refused before it is
+ * warped (every band would be); one of that many loads. */
+static void test_many_bands_refused(void **state)
+{
+    (void)state;
+    double gt[6];
+    hz_georef *geo = terrain_georef(gt);
+    for (int nb = HZ_IMAGERY_MAX_BANDS; nb <= HZ_IMAGERY_MAX_BANDS + 1; nb++) {
+        char path[320];
+        snprintf(path, sizeof path, "%s/bands%d.tif", dir, nb);
+        double g[6] = {gt[0], 10.0, 0, gt[3], 0, -10.0};
+        GDALAllRegister();
+        GDALDatasetH ds = GDALCreate(GDALGetDriverByName("GTiff"), path, 16, 16, nb, GDT_Byte, NULL);
+        assert_non_null(ds);
+        GDALSetGeoTransform(ds, g);
+        GDALSetProjection(ds, "EPSG:32632");
+        GDALClose(ds);
+        hz_imagery_desc d = {.path = path, .target = geo, .samples = SAMPLES, .spacing = SPACING, .max_side = 256};
+        hz_imagery im;
+        hz_err err = {0};
+        const hz_result r = hz_imagery_load(&d, &im, &err);
+        print_message("%d bands: %s\n", nb, r == HZ_OK ? "loaded" : err.msg);
+        if (nb > HZ_IMAGERY_MAX_BANDS) {
+            assert_int_equal(r, HZ_ERR_UNSUPPORTED);
+            assert_non_null(strstr(err.msg, "bands"));
+        } else {
+            assert_int_equal(r, HZ_OK);
+            hz_imagery_free(&im);
+        }
+        unlink(path);
+    }
+    hz_georef_destroy(geo);
+}
+
 int main(void)
 {
     snprintf(dir, sizeof dir, "%s", "/tmp/hz_imagery_XXXXXX");
@@ -214,7 +285,9 @@ int main(void)
         return 1;
     const struct CMUnitTest tests[] = {cmocka_unit_test(test_tiles_exact_and_seamless),
                                        cmocka_unit_test(test_partial_transparent),
-                                       cmocka_unit_test(test_huge_blocks_refused)};
+                                       cmocka_unit_test(test_huge_blocks_refused),
+                                       cmocka_unit_test(test_absurd_pixel_sizes_refused),
+                                       cmocka_unit_test(test_many_bands_refused)};
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     rmdir(dir);
     return rc;
