@@ -221,13 +221,16 @@ hz_result hz_imagery_load(const hz_imagery_desc *d, hz_imagery *out, hz_err *err
      * either (the same image with pixels of 1.7e98 units took fuzz_imagery
      * over its 1 GB under ASan); 1e8 units is 2.5 times round the Earth in
      * metres, in feet 0.8 times. */
-    const double px = has_gt ? fabs(sgt[1]) + fabs(sgt[2]) : 1.0, py = has_gt ? fabs(sgt[4]) + fabs(sgt[5]) : 1.0;
-    if (has_gt && !(px >= 1e-9 && py >= 1e-9 && px <= 1e8 && py <= 1e8 &&
-                    isfinite(sgt[0] + sgt[1] + sgt[2] + sgt[3] + sgt[4] + sgt[5]))) {
-        res = hz_err_set(err, HZ_ERR_VALUE,
-                         "imagery: %s has a degenerate geotransform (pixel size %g x %g; expected 1e-9 to 1e8 units)",
-                         d->path, sgt[1], sgt[5]);
-        goto done;
+    if (has_gt) {
+        const double px = fabs(sgt[1]) + fabs(sgt[2]), py = fabs(sgt[4]) + fabs(sgt[5]);
+        if (!(px >= 1e-9 && py >= 1e-9 && px <= 1e8 && py <= 1e8 &&
+              isfinite(sgt[0] + sgt[1] + sgt[2] + sgt[3] + sgt[4] + sgt[5]))) {
+            res = hz_err_set(err, HZ_ERR_VALUE,
+                             "imagery: %s has a degenerate geotransform (pixel size %g x %g; expected 1e-9 to 1e8 "
+                             "units)",
+                             d->path, sgt[1], sgt[5]);
+            goto done;
+        }
     }
     const char *srs = has_gt ? GDALGetProjectionRef(src) : GDALGetGCPProjection(src);
     const bool assume_crs = !srs || !srs[0];
