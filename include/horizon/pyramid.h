@@ -166,6 +166,15 @@ uint32_t hz_pyr_level_cells(const hz_pyr_info *info, uint32_t level);
 hz_result hz_pyr_encode_tile(const hz_pyr_info *info, const hz_pyr_tile *t, int zstd_level, void **blob,
                              size_t *bytes, hz_err *err);
 
+/* The same, reusing one thread's compression state across tiles: a fresh zstd
+ * context at level 9 is megabytes of new pages per tile. One encoder per
+ * thread; hz_pyr_encoder_new returns NULL when out of memory. */
+typedef struct hz_pyr_encoder hz_pyr_encoder;
+hz_pyr_encoder *hz_pyr_encoder_new(void);
+void hz_pyr_encoder_free(hz_pyr_encoder *e);
+hz_result hz_pyr_encoder_tile(hz_pyr_encoder *e, const hz_pyr_info *info, const hz_pyr_tile *t, int zstd_level,
+                              void **blob, size_t *bytes, hz_err *err);
+
 /* Decompresses and decodes one tile's blob (as written by hz_pyr_encode_tile). */
 hz_result hz_pyr_decode_blob(const hz_pyr_info *info, uint32_t level, uint32_t tx, uint32_t tz, const void *blob,
                              size_t bytes, hz_pyr_tile *t, hz_err *err);

@@ -54,8 +54,35 @@ static size_t raw_tile_bytes(const hz_pyr_info *info, uint32_t level, bool maske
 
 /* ---- tile codec ---- */
 
+struct hz_pyr_encoder {
+    ZSTD_CCtx *zc;
+};
+
+hz_pyr_encoder *hz_pyr_encoder_new(void)
+{
+    hz_pyr_encoder *e = malloc(sizeof *e);
+    if (e && !(e->zc = ZSTD_createCCtx())) {
+        free(e);
+        e = NULL;
+    }
+    return e;
+}
+
+void hz_pyr_encoder_free(hz_pyr_encoder *e)
+{
+    if (e)
+        ZSTD_freeCCtx(e->zc);
+    free(e);
+}
+
 hz_result hz_pyr_encode_tile(const hz_pyr_info *info, const hz_pyr_tile *t, int zstd_level, void **blob,
                              size_t *bytes, hz_err *err)
+{
+    return hz_pyr_encoder_tile(NULL, info, t, zstd_level, blob, bytes, err);
+}
+
+hz_result hz_pyr_encoder_tile(hz_pyr_encoder *e, const hz_pyr_info *info, const hz_pyr_tile *t, int zstd_level,
+                              void **blob, size_t *bytes, hz_err *err)
 {
     *blob = NULL;
     const size_t c = t->cells, n = c + 1, nn = n * n, k = t->nodes;
@@ -106,7 +133,8 @@ hz_result hz_pyr_encode_tile(const hz_pyr_info *info, const hz_pyr_tile *t, int 
         put16(p + 2 * q, t->node_max[q]);
     p += 2 * k * k;
     HZ_ASSERT((size_t)(p - r) == raw);
-    const size_t zn = ZSTD_compress(z, cap, r, raw, zstd_level > 0 ? zstd_level : 9);
+    const int zl = zstd_level > 0 ? zstd_level : 9;
+    const size_t zn = e ? ZSTD_compressCCtx(e->zc, z, cap, r, raw, zl) : ZSTD_compress(z, cap, r, raw, zl);
     free(r);
     if (ZSTD_isError(zn)) {
         free(z);

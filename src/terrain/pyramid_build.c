@@ -231,7 +231,7 @@ static uint16_t apron_h(const build *b, const grid16 *g, uint32_t gs, int64_t X,
     return (uint16_t)(e < 0 ? 0 : (e > 65535 ? 65535 : e));
 }
 
-static void encode_one(const tile_ctx *c, tile_task *t)
+static void encode_one(const tile_ctx *c, hz_pyr_encoder *enc, tile_task *t)
 {
     const build *b = c->b;
     const hz_pyr_info *in = &b->info;
@@ -287,7 +287,7 @@ static void encode_one(const tile_ctx *c, tile_task *t)
         }
     hz_pyr_tile tile = {.level = l, .tx = t->tx, .tz = t->tz, .cells = cc, .x0 = X0, .z0 = Z0, .h = h, .apron = ap,
                         .valid = masked ? v : NULL, .nodes = k, .node_delta = nd, .node_min = mn, .node_max = mx};
-    t->res = hz_pyr_encode_tile(in, &tile, b->d->zstd_level, &t->blob, &t->bytes, &t->err);
+    t->res = hz_pyr_encoder_tile(enc, in, &tile, b->d->zstd_level, &t->blob, &t->bytes, &t->err);
     free(h);
     free(v);
     free(nd);
@@ -296,14 +296,17 @@ static void encode_one(const tile_ctx *c, tile_task *t)
 static void *encode_worker(void *arg)
 {
     tile_ctx *c = arg;
+    hz_pyr_encoder *enc = hz_pyr_encoder_new(); /* NULL: each tile makes its own */
     for (;;) {
         pthread_mutex_lock(&c->lock);
         const size_t k = c->next++;
         pthread_mutex_unlock(&c->lock);
         if (k >= c->count)
-            return NULL;
-        encode_one(c, &c->tasks[k]);
+            break;
+        encode_one(c, enc, &c->tasks[k]);
     }
+    hz_pyr_encoder_free(enc);
+    return NULL;
 }
 
 /* Encodes the tasks on every thread; results in task order. */

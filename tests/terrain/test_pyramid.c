@@ -142,6 +142,52 @@ static void test_round_trip_exact(void **state)
     check_exact(hzp);
 }
 
+/* One encoder kept across every tile of the pyramid, coarse levels first
+ * (tiles of different sizes, masked and not, through the same zstd context),
+ * writes the same bytes as a fresh context per tile, and they decode back to
+ * the tile; so does the one-shot call. */
+static void test_encoder_reused_same_bytes(void **state)
+{
+    (void)state;
+    hz_pyramid *p;
+    hz_err err = {0};
+    assert_int_equal(hz_pyramid_open(hzp, &p, &err), HZ_OK);
+    const hz_pyr_info *in = hz_pyramid_info(p);
+    hz_pyr_encoder *enc = hz_pyr_encoder_new();
+    assert_non_null(enc);
+    uint32_t tiles = 0, masked = 0;
+    for (uint32_t l = in->levels; l-- > 0;)
+        for (uint32_t tz = 0; tz < hz_pyr_level_tiles(in, l); tz++)
+            for (uint32_t tx = 0; tx < hz_pyr_level_tiles(in, l); tx++) {
+                hz_pyr_tile t, back;
+                assert_int_equal(hz_pyramid_read_tile(p, l, tx, tz, &t, &err), HZ_OK);
+                void *a, *b;
+                size_t na, nb;
+                for (int level = 3; level <= 9; level += 6) {
+                    assert_int_equal(hz_pyr_encoder_tile(enc, in, &t, level, &a, &na, &err), HZ_OK);
+                    assert_int_equal(hz_pyr_encode_tile(in, &t, level, &b, &nb, &err), HZ_OK);
+                    assert_int_equal(na, nb);
+                    assert_memory_equal(a, b, na);
+                    assert_int_equal(hz_pyr_decode_blob(in, l, tx, tz, a, na, &back, &err), HZ_OK);
+                    const size_t n = (size_t)(t.cells + 1) * (t.cells + 1);
+                    assert_memory_equal(back.h, t.h, n * sizeof *t.h);
+                    assert_true((back.valid == NULL) == (t.valid == NULL));
+                    if (t.valid)
+                        assert_memory_equal(back.valid, t.valid, n);
+                    hz_pyr_tile_free(&back);
+                    free(a);
+                    free(b);
+                }
+                tiles++;
+                masked += t.valid != NULL;
+                hz_pyr_tile_free(&t);
+            }
+    hz_pyr_encoder_free(enc);
+    hz_pyr_encoder_free(NULL);
+    assert_true(tiles > 20 && masked > 0 && masked < tiles);
+    hz_pyramid_close(p);
+}
+
 /* A w x h int16 raster of value_at inside keep_w x keep_h, nodata outside. */
 static void write_tif(const char *path, uint32_t w, uint32_t h, uint32_t keep_w, uint32_t keep_h)
 {
@@ -1039,6 +1085,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_round_trip_exact),
+        cmocka_unit_test(test_encoder_reused_same_bytes),
         cmocka_unit_test(test_finish_holds_the_data_box),
         cmocka_unit_test(test_corrupt_and_truncated),
         cmocka_unit_test(test_stream_crack_free_while_tiles_missing),
