@@ -22,7 +22,7 @@ PKGS=(
   libassimp-dev        # tree import (OBJ, glTF, ...)
   libjansson-dev       # JSON output (escaped, valid whatever the file names), CityJSON and scene files
   libinih-dev          # horizon view --config files
-  clang libclang-rt-14-dev  # make test: the ASan/UBSan build and the libFuzzer targets (build-san/)
+  clang libclang-rt-14-dev  # make test: the ASan/UBSan build (build-san/) and the libFuzzer targets (build-fuzz/)
   libcurl4-openssl-dev nginx  # --terrain http(s)://...: range requests (libcurl); tests serve pyramids with nginx
 )
 # "bench": also gnuplot for horizon bench --plot

@@ -19,7 +19,7 @@ trap 'rm -rf "$work"' EXIT
 run() {
   local t=$1 exe="$build/fuzz/fuzz_$1"
   if [ ! -x "$exe" ]; then
-    echo "fuzz_$t: not built (make san)" > "$build/fuzz-logs/$t.log"
+    echo "fuzz_$t: not built (make fuzzers)" > "$build/fuzz-logs/$t.log"
     return 2
   fi
   mkdir -p "$build/fuzz-work/$t"
