@@ -8,7 +8,7 @@
 # are left to the normal build to keep make test short; their parsers are
 # fuzzed instead.
 # test_progress_cli (generating 4097^2 and 8193^2 maps to watch progress lines
-# arrive: three minutes under ASan) is left out too: the progress lines'
+# arrive: 40 s under ASan) is left out too: the progress lines'
 # logic runs here in the unit test test_progress.
 # usage: scripts/test-san.sh BUILD_DIR [ctest args...]
 set -euo pipefail

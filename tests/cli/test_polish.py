@@ -19,8 +19,11 @@ def tmp(name):
     return os.path.join(TMP, name)
 
 
-def render_json(args):
-    rc, out, err = run(["render", "--quiet", "--width", "320", "--height", "180", "--json"] + args)
+def render_json(args, quiet=True):
+    """render at 320x180 with --json (and --quiet unless quiet=False, to read
+    the notes on stderr): (the JSON or None, stderr)"""
+    q = ["--quiet"] if quiet else []
+    rc, out, err = run(["render"] + q + ["--width", "320", "--height", "180", "--json"] + args)
     if rc != 0:
         return None, err
     try:
@@ -161,8 +164,7 @@ if j:
 # The automatic water level does not drown land: S46W066's sea is at 0 m.
 S46 = os.path.join(DATA, "S46W066.hgt.gz")
 if os.path.exists(S46):
-    rc, out, err = run(["render", "--width", "320", "--height", "180", "--json", "--dem", S46, "--out", tmp("s46.png")])
-    j = json.loads(out) if rc == 0 else None
+    j, err = render_json(["--dem", S46, "--out", tmp("s46.png")], quiet=False)
     check(j and j["water_level"] is not None and 0 <= j["water_level"] <= 0.5,
           "S46W066: the sea just above 0 m, not a 1 m sea over the land", j and j["water_level"] or err)
     # Reprojected to 3759x5231 it is kept whole on 8193^2, 71 % padding: the
@@ -171,9 +173,7 @@ if os.path.exists(S46):
     check(j and j["heightmap_size"] == 8193 and m and int(m.group(1)) > 50,
           "S46W066 on a mostly padded 8193^2 grid: the note gives the spacing for 4097^2", err[-400:])
     if m:
-        rc, out, err = run(["render", "--width", "320", "--height", "180", "--json", "--dem", S46,
-                            "--spacing", m.group(2), "--out", tmp("s46s.png")])
-        j = json.loads(out) if rc == 0 else None
+        j, err = render_json(["--dem", S46, "--spacing", m.group(2), "--out", tmp("s46s.png")], quiet=False)
         check(j and j["heightmap_size"] == 4097 and 4000 < max(j["data_size"]) <= 4097 and "% padding" not in err,
               "S46W066 at --spacing %s: every sample on 4097^2, no padding note" % m.group(2),
               j and (j["heightmap_size"], j["data_size"]) or err[-400:])
