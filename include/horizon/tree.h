@@ -15,6 +15,10 @@ extern "C" {
 
 #define HZ_TREE_NONE 0xffffffffu
 #define HZ_TREE_MAX_LEVELS 6u
+/* Metres: a tree coordinate (branch ends, leaf centres and axes, bark and
+ * hull vertices) beyond this is refused as absurd by hz_tree_validate, the
+ * .hzt reader and the importer. */
+#define HZ_TREE_MAX_COORD 1e6f
 
 /* A branch node (F1): one stem. The trunk has level 1, its children 2, ... */
 typedef struct hz_tree_branch {
@@ -107,7 +111,8 @@ void hz_tree_finish(hz_tree *t);
 /* Checks the hierarchy and the meshes: parents before children, levels =
  * parent + 1, trunk first, every leaf in exactly one node, node ranges in
  * bounds, node branches carry the node, indices < vertex counts, finite
- * numbers. HZ_OK or HZ_ERR_FORMAT with the first problem in err. */
+ * numbers, coordinates within HZ_TREE_MAX_COORD. HZ_OK or HZ_ERR_FORMAT with
+ * the first problem in err. */
 hz_result hz_tree_validate(const hz_tree *t, hz_err *err);
 
 /* Triangles of the full tree: 2 per leaf plus the bark. */

@@ -583,6 +583,15 @@ static bool finite3(const float *v)
     return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]);
 }
 
+/* Finite and within HZ_TREE_MAX_COORD metres (false for NaN). */
+static bool bounded3(const float *v)
+{
+    for (int c = 0; c < 3; c++)
+        if (!(fabsf(v[c]) <= HZ_TREE_MAX_COORD))
+            return false;
+    return true;
+}
+
 static hz_result check_mesh(const hz_tree_mesh *m, const char *what, hz_err *err)
 {
     if (m->index_count % 3)
@@ -594,8 +603,9 @@ static hz_result check_mesh(const hz_tree_mesh *m, const char *what, hz_err *err
             return hz_err_set(err, HZ_ERR_FORMAT, "tree: %s index %u = %u is out of range (%u vertices)", what, k,
                               m->idx[k], m->vertex_count);
     for (uint32_t v = 0; v < m->vertex_count; v++)
-        if (!finite3(&m->pos[v * 3]) || !finite3(&m->nrm[v * 3]))
-            return hz_err_set(err, HZ_ERR_FORMAT, "tree: %s vertex %u is not finite", what, v);
+        if (!bounded3(&m->pos[v * 3]) || !finite3(&m->nrm[v * 3]))
+            return hz_err_set(err, HZ_ERR_FORMAT, "tree: %s vertex %u is not finite or lies beyond %.0f m", what, v,
+                              (double)HZ_TREE_MAX_COORD);
     return HZ_OK;
 }
 
@@ -624,9 +634,11 @@ hz_result hz_tree_validate(const hz_tree *t, hz_err *err)
             (br->leaf_node >= t->node_count || t->nodes[br->leaf_node].branch != b))
             return hz_err_set(err, HZ_ERR_FORMAT, "tree: branch %u names leaf node %u which does not point back", b,
                               br->leaf_node);
-        if (!finite3(br->base) || !finite3(br->tip) || !finite3(br->dir) || !isfinite(br->length) ||
+        if (!bounded3(br->base) || !bounded3(br->tip) || !finite3(br->dir) || !isfinite(br->length) ||
             !isfinite(br->radius) || br->length < 0.0f || br->radius < 0.0f)
-            return hz_err_set(err, HZ_ERR_FORMAT, "tree: branch %u has non-finite or negative geometry", b);
+            return hz_err_set(err, HZ_ERR_FORMAT,
+                              "tree: branch %u has non-finite or negative geometry, or ends beyond %.0f m", b,
+                              (double)HZ_TREE_MAX_COORD);
     }
     /* Leaf nodes tile the leaf array in order: every leaf in exactly one. */
     uint32_t next = 0;
@@ -647,8 +659,9 @@ hz_result hz_tree_validate(const hz_tree *t, hz_err *err)
     if (next != t->leaf_count)
         return hz_err_set(err, HZ_ERR_FORMAT, "tree: leaf nodes cover %u of %u leaves", next, t->leaf_count);
     for (uint32_t k = 0; k < t->leaf_count; k++)
-        if (!finite3(t->leaves[k].c) || !finite3(t->leaves[k].u) || !finite3(t->leaves[k].v))
-            return hz_err_set(err, HZ_ERR_FORMAT, "tree: leaf %u is not finite", k);
+        if (!bounded3(t->leaves[k].c) || !bounded3(t->leaves[k].u) || !bounded3(t->leaves[k].v))
+            return hz_err_set(err, HZ_ERR_FORMAT, "tree: leaf %u is not finite or lies beyond %.0f m", k,
+                              (double)HZ_TREE_MAX_COORD);
     hz_result r = check_mesh(&t->bark, "bark", err);
     if (r != HZ_OK)
         return r;

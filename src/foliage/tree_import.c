@@ -620,8 +620,14 @@ hz_tree *hz_tree_import(const hz_tree_import_desc *desc, hz_err *err)
         v3_set(t->leaf_color, 0.22f, 0.36f, 0.08f);
     v3_set(t->bark_color, 0.55f, 0.52f, 0.48f);
     hz_tree_finish(t);
-    if (hz_tree_validate(t, err) != HZ_OK)
+    if (hz_tree_validate(t, err) != HZ_OK) {
+        if (err) { /* which file it came from */
+            char why[sizeof err->msg];
+            snprintf(why, sizeof why, "%s", err->msg);
+            hz_err_set(err, HZ_ERR_FORMAT, "import: '%s': %s", d.path, why);
+        }
         goto fail;
+    }
     goto done;
 fail:
     hz_tree_destroy(t);

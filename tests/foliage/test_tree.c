@@ -677,6 +677,49 @@ static void test_import_obj(void **state)
     assert_null(hz_tree_import(&(hz_tree_import_desc){.path = HZ_TEST_TMP "/bad_index_leaf.ply"}, &err));
     print_message("bad index: %s\n", err.msg);
     assert_non_null(strstr(err.msg, "out of range"));
+    /* A trunk 1e38 m tall, with a leaf: finite, but no tree. Refused with the
+     * file's name, as the .hzt reader would refuse the file. */
+    FILE *obj = fopen(HZ_TEST_TMP "/tall_trunk.obj", "w");
+    assert_non_null(obj);
+    fputs("o trunk\nv 0 0 0\nv 0.1 0 0\nv 0 1e38 0\nf 1 2 3\no leaves\nv 0 1 0\nv 0.1 1 0\nv 0 1.1 0\nf 4 5 6\n",
+          obj);
+    fclose(obj);
+    assert_null(hz_tree_import(&(hz_tree_import_desc){.path = HZ_TEST_TMP "/tall_trunk.obj"}, &err));
+    print_message("tall trunk: %s\n", err.msg);
+    assert_int_equal(err.code, HZ_ERR_FORMAT);
+    assert_non_null(strstr(err.msg, "tall_trunk.obj"));
+    assert_non_null(strstr(err.msg, "beyond 1000000 m"));
+}
+
+/* hz_tree_validate bounds every coordinate by HZ_TREE_MAX_COORD: a bark,
+ * hull or leaf coordinate just inside passes, just beyond fails, and
+ * hz_tree_save_mem refuses to write such a tree. */
+static void test_validate_bounds(void **state)
+{
+    (void)state;
+    hz_tree *t = small_tree("oak", 1);
+    hz_err err = {0};
+    assert_true(t->bark.vertex_count > 0 && t->leaf_count > 0);
+    float *coord[3] = {&t->bark.pos[1], &t->leaves[t->leaf_count / 2].c[0], NULL};
+    if (t->hull.vertex_count)
+        coord[2] = &t->hull.pos[2];
+    for (int k = 0; k < 3; k++) {
+        if (!coord[k])
+            continue;
+        const float keep = *coord[k];
+        *coord[k] = 0.99f * HZ_TREE_MAX_COORD;
+        assert_int_equal(hz_tree_validate(t, &err), HZ_OK);
+        *coord[k] = -1.01f * HZ_TREE_MAX_COORD;
+        assert_int_equal(hz_tree_validate(t, &err), HZ_ERR_FORMAT);
+        assert_non_null(strstr(err.msg, "beyond"));
+        uint8_t *data = NULL;
+        size_t n = 0;
+        assert_int_equal(hz_tree_save_mem(t, &data, &n, &err), HZ_ERR_FORMAT);
+        assert_null(data);
+        *coord[k] = keep;
+    }
+    assert_int_equal(hz_tree_validate(t, &err), HZ_OK);
+    hz_tree_destroy(t);
 }
 
 int main(void)
@@ -697,6 +740,7 @@ int main(void)
         cmocka_unit_test(test_place),
         cmocka_unit_test(test_select),
         cmocka_unit_test(test_import_obj),
+        cmocka_unit_test(test_validate_bounds),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
