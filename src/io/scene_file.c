@@ -15,6 +15,10 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
+/* Metres: the largest |coordinate| of a node's position and of a model's
+ * vertices (the model in its own units, before the node's scale). */
+#define SCENE_MAX_M 1e8
+
 typedef struct model {
     char *name;
     hz_vertex *v;
@@ -243,10 +247,12 @@ static hz_result load_model_file(hz_scene_file *f, model *m, const char *file)
                 v->normal[0] = v->normal[2] = 0;
                 v->normal[1] = 1;
             }
-            if (!isfinite(v->pos[0]) || !isfinite(v->pos[1]) || !isfinite(v->pos[2])) {
-                aiReleaseImport(sc);
-                return fail(f, HZ_ERR_VALUE, "model %s has a non-finite vertex", path);
-            }
+            for (int c = 0; c < 3; c++)
+                if (!(fabs(v->pos[c]) <= SCENE_MAX_M)) { /* NaN too */
+                    aiReleaseImport(sc);
+                    return fail(f, HZ_ERR_VALUE, "model %s: vertex %u of mesh %u is not finite or lies beyond %.0e m",
+                                path, i, k, SCENE_MAX_M);
+                }
         }
         for (unsigned fc = 0; fc < am->mNumFaces; fc++) {
             const struct aiFace *fa = &am->mFaces[fc];
@@ -469,7 +475,7 @@ static hz_result check_node(hz_scene_file *f, json_t *nd, bool top)
         return fail(f, HZ_ERR_FORMAT, "\"crs\" and \"lonlat\" place top-level nodes only (children are placed "
                                       "relative to their parent with \"position\")");
     double v3[3], a = 0;
-    if (!get_vec(f, nd, "position", 3, -1e8, 1e8, v3) || !get_vec(f, nd, "crs", 3, -1e9, 1e9, v3) ||
+    if (!get_vec(f, nd, "position", 3, -SCENE_MAX_M, SCENE_MAX_M, v3) || !get_vec(f, nd, "crs", 3, -1e9, 1e9, v3) ||
         !get_vec(f, nd, "lonlat", 3, -1e6, 1e6, v3) || !get_num(f, nd, "yaw", -3600, 3600, &a) ||
         !get_num(f, nd, "pitch", -3600, 3600, &a) || !get_num(f, nd, "roll", -3600, 3600, &a) ||
         !get_num(f, nd, "angle", -3600, 3600, &a) || !get_vec(f, nd, "axis", 3, -1e6, 1e6, v3))

@@ -180,6 +180,20 @@ static void test_malformed(void **state)
           "3 0 1 7\n", ply);
     fclose(ply);
     refused("{\"models\": {\"m\": {\"file\": \"bad_index.ply\"}}, \"nodes\": []}", "out of range");
+    /* Models whose vertices are NaN or lie beyond 1e8 m (as node positions
+     * may not): refused, not placed with a box that culls them away. */
+    const char *far_obj[][2] = {{"nan_vertex.obj", "v 0 0 0\nv nan 0 0\nv 0 10 0\nf 1 2 3\n"},
+                                {"far_vertex.obj", "v 0 0 0\nv 10 0 0\nv 0 1.01e8 0\nf 1 2 3\n"}};
+    for (int k = 0; k < 2; k++) {
+        char path[512], json[256];
+        snprintf(path, sizeof path, "%s/%s", HZ_TEST_TMP, far_obj[k][0]);
+        FILE *fo = fopen(path, "w");
+        assert_non_null(fo);
+        fputs(far_obj[k][1], fo);
+        fclose(fo);
+        snprintf(json, sizeof json, "{\"models\": {\"m\": {\"file\": \"%s\"}}, \"nodes\": []}", far_obj[k][0]);
+        refused(json, "is not finite or lies beyond 1e+08 m");
+    }
     refused("{\"models\": {\"m\": {\"box\": [1, 1, 1], \"file\": \"x.obj\"}}, \"nodes\": []}", "exactly one of");
     refused("{\"models\": {\"m\": {\"box\": [1, -1, 1]}}, \"nodes\": []}", "models.m.box[1]: must be in");
     refused("{\"materials\": {\"m\": {\"color\": [2, 0, 0]}}, \"nodes\": []}", "materials.m.color[0]: must be in [0, 1]");
