@@ -350,8 +350,8 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
                 return bad(cmd, a, v, "degrees in [1, 170]");
         } else if (!strcmp(a, "--near")) {
             NEEDV();
-            if (!cli_parse_float(v, 0.001f, 100000, &o->near))
-                return bad(cmd, a, v, "metres in 0.001..100000");
+            if (!cli_parse_float(v, 0.001, 100000, &o->near))
+                return bad(cmd, a, v, "metres in [0.001, 100000]");
         } else if (!strcmp(a, "--far")) {
             NEEDV();
             if (!cli_parse_float(v, 1, 1e8, &o->far))

@@ -1014,14 +1014,14 @@ int cmd_bench(int argc, char **argv)
             }
             metrics = !strcmp(v, "on");
         } else if (!strcmp(a, "--tune-silhouette")) {
-            if (!cli_parse_float(v, 1e-7f, 1.0f, &tune_sil)) {
+            if (!cli_parse_float(v, 1e-7, 1.0, &tune_sil)) {
                 fprintf(stderr, "horizon bench: invalid value '%s' for --tune-silhouette: expected a fraction of "
                                 "the pixels in (0, 1], e.g. 0.0002\n", v);
                 free(rest);
                 return 2;
             }
         } else if (!strcmp(a, "--tune-psnr")) {
-            if (!cli_parse_float(v, 1.0f, 200.0f, &tune_psnr)) {
+            if (!cli_parse_float(v, 1.0, 200.0, &tune_psnr)) {
                 fprintf(stderr, "horizon bench: invalid value '%s' for --tune-psnr: expected dB in [1, 200], e.g. 41\n",
                         v);
                 free(rest);
