@@ -112,7 +112,7 @@ if os.path.exists(fp):
         print()
         sp = f.get("species", [])
         if sp and "vmi_precision" in sp[0]:
-            print("Image similarity at 50 % simplification ({} views at {} px), leaf coverage precision / recall:".format(sp[0]["pr_views"], sp[0]["pr_res"]))
+            print("Image similarity at 50 % simplification ({} views at {} px), foliage coverage precision / recall:".format(sp[0]["pr_views"], sp[0]["pr_res"]))
             print()
             print("| species | leaves | triangles | hull tris | rank s | MB | VMI P/R | VMI enlarged P/R | random P/R | random enlarged P/R |")
             print("|---|---|---|---|---|---|---|---|---|---|")
@@ -122,6 +122,18 @@ if os.path.exists(fp):
                     s["vmi_precision"], s["vmi_recall"], s["vmi_enlarged_precision"], s["vmi_enlarged_recall"],
                     s["random_precision"], s["random_recall"], s["random_enlarged_precision"], s["random_enlarged_recall"]))
             print("| seed | 53 912 – 292 581 | 133 327 – 811 710 | 4 198 (oak) | | | 0.95 / 0.82 and 0.96 / 0.88 | | 0.90 / 0.71 and 0.92 / 0.78 | |")
+            if "vmi_leaf_precision" in sp[0]:
+                print()
+                print("The same frames by the same leaf in each pixel (a leaf exposed by pruning, or an enlarged leaf over "
+                      "a removed one, counts against the simplified tree), precision / recall:")
+                print()
+                print("| species | VMI | VMI enlarged | random | random enlarged |")
+                print("|---|---|---|---|---|")
+                for s in sp:
+                    print("| {} | {:.3f} / {:.3f} | {:.3f} / {:.3f} | {:.3f} / {:.3f} | {:.3f} / {:.3f} |".format(
+                        s["name"], s["vmi_leaf_precision"], s["vmi_leaf_recall"], s["vmi_enlarged_leaf_precision"],
+                        s["vmi_enlarged_leaf_recall"], s["random_leaf_precision"], s["random_leaf_recall"],
+                        s["random_enlarged_leaf_precision"], s["random_enlarged_leaf_recall"]))
 
 if effects:
     e = effects

@@ -1,10 +1,11 @@
 #version 330 core
-// Leaf item buffer: leaf ids for VMI ranking (tile mode, and the whole tree's
-// visibility in camera mode 2) or foliage coverage (camera mode 1). Vertex-less: 6 vertices per leaf, gl_VertexID / 6 = leaf.
+// Leaf item buffer: leaf ids for VMI ranking (tile mode), and of the whole
+// tree for its visibility and precision / recall (camera mode 2).
+// Vertex-less: 6 vertices per leaf, gl_VertexID / 6 = leaf.
 uniform samplerBuffer u_leaves; // 3 texels per leaf: (c, node), (u, 0), (v, 0)
 uniform samplerBuffer u_nodes;  // tile mode, 2 texels per node slot: (centre, radius), (tile x, y, first leaf, 0)
 uniform samplerBuffer u_scales; // camera mode: F4 enlargement per node
-uniform int u_mode;             // 0 tiles, 1 camera (coverage), 2 camera (leaf ids)
+uniform int u_mode;             // 0 tiles, 2 camera
 uniform int u_slot_base;        // tile mode: node index of slot 0
 uniform mat4 u_viewproj;        // camera mode
 uniform vec3 u_right, u_up, u_fwd; // tile mode view basis (fwd: away from the viewer)
@@ -37,6 +38,6 @@ void main()
     } else {
         float s = texelFetch(u_scales, node).r;
         gl_Position = u_viewproj * vec4(t0.xyz + s * (k.x * u + k.y * v), 1.0);
-        v_id = u_mode == 2 ? uint(leaf) + 1u : 1u;
+        v_id = uint(leaf) + 1u;
     }
 }

@@ -351,7 +351,7 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
                psnr_med, 100.0 * sil_med, 100.0 * sil_max);
         printf("seed (F7): 621 trees in frustum, 42.51 M -> 2.00 M triangles, 33.1 ms, 15.18x\n");
         if (!bo->no_pr) {
-            printf("precision/recall of leaf coverage at 50%% simplification (%u views, %ux%u):\n",
+            printf("precision/recall of foliage coverage at 50%% simplification (%u views, %ux%u):\n",
                    sr[0].pr[0].views, sr[0].pr[0].res, sr[0].pr[0].res);
             printf("  %-12s %8s %8s | %-21s | %-21s | %9s %9s %7s\n", "species", "leaves", "tris", "VMI P/R (enlarged)",
                    "random P/R (enlarged)", "rank s", "hull tri", "MB");
@@ -363,6 +363,12 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
                        sr[m].pr[2].recall, sr[m].pr[3].precision, sr[m].pr[3].recall, tr->rank_ms / 1000.0,
                        tr->hull.index_count / 3, (double)hz_tree_memory_bytes(tr) / 1048576.0);
             }
+            printf("  the same leaf in each pixel:\n");
+            for (uint32_t m = 0; m < cf->model_count; m++)
+                printf("  %-12s %17s | %.3f/%.3f (%.3f/%.3f) | %.3f/%.3f (%.3f/%.3f) |\n", sr[m].t->species, "",
+                       sr[m].pr[0].leaf_precision, sr[m].pr[0].leaf_recall, sr[m].pr[1].leaf_precision,
+                       sr[m].pr[1].leaf_recall, sr[m].pr[2].leaf_precision, sr[m].pr[2].leaf_recall,
+                       sr[m].pr[3].leaf_precision, sr[m].pr[3].leaf_recall);
             printf("  seed: VMI 0.95/0.82 and 0.96/0.88, random 0.90/0.71 and 0.92/0.78; "
                    "oak hull 133 327 -> 4 198 triangles\n");
         }
@@ -447,6 +453,10 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
                     jx_set(sp, key, jx_fix(sr[m].pr[k].recall, 4));
                     snprintf(key, sizeof key, "%s_f", names[k]);
                     jx_set(sp, key, jx_fix(sr[m].pr[k].f_measure, 4));
+                    snprintf(key, sizeof key, "%s_leaf_precision", names[k]);
+                    jx_set(sp, key, jx_fix(sr[m].pr[k].leaf_precision, 4));
+                    snprintf(key, sizeof key, "%s_leaf_recall", names[k]);
+                    jx_set(sp, key, jx_fix(sr[m].pr[k].leaf_recall, 4));
                 }
                 jx_set(sp, "pr_views", jx_int(sr[m].pr[0].views));
                 jx_set(sp, "pr_res", jx_int(sr[m].pr[0].res));

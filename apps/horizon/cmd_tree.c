@@ -49,8 +49,9 @@ static void usage(void)
             "  --rate R                simplification rate of every leaf node in the preview (default 0)\n"
             "  --hull-preview          draw the crown hull instead of the leaves in the preview\n"
             "  --size N                preview size in pixels (default 512)\n"
-            "  --pr                    precision/recall of foliage coverage at 50%% simplification,\n"
-            "                          VMI order vs random order, with and without enlargement\n"
+            "  --pr                    precision/recall at 50%% simplification, of foliage coverage and\n"
+            "                          of the same leaf per pixel, VMI order vs random order, with and\n"
+            "                          without enlargement\n"
             "  --pr-views N --pr-res N views (default 16) and image size (default 512) for --pr\n"
             "  --quiet                 no progress bars\n");
 }
@@ -352,6 +353,12 @@ int cmd_tree(int argc, char **argv)
                 jx_set(j, key, jx_fix(rows[k].r.recall, 4));
                 snprintf(key, sizeof key, "%s%s_f", rows[k].order, en);
                 jx_set(j, key, jx_fix(rows[k].r.f_measure, 4));
+                snprintf(key, sizeof key, "%s%s_leaf_precision", rows[k].order, en);
+                jx_set(j, key, jx_fix(rows[k].r.leaf_precision, 4));
+                snprintf(key, sizeof key, "%s%s_leaf_recall", rows[k].order, en);
+                jx_set(j, key, jx_fix(rows[k].r.leaf_recall, 4));
+                snprintf(key, sizeof key, "%s%s_leaf_f", rows[k].order, en);
+                jx_set(j, key, jx_fix(rows[k].r.leaf_f_measure, 4));
             }
         }
         jx_print(j, stdout);
@@ -372,12 +379,13 @@ int cmd_tree(int argc, char **argv)
                    !topo.bad_edges && !topo.bad_vertices ? "closed and manifold" : "NOT closed/manifold");
         printf("memory        %.1f MB\n", (double)hz_tree_memory_bytes(t) / 1048576.0);
         if (pr) {
-            printf("precision/recall at %.0f%% simplification, %u views at %ux%u:\n", (double)prd.rate * 100,
-                   rows[0].r.views, rows[0].r.res, rows[0].r.res);
+            printf("precision/recall at %.0f%% simplification, %u views at %ux%u (foliage coverage | same leaf):\n",
+                   (double)prd.rate * 100, rows[0].r.views, rows[0].r.res, rows[0].r.res);
             for (int k = 0; k < 4; k++)
-                printf("  %-7s %-13s P %.3f  R %.3f  F %.3f\n", rows[k].order,
+                printf("  %-7s %-13s P %.3f  R %.3f  F %.3f  |  P %.3f  R %.3f  F %.3f\n", rows[k].order,
                        rows[k].enlarge ? "enlarged" : "not enlarged", rows[k].r.precision, rows[k].r.recall,
-                       rows[k].r.f_measure);
+                       rows[k].r.f_measure, rows[k].r.leaf_precision, rows[k].r.leaf_recall,
+                       rows[k].r.leaf_f_measure);
         }
         if (out)
             printf("file          %s (%.1f MB)\n", out, (double)file_bytes / 1048576.0);

@@ -52,15 +52,23 @@ typedef struct hz_pr_desc {
 } hz_pr_desc;
 
 typedef struct hz_pr_result {
-    double precision, recall, f_measure;
+    double precision, recall, f_measure; /* of foliage coverage */
     uint64_t tp, fp, fn;
+    /* Of what each pixel shows: TP where both images show the same leaf, FP
+     * where the simplified one shows a leaf the full one does not show there,
+     * FN where the full one shows a leaf the simplified one does not. */
+    double leaf_precision, leaf_recall, leaf_f_measure;
+    uint64_t leaf_tp, leaf_fp, leaf_fn;
     uint32_t views, res;
 } hz_pr_result;
 
-/* Renders the tree's leaves (no bark) as coverage masks from each view, full
+/* Renders the tree's leaves (no bark) as leaf-id images from each view, full
  * and simplified (the first ceil((1-rate) n) leaves of every node, enlarged
- * by F4 if asked), and sums TP (both), FP (simplified only), FN (full only).
- * The order is the tree's current leaf order. */
+ * by F4 if asked). Coverage: sums TP (foliage in both), FP (simplified
+ * only), FN (full only). Same leaf: the leaf_ counts above, so a leaf
+ * exposed by pruning, or an enlarged leaf over its removed neighbour, counts
+ * against it although the pixel is still foliage. The order is the tree's
+ * current leaf order. */
 hz_result hz_tree_pr(const hz_tree *t, const hz_pr_desc *desc, hz_pr_result *out, hz_err *err);
 
 /* Copy of t whose leaves are in a random order within each node (the

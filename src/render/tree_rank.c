@@ -1,5 +1,5 @@
 /* Leaf item buffers (R32UI ids, depth peeling) for VMI ranking (SPEC F2) and
- * foliage coverage masks for precision/recall (F7). The VMI maths and the
+ * the whole tree's leaf-id images for precision/recall (F7). The VMI maths and the
  * greedy order live in src/foliage (no GL). */
 #include "horizon/forest_render.h"
 
@@ -535,6 +535,14 @@ static void draw_multi(void *user)
     glMultiDrawArrays(GL_TRIANGLES, m->first, m->count, m->n);
 }
 
+/* Precision, recall and F-measure from the counts (1 where nothing was there to find). */
+static void pr_ratios(uint64_t tp, uint64_t fp, uint64_t fn, double *precision, double *recall, double *f)
+{
+    *precision = tp + fp ? (double)tp / (double)(tp + fp) : 1.0;
+    *recall = tp + fn ? (double)tp / (double)(tp + fn) : 1.0;
+    *f = *precision + *recall > 0 ? 2.0 * *precision * *recall / (*precision + *recall) : 0.0;
+}
+
 hz_result hz_tree_pr(const hz_tree *t, const hz_pr_desc *desc, hz_pr_result *out, hz_err *err)
 {
     hz_pr_desc d = desc ? *desc : (hz_pr_desc){0};
@@ -592,7 +600,7 @@ hz_result hz_tree_pr(const hz_tree *t, const hz_pr_desc *desc, hz_pr_result *out
         hz_camera_viewproj(&cam, vp);
         for (int pass = 0; pass < 2; pass++) {
             hz_gl_buffer_texture(&ib.scale_buf, &ib.scale_tex, GL_R32F, pass ? scales : ones, nn * sizeof(float), GL_DYNAMIC_DRAW);
-            ib_begin(&ib, 1);
+            ib_begin(&ib, 2); /* leaf ids: coverage is id != 0 */
             glUniformMatrix4fv(ib.u_viewproj, 1, GL_FALSE, (const float *)vp);
             multi_draw md = {first, pass ? kept : full, (GLsizei)nn};
             ib_layer(&ib, 0, draw_multi, &md);
@@ -603,17 +611,18 @@ hz_result hz_tree_pr(const hz_tree *t, const hz_pr_desc *desc, hz_pr_result *out
         if (res != HZ_OK)
             goto done;
         for (size_t p = 0; p < (size_t)d.res * d.res; p++) {
-            bool x = a[p] != 0, y = b[p] != 0;
+            bool x = a[p] != 0, y = b[p] != 0, same = a[p] == b[p];
             out->tp += x && y;
             out->fp += !x && y;
             out->fn += x && !y;
+            out->leaf_tp += x && same;
+            out->leaf_fp += y && !same;
+            out->leaf_fn += x && !same;
         }
     }
-    out->precision = out->tp + out->fp ? (double)out->tp / (double)(out->tp + out->fp) : 1.0;
-    out->recall = out->tp + out->fn ? (double)out->tp / (double)(out->tp + out->fn) : 1.0;
-    out->f_measure = out->precision + out->recall > 0
-                         ? 2.0 * out->precision * out->recall / (out->precision + out->recall)
-                         : 0.0;
+    pr_ratios(out->tp, out->fp, out->fn, &out->precision, &out->recall, &out->f_measure);
+    pr_ratios(out->leaf_tp, out->leaf_fp, out->leaf_fn, &out->leaf_precision, &out->leaf_recall,
+              &out->leaf_f_measure);
 done:
     free(first);
     free(full);

@@ -365,6 +365,10 @@ assert not missing, missing
 assert 600 < j["leaves"] < 1000 and j["levels"] == 4 and j["ranked"] and j["hull_closed_manifold"], j
 assert j["triangles"] == 2 * j["leaves"] + j["bark_triangles"], j
 assert j["vmi_precision"] == 1.0 and 0 < j["vmi_recall"] < 1, j
+# Same leaf: of the same foliage pixels, those showing the same leaf, so never above coverage's
+for o in ["vmi", "vmi_enlarged", "random", "random_enlarged"]:
+    for m in ["precision", "recall"]:
+        assert 0 < j[o + "_leaf_" + m] <= j[o + "_" + m], (o, m, j)
 PY
 then ok "tree --json/--out/--pr/--preview"; else bad "tree (exit $rc): $tj $(cat "$TMP/tree.err")"; fi
 # The same tree read back: identical figures, no re-ranking.
@@ -426,6 +430,7 @@ assert j["trees"] == 40 and j["speedup"] > 0 and len(j["species"]) == 2, j
 for s in j["species"]:
     for k in ["vmi_precision","vmi_recall","random_precision","random_recall"]:
         assert 0 <= s[k] <= 1, (k, s)
+        assert 0 <= s[k.replace("_", "_leaf_")] <= s[k], (k, s)
 PY
 printf '# x,z,model,scale,yaw\n2500,2500,0,1,0\n2510,2500,1,1.2,45\n' > "$TMP/forest.csv"
 ffj=$($R --size 513 --forest-file "$TMP/forest.csv" $F --camera 2505,2500,2500,0,-89 --json --out "$TMP/ff.png" 2>&1)

@@ -240,9 +240,59 @@ static void test_pr_hand_made(void **state)
     }
 }
 
+/* The same-leaf measure on cases whose answer is known. One leaf node of
+ * two equal coplanar leaves side by side, apart: keeping the first keeps
+ * half the foliage, P 1 and R 0.5 by either measure. Enlarged by the
+ * coverage it lost (x sqrt 2 each way, twice its area), the kept leaf still
+ * shows itself over its own pixels and spills over as much again: P 0.5,
+ * R 0.5. */
+static void test_pr_same_leaf(void **state)
+{
+    (void)state;
+    hz_err err = {0};
+    hz_tree *t = tree_alloc("pair", 1, 1, 2, 1);
+    t->branches[0] = (hz_tree_branch){.parent = HZ_TREE_NONE, .level = 1, .leaf_node = 0, .length = 1,
+                                      .radius = 0.05f, .tip = {0, 1, 0}, .dir = {0, 1, 0}};
+    const hz_tree_leaf a = {{0, 1, 0}, {0.5f, 0.2f, 0.1f}, {-0.1f, 0.25f, 0.45f}}; /* tilted as nested_tree's */
+    for (int k = 0; k < 2; k++) {
+        t->leaves[k] = a;
+        for (int c = 0; c < 3; c++) /* 1.2 half-widths to either side: blades 0.9 wide do not touch */
+            t->leaves[k].c[c] += (k ? 1.2f : -1.2f) * a.v[c];
+    }
+    t->nodes[0] = (hz_tree_node){.branch = 0, .first = 0, .count = 2};
+    hz_tree_finish(t);
+    assert_int_equal(hz_tree_validate(t, &err), HZ_OK);
+    hz_pr_result half, big;
+    assert_int_equal(hz_tree_pr(t, &(hz_pr_desc){.views = 16, .res = 256, .rate = 0.5f}, &half, &err), HZ_OK);
+    assert_true(half.leaf_tp > 10000);
+    assert_float_equal(half.precision, 1.0, 1e-9);
+    assert_float_equal(half.recall, 0.5, 0.02);
+    assert_float_equal(half.leaf_precision, 1.0, 1e-9);
+    assert_float_equal(half.leaf_recall, 0.5, 0.02);
+    assert_true(half.leaf_tp == half.tp && half.leaf_fn == half.fn); /* nothing else shows where A was */
+    assert_int_equal(hz_tree_pr(t, &(hz_pr_desc){.views = 16, .res = 256, .rate = 0.5f, .enlarge = true}, &big, &err),
+                     HZ_OK);
+    print_message("pair enlarged: coverage %.3f/%.3f, same leaf %.3f/%.3f\n", big.precision, big.recall,
+                  big.leaf_precision, big.leaf_recall);
+    assert_float_equal(big.leaf_precision, 0.5, 0.03);
+    assert_float_equal(big.leaf_recall, 0.5, 0.02);
+    assert_true(big.tp >= big.leaf_tp);
+    hz_tree_destroy(t);
+    /* The closed box keeping four of its six faces (+-x, +-y): through the
+     * missing +-z faces the views see its inside, foliage still (coverage
+     * finds it) but other leaves than the full box shows there. */
+    t = box_tree();
+    assert_int_equal(hz_tree_pr(t, &(hz_pr_desc){.views = 16, .res = 256, .rate = 0.5f}, &half, &err), HZ_OK);
+    print_message("box half: coverage %.3f/%.3f, same leaf %.3f/%.3f\n", half.precision, half.recall,
+                  half.leaf_precision, half.leaf_recall);
+    assert_true(half.leaf_recall < half.recall - 0.1 && half.leaf_precision < half.precision - 0.1);
+    hz_tree_destroy(t);
+}
+
 /* VMI against random pruning on small trees: at 50 % VMI keeps more of the
  * crown's coverage (recall), and with enlargement by lost coverage it also
- * spills less (precision) and still covers more. */
+ * spills less (precision) and still covers more; by the same-leaf measure
+ * too. */
 static void test_vmi_beats_random(void **state)
 {
     (void)state;
@@ -263,9 +313,17 @@ static void test_vmi_beats_random(void **state)
         assert_int_equal(hz_tree_pr(rnd, &enl, &re, &err), HZ_OK);
         printf("%s: VMI %.3f/%.3f enlarged %.3f/%.3f, random %.3f/%.3f enlarged %.3f/%.3f\n", species[k],
                v.precision, v.recall, ve.precision, ve.recall, r.precision, r.recall, re.precision, re.recall);
+        printf("%s same leaf: VMI %.3f/%.3f enlarged %.3f/%.3f, random %.3f/%.3f enlarged %.3f/%.3f\n",
+               species[k], v.leaf_precision, v.leaf_recall, ve.leaf_precision, ve.leaf_recall, r.leaf_precision,
+               r.leaf_recall, re.leaf_precision, re.leaf_recall);
         assert_true(v.recall > r.recall + 0.01);
         assert_true(ve.recall > re.recall);
         assert_true(ve.precision > re.precision + 0.01);
+        /* By what the pixels show: VMI's half keeps more of the leaves seen,
+         * and its enlarged half covers fewer of the removed leaves' pixels. */
+        assert_true(v.leaf_recall > r.leaf_recall + 0.01);
+        assert_true(ve.leaf_precision > re.leaf_precision + 0.02);
+        assert_true(ve.leaf_recall > re.leaf_recall + 0.01);
         hz_tree_destroy(rnd);
         hz_tree_destroy(t);
     }
@@ -662,6 +720,7 @@ int main(void)
         cmocka_unit_test(test_rank_in_tree),
         cmocka_unit_test(test_pr),
         cmocka_unit_test(test_pr_hand_made),
+        cmocka_unit_test(test_pr_same_leaf),
         cmocka_unit_test(test_vmi_beats_random),
         cmocka_unit_test(test_forest_draw),
         cmocka_unit_test(test_point_leaves_match_quads),
