@@ -124,7 +124,7 @@ if os.path.exists(fp):
             print("| seed | 53 912 – 292 581 | 133 327 – 811 710 | 4 198 (oak) | | | 0.95 / 0.82 and 0.96 / 0.88 | | 0.90 / 0.71 and 0.92 / 0.78 | |")
             if "vmi_leaf_precision" in sp[0]:
                 print()
-                print("The same frames by the same leaf in each pixel (a leaf exposed by pruning, or an enlarged leaf over "
+                print("The same renders by the same leaf in each pixel (a leaf exposed by pruning, or an enlarged leaf over "
                       "a removed one, counts against the simplified tree), precision / recall:")
                 print()
                 print("| species | VMI | VMI enlarged | random | random enlarged |")
