@@ -124,6 +124,13 @@ static void test_refusals(void **state)
     refused(box_json(buf, sizeof buf, "\"transform\":{\"scale\":[0,1,1],\"translate\":[0,0,0]},", CRS32734,
                      BOX_FACES, ""),
             "scale[0] = 0 must be > 0");
+    /* Finite but absurd once dequantised: a scale of 1e30, or one vertex 2e9 m out. */
+    refused(box_json(buf, sizeof buf, "\"transform\":{\"scale\":[1e30,1,1],\"translate\":[0,0,0]},", CRS32734,
+                     BOX_FACES, ""),
+            "vertices[1][0]: lies at 1e+33 after the transform, beyond 1e+09");
+    refused(box_json(buf, sizeof buf, "\"transform\":{\"scale\":[1,1,1],\"translate\":[-1999999000,0,0]},",
+                     CRS32734, BOX_FACES, ""),
+            "vertices[0][0]: lies at -2e+09 after the transform");
     refused(box_json(buf, sizeof buf, TRANSFORM, "https://www.opengis.net/def/crs/EPSG/0/999999", BOX_FACES, ""),
             "unknown CRS EPSG:999999");
     refused(box_json(buf, sizeof buf, TRANSFORM, "my local grid", BOX_FACES, ""), "unknown CRS");
@@ -208,6 +215,8 @@ static void test_geometry_instance(void **state)
     refused(TEMPLATE_CITY("0", SCALE2, "0", "[[0,0,0],[1,0,0]]"),
             "geometry-templates.templates[0].boundaries[0][0]: ring 0, entry 1: vertex 3 out of range (2 vertices)");
     refused(TEMPLATE_CITY("0", SCALE2, "0", "[[0,0,\"x\"]]"), "geometry-templates.vertices-templates[0]: not three finite numbers");
+    refused(TEMPLATE_CITY("0", "[1e300,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]", "0", UNIT_CUBE),
+            "template vertex 1 lies at 1e+300 once transformed, beyond 1e+09");
 }
 
 /* Appearance materials: faces 0, 1 red, 2, 3, 5 blue, 4 none (theme
