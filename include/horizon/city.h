@@ -53,6 +53,12 @@ typedef struct hz_city_material {
 } hz_city_material;
 
 #define HZ_CITY_NO_MATERIAL 0xffffffffu
+/* The largest |coordinate| of a city vertex, in its CRS's units (25 times
+ * the Earth's circumference in metres): CityJSON vertices once dequantised
+ * (and instances once transformed) and footprint vertices once in the
+ * terrain's CRS beyond it are refused, as only a broken file puts them
+ * there. */
+#define HZ_CITY_MAX_COORD 1e9
 
 typedef struct hz_city {
     double *verts;        /* x, y, z per vertex: CRS easting, northing, height (dequantised) */

@@ -16,11 +16,6 @@
 #include <cpl_error.h>
 #include <ogr_srs_api.h>
 
-/* The largest |coordinate| of a vertex once dequantised (or an instance's
- * once transformed), in the CRS's units: 25 times the Earth's circumference
- * in metres, so only a broken transform or vertex goes beyond it. */
-#define CITY_MAX_COORD 1e9
-
 typedef struct loader {
     hz_city *c;
     const char *name;
@@ -172,10 +167,10 @@ static hz_result append_vertices(loader *L, json_t *vs)
                 return fail(L, HZ_ERR_FORMAT, "not an integer (vertices are quantised in CityJSON 2.0)");
             }
             d[3 * i + k] = (double)json_integer_value(q) * L->scale[k] + L->translate[k];
-            if (!(fabs(d[3 * i + k]) <= CITY_MAX_COORD)) {
+            if (!(fabs(d[3 * i + k]) <= HZ_CITY_MAX_COORD)) {
                 snprintf(L->path, sizeof L->path, "vertices[%zu][%zu]", i, k);
                 return fail(L, HZ_ERR_VALUE, "lies at %g after the transform, beyond %.0e", d[3 * i + k],
-                            CITY_MAX_COORD);
+                            HZ_CITY_MAX_COORD);
             }
         }
     }
@@ -569,9 +564,9 @@ static hz_result instance_vertices(loader *L, json_t *g, json_t **tmpl)
         d[3 * v + 1] = m[4] * t[0] + m[5] * t[1] + m[6] * t[2] + m[7] + py;
         d[3 * v + 2] = m[8] * t[0] + m[9] * t[1] + m[10] * t[2] + m[11] + pz;
         for (int k = 0; k < 3; k++)
-            if (!(fabs(d[3 * v + k]) <= CITY_MAX_COORD))
+            if (!(fabs(d[3 * v + k]) <= HZ_CITY_MAX_COORD))
                 return fail(L, HZ_ERR_VALUE, "template vertex %u lies at %g once transformed, beyond %.0e", v,
-                            d[3 * v + k], CITY_MAX_COORD);
+                            d[3 * v + k], HZ_CITY_MAX_COORD);
     }
     L->vbase = c->vert_count;
     L->vcount = L->tvert_count;

@@ -90,6 +90,13 @@ static hz_result extrude(fp_build *b, OGRGeometryH poly, OGRCoordinateTransforma
                 continue;
             if (!isfinite(x) || !isfinite(y))
                 continue;
+            if (!(fabs(x) <= HZ_CITY_MAX_COORD && fabs(y) <= HZ_CITY_MAX_COORD)) {
+                free(xy);
+                free(pts);
+                free(rs);
+                return hz_err_set(b->err, HZ_ERR_VALUE, "%s: building %s has a vertex at (%g, %g), beyond %.0e", b->path,
+                                  o->id, x, y, HZ_CITY_MAX_COORD);
+            }
             if (m && xy[2 * (m - 1)] == x && xy[2 * (m - 1) + 1] == y)
                 continue;
             xy[2 * m] = x;

@@ -534,6 +534,17 @@ static void test_footprints(void **state)
     assert_null(hz_city_load_footprints(HZ_TEST_TMP "/fp_off.geojson", NULL, &err));
     print_message("off the Earth: %s\n", err.msg);
     assert_non_null(strstr(err.msg, "not on the Earth"));
+    /* A projected vertex at 1e30 m: refused with the building, not extruded
+     * into a box that the camera then frames from 1e30 m away. */
+    fp = fopen(HZ_TEST_TMP "/fp_far.geojson", "w");
+    fputs("{\"type\":\"FeatureCollection\",\"crs\":{\"type\":\"name\",\"properties\":{\"name\":"
+          "\"urn:ogc:def:crs:EPSG::32633\"}},\"features\":[{\"type\":\"Feature\",\"properties\":{\"osm_id\":13},"
+          "\"geometry\":{\"type\":\"Polygon\",\"coordinates\":[[[500000,4000000],[1e30,4000000],[500000,4000100],"
+          "[500000,4000000]]]}}]}", fp);
+    fclose(fp);
+    assert_null(hz_city_load_footprints(HZ_TEST_TMP "/fp_far.geojson", NULL, &err));
+    print_message("far vertex: %s\n", err.msg);
+    assert_non_null(strstr(err.msg, "building 13 has a vertex at (1e+30, 4e+06), beyond 1e+09"));
     /* The UTM zone of a point: 0 for what is no position on the Earth. */
     assert_int_equal(hz_georef_utm_epsg(8.69, 49.41), 32632);
     assert_int_equal(hz_georef_utm_epsg(-70.5, -33.4), 32719);
