@@ -238,8 +238,13 @@ static GDALDatasetH open_inputs(const name_list *l, hz_err *err)
     return vrt;
 }
 
-static hz_georef *georef_of(GDALDatasetH ds)
+/* The raster's georeference; NULL without a CRS or a geotransform. A CRS
+ * with a geotransform that cannot place a pixel (zero pixel size, a
+ * singular matrix) is a broken file: NULL, *bad set and err says so, so
+ * that it is not read as an ungeoreferenced grid at the default spacing. */
+static hz_georef *georef_of(GDALDatasetH ds, const char *label, hz_result *bad, hz_err *err)
 {
+    *bad = HZ_OK;
     double gt[6];
     OGRSpatialReferenceH srs = GDALGetSpatialRef(ds);
     if (!srs || GDALGetGeoTransform(ds, gt) != CE_None)
@@ -250,8 +255,15 @@ static hz_georef *georef_of(GDALDatasetH ds)
         CPLFree(wkt);
         return NULL;
     }
-    hz_georef *g = hz_georef_create(wkt, gt, (uint32_t)GDALGetRasterXSize(ds), (uint32_t)GDALGetRasterYSize(ds), NULL);
+    hz_err why = {0};
+    hz_georef *g = hz_georef_create(wkt, gt, (uint32_t)GDALGetRasterXSize(ds), (uint32_t)GDALGetRasterYSize(ds), &why);
     CPLFree(wkt);
+    const char *pre = "georeference: ";
+    if (!g && why.code != HZ_ERR_MEMORY)
+        *bad = hz_err_set(err, HZ_ERR_FORMAT, "'%s' has a CRS but cannot be placed by it: %s", label,
+                          strncmp(why.msg, pre, strlen(pre)) ? why.msg : why.msg + strlen(pre));
+    else if (!g)
+        *bad = hz_err_set(err, HZ_ERR_MEMORY, "%s", why.msg);
     return g;
 }
 
@@ -485,7 +497,9 @@ hz_result hz_io_gdal_load(const hz_dem_desc *d, hz_grid *out, hz_dem_info *info,
         goto done;
     }
     const char *label = inputs.n == 1 ? inputs.v[0] : "mosaic";
-    g = georef_of(src);
+    g = georef_of(src, label, &r, err);
+    if (r != HZ_OK)
+        goto done;
     info->files = inputs.n;
     info->file_width = (uint32_t)GDALGetRasterXSize(src);
     info->file_height = (uint32_t)GDALGetRasterYSize(src);
@@ -533,7 +547,9 @@ hz_result hz_io_gdal_load(const hz_dem_desc *d, hz_grid *out, hz_dem_info *info,
             goto done;
         }
         hz_georef_destroy(g);
-        g = georef_of(warped);
+        g = georef_of(warped, label, &r, err);
+        if (r != HZ_OK)
+            goto done;
         info->reprojected = true;
         r = read_band(warped, label, out, &info->voids, &prog, d->max_memory, err);
     } else {
@@ -612,8 +628,8 @@ hz_result hz_io_src_open(const hz_dem_desc *d, hz_io_src **out, hz_err *err)
     }
     if (r == HZ_OK) {
         snprintf(s->label, sizeof s->label, "%s", inputs.n == 1 ? inputs.v[0] : "mosaic");
-        s->g = georef_of(s->src);
-        if (GDALGetRasterCount(s->src) < 1)
+        s->g = georef_of(s->src, s->label, &r, err);
+        if (r == HZ_OK && GDALGetRasterCount(s->src) < 1)
             r = hz_err_set(err, HZ_ERR_FORMAT, "'%s' has no raster band", s->label);
     }
     if (r == HZ_OK && needs_warp(d, s->src, s->g)) {
@@ -624,7 +640,7 @@ hz_result hz_io_src_open(const hz_dem_desc *d, hz_io_src **out, hz_err *err)
             r = err && err->code ? err->code : HZ_ERR_FORMAT;
         } else {
             hz_georef_destroy(s->g);
-            s->g = georef_of(s->warped);
+            s->g = georef_of(s->warped, s->label, &r, err);
         }
     }
     if (r == HZ_OK) {

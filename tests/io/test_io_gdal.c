@@ -701,6 +701,26 @@ void test_gdal_broken(void **state)
     assert_int_equal(one, HZ_ERR_UNSUPPORTED);
     assert_null(g.z);
     assert_non_null(strstr(err.msg, "re-tile"));
+    /* A CRS with a geotransform whose pixels have no width: refused, not read
+     * as an ungeoreferenced grid at the default spacing. */
+    /* (A VRT: GeoTIFF's tags cannot hold such a geotransform.) */
+    v = make_surface(64, 64);
+    const double good[6] = {500000.0, 30.0, 0, 4000000.0, 0, -30.0};
+    write_raster("GTiff", tmp("zero_width_src.tif"), v, 64, 64, good, "EPSG:32633", NULL, GDT_Float32, NULL);
+    free(v);
+    out = fopen(tmp("zero_width.vrt"), "w");
+    assert_non_null(out);
+    fprintf(out,
+            "<VRTDataset rasterXSize=\"64\" rasterYSize=\"64\"><SRS>EPSG:32633</SRS>"
+            "<GeoTransform>500000, 0, 0, 4000000, 0, -30</GeoTransform>"
+            "<VRTRasterBand dataType=\"Float32\" band=\"1\"><SimpleSource><SourceFilename relativeToVRT=\"0\">%s"
+            "</SourceFilename><SourceBand>1</SourceBand></SimpleSource></VRTRasterBand></VRTDataset>\n",
+            tmp("zero_width_src.tif"));
+    fclose(out);
+    assert_int_equal(hz_dem_load(&(hz_dem_desc){.path = tmp("zero_width.vrt")}, &g, NULL, &err), HZ_ERR_FORMAT);
+    print_message("zero pixel width: %s\n", err.msg);
+    assert_null(g.z);
+    assert_non_null(strstr(err.msg, "zero_width.vrt' has a CRS but cannot be placed by it: degenerate geotransform"));
     /* A missing input of a mosaic. */
     const char *missing[] = {HZ_DATA_DIR "/N46E008.tif", tmp("nope.tif")};
     assert_int_equal(hz_dem_load(&(hz_dem_desc){.paths = missing, .path_count = 2}, &g, NULL, &err), HZ_ERR_IO);
