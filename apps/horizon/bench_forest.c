@@ -445,19 +445,8 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
             jx_set(sp, "memory_mb", jx_fix((double)hz_tree_memory_bytes(tr) / 1048576.0, 2));
             if (!bo->no_pr) {
                 const char *names[4] = {"vmi", "vmi_enlarged", "random", "random_enlarged"};
-                char key[64];
-                for (int k = 0; k < 4; k++) {
-                    snprintf(key, sizeof key, "%s_precision", names[k]);
-                    jx_set(sp, key, jx_fix(sr[m].pr[k].precision, 4));
-                    snprintf(key, sizeof key, "%s_recall", names[k]);
-                    jx_set(sp, key, jx_fix(sr[m].pr[k].recall, 4));
-                    snprintf(key, sizeof key, "%s_f", names[k]);
-                    jx_set(sp, key, jx_fix(sr[m].pr[k].f_measure, 4));
-                    snprintf(key, sizeof key, "%s_leaf_precision", names[k]);
-                    jx_set(sp, key, jx_fix(sr[m].pr[k].leaf_precision, 4));
-                    snprintf(key, sizeof key, "%s_leaf_recall", names[k]);
-                    jx_set(sp, key, jx_fix(sr[m].pr[k].leaf_recall, 4));
-                }
+                for (int k = 0; k < 4; k++)
+                    cli_pr_json(sp, names[k], &sr[m].pr[k]);
                 jx_set(sp, "pr_views", jx_int(sr[m].pr[0].views));
                 jx_set(sp, "pr_res", jx_int(sr[m].pr[0].res));
             }

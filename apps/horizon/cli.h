@@ -250,6 +250,9 @@ void cli_usage_forest(void);
 /* hz_progress_fn for growing/ranking trees: a bar on a terminal, else a line
  * every 10 % or 10 s. user: NULL or a line_progress (forest_cli.c). */
 void cli_tree_progress(void *user, const char *label, uint64_t done, uint64_t total);
+/* Sets obj's prefix_precision, _recall, _f and prefix_leaf_precision,
+ * _leaf_recall, _leaf_f (the same-leaf measure) from r, 4 decimals. */
+void cli_pr_json(json_t *obj, const char *prefix, const hz_pr_result *r);
 /* Reads a --forest-file: x,z,model,scale,yaw lines ('#' comments, blank
  * lines skipped), y from t. *out (allocated) receives *n trees. False after
  * filling err. */

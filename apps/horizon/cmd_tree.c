@@ -345,20 +345,9 @@ int cmd_tree(int argc, char **argv)
             jx_set(j, "pr_views", jx_int(rows[0].r.views));
             jx_set(j, "pr_res", jx_int(rows[0].r.res));
             for (int k = 0; k < 4; k++) {
-                char key[64];
-                const char *en = rows[k].enlarge ? "_enlarged" : "";
-                snprintf(key, sizeof key, "%s%s_precision", rows[k].order, en);
-                jx_set(j, key, jx_fix(rows[k].r.precision, 4));
-                snprintf(key, sizeof key, "%s%s_recall", rows[k].order, en);
-                jx_set(j, key, jx_fix(rows[k].r.recall, 4));
-                snprintf(key, sizeof key, "%s%s_f", rows[k].order, en);
-                jx_set(j, key, jx_fix(rows[k].r.f_measure, 4));
-                snprintf(key, sizeof key, "%s%s_leaf_precision", rows[k].order, en);
-                jx_set(j, key, jx_fix(rows[k].r.leaf_precision, 4));
-                snprintf(key, sizeof key, "%s%s_leaf_recall", rows[k].order, en);
-                jx_set(j, key, jx_fix(rows[k].r.leaf_recall, 4));
-                snprintf(key, sizeof key, "%s%s_leaf_f", rows[k].order, en);
-                jx_set(j, key, jx_fix(rows[k].r.leaf_f_measure, 4));
+                char prefix[32];
+                snprintf(prefix, sizeof prefix, "%s%s", rows[k].order, rows[k].enlarge ? "_enlarged" : "");
+                cli_pr_json(j, prefix, &rows[k].r);
             }
         }
         jx_print(j, stdout);

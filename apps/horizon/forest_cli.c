@@ -51,6 +51,24 @@ typedef struct line_progress {
     double last_ms;
 } line_progress;
 
+void cli_pr_json(json_t *obj, const char *prefix, const hz_pr_result *r)
+{
+    const struct {
+        const char *measure;
+        double p, r, f;
+    } m[2] = {{"", r->precision, r->recall, r->f_measure},
+              {"_leaf", r->leaf_precision, r->leaf_recall, r->leaf_f_measure}};
+    char key[96];
+    for (int k = 0; k < 2; k++) {
+        snprintf(key, sizeof key, "%s%s_precision", prefix, m[k].measure);
+        jx_set(obj, key, jx_fix(m[k].p, 4));
+        snprintf(key, sizeof key, "%s%s_recall", prefix, m[k].measure);
+        jx_set(obj, key, jx_fix(m[k].r, 4));
+        snprintf(key, sizeof key, "%s%s_f", prefix, m[k].measure);
+        jx_set(obj, key, jx_fix(m[k].f, 4));
+    }
+}
+
 void cli_tree_progress(void *user, const char *label, uint64_t done, uint64_t total)
 {
     static line_progress shared = {.last_pct = -100};

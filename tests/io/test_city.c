@@ -469,6 +469,23 @@ static double solid_volume(const hz_city *c, const hz_city_object *o)
     return vol;
 }
 
+/* Writes geojson to HZ_TEST_TMP/name and checks that the footprint loader
+ * refuses it with a message holding needle. */
+static void footprints_refused(const char *name, const char *geojson, const char *needle)
+{
+    char path[512];
+    snprintf(path, sizeof path, "%s/%s", HZ_TEST_TMP, name);
+    FILE *fp = fopen(path, "w");
+    assert_non_null(fp);
+    fputs(geojson, fp);
+    fclose(fp);
+    hz_err err = {0};
+    assert_null(hz_city_load_footprints(path, NULL, &err));
+    print_message("%s: %s\n", name, err.msg);
+    if (!strstr(err.msg, needle))
+        fail_msg("message \"%s\" lacks \"%s\"", err.msg, needle);
+}
+
 static void test_footprints(void **state)
 {
     (void)state;
@@ -519,32 +536,24 @@ static void test_footprints(void **state)
     /* Refusals: not a vector file, no polygon. */
     assert_null(hz_city_load_footprints(MAMRE "x", NULL, &err));
     assert_non_null(strstr(err.msg, "not a vector file"));
-    fp = fopen(HZ_TEST_TMP "/fp_pt.geojson", "w");
-    fputs("{\"type\":\"FeatureCollection\",\"features\":[{\"type\":\"Feature\",\"properties\":{},"
-          "\"geometry\":{\"type\":\"Point\",\"coordinates\":[8.69,49.41]}}]}", fp);
-    fclose(fp);
-    assert_null(hz_city_load_footprints(HZ_TEST_TMP "/fp_pt.geojson", NULL, &err));
-    assert_non_null(strstr(err.msg, "no polygon"));
+    footprints_refused("fp_pt.geojson",
+                       "{\"type\":\"FeatureCollection\",\"features\":[{\"type\":\"Feature\",\"properties\":{},"
+                       "\"geometry\":{\"type\":\"Point\",\"coordinates\":[8.69,49.41]}}]}",
+                       "no polygon");
     /* lon/lat off the Earth: refused by name, not placed in a made-up UTM zone. */
-    fp = fopen(HZ_TEST_TMP "/fp_off.geojson", "w");
-    fputs("{\"type\":\"FeatureCollection\",\"features\":[{\"type\":\"Feature\",\"properties\":{},"
-          "\"geometry\":{\"type\":\"Polygon\",\"coordinates\":[[[8.69,149.41],[8.6903,149.41],[8.6903,149.4102],"
-          "[8.69,149.41]]]}}]}", fp);
-    fclose(fp);
-    assert_null(hz_city_load_footprints(HZ_TEST_TMP "/fp_off.geojson", NULL, &err));
-    print_message("off the Earth: %s\n", err.msg);
-    assert_non_null(strstr(err.msg, "not on the Earth"));
+    footprints_refused("fp_off.geojson",
+                       "{\"type\":\"FeatureCollection\",\"features\":[{\"type\":\"Feature\",\"properties\":{},"
+                       "\"geometry\":{\"type\":\"Polygon\",\"coordinates\":[[[8.69,149.41],[8.6903,149.41],"
+                       "[8.6903,149.4102],[8.69,149.41]]]}}]}",
+                       "not on the Earth");
     /* A projected vertex at 1e30 m: refused with the building, not extruded
      * into a box that the camera then frames from 1e30 m away. */
-    fp = fopen(HZ_TEST_TMP "/fp_far.geojson", "w");
-    fputs("{\"type\":\"FeatureCollection\",\"crs\":{\"type\":\"name\",\"properties\":{\"name\":"
-          "\"urn:ogc:def:crs:EPSG::32633\"}},\"features\":[{\"type\":\"Feature\",\"properties\":{\"osm_id\":13},"
-          "\"geometry\":{\"type\":\"Polygon\",\"coordinates\":[[[500000,4000000],[1e30,4000000],[500000,4000100],"
-          "[500000,4000000]]]}}]}", fp);
-    fclose(fp);
-    assert_null(hz_city_load_footprints(HZ_TEST_TMP "/fp_far.geojson", NULL, &err));
-    print_message("far vertex: %s\n", err.msg);
-    assert_non_null(strstr(err.msg, "building 13 has a vertex at (1e+30, 4e+06), beyond 1e+09"));
+    footprints_refused("fp_far.geojson",
+                       "{\"type\":\"FeatureCollection\",\"crs\":{\"type\":\"name\",\"properties\":{\"name\":"
+                       "\"urn:ogc:def:crs:EPSG::32633\"}},\"features\":[{\"type\":\"Feature\",\"properties\":"
+                       "{\"osm_id\":13},\"geometry\":{\"type\":\"Polygon\",\"coordinates\":[[[500000,4000000],"
+                       "[1e30,4000000],[500000,4000100],[500000,4000000]]]}}]}",
+                       "building 13 has a vertex at (1e+30, 4e+06), beyond 1e+09");
     /* The UTM zone of a point: 0 for what is no position on the Earth. */
     assert_int_equal(hz_georef_utm_epsg(8.69, 49.41), 32632);
     assert_int_equal(hz_georef_utm_epsg(-70.5, -33.4), 32719);
