@@ -24,6 +24,7 @@ extern "C" {
 #define HZ_IMAGERY_BORDER 4u      /* texels of the neighbours around each tile */
 #define HZ_IMAGERY_MAX_SIDE 32768u /* the largest max_side accepted */
 #define HZ_IMAGERY_MAX_BANDS 16   /* an image with more bands is refused (every band is warped) */
+#define HZ_IMAGERY_MAX_READ 4e9   /* image pixels the drape may read (without overviews, all of them) */
 
 typedef struct hz_imagery_desc {
     const char *path;          /* the image (a file GDAL opens) */

@@ -249,6 +249,71 @@ static void test_absurd_pixel_sizes_refused(void **state)
     hz_georef_destroy(geo);
 }
 
+/* A VRT of 200 000 x 200 000 pixels of 2.6 cm over the footprint (the
+ * pixels of a small GeoTIFF): draped at 256 texels it would be read whole,
+ * 40 G pixels, and is refused with the advice to add overviews. With an
+ * overview 500 times coarser (as fine as the 20 m texels still) the warp
+ * reads that instead, and it loads. */
+static void test_fine_image_needs_overviews(void **state)
+{
+    (void)state;
+    double gt[6];
+    hz_georef *geo = terrain_georef(gt);
+    char small[320], ovr[320], vrt[320];
+    snprintf(small, sizeof small, "%s/small.tif", dir);
+    snprintf(ovr, sizeof ovr, "%s/ovr.tif", dir);
+    snprintf(vrt, sizeof vrt, "%s/fine.vrt", dir);
+    GDALAllRegister();
+    const char *files[2] = {small, ovr};
+    const int sides[2] = {64, 400};
+    for (int k = 0; k < 2; k++) {
+        GDALDatasetH ds = GDALCreate(GDALGetDriverByName("GTiff"), files[k], sides[k], sides[k], 1, GDT_Byte, NULL);
+        assert_non_null(ds);
+        GDALClose(ds);
+    }
+    const int n = 200000;
+    const double px = SAMPLES * SPACING / n;
+    hz_imagery im;
+    hz_err err = {0};
+    hz_imagery_desc d = {.path = vrt, .target = geo, .samples = SAMPLES, .spacing = SPACING, .max_side = 256,
+                         .max_bytes = (uint64_t)64 << 20};
+    for (int with_ovr = 0; with_ovr < 2; with_ovr++) {
+        char ov[800] = "";
+        if (with_ovr)
+            snprintf(ov, sizeof ov,
+                     "<Overview><SourceFilename relativeToVRT=\"0\">%s</SourceFilename><SourceBand>1</SourceBand>"
+                     "</Overview>",
+                     ovr);
+        FILE *f = fopen(vrt, "w");
+        assert_non_null(f);
+        fprintf(f,
+                "<VRTDataset rasterXSize=\"%d\" rasterYSize=\"%d\"><SRS>EPSG:32632</SRS>"
+                "<GeoTransform>%.17g, %.17g, 0, %.17g, 0, %.17g</GeoTransform>"
+                "<VRTRasterBand dataType=\"Byte\" band=\"1\"><SimpleSource><SourceFilename relativeToVRT=\"0\">%s"
+                "</SourceFilename><SourceBand>1</SourceBand><SrcRect xOff=\"0\" yOff=\"0\" xSize=\"64\" "
+                "ySize=\"64\"/><DstRect xOff=\"0\" yOff=\"0\" xSize=\"%d\" ySize=\"%d\"/></SimpleSource>%s"
+                "</VRTRasterBand></VRTDataset>\n",
+                n, n, gt[0], px, gt[3], -px, small, n, n, ov);
+        fclose(f);
+        const double t0 = hz_time_ms();
+        const hz_result r = hz_imagery_load(&d, &im, &err);
+        print_message("%s: %s in %.0f ms\n", with_ovr ? "with an overview" : "without", r == HZ_OK ? "loaded" : err.msg,
+                      hz_time_ms() - t0);
+        if (with_ovr) {
+            assert_int_equal(r, HZ_OK);
+            hz_imagery_free(&im);
+        } else {
+            assert_int_equal(r, HZ_ERR_UNSUPPORTED);
+            assert_non_null(strstr(err.msg, "would read about 40.0 G of its pixels"));
+            assert_non_null(strstr(err.msg, "gdaladdo"));
+        }
+    }
+    unlink(small);
+    unlink(ovr);
+    unlink(vrt);
+    hz_georef_destroy(geo);
+}
+
 /* An image of more bands than HZ_IMAGERY_MAX_BANDS is refused before it is
  * warped (every band would be); one of that many loads. */
 static void test_many_bands_refused(void **state)
@@ -274,7 +339,8 @@ int main(void)
                                        cmocka_unit_test(test_partial_transparent),
                                        cmocka_unit_test(test_huge_blocks_refused),
                                        cmocka_unit_test(test_absurd_pixel_sizes_refused),
-                                       cmocka_unit_test(test_many_bands_refused)};
+                                       cmocka_unit_test(test_many_bands_refused),
+                                       cmocka_unit_test(test_fine_image_needs_overviews)};
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     rmdir(dir);
     return rc;
