@@ -9,7 +9,6 @@
 #include "ground_color.glsl"
 uniform vec3 u_sky_horizon;
 uniform vec3 u_eye;       // world metres
-uniform float u_fog_density; // per metre; 0 disables
 uniform vec2 u_hrange;    // min, max world height of the heightmap
 uniform int u_wire;       // 1: wireframe overlay pass
 uniform float u_water_mask; // alpha 0 below this world height (under the water), 1 above (-1e30: none)
@@ -29,6 +28,7 @@ uniform vec2 u_img_tile;            // texels per tile (border excluded), border
 
 in vec3 v_world;
 in vec3 v_normal;
+in float v_fog;
 in float v_valid;
 out vec4 o_color;
 
@@ -111,11 +111,11 @@ vec3 wired(vec3 c)
     return u_wire != 0 ? mix(c, vec3(0.05, 0.05, 0.05), 0.7) : c;
 }
 
-// Without effects: exponential fog to the sky's horizon colour at distance dist.
-vec3 plain_fog(vec3 c, float dist)
+// Without effects: exponential fog to the sky's horizon colour, its factor
+// from the vertices (it varies slowly over a triangle).
+vec3 plain_fog(vec3 c)
 {
-    float f = u_fog_density > 0.0 ? exp(-u_fog_density * dist) : 1.0;
-    return mix(u_sky_horizon, c, f);
+    return mix(u_sky_horizon, c, v_fog);
 }
 
 void main()
@@ -135,7 +135,7 @@ void main()
         // Trilinear like the normal map: far pixels read the lit colour
         // averaged over what they cover.
         vec3 lit = texture(u_lit, v_world.xz * u_nrm_scale.x + u_nrm_scale.y).rgb;
-        o_color = vec4(plain_fog(wired(lit), length(v_world - u_eye)), above);
+        o_color = vec4(plain_fog(wired(lit)), above);
         return;
     }
     vec3 n;
@@ -185,5 +185,5 @@ void main()
         o_color = vec4(fx_fogged(c, v_world), above);
         return;
     }
-    o_color = vec4(plain_fog(c, dist), above);
+    o_color = vec4(plain_fog(c), above);
 }

@@ -18,6 +18,7 @@ uniform float u_spacing;         // metres between samples
 uniform float u_hscale;          // metres per h16 step, times zscale
 uniform float u_hoffset;         // metres at h16 = 0, times zscale
 uniform mat4 u_viewproj;         // reverse-Z projection * view
+uniform float u_fog_density;     // per metre; 0 disables
 uniform vec3 u_eye;              // world metres
 uniform float u_morph_scale;     // metres of range per q step; 0 = no morphing
 uniform float u_morph_start;     // morphing starts at this fraction of the range
@@ -48,6 +49,7 @@ const bool MORPH = true;
 
 out vec3 v_world;
 out vec3 v_normal;
+out float v_fog;   // the plain fog's factor (terrain_fs.glsl): per vertex, smooth enough
 out float v_valid; // 1 where the sample has data; triangles touching one without are discarded
 
 // Texel c of tile layer: the tiles are squares of u_tile + 1 texels a side
@@ -251,5 +253,6 @@ void main()
     }
     v_valid = (t.a & 2u) != 0u ? 0.0 : 1.0;
     v_world = p;
+    v_fog = exp(-u_fog_density * length(p - u_eye));
     gl_Position = u_viewproj * vec4(hz_curve(p), 1.0);
 }

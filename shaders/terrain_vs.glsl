@@ -9,10 +9,12 @@ uniform float u_spacing;         // metres between samples
 uniform float u_hscale;          // metres per h16 step, times zscale
 uniform float u_hoffset;         // metres at h16 = 0, times zscale
 uniform mat4 u_viewproj;         // reverse-Z projection * view
+uniform float u_fog_density;     // per metre; 0 disables
 uniform vec3 u_eye;              // world metres
 
 out vec3 v_world;
 out vec3 v_normal;
+out float v_fog;   // the plain fog's factor (terrain_fs.glsl): per vertex, smooth enough
 out float v_valid; // index lists come without triangles over missing data
 
 float height_at(int i, int j)
@@ -36,5 +38,6 @@ void main()
 
     v_valid = 1.0;
     v_world = vec3(float(i) * u_spacing, y, float(j) * u_spacing);
+    v_fog = exp(-u_fog_density * length(v_world - u_eye));
     gl_Position = u_viewproj * vec4(hz_curve(v_world), 1.0);
 }
