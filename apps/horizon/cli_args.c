@@ -35,7 +35,7 @@ static const char *const VIEW_VALUE[] = {"config", "dt", "eye-height", "frames",
                                          "screenshot", "script", "shot-dir", "speed", "walk-speed", NULL};
 static const char *const VIEW_FLAG[] = {"boxes", "fans", "free", "no-hud", "hud-full", "no-vsync", "walk", NULL};
 static const char *const TREE_VALUE[] = {"hull-grid", "hull-triangles", "import", "in", "layers", "leaf-match",
-                                         "leaves", "node-leaves", "out", "pr-res", "pr-views", "preview",
+                                         "leaves", "min-elevation", "node-leaves", "out", "pr-res", "pr-views", "preview",
                                          "rank-res", "rank-tree", "rate", "scale", "seed", "size", "species", "up", "views", "max-memory",
                                          NULL};
 static const char *const TREE_FLAG[] = {"hull-preview", "json", "no-hull", "no-rank", "pr", "quiet", "rank", "help",

@@ -33,7 +33,10 @@ static void usage(void)
             "processing:\n"
             "  --no-rank               skip the VMI ranking (done by default when not yet ranked)\n"
             "  --rank                  rank again even if the tree is ranked\n"
-            "  --views 12|42|162       VMI viewpoints on the icosahedron (default 42)\n"
+            "  --views 12|42|162       VMI viewpoints on the icosahedron (default 162)\n"
+            "  --min-elevation DEG     only viewpoints at or above this elevation over the crown\n"
+            "                          (default 0: from the side and above, as distant trees are seen;\n"
+            "                          -90: the whole sphere)\n"
             "  --rank-res PX           item-buffer pixels across a leaf node rendered alone (default 32)\n"
             "  --rank-tree PX          rank in the whole tree rendered PX pixels across instead (e.g. 1024),\n"
             "                          so that a leaf's visible area is what the rest of the crown leaves\n"
@@ -135,7 +138,7 @@ int cmd_tree(int argc, char **argv)
                     !strcmp(a, "--rank") || !strcmp(a, "--no-hull") || !strcmp(a, "--pr") ||
                     !strcmp(a, "--hull-preview");
         static const char *const valued[] = {"--species", "--seed", "--leaves", "--import", "--leaf-match", "--up",
-                                             "--scale", "--node-leaves", "--in", "--out", "--preview", "--views",
+                                             "--scale", "--node-leaves", "--in", "--out", "--preview", "--views", "--min-elevation",
                                              "--rank-res", "--rank-tree", "--layers", "--hull-grid", "--hull-triangles", "--rate",
                                              "--size", "--pr-views", "--pr-res", "--max-memory"};
         bool is_known = flag;
@@ -195,6 +198,11 @@ int cmd_tree(int argc, char **argv)
             else if (!strcmp(a, "--views")) {
                 if (!cli_parse_u32(v, 12, 162, &rd.views) || (rd.views != 12 && rd.views != 42 && rd.views != 162))
                     return bad(a, v, "12, 42 or 162");
+            } else if (!strcmp(a, "--min-elevation")) {
+                float e;
+                if (!cli_parse_float(v, -90.0, 90.0, &e) || e != (float)(int)e)
+                    return bad(a, v, "whole degrees in [-90, 90]");
+                rd.min_elevation = (int32_t)e;
             } else if (!strcmp(a, "--rank-res")) {
                 if (!cli_parse_u32(v, 4, 256, &rd.res))
                     return bad(a, v, "pixels in [4, 256]");

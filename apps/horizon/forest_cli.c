@@ -129,11 +129,11 @@ static bool cache_dir(const cli_opts *o, char *dir, size_t cap)
 /* A tree from the cache, or made (grown from a species or imported from a
  * model file), VMI-ranked, hulled and cached. The cache file is keyed by
  * everything that makes the tree: the species and seed or the model file
- * (name, size, time), the leaves asked, the ranking (views, resolution,
- * layers) and hull parameters, and the generator's version. */
+ * (name, size, time), the leaves asked, the ranking (views, their least
+ * elevation, resolution, layers) and hull parameters, and the generator's version. */
 static hz_tree *cached_model(const cli_opts *o, const char *species, const char *import, hz_err *err)
 {
-    const hz_rank_desc rank = {.views = 42, .res = 32, .layers = 4};
+    const hz_rank_desc rank = {.views = 162, .res = 32, .layers = 4, .min_elevation = 0};
     const hz_hull_desc hull = {.grid = 40, .triangles = 3000};
     const uint64_t seed = 1;
     char dir[700], file[1100], key[300];
@@ -154,8 +154,8 @@ static hz_tree *cached_model(const cli_opts *o, const char *species, const char 
     }
     bool cache = cache_dir(o, dir, sizeof dir);
     if (cache) {
-        snprintf(file, sizeof file, "%s/%s-v%ur%uk%u-h%ut%u-g3.hzt", dir, key, rank.views,
-                 rank.tree_res ? rank.tree_res : rank.res, rank.layers,
+        snprintf(file, sizeof file, "%s/%s-v%ue%dr%uk%u-h%ut%u-g3.hzt", dir, key, rank.views,
+                 (int)rank.min_elevation, rank.tree_res ? rank.tree_res : rank.res, rank.layers,
                  hull.grid, hull.triangles);
         struct stat sb;
         if (stat(file, &sb) == 0) {

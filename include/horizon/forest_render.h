@@ -15,7 +15,11 @@ extern "C" {
 /* ---- VMI ranking (F2) ------------------------------------------------------- */
 
 typedef struct hz_rank_desc {
-    uint32_t views;    /* viewpoints: 12, 42 or 162 (icosahedron, 0/1/2 subdivisions); 0 -> 42 */
+    uint32_t views;    /* viewpoints: 12, 42 or 162 (icosahedron, 0/1/2 subdivisions); 0 -> 162 */
+    int32_t min_elevation; /* degrees (-90..90): viewpoints below this elevation seen from the
+                              crown are left out. 0 (default) keeps the upper hemisphere and
+                              the horizon's ring, the views a simplified (distant) tree is seen
+                              from; -90 keeps the whole sphere. t->rank_views counts those used */
     uint32_t res;      /* item-buffer pixels across one leaf node's bounding sphere; 0 -> 32 */
     uint32_t layers;   /* depth-peeled layers kept per pixel; 0 -> 4 */
     uint32_t tree_res; /* 0: each node rendered alone, res pixels across it, as F2 reads literally;
@@ -37,7 +41,8 @@ typedef struct hz_rank_stats {
 /* Ranks every leaf node's leaves by VMI and reorders them most important
  * first (t->ranked, rank_views/res/layers/ms are set). Each leaf node is an
  * object of its own (F2): its leaves are rendered alone, orthographically
- * from `views` directions framing its bounding sphere, into tiles of an
+ * from the `views` directions at or above min_elevation, framing its
+ * bounding sphere, into tiles of an
  * atlas (R32UI leaf ids, depth-peeled into `layers` layers), and ranked by
  * hz_vmi_rank. stats may be NULL. */
 hz_result hz_tree_rank(hz_tree *t, const hz_rank_desc *desc, hz_rank_stats *stats, hz_err *err);

@@ -380,20 +380,33 @@ hz_result hz_tree_rank(hz_tree *t, const hz_rank_desc *desc, hz_rank_stats *stat
     double t0 = hz_time_ms();
     hz_rank_desc d = desc ? *desc : (hz_rank_desc){0};
     if (!d.views)
-        d.views = 42;
+        d.views = 162;
     if (!d.res)
         d.res = 32;
     if (!d.layers)
         d.layers = 4;
     hz_rank_stats st = {0};
     if (d.res < 4 || d.res > 256 || d.layers > 16 || (d.views != 12 && d.views != 42 && d.views != 162) ||
-        (d.tree_res && (d.tree_res < 512 || d.tree_res > 4096)))
+        (d.tree_res && (d.tree_res < 512 || d.tree_res > 4096)) || d.min_elevation < -90 || d.min_elevation > 90)
         return hz_err_set(err, HZ_ERR_VALUE,
                           "rank: bad parameters (views %u: 12, 42 or 162; resolution %u: 4..256; layers %u: 1..16; "
-                          "tree resolution %u: 512..4096)",
-                          d.views, d.res, d.layers, d.tree_res);
+                          "tree resolution %u: 512..4096; minimum elevation %d: -90..90 degrees)",
+                          d.views, d.res, d.layers, d.tree_res, (int)d.min_elevation);
     float dirs[162 * 3];
     hz_sphere_views(d.views, dirs);
+    /* The views a simplified tree is seen from: directions toward the viewer
+     * at or above min_elevation (a tree seen from beneath is near, drawn whole). */
+    const uint32_t sphere_views = d.views;
+    const float ymin = sinf((float)d.min_elevation * 0.0174532925f) - 1e-4f;
+    d.views = 0;
+    for (uint32_t v = 0; v < sphere_views; v++)
+        if (dirs[v * 3 + 1] >= ymin) {
+            memmove(dirs + d.views * 3, dirs + v * 3, 3 * sizeof *dirs);
+            d.views++;
+        }
+    if (d.views < 2)
+        return hz_err_set(err, HZ_ERR_VALUE, "rank: %u of the %u views lie at or above %d degrees elevation (2 needed)",
+                          d.views, sphere_views, (int)d.min_elevation);
     const uint32_t per_row = d.res <= 64 ? 1024 / d.res : 4;
     const uint32_t per_batch = per_row * per_row;
     const uint32_t W = per_row * d.res, H = W;

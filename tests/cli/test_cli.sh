@@ -346,6 +346,8 @@ T="$HZ tree --quiet"
 expect_fail "tree unknown species"  "oak, maple"              $T --species baobab
 expect_fail "tree bad views"        "12, 42 or 162"           $T --species oak --leaves 500 --views 20
 expect_fail "tree NaN rate"         "invalid value"           $T --species oak --leaves 500 --rate nan
+expect_fail "tree bad elevation"    "degrees in \\[-90, 90\\]" $T --species oak --leaves 500 --min-elevation 91
+expect_fail "tree too few views"    "2 needed"                $T --species oak --leaves 500 --views 12 --min-elevation 89
 expect_fail "tree two sources"      "one source"              $T --species oak --in x.hzt
 expect_fail "tree missing file"     "cannot open"             $T --in "$TMP/nope.hzt"
 expect_fail "tree missing import"   "cannot (read|open)"      $T --import "$TMP/nope.obj"

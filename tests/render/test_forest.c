@@ -87,7 +87,7 @@ static void test_rank_hidden_leaf_last(void **state)
     assert_int_equal(hz_tree_validate(t, &err), HZ_OK);
     float hidden[3] = {t->leaves[6].c[0], t->leaves[6].c[1], t->leaves[6].c[2]};
     hz_rank_stats st;
-    hz_result r = hz_tree_rank(t, &(hz_rank_desc){.views = 42, .res = 48, .layers = 4}, &st, &err);
+    hz_result r = hz_tree_rank(t, &(hz_rank_desc){.views = 42, .res = 48, .layers = 4, .min_elevation = -90}, &st, &err);
     if (r != HZ_OK)
         fail_msg("rank: %s", err.msg);
     assert_true(t->ranked);
@@ -103,6 +103,61 @@ static void test_rank_hidden_leaf_last(void **state)
         found_top += fabsf(t->leaves[k].c[1] - 2.2f) < 1e-6f;
     assert_int_equal(found_top, 1);
     assert_int_equal(hz_tree_validate(t, &err), HZ_OK);
+    hz_tree_destroy(t);
+}
+
+/* One leaf node of three horizontal leaves: a big one, a smaller one just
+ * under it (seen only from below: from above the big one hides it, from the
+ * side all are edge-on) and a small one just over it (seen only from above). */
+static hz_tree *underside_tree(void)
+{
+    hz_tree *t = tree_alloc("underside", 1, 1, 3, 1);
+    t->branches[0] = (hz_tree_branch){.parent = HZ_TREE_NONE, .level = 1, .leaf_node = 0, .length = 1,
+                                      .radius = 0.05f, .tip = {0, 2, 0}, .dir = {0, 1, 0}};
+    t->leaves[0] = (hz_tree_leaf){{0, 2, 0}, {2.0f, 0, 0}, {0, 0, 2.0f}};      /* top */
+    t->leaves[1] = (hz_tree_leaf){{0, 1.95f, 0}, {0.8f, 0, 0}, {0, 0, 0.8f}};  /* under it */
+    t->leaves[2] = (hz_tree_leaf){{0.5f, 2.05f, 0.5f}, {0.1f, 0, 0}, {0, 0, 0.1f}}; /* small, over it */
+    t->nodes[0] = (hz_tree_node){.branch = 0, .first = 0, .count = 3};
+    hz_tree_finish(t);
+    return t;
+}
+
+/* Viewpoints below min_elevation are left out of the ranking: a leaf seen
+ * only from below ranks last from the side and above (the default), not
+ * over the whole sphere, where from below it hides much of the top one. */
+static void test_rank_min_elevation(void **state)
+{
+    (void)state;
+    hz_err err = {0};
+    float dirs[42 * 3];
+    assert_true(hz_sphere_views(42, dirs));
+    uint32_t upper = 0;
+    for (int v = 0; v < 42; v++)
+        upper += dirs[v * 3 + 1] >= -1e-4f;
+    assert_true(upper > 2 && upper < 42);
+    for (int whole = 0; whole < 2; whole++) {
+        hz_tree *t = underside_tree();
+        if (hz_tree_validate(t, &err) != HZ_OK)
+            fail_msg("underside tree: %s", err.msg);
+        hz_rank_desc d = {.views = 42, .res = 48, .layers = 4, .min_elevation = whole ? -90 : 0};
+        if (hz_tree_rank(t, &d, NULL, &err) != HZ_OK)
+            fail_msg("rank: %s", err.msg);
+        assert_int_equal(t->rank_views, whole ? 42u : upper);
+        uint32_t at = 99;
+        for (uint32_t k = 0; k < 3; k++)
+            if (fabsf(t->leaves[k].u[0] - 0.8f) < 1e-6f)
+                at = k;
+        print_message("%s: the leaf under the top one ranks %u of 3\n", whole ? "whole sphere" : "from above", at + 1);
+        if (whole)
+            assert_true(at < 2);
+        else
+            assert_int_equal(at, 2);
+        hz_tree_destroy(t);
+    }
+    hz_tree *t = underside_tree();
+    assert_int_equal(hz_tree_rank(t, &(hz_rank_desc){.min_elevation = 91}, NULL, &err), HZ_ERR_VALUE);
+    assert_int_equal(hz_tree_rank(t, &(hz_rank_desc){.views = 12, .min_elevation = 89}, NULL, &err), HZ_ERR_VALUE);
+    assert_non_null(strstr(err.msg, "elevation"));
     hz_tree_destroy(t);
 }
 
@@ -301,7 +356,7 @@ static void test_vmi_beats_random(void **state)
     for (int k = 0; k < 2; k++) {
         hz_tree *t = hz_tree_grow(&(hz_tree_desc){.species = species[k], .seed = 1, .leaves = 3000}, &err);
         assert_non_null(t);
-        assert_int_equal(hz_tree_rank(t, &(hz_rank_desc){.views = 42, .res = 32, .layers = 4}, NULL, &err), HZ_OK);
+        assert_int_equal(hz_tree_rank(t, &(hz_rank_desc){.res = 32, .layers = 4}, NULL, &err), HZ_OK);
         hz_tree *rnd = hz_tree_shuffled(t, 7, &err);
         assert_non_null(rnd);
         hz_pr_result v, r, ve, re;
@@ -718,6 +773,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_rank_hidden_leaf_last),
         cmocka_unit_test(test_rank_in_tree),
+        cmocka_unit_test(test_rank_min_elevation),
         cmocka_unit_test(test_pr),
         cmocka_unit_test(test_pr_hand_made),
         cmocka_unit_test(test_pr_same_leaf),
