@@ -129,8 +129,9 @@ void main()
     if (FX_MASKED && v_valid < 0.999)
         discard;
     // Alpha: whether this ground stands above the water (a sea shows where
-    // it does not: fx_water_draw).
-    float above = v_world.y >= u_water_mask ? 1.0 : 0.0;
+    // it does not: fx_water_draw). Only the water effect sets a mask: the
+    // other variants compile the test out (llvmpipe would run it per pixel).
+    float above = fx_on(FX_WATER) && v_world.y < u_water_mask ? 0.0 : 1.0;
     if (FX_LIT) {
         // Trilinear like the normal map: far pixels read the lit colour
         // averaged over what they cover.
