@@ -106,6 +106,16 @@ static void test_rank_hidden_leaf_last(void **state)
     hz_tree_destroy(t);
 }
 
+/* Where among leaves first .. first + count - 1 (a node, ranked) the leaf
+ * whose half axis along is u ended up: 0 = most important; count if none. */
+static uint32_t rank_of(const hz_tree *t, uint32_t first, uint32_t count, float u)
+{
+    for (uint32_t k = 0; k < count; k++)
+        if (fabsf(t->leaves[first + k].u[0] - u) < 1e-6f)
+            return k;
+    return count;
+}
+
 /* One leaf node of three horizontal leaves: a big one, a smaller one just
  * under it (seen only from below: from above the big one hides it, from the
  * side all are edge-on) and a small one just over it (seen only from above). */
@@ -143,10 +153,7 @@ static void test_rank_min_elevation(void **state)
         if (hz_tree_rank(t, &d, NULL, &err) != HZ_OK)
             fail_msg("rank: %s", err.msg);
         assert_int_equal(t->rank_views, whole ? 42u : upper);
-        uint32_t at = 99;
-        for (uint32_t k = 0; k < 3; k++)
-            if (fabsf(t->leaves[k].u[0] - 0.8f) < 1e-6f)
-                at = k;
+        const uint32_t at = rank_of(t, 0, 3, 0.8f);
         print_message("%s: the leaf under the top one ranks %u of 3\n", whole ? "whole sphere" : "from above", at + 1);
         if (whole)
             assert_true(at < 2);
@@ -196,11 +203,7 @@ static void test_rank_in_tree(void **state)
             fail_msg("rank: %s", err.msg);
         assert_int_equal(t->rank_res, in_tree ? 512u : 48u);
         assert_true(st.pixels > 42 * 50);
-        /* where node 1's big leaf ended up in its order */
-        uint32_t at = 99;
-        for (uint32_t k = 0; k < 3; k++)
-            if (fabsf(t->leaves[6 + k].u[0] - 0.3f) < 1e-6f)
-                at = k;
+        const uint32_t at = rank_of(t, 6, 3, 0.3f); /* node 1's big leaf in its order */
         print_message("%s: the hidden big leaf ranks %u of 3\n", in_tree ? "in the tree" : "alone", at + 1);
         if (in_tree)
             assert_int_equal(at, 2);
