@@ -18,8 +18,8 @@ typedef struct hz_rank_desc {
     uint32_t views;    /* viewpoints: 12, 42 or 162 (icosahedron, 0/1/2 subdivisions); 0 -> 162 */
     int32_t min_elevation; /* degrees (-90..90): viewpoints below this elevation seen from the
                               crown are left out. 0 (default) keeps the upper hemisphere and
-                              the horizon's ring, the views a simplified (distant) tree is seen
-                              from; -90 keeps the whole sphere. t->rank_views counts those used */
+                              the horizon's ring, the views a much simplified (distant) tree is
+                              seen from; -90 keeps the whole sphere. t->rank_views counts those used */
     uint32_t res;      /* item-buffer pixels across one leaf node's bounding sphere; 0 -> 32 */
     uint32_t layers;   /* depth-peeled layers kept per pixel; 0 -> 4 */
     uint32_t tree_res; /* 0: each node rendered alone, res pixels across it, as F2 reads literally;

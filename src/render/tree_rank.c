@@ -395,7 +395,8 @@ hz_result hz_tree_rank(hz_tree *t, const hz_rank_desc *desc, hz_rank_stats *stat
     float dirs[162 * 3];
     hz_sphere_views(d.views, dirs);
     /* The views a simplified tree is seen from: directions toward the viewer
-     * at or above min_elevation (a tree seen from beneath is near, drawn whole). */
+     * at or above min_elevation (a tree is seen from beneath only from close by,
+     * where it is simplified least). */
     const uint32_t sphere_views = d.views;
     const float ymin = sinf((float)d.min_elevation * 0.0174532925f) - 1e-4f;
     d.views = 0;
