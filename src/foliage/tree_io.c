@@ -384,6 +384,9 @@ static hz_tree *parse(const uint8_t *data, size_t size, hz_err *err)
         }
         next += nd->count;
     }
+    /* Leaves before hz_tree_finish: validate would otherwise name the node
+     * spheres derived from a bad leaf, not the leaf. The bark and hull
+     * vertices are bounded by hz_tree_validate below. */
     for (uint32_t k = 0; k < nl; k++)
         for (int c = 0; c < 3; c++)
             if (!isfinite(t->leaves[k].c[c]) || !isfinite(t->leaves[k].u[c]) || !isfinite(t->leaves[k].v[c]) ||
@@ -392,17 +395,6 @@ static hz_tree *parse(const uint8_t *data, size_t size, hz_err *err)
                 hz_err_set(err, HZ_ERR_FORMAT, "tree file: leaf %u is not finite or absurdly large", k);
                 goto fail;
             }
-    for (uint32_t v = 0; v < t->bark.vertex_count * 3; v++)
-        if (!isfinite(t->bark.pos[v]) || fabsf(t->bark.pos[v]) > HZ_TREE_MAX_COORD) {
-            hz_err_set(err, HZ_ERR_FORMAT, "tree file: bark vertex %u is not finite or absurdly large", v / 3);
-            goto fail;
-        }
-    for (uint32_t v = 0; v < t->hull.vertex_count * 3; v++) /* bounded like the bark */
-        if (!isfinite(t->hull.pos[v]) || fabsf(t->hull.pos[v]) > HZ_TREE_MAX_COORD) {
-            hz_err_set(err, HZ_ERR_FORMAT, "tree file: hull vertex %u is not finite or absurdly large (|x| > %.0f m)",
-                       v / 3, (double)HZ_TREE_MAX_COORD);
-            goto fail;
-        }
     hz_tree_finish(t);
     if (hz_tree_validate(t, err) != HZ_OK)
         goto fail;
