@@ -50,6 +50,14 @@ static hz_tree *tree_alloc(const char *species, uint32_t levels, uint32_t nb, ui
     return t;
 }
 
+/* The trunk of a hand-built tree: 1 m long, straight up to height tip_y,
+ * carrying leaf node 0. */
+static hz_tree_branch trunk(float tip_y)
+{
+    return (hz_tree_branch){.parent = HZ_TREE_NONE, .level = 1, .leaf_node = 0, .length = 1, .radius = 0.05f,
+                            .tip = {0, tip_y, 0}, .dir = {0, 1, 0}};
+}
+
 /* Six leaves forming a closed box centred at (0, 1, 0), 1 m wide; a quad is
  * c +- u +- v. The leaf cut-out is almond shaped, so each face is two
  * crossed leaves' worth: faces larger than the box close the corners. */
@@ -69,8 +77,7 @@ static void box_faces(hz_tree_leaf *out)
 static hz_tree *box_tree(void)
 {
     hz_tree *t = tree_alloc("box", 1, 1, 8, 1);
-    t->branches[0] = (hz_tree_branch){.parent = HZ_TREE_NONE, .level = 1, .leaf_node = 0, .length = 1,
-                                      .radius = 0.05f, .tip = {0, 1, 0}, .dir = {0, 1, 0}};
+    t->branches[0] = trunk(1.0f);
     box_faces(t->leaves);
     t->leaves[6] = (hz_tree_leaf){{0, 1, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}};   /* hidden inside */
     t->leaves[7] = (hz_tree_leaf){{0, 2.2f, 0}, {0.3f, 0, 0}, {0, 0.3f, 0}}; /* exposed above */
@@ -122,8 +129,7 @@ static uint32_t rank_of(const hz_tree *t, uint32_t first, uint32_t count, float 
 static hz_tree *underside_tree(void)
 {
     hz_tree *t = tree_alloc("underside", 1, 1, 3, 1);
-    t->branches[0] = (hz_tree_branch){.parent = HZ_TREE_NONE, .level = 1, .leaf_node = 0, .length = 1,
-                                      .radius = 0.05f, .tip = {0, 2, 0}, .dir = {0, 1, 0}};
+    t->branches[0] = trunk(2.0f);
     t->leaves[0] = (hz_tree_leaf){{0, 2, 0}, {2.0f, 0, 0}, {0, 0, 2.0f}};      /* top */
     t->leaves[1] = (hz_tree_leaf){{0, 1.95f, 0}, {0.8f, 0, 0}, {0, 0, 0.8f}};  /* under it */
     t->leaves[2] = (hz_tree_leaf){{0.5f, 2.05f, 0.5f}, {0.1f, 0, 0}, {0, 0, 0.1f}}; /* small, over it */
@@ -173,8 +179,7 @@ static void test_rank_min_elevation(void **state)
 static hz_tree *boxed_tree(void)
 {
     hz_tree *t = tree_alloc("boxed", 2, 2, 9, 2);
-    t->branches[0] = (hz_tree_branch){.parent = HZ_TREE_NONE, .level = 1, .leaf_node = 0, .length = 1,
-                                      .radius = 0.05f, .tip = {0, 1, 0}, .dir = {0, 1, 0}};
+    t->branches[0] = trunk(1.0f);
     t->branches[1] = (hz_tree_branch){.parent = 0, .level = 2, .leaf_node = 1, .length = 1, .radius = 0.02f,
                                       .base = {0, 1, 0}, .tip = {0, 2, 0}, .dir = {0, 1, 0}};
     box_faces(t->leaves);
@@ -255,8 +260,7 @@ static void test_pr(void **state)
 static hz_tree *nested_tree(bool small_first)
 {
     hz_tree *t = tree_alloc("nested", 1, 1, 2, 1);
-    t->branches[0] = (hz_tree_branch){.parent = HZ_TREE_NONE, .level = 1, .leaf_node = 0, .length = 1,
-                                      .radius = 0.05f, .tip = {0, 1, 0}, .dir = {0, 1, 0}};
+    t->branches[0] = trunk(1.0f);
     /* tilted so that no view of the measure sees it edge-on */
     const hz_tree_leaf small = {{0, 1, 0}, {0.5f, 0.2f, 0.1f}, {-0.1f, 0.25f, 0.45f}};
     hz_tree_leaf big = small;
@@ -309,8 +313,7 @@ static void test_pr_same_leaf(void **state)
     (void)state;
     hz_err err = {0};
     hz_tree *t = tree_alloc("pair", 1, 1, 2, 1);
-    t->branches[0] = (hz_tree_branch){.parent = HZ_TREE_NONE, .level = 1, .leaf_node = 0, .length = 1,
-                                      .radius = 0.05f, .tip = {0, 1, 0}, .dir = {0, 1, 0}};
+    t->branches[0] = trunk(1.0f);
     const hz_tree_leaf a = {{0, 1, 0}, {0.5f, 0.2f, 0.1f}, {-0.1f, 0.25f, 0.45f}}; /* tilted as nested_tree's */
     for (int k = 0; k < 2; k++) {
         t->leaves[k] = a;
