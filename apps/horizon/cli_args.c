@@ -28,14 +28,14 @@ static const char *const COMMON_FLAG[] = {"no-cull",   "no-enlarge", "no-hystere
                                           "json",      "quiet",      "wireframe",     "help",         "version",
                                           NULL};
 static const char *const BENCH_VALUE[] = {"effect-costs", "fps", "frames", "full-every", "json", "metrics",
-                                          "path", "plot", "pr-res", "pr-views", "reference", "save-frames",
+                                          "path", "plot", "pr-res", "pr-shuffles", "pr-views", "reference", "save-frames",
                                           "tune-p99", "tune-silhouette", "tune-psnr", NULL};
 static const char *const BENCH_FLAG[] = {"no-full", "no-pr", NULL};
 static const char *const VIEW_VALUE[] = {"config", "dt", "eye-height", "frames", "hud-scale", "mouse-sens", "path",
                                          "screenshot", "script", "shot-dir", "speed", "walk-speed", NULL};
 static const char *const VIEW_FLAG[] = {"boxes", "fans", "free", "no-hud", "hud-full", "no-vsync", "walk", NULL};
 static const char *const TREE_VALUE[] = {"hull-grid", "hull-triangles", "import", "in", "layers", "leaf-match",
-                                         "leaves", "min-elevation", "node-leaves", "out", "pr-res", "pr-views", "preview",
+                                         "leaves", "min-elevation", "node-leaves", "out", "pr-res", "pr-shuffles", "pr-views", "preview",
                                          "rank-res", "rank-tree", "rate", "scale", "seed", "size", "species", "up", "views", "max-memory",
                                          NULL};
 static const char *const TREE_FLAG[] = {"hull-preview", "json", "no-hull", "no-rank", "pr", "quiet", "rank", "help",

@@ -116,6 +116,7 @@ static void usage(void)
             "  --no-full               no unsimplified frames\n"
             "  --no-pr                 skip the per-species precision/recall\n"
             "  --pr-views N --pr-res N views (default 16) and image size (default 512) for it\n"
+            "  --pr-shuffles N         random orders pooled into the random-pruning figures (default 4)\n"
             "effects:\n"
             "  --effect-costs FILE     instead of the above: the frame-time cost of each effect along\n"
             "                          the path (none, each alone, all, all but each) and the light\n"
@@ -961,7 +962,8 @@ int cmd_bench(int argc, char **argv)
         }
         bool takes = !strcmp(a, "--path") || !strcmp(a, "--frames") || !strcmp(a, "--fps") ||
                      !strcmp(a, "--full-every") || !strcmp(a, "--pr-views") || !strcmp(a, "--pr-res") ||
-                     !strcmp(a, "--reference") || !strcmp(a, "--plot") || !strcmp(a, "--save-frames") ||
+                     !strcmp(a, "--pr-shuffles") || !strcmp(a, "--reference") || !strcmp(a, "--plot") ||
+                     !strcmp(a, "--save-frames") ||
                      !strcmp(a, "--tune-p99") || (!strcmp(a, "--lod") && v && strchr(v, ',')) ||
                      !strcmp(a, "--tune-silhouette") || !strcmp(a, "--tune-psnr") || !strcmp(a, "--metrics") ||
                      !strcmp(a, "--effect-costs") ||
@@ -992,8 +994,10 @@ int cmd_bench(int argc, char **argv)
                 free(rest);
                 return 2;
             }
-        } else if (!strcmp(a, "--full-every") || !strcmp(a, "--pr-views") || !strcmp(a, "--pr-res")) {
-            const uint32_t hi = !strcmp(a, "--pr-res") ? 4096 : 100000, lo = !strcmp(a, "--pr-res") ? 16 : 1;
+        } else if (!strcmp(a, "--full-every") || !strcmp(a, "--pr-views") || !strcmp(a, "--pr-res") ||
+                   !strcmp(a, "--pr-shuffles")) {
+            const uint32_t hi = !strcmp(a, "--pr-res") ? 4096 : !strcmp(a, "--pr-shuffles") ? 64 : 100000,
+                           lo = !strcmp(a, "--pr-res") ? 16 : 1;
             uint32_t x;
             if (!cli_parse_u32(v, lo, hi, &x)) {
                 fprintf(stderr, "horizon bench: invalid value '%s' for %s: expected a count in [%u, %u]\n", v, a, lo, hi);
@@ -1004,6 +1008,8 @@ int cmd_bench(int argc, char **argv)
                 bfo.full_every = x;
             else if (!strcmp(a, "--pr-views"))
                 bfo.pr_views = x;
+            else if (!strcmp(a, "--pr-shuffles"))
+                bfo.pr_shuffles = x;
             else
                 bfo.pr_res = x;
         } else if (!strcmp(a, "--metrics")) {

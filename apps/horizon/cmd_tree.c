@@ -56,6 +56,8 @@ static void usage(void)
             "                          of the same leaf per pixel, VMI order vs random order, with and\n"
             "                          without enlargement\n"
             "  --pr-views N --pr-res N views (default 16) and image size (default 512) for --pr\n"
+            "  --pr-shuffles N         random orders pooled into the random rows (default 4, 1..64);\n"
+            "                          the JSON gives their spread (_min, _max)\n"
             "  --quiet                 no progress bars\n");
 }
 
@@ -69,6 +71,7 @@ typedef struct pr_row {
     const char *order;
     bool enlarge;
     hz_pr_result r;
+    double leaf_p[2], leaf_r[2]; /* random rows: the least and greatest over the orders */
 } pr_row;
 
 /* Renders the tree alone: a one-tree forest on no terrain, through the hook. */
@@ -126,6 +129,7 @@ int cmd_tree(int argc, char **argv)
     hz_rank_desc rd = {0};
     hz_hull_desc hd = {0};
     hz_pr_desc prd = {.rate = 0.5f};
+    uint32_t shuffles = 4;
     uint32_t size = 512;
     float rate = 0.0f;
     for (int i = 2; i < argc; i++) {
@@ -140,7 +144,7 @@ int cmd_tree(int argc, char **argv)
         static const char *const valued[] = {"--species", "--seed", "--leaves", "--import", "--leaf-match", "--up",
                                              "--scale", "--node-leaves", "--in", "--out", "--preview", "--views", "--min-elevation",
                                              "--rank-res", "--rank-tree", "--layers", "--hull-grid", "--hull-triangles", "--rate",
-                                             "--size", "--pr-views", "--pr-res", "--max-memory"};
+                                             "--size", "--pr-views", "--pr-res", "--pr-shuffles", "--max-memory"};
         bool is_known = flag;
         for (size_t k = 0; k < sizeof valued / sizeof valued[0] && !is_known; k++)
             is_known = !strcmp(a, valued[k]);
@@ -230,6 +234,9 @@ int cmd_tree(int argc, char **argv)
             } else if (!strcmp(a, "--pr-res")) {
                 if (!cli_parse_u32(v, 16, 4096, &prd.res))
                     return bad(a, v, "pixels in [16, 4096]");
+            } else if (!strcmp(a, "--pr-shuffles")) {
+                if (!cli_parse_u32(v, 1, 64, &shuffles))
+                    return bad(a, v, "a count in [1, 64]");
             } else {
                 fprintf(stderr, "horizon tree: unknown option '%s' (see horizon tree --help)\n", a);
                 return 2;
@@ -295,18 +302,25 @@ int cmd_tree(int argc, char **argv)
     if (preview_file && preview(t, preview_file, size, rate, hull_preview, &err))
         goto done;
     if (pr) {
-        hz_tree *rnd = hz_tree_shuffled(t, 12345, &err);
-        if (!rnd)
-            goto done;
+        hz_pr_result each[64];
         for (int k = 0; k < 4; k++) {
             hz_pr_desc d = prd;
             d.enlarge = rows[k].enlarge;
-            if (hz_tree_pr(k < 2 ? t : rnd, &d, &rows[k].r, &err) != HZ_OK) {
-                hz_tree_destroy(rnd);
+            if (k < 2) {
+                if (hz_tree_pr(t, &d, &rows[k].r, &err) != HZ_OK)
+                    goto done;
+                continue;
+            }
+            if (hz_tree_pr_random(t, &d, shuffles, 12345, &rows[k].r, each, &err) != HZ_OK)
                 goto done;
+            rows[k].leaf_p[0] = rows[k].leaf_r[0] = 1;
+            for (uint32_t s = 0; s < shuffles; s++) {
+                rows[k].leaf_p[0] = fmin(rows[k].leaf_p[0], each[s].leaf_precision);
+                rows[k].leaf_p[1] = fmax(rows[k].leaf_p[1], each[s].leaf_precision);
+                rows[k].leaf_r[0] = fmin(rows[k].leaf_r[0], each[s].leaf_recall);
+                rows[k].leaf_r[1] = fmax(rows[k].leaf_r[1], each[s].leaf_recall);
             }
         }
-        hz_tree_destroy(rnd);
     }
     long long file_bytes = -1;
     struct stat sb;
@@ -356,7 +370,18 @@ int cmd_tree(int argc, char **argv)
                 char prefix[32];
                 snprintf(prefix, sizeof prefix, "%s%s", rows[k].order, rows[k].enlarge ? "_enlarged" : "");
                 cli_pr_json(j, prefix, &rows[k].r);
+                if (k >= 2) {
+                    const char *sfx[4] = {"_leaf_precision_min", "_leaf_precision_max", "_leaf_recall_min",
+                                          "_leaf_recall_max"};
+                    const double val[4] = {rows[k].leaf_p[0], rows[k].leaf_p[1], rows[k].leaf_r[0], rows[k].leaf_r[1]};
+                    for (int q = 0; q < 4; q++) {
+                        char key[64];
+                        snprintf(key, sizeof key, "%s%s", prefix, sfx[q]);
+                        jx_set(j, key, jx_fix(val[q], 4));
+                    }
+                }
             }
+            jx_set(j, "random_shuffles", jx_int(shuffles));
         }
         jx_print(j, stdout);
     } else {
@@ -376,8 +401,9 @@ int cmd_tree(int argc, char **argv)
                    !topo.bad_edges && !topo.bad_vertices ? "closed and manifold" : "NOT closed/manifold");
         printf("memory        %.1f MB\n", (double)hz_tree_memory_bytes(t) / 1048576.0);
         if (pr) {
-            printf("precision/recall at %.0f%% simplification, %u views at %ux%u (foliage coverage | same leaf):\n",
-                   (double)prd.rate * 100, rows[0].r.views, rows[0].r.res, rows[0].r.res);
+            printf("precision/recall at %.0f%% simplification, %u views at %ux%u (foliage coverage | same leaf;\n"
+                   "random: %u orders pooled):\n",
+                   (double)prd.rate * 100, rows[0].r.views, rows[0].r.res, rows[0].r.res, shuffles);
             for (int k = 0; k < 4; k++)
                 printf("  %-7s %-13s P %.3f  R %.3f  F %.3f  |  P %.3f  R %.3f  F %.3f\n", rows[k].order,
                        rows[k].enlarge ? "enlarged" : "not enlarged", rows[k].r.precision, rows[k].r.recall,

@@ -80,6 +80,14 @@ hz_result hz_tree_pr(const hz_tree *t, const hz_pr_desc *desc, hz_pr_result *out
  * random-pruning baseline). NULL on out of memory. */
 hz_tree *hz_tree_shuffled(const hz_tree *t, uint64_t seed, hz_err *err);
 
+/* The random-pruning baseline as an expectation, not one draw: hz_tree_pr
+ * of `shuffles` random orders of t's leaves (hz_tree_shuffled with seeds
+ * seed, seed + 1, ...), their counts pooled into out (the ratios are those
+ * of the sums). each, if not NULL, receives every shuffle's own result
+ * (`shuffles` of them), for the spread. shuffles in 1..64. */
+hz_result hz_tree_pr_random(const hz_tree *t, const hz_pr_desc *desc, uint32_t shuffles, uint64_t seed,
+                            hz_pr_result *out, hz_pr_result *each, hz_err *err);
+
 /* ---- forest drawing ------------------------------------------------------------ */
 
 typedef struct hz_forest_gpu hz_forest_gpu;

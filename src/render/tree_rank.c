@@ -688,3 +688,38 @@ hz_tree *hz_tree_shuffled(const hz_tree *t, uint64_t seed, hz_err *err)
     c->ranked = false;
     return c;
 }
+
+hz_result hz_tree_pr_random(const hz_tree *t, const hz_pr_desc *desc, uint32_t shuffles, uint64_t seed,
+                            hz_pr_result *out, hz_pr_result *each, hz_err *err)
+{
+    hz_err local = {0};
+    if (!err)
+        err = &local;
+    *out = (hz_pr_result){0};
+    if (shuffles < 1 || shuffles > 64)
+        return hz_err_set(err, HZ_ERR_VALUE, "pr: %u random orders (1..64)", shuffles);
+    for (uint32_t k = 0; k < shuffles; k++) {
+        hz_tree *rnd = hz_tree_shuffled(t, seed + k, err);
+        if (!rnd)
+            return err->code != HZ_OK ? err->code : HZ_ERR_MEMORY;
+        hz_pr_result r;
+        hz_result res = hz_tree_pr(rnd, desc, &r, err);
+        hz_tree_destroy(rnd);
+        if (res != HZ_OK)
+            return res;
+        if (each)
+            each[k] = r;
+        out->views = r.views;
+        out->res = r.res;
+        out->tp += r.tp;
+        out->fp += r.fp;
+        out->fn += r.fn;
+        out->leaf_tp += r.leaf_tp;
+        out->leaf_fp += r.leaf_fp;
+        out->leaf_fn += r.leaf_fn;
+    }
+    pr_ratios(out->tp, out->fp, out->fn, &out->precision, &out->recall, &out->f_measure);
+    pr_ratios(out->leaf_tp, out->leaf_fp, out->leaf_fn, &out->leaf_precision, &out->leaf_recall,
+              &out->leaf_f_measure);
+    return HZ_OK;
+}

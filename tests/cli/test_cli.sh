@@ -348,6 +348,8 @@ expect_fail "tree bad views"        "12, 42 or 162"           $T --species oak -
 expect_fail "tree NaN rate"         "invalid value"           $T --species oak --leaves 500 --rate nan
 expect_fail "tree bad elevation"    "degrees in \\[-90, 90\\]" $T --species oak --leaves 500 --min-elevation 91
 expect_fail "tree too few views"    "2 needed"                $T --species oak --leaves 500 --views 12 --min-elevation 89
+expect_fail "tree pr-shuffles 0"    "a count in \\[1, 64\\]"      $T --species oak --leaves 500 --pr --pr-shuffles 0
+expect_fail "bench pr-shuffles 65"  "a count in \\[1, 64\\]"      $HZ bench --quiet --size 257 --forest 5 --pr-shuffles 65
 expect_fail "tree two sources"      "one source"              $T --species oak --in x.hzt
 expect_fail "tree missing file"     "cannot open"             $T --in "$TMP/nope.hzt"
 expect_fail "tree missing import"   "cannot (read|open)"      $T --import "$TMP/nope.obj"
@@ -371,6 +373,12 @@ assert j["vmi_precision"] == 1.0 and 0 < j["vmi_recall"] < 1, j
 for o in ["vmi", "vmi_enlarged", "random", "random_enlarged"]:
     for m in ["precision", "recall"]:
         assert 0 < j[o + "_leaf_" + m] <= j[o + "_" + m], (o, m, j)
+# Random pruning pooled over 4 orders (the default): the pooled ratio lies within their spread
+assert j["random_shuffles"] == 4, j
+for o in ["random", "random_enlarged"]:
+    for m in ["precision", "recall"]:
+        k = o + "_leaf_" + m
+        assert j[k + "_min"] <= j[k] <= j[k + "_max"] and j[k + "_min"] < j[k + "_max"], (k, j)
 PY
 then ok "tree --json/--out/--pr/--preview"; else bad "tree (exit $rc): $tj $(cat "$TMP/tree.err")"; fi
 # The same tree read back: identical figures, no re-ranking.

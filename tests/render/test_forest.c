@@ -363,15 +363,13 @@ static void test_vmi_beats_random(void **state)
         hz_tree *t = hz_tree_grow(&(hz_tree_desc){.species = species[k], .seed = 1, .leaves = 3000}, &err);
         assert_non_null(t);
         assert_int_equal(hz_tree_rank(t, &(hz_rank_desc){.res = 32, .layers = 4}, NULL, &err), HZ_OK);
-        hz_tree *rnd = hz_tree_shuffled(t, 7, &err);
-        assert_non_null(rnd);
         hz_pr_result v, r, ve, re;
         const hz_pr_desc plain = {.views = 16, .res = 256, .rate = 0.5f};
         const hz_pr_desc enl = {.views = 16, .res = 256, .rate = 0.5f, .enlarge = true};
         assert_int_equal(hz_tree_pr(t, &plain, &v, &err), HZ_OK);
-        assert_int_equal(hz_tree_pr(rnd, &plain, &r, &err), HZ_OK);
+        assert_int_equal(hz_tree_pr_random(t, &plain, 4, 7, &r, NULL, &err), HZ_OK);
         assert_int_equal(hz_tree_pr(t, &enl, &ve, &err), HZ_OK);
-        assert_int_equal(hz_tree_pr(rnd, &enl, &re, &err), HZ_OK);
+        assert_int_equal(hz_tree_pr_random(t, &enl, 4, 7, &re, NULL, &err), HZ_OK);
         printf("%s: VMI %.3f/%.3f enlarged %.3f/%.3f, random %.3f/%.3f enlarged %.3f/%.3f\n", species[k],
                v.precision, v.recall, ve.precision, ve.recall, r.precision, r.recall, re.precision, re.recall);
         printf("%s same leaf: VMI %.3f/%.3f enlarged %.3f/%.3f, random %.3f/%.3f enlarged %.3f/%.3f\n",
@@ -385,9 +383,50 @@ static void test_vmi_beats_random(void **state)
         assert_true(v.leaf_recall > r.leaf_recall + 0.01);
         assert_true(ve.leaf_precision > re.leaf_precision + 0.02);
         assert_true(ve.leaf_recall > re.leaf_recall + 0.01);
-        hz_tree_destroy(rnd);
         hz_tree_destroy(t);
     }
+}
+
+/* The random baseline pooled over several orders: its counts are the sums
+ * of those of the shuffles it names (seeds seed, seed + 1, ...), its ratios
+ * those of the sums, and each order's own result comes back. */
+static void test_pr_random_pooled(void **state)
+{
+    (void)state;
+    hz_err err = {0};
+    hz_tree *t = hz_tree_grow(&(hz_tree_desc){.species = "birch", .seed = 2, .leaves = 800}, &err);
+    assert_non_null(t);
+    const hz_pr_desc d = {.views = 8, .res = 128, .rate = 0.5f, .enlarge = true};
+    hz_pr_result pooled, each[3], one[3];
+    assert_int_equal(hz_tree_pr_random(t, &d, 3, 40, &pooled, each, &err), HZ_OK);
+    uint64_t tp = 0, fp = 0, fn = 0, ltp = 0, lfp = 0, lfn = 0;
+    for (int k = 0; k < 3; k++) {
+        hz_tree *rnd = hz_tree_shuffled(t, 40 + (uint64_t)k, &err);
+        assert_non_null(rnd);
+        assert_int_equal(hz_tree_pr(rnd, &d, &one[k], &err), HZ_OK);
+        hz_tree_destroy(rnd);
+        assert_int_equal(each[k].tp, one[k].tp);
+        assert_int_equal(each[k].leaf_fp, one[k].leaf_fp);
+        assert_int_equal(each[k].leaf_fn, one[k].leaf_fn);
+        tp += one[k].tp, fp += one[k].fp, fn += one[k].fn;
+        ltp += one[k].leaf_tp, lfp += one[k].leaf_fp, lfn += one[k].leaf_fn;
+    }
+    /* Different orders: the shuffles are not one order three times. */
+    assert_true(one[0].leaf_fn != one[1].leaf_fn || one[1].leaf_fn != one[2].leaf_fn);
+    assert_int_equal(pooled.tp, tp);
+    assert_int_equal(pooled.fp, fp);
+    assert_int_equal(pooled.fn, fn);
+    assert_int_equal(pooled.leaf_tp, ltp);
+    assert_int_equal(pooled.leaf_fp, lfp);
+    assert_int_equal(pooled.leaf_fn, lfn);
+    assert_true(fabs(pooled.leaf_recall - (double)ltp / (double)(ltp + lfn)) < 1e-12);
+    assert_true(fabs(pooled.leaf_precision - (double)ltp / (double)(ltp + lfp)) < 1e-12);
+    assert_true(fabs(pooled.recall - (double)tp / (double)(tp + fn)) < 1e-12);
+    assert_int_equal(pooled.views, 8);
+    assert_int_equal(pooled.res, 128);
+    assert_int_equal(hz_tree_pr_random(t, &d, 0, 1, &pooled, NULL, &err), HZ_ERR_VALUE);
+    assert_int_equal(hz_tree_pr_random(t, &d, 65, 1, &pooled, NULL, &err), HZ_ERR_VALUE);
+    hz_tree_destroy(t);
 }
 
 static uint64_t count_diff(const uint8_t *a, const uint8_t *b, size_t npx)
@@ -784,6 +823,7 @@ int main(void)
         cmocka_unit_test(test_pr_hand_made),
         cmocka_unit_test(test_pr_same_leaf),
         cmocka_unit_test(test_vmi_beats_random),
+        cmocka_unit_test(test_pr_random_pooled),
         cmocka_unit_test(test_forest_draw),
         cmocka_unit_test(test_point_leaves_match_quads),
         cmocka_unit_test(test_hull_looks_like_impostor),
