@@ -57,6 +57,15 @@ static float edge(const float *a, const float *b, float x, float y)
     return (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]);
 }
 
+/* Whether corner point i of a row lies inside every edge (e0 + dx i >= 0). */
+static bool inside(const float *e0, const float *dx, int n, long i)
+{
+    for (int k = 0; k < n; k++)
+        if (!(e0[k] + dx[k] * (float)i >= 0))
+            return false;
+    return true;
+}
+
 /* A convex screen polygon of n <= 4 vertices (either winding) at depth dmax. */
 static void raster_convex(hz_occlusion *o, float s[][2], int n, float dmax)
 {
@@ -74,40 +83,49 @@ static void raster_convex(hz_occlusion *o, float s[][2], int n, float dmax)
         y0 = fminf(y0, s[k][1]);
         y1 = fmaxf(y1, s[k][1]);
     }
-    /* Cells whose four corners (integer points) are all inside: each
-     * corner point is tested once (two rows of flags), edge functions
-     * stepped along the row. */
-    long i0 = (long)ceilf(fmaxf(x0, 0)), i1 = (long)floorf(fminf(x1, (float)o->w)) - 1;
-    long j0 = (long)ceilf(fmaxf(y0, 0)), j1 = (long)floorf(fminf(y1, (float)o->h)) - 1;
-    if (i0 > i1 || j0 > j1)
+    /* Cells whose four corners (integer points) are all inside. Along a row
+     * of corner points the inside is an interval (the polygon is convex):
+     * each edge bounds it from one side, and its ends are checked with the
+     * edge functions, so no point is taken that the test of every point
+     * would refuse. A cell is covered where its row's and the next row's
+     * intervals both hold its two corners: one span per row of cells, and
+     * no work per cell outside the polygon. */
+    const long i0 = (long)ceilf(fmaxf(x0, 0)), i1 = (long)floorf(fminf(x1, (float)o->w));
+    const long j0 = (long)ceilf(fmaxf(y0, 0)), j1 = (long)floorf(fminf(y1, (float)o->h));
+    if (i0 >= i1 || j0 >= j1)
         return;
-    uint8_t rows[2][1025];
-    const long np = i1 - i0 + 2; /* corner points per row */
-    if (np > 1025)
-        return; /* wider than any buffer we make (w <= 1024) */
-    for (long j = j0; j <= j1 + 1; j++) {
-        uint8_t *r = rows[(j - j0) & 1];
-        float e[4], dx[4];
+    float e0[4], dx[4];
+    long plo = 0, phi = -1; /* the previous row's interval of inside points */
+    for (long j = j0; j <= j1; j++) {
+        float lo = (float)i0, hi = (float)i1;
         for (int k = 0; k < n; k++) {
             const float *a = s[k], *b = s[(k + 1) % n];
-            e[k] = sg * edge(a, b, (float)i0, (float)j);
+            e0[k] = sg * edge(a, b, 0.0f, (float)j);
             dx[k] = -sg * (b[1] - a[1]); /* d(edge)/dx */
+            if (dx[k] > 0)
+                lo = fmaxf(lo, -e0[k] / dx[k]);
+            else if (dx[k] < 0)
+                hi = fminf(hi, -e0[k] / dx[k]);
+            else if (e0[k] < 0)
+                lo = hi + 1; /* parallel to the row, outside */
         }
-        for (long i = 0; i < np; i++) {
-            bool in = true;
-            for (int k = 0; k < n; k++)
-                in = in && e[k] + dx[k] * (float)i >= 0;
-            r[i] = in;
+        long clo = (long)ceilf(lo), chi = (long)floorf(hi);
+        /* The division rounds: the ends are settled with the edge functions
+         * (an end point outside moves inward). */
+        while (clo <= chi && !inside(e0, dx, n, clo))
+            clo++;
+        while (chi >= clo && !inside(e0, dx, n, chi))
+            chi--;
+        if (j > j0) {
+            const long c0 = clo > plo ? clo : plo, c1 = (chi < phi ? chi : phi) - 1;
+            float *row = &o->depth[(size_t)(j - 1) * o->w];
+            for (long i = c0; i <= c1; i++)
+                if (dmax < row[i]) {
+                    row[i] = dmax;
+                    o->cells_written++;
+                }
         }
-        if (j == j0)
-            continue;
-        const uint8_t *lo = rows[(j - 1 - j0) & 1], *hi = r;
-        float *row = &o->depth[(size_t)(j - 1) * o->w];
-        for (long i = 0; i < np - 1; i++)
-            if (lo[i] & lo[i + 1] & hi[i] & hi[i + 1] && dmax < row[i0 + i]) {
-                row[i0 + i] = dmax;
-                o->cells_written++;
-            }
+        plo = clo, phi = chi;
     }
 }
 
