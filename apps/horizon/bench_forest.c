@@ -283,13 +283,14 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
         hz_err_set(&err, HZ_ERR_MEMORY, "out of memory");
         goto done;
     }
+    const uint32_t orders = bo->pr_shuffles ? bo->pr_shuffles : HZ_PR_ORDERS_DEFAULT;
     for (uint32_t m = 0; m < cf->model_count && !bo->no_pr; m++) {
         sr[m].t = cf->models[m];
         for (int k = 0; k < 4; k++) {
             hz_pr_desc d = {.views = bo->pr_views, .res = bo->pr_res, .rate = 0.5f, .enlarge = k % 2 == 1};
             if ((k < 2 ? hz_tree_pr(cf->models[m], &d, &sr[m].pr[k], &err)
-                       : hz_tree_pr_random(cf->models[m], &d, bo->pr_shuffles ? bo->pr_shuffles : 4, 12345 + 1000 * m,
-                                           &sr[m].pr[k], NULL, &err)) != HZ_OK)
+                       : hz_tree_pr_random(cf->models[m], &d, orders, 12345 + 1000 * m, &sr[m].pr[k], NULL,
+                                           &err)) != HZ_OK)
                 goto done;
         }
         if (!o->quiet)
@@ -445,7 +446,7 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
                     cli_pr_json(sp, names[k], &sr[m].pr[k]);
                 jx_set(sp, "pr_views", jx_int(sr[m].pr[0].views));
                 jx_set(sp, "pr_res", jx_int(sr[m].pr[0].res));
-                jx_set(sp, "random_shuffles", jx_int(bo->pr_shuffles ? bo->pr_shuffles : 4));
+                jx_set(sp, "random_shuffles", jx_int(orders));
             }
             json_array_append_new(spa, sp);
         }

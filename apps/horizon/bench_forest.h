@@ -13,7 +13,7 @@ typedef struct bench_forest_opts {
     uint32_t full_every;   /* unsimplified frame every N frames; 0 -> frames / 6 */
     bool no_full, no_pr;
     uint32_t pr_views, pr_res; /* 0 -> 16, 512 */
-    uint32_t pr_shuffles;      /* random orders pooled; 0 -> 4 */
+    uint32_t pr_shuffles;      /* random orders pooled; 0 -> HZ_PR_ORDERS_DEFAULT */
 } bench_forest_opts;
 
 /* Runs the forest benchmark; prints the table, writes JSON. 0 or 1. */

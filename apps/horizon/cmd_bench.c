@@ -996,7 +996,7 @@ int cmd_bench(int argc, char **argv)
             }
         } else if (!strcmp(a, "--full-every") || !strcmp(a, "--pr-views") || !strcmp(a, "--pr-res") ||
                    !strcmp(a, "--pr-shuffles")) {
-            const uint32_t hi = !strcmp(a, "--pr-res") ? 4096 : !strcmp(a, "--pr-shuffles") ? 64 : 100000,
+            const uint32_t hi = !strcmp(a, "--pr-res") ? 4096 : !strcmp(a, "--pr-shuffles") ? HZ_PR_ORDERS_MAX : 100000,
                            lo = !strcmp(a, "--pr-res") ? 16 : 1;
             uint32_t x;
             if (!cli_parse_u32(v, lo, hi, &x)) {

@@ -129,7 +129,7 @@ int cmd_tree(int argc, char **argv)
     hz_rank_desc rd = {0};
     hz_hull_desc hd = {0};
     hz_pr_desc prd = {.rate = 0.5f};
-    uint32_t shuffles = 4;
+    uint32_t shuffles = HZ_PR_ORDERS_DEFAULT;
     uint32_t size = 512;
     float rate = 0.0f;
     for (int i = 2; i < argc; i++) {
@@ -235,7 +235,7 @@ int cmd_tree(int argc, char **argv)
                 if (!cli_parse_u32(v, 16, 4096, &prd.res))
                     return bad(a, v, "pixels in [16, 4096]");
             } else if (!strcmp(a, "--pr-shuffles")) {
-                if (!cli_parse_u32(v, 1, 64, &shuffles))
+                if (!cli_parse_u32(v, 1, HZ_PR_ORDERS_MAX, &shuffles))
                     return bad(a, v, "a count in [1, 64]");
             } else {
                 fprintf(stderr, "horizon tree: unknown option '%s' (see horizon tree --help)\n", a);
@@ -302,7 +302,7 @@ int cmd_tree(int argc, char **argv)
     if (preview_file && preview(t, preview_file, size, rate, hull_preview, &err))
         goto done;
     if (pr) {
-        hz_pr_result each[64];
+        hz_pr_result each[HZ_PR_ORDERS_MAX];
         for (int k = 0; k < 4; k++) {
             hz_pr_desc d = prd;
             d.enlarge = rows[k].enlarge;

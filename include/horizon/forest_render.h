@@ -84,7 +84,9 @@ hz_tree *hz_tree_shuffled(const hz_tree *t, uint64_t seed, hz_err *err);
  * of `shuffles` random orders of t's leaves (hz_tree_shuffled with seeds
  * seed, seed + 1, ...), their counts pooled into out (the ratios are those
  * of the sums). each, if not NULL, receives every shuffle's own result
- * (`shuffles` of them), for the spread. shuffles in 1..64. */
+ * (`shuffles` of them), for the spread. shuffles in 1..HZ_PR_ORDERS_MAX. */
+#define HZ_PR_ORDERS_MAX 64u
+#define HZ_PR_ORDERS_DEFAULT 4u /* what horizon tree and bench pool unless told */
 hz_result hz_tree_pr_random(const hz_tree *t, const hz_pr_desc *desc, uint32_t shuffles, uint64_t seed,
                             hz_pr_result *out, hz_pr_result *each, hz_err *err);
 

@@ -696,8 +696,8 @@ hz_result hz_tree_pr_random(const hz_tree *t, const hz_pr_desc *desc, uint32_t s
     if (!err)
         err = &local;
     *out = (hz_pr_result){0};
-    if (shuffles < 1 || shuffles > 64)
-        return hz_err_set(err, HZ_ERR_VALUE, "pr: %u random orders (1..64)", shuffles);
+    if (shuffles < 1 || shuffles > HZ_PR_ORDERS_MAX)
+        return hz_err_set(err, HZ_ERR_VALUE, "pr: %u random orders (1..%u)", shuffles, HZ_PR_ORDERS_MAX);
     for (uint32_t k = 0; k < shuffles; k++) {
         hz_tree *rnd = hz_tree_shuffled(t, seed + k, err);
         if (!rnd)
