@@ -204,3 +204,15 @@ wld = b"20.0\n0.0\n0.0\n-20.0\n500005.0\n5199995.0\n"
 rgbpng = png(16, 16, 8, 2, [bytes(v for x in range(16) for v in colour(x, y)) for y in range(16)])
 put("imagery", "world.png", b"\x01" + bytes([len(wld)]) + wld + rgbpng)
 put("imagery", "no_world.png", b"\x01\x00" + rgbpng)
+
+# 3D models (fuzz_model): OBJ trees as tree import reads them (leaves are
+# meshes named leaf/leaves/foliage/needle), also read as a scene model.
+put("model", "tree.obj",
+    b"# a trunk and two leaves\no trunk\nv 0 0 0\nv 0.2 0 0\nv 0.1 0 0.2\nv 0.1 3 0.1\n"
+    b"f 1 2 4\nf 2 3 4\nf 3 1 4\nf 1 3 2\no leaves\nv 0.1 3 0.1\nv 0.3 3.1 0.1\nv 0.2 3.3 0.1\n"
+    b"v -0.1 2.8 0.2\nv -0.3 2.9 0.2\nv -0.2 3.1 0.3\nf 5 6 7\nf 8 9 10\n")
+put("model", "quads.obj",
+    b"# leaves as quads, named by group and material; normals and uvs\nmtllib none.mtl\ng bark\n"
+    b"v 0 0 0\nv 1 0 0\nv 1 4 0\nv 0 4 0\nvn 0 0 1\nvt 0 0\nf 1/1/1 2/1/1 3/1/1 4/1/1\n"
+    b"g foliage\nusemtl needle\nv 0 4 0\nv 0.5 4 0.1\nv 0.5 4.5 0.1\nv 0 4.5 0\nv 1 4 0\n"
+    b"v 1.5 4 0.1\nv 1.5 4.5 0.1\nv 1 4.5 0\nf 5 6 7 8\nf 9 10 11 12\n")
