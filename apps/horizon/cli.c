@@ -5,6 +5,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "horizon/gl_limits.h"
 #include "horizon/safety.h"
@@ -673,6 +675,19 @@ int cli_check_outputs(const char *cmd, const cli_file *outs, size_t nout, const 
             }
     }
     return 0;
+}
+
+int cli_check_dir(const char *cmd, const char *opt, const char *dir)
+{
+    struct stat st;
+    const char *why = stat(dir, &st) != 0          ? strerror(errno)
+                      : !S_ISDIR(st.st_mode)       ? "not a folder"
+                      : access(dir, W_OK | X_OK) ? strerror(errno)
+                                                   : NULL;
+    if (!why)
+        return 0;
+    fprintf(stderr, "horizon %s: cannot write into %s '%s': %s\n", cmd, opt, dir, why);
+    return 1;
 }
 
 uint64_t cli_gpu_max_samples(void)

@@ -163,6 +163,10 @@ size_t cli_opts_inputs(const cli_opts *o, cli_file *ins, size_t n, size_t cap);
  * file as an input or as another output (same device and inode, or the same
  * resolved path; horizon/safety.h). Returns 0, or 2 after the message. */
 int cli_check_outputs(const char *cmd, const cli_file *outs, size_t nout, const cli_file *ins, size_t nin);
+/* An output folder (--save-frames, --shot-dir): refuses, with a message,
+ * one that does not exist, is not a folder or cannot be written into, before
+ * any work. Returns 0, or 1 after the message. */
+int cli_check_dir(const char *cmd, const char *opt, const char *dir);
 
 /* GL_MAX_TEXTURE_BUFFER_SIZE of a short-lived headless context: the most
  * heightmap samples the renderer takes; 0 when unknown. */

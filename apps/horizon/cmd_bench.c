@@ -872,10 +872,13 @@ static hz_result plot(const bench *b, const char *plot_out, const frame_row *row
     return hz_outfile_commit(&pngf, err);
 }
 
-/* --save-frames DIR writes DIR/<mode>_NNNN.png and DIR/ref_NNNN.png: refuses
- * (2, after a message) an input that is one of those files, before any work. */
+/* --save-frames DIR writes DIR/<mode>_NNNN.png and DIR/ref_NNNN.png: before
+ * any work, refuses (after a message) a folder it cannot write into (1) and
+ * an input that is one of those files (2). */
 static int check_frame_outputs(const char *dir, const cli_file *ins, size_t nin)
 {
+    if (cli_check_dir("bench", "--save-frames", dir))
+        return 1;
     for (size_t k = 0; k < nin; k++) {
         if (!ins[k].path || ins[k].kind != CLI_FILE)
             continue;

@@ -1111,6 +1111,10 @@ int cmd_view(int argc, char **argv)
                                  {v->o.forest_save, "--forest-save", CLI_FILE}};
         if (cli_check_outputs("view", outs, 2, ins, nin))
             goto out;
+        if (vo->shot_dir && cli_check_dir("view", "--shot-dir", vo->shot_dir)) {
+            rc = 1;
+            goto out;
+        }
         for (size_t k = 0; k < v->sc.count; k++) {
             const cli_file ev = {v->sc.ev[k].file, "a screenshot event of --script", CLI_FILE};
             if (ev.path && cli_check_outputs("view", &ev, 1, ins, nin))

@@ -330,6 +330,11 @@ mkdir -p "$TMP/frames"; cp "$TMP/d.png" "$TMP/frames/ref_0000.png" 2>/dev/null |
 sum0=$(md5sum < "$TMP/frames/ref_0000.png")
 expect_fail "bench frames over an input" "would overwrite"  $HZ bench --quiet --dem "$TMP/frames/ref_0000.png" --frames 1 --save-frames "$TMP/frames"
 [ "$(md5sum < "$TMP/frames/ref_0000.png")" = "$sum0" ] && ok "the input frame file is intact" || bad "the input frame file changed"
+# A folder that cannot take the frames is refused before any work (the forest's too: before its
+# trees are grown), not at the first frame.
+expect_fail "bench frames into no folder" "save-frames.*No such file" $HZ bench --quiet --generate perlin --size 257 --frames 1 --save-frames "$TMP/nope/frames"
+expect_fail "bench frames into a file" "save-frames.*not a folder" $HZ bench --quiet --generate perlin --size 257 --frames 1 --save-frames "$TMP/frames/ref_0000.png"
+expect_fail "forest bench frames into no folder" "save-frames.*No such file" $HZ bench --quiet --generate perlin --size 257 --forest 10 --frames 1 --save-frames "$TMP/nope/frames"
 # A camera high above the map still sees it (the far plane follows its height); one looking
 # away says so.
 hi=$($R --generate perlin --size 257 --camera 1280,60000,1280,0,-89.5 --json --out "$TMP/hi.png" 2>/dev/null |

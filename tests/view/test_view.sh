@@ -257,6 +257,7 @@ expect_fail "bad script line"        "bad_script.txt:2"           "${GEN[@]}" --
 printf '0 key NOPE down\n' > "$TMP/bad_key.txt"
 expect_fail "unknown key in script"  "unknown key"                "${GEN[@]}" --script "$TMP/bad_key.txt"
 expect_fail "missing script"         "cannot open script"         "${GEN[@]}" --script "$TMP/none.txt"
+expect_fail "missing --shot-dir"      "shot-dir.*no such file"     "${GEN[@]}" --shot-dir "$TMP/no_such_dir" --frames 5
 expect_fail "missing config"         "cannot open config"         --config "$TMP/none.conf"
 printf 'lod-c 40\n' > "$TMP/bad.conf"
 expect_fail "config without ="       "bad.conf:1"                 --config "$TMP/bad.conf"
