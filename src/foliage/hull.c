@@ -606,12 +606,23 @@ hz_result hz_hull_build(hz_tree *t, const hz_hull_desc *desc, hz_hull_stats *sta
     float iso = dens[q];
     if (!(iso > 0.0f))
         iso = dens[t->leaf_count - 1] * 0.5f;
-    if (!march(&g, iso, &o)) {
-        res = hz_err_set(err, HZ_ERR_MEMORY, "hull: out of memory");
-        goto done;
+    /* A few leaves (a sapling, a small import) can make that level the
+     * field's very peak, where the surface shrinks to points: lower it until
+     * the surface encloses them (more leaves inside, never fewer). */
+    for (int tries = 0;; tries++) {
+        if (!march(&g, iso, &o)) {
+            res = hz_err_set(err, HZ_ERR_MEMORY, "hull: out of memory");
+            goto done;
+        }
+        if (o.ni > 0 || tries == 8)
+            break;
+        free(o.pos);
+        free(o.idx);
+        o = (mt_out){0};
+        iso *= 0.5f;
     }
     if (o.ni == 0) {
-        res = hz_err_set(err, HZ_ERR_VALUE, "hull: the iso-surface is empty");
+        res = hz_err_set(err, HZ_ERR_VALUE, "hull: the iso-surface is empty (%u leaves)", t->leaf_count);
         goto done;
     }
     /* Simplify. target_error is relative to the mesh extent; a crown seen

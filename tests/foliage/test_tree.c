@@ -691,6 +691,44 @@ static void test_import_obj(void **state)
     assert_non_null(strstr(err.msg, "beyond 1000000 m"));
 }
 
+/* A tree of two leaves (a small import) still gets a crown hull: the iso
+ * level that keeps 90 % of the leaf centres inside is then the field's peak,
+ * and the builder lowers it until the surface encloses them. Closed and
+ * manifold, around both leaves. */
+static void test_hull_few_leaves(void **state)
+{
+    (void)state;
+    FILE *obj = fopen(HZ_TEST_TMP "/two_leaves.obj", "w");
+    assert_non_null(obj);
+    fputs("g bark\nv 0 0 0\nv 1 0 0\nv 1 4 0\nv 0 4 0\nf 1 2 3 4\ng foliage\nv 0 4 0\nv 0.5 4 0.1\n"
+          "v 0.5 4.5 0.1\nv 0 4.5 0\nv 1 4 0\nv 1.5 4 0.1\nv 1.5 4.5 0.1\nv 1 4.5 0\nf 5 6 7 8\nf 9 10 11 12\n",
+          obj);
+    fclose(obj);
+    hz_err err = {0};
+    hz_tree *t = hz_tree_import(&(hz_tree_import_desc){.path = HZ_TEST_TMP "/two_leaves.obj"}, &err);
+    if (!t)
+        fail_msg("import: %s", err.msg);
+    assert_int_equal(t->leaf_count, 2);
+    if (hz_hull_build(t, NULL, NULL, &err) != HZ_OK)
+        fail_msg("hull: %s", err.msg);
+    hz_mesh_topology topo;
+    assert_int_equal(hz_mesh_check(t->hull.idx, t->hull.index_count, t->hull.vertex_count, &topo, &err), HZ_OK);
+    assert_true(t->hull.index_count >= 3 * 4);
+    assert_int_equal(topo.bad_edges, 0);
+    assert_int_equal(topo.bad_vertices, 0);
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (uint32_t v = 0; v < t->hull.vertex_count; v++)
+        for (int c = 0; c < 3; c++) {
+            lo[c] = fminf(lo[c], t->hull.pos[v * 3 + c]);
+            hi[c] = fmaxf(hi[c], t->hull.pos[v * 3 + c]);
+        }
+    for (uint32_t k = 0; k < t->leaf_count; k++)
+        for (int c = 0; c < 3; c++)
+            assert_true(t->leaves[k].c[c] > lo[c] && t->leaves[k].c[c] < hi[c]);
+    assert_int_equal(hz_tree_validate(t, &err), HZ_OK);
+    hz_tree_destroy(t);
+}
+
 /* hz_tree_validate bounds every coordinate by HZ_TREE_MAX_COORD: a bark,
  * hull or leaf coordinate just inside passes, just beyond fails, and
  * hz_tree_save_mem refuses to write such a tree. */
@@ -740,6 +778,7 @@ int main(void)
         cmocka_unit_test(test_place),
         cmocka_unit_test(test_select),
         cmocka_unit_test(test_import_obj),
+        cmocka_unit_test(test_hull_few_leaves),
         cmocka_unit_test(test_validate_bounds),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
