@@ -124,6 +124,11 @@ typedef struct import_ctx {
     tri_soup leaf, bark;
     float leaf_rgb[3];
     bool leaf_rgb_set;
+    /* the first vertex that is not a finite point (NaN or infinite, before
+     * or after its node's transform): the import is refused naming it */
+    bool bad;
+    char bad_mesh[64];
+    unsigned bad_vertex;
 } import_ctx;
 
 static bool is_leaf(import_ctx *ic, const struct aiNode *node, const struct aiMesh *mesh)
@@ -163,13 +168,21 @@ static void walk(import_ctx *ic, const struct aiNode *node, struct aiMatrix4x4 p
                 face->mIndices[1] >= mesh->mNumVertices || face->mIndices[2] >= mesh->mNumVertices)
                 continue; /* points and lines (and, defensively, indices out of range) */
             uint32_t w[3];
-            for (int c = 0; c < 3; c++) {
+            bool finite = true;
+            for (int c = 0; c < 3 && finite; c++) {
                 struct aiVector3D v = mesh->mVertices[face->mIndices[c]];
                 aiTransformVecByMatrix4(&v, &m);
+                finite = isfinite(v.x) && isfinite(v.y) && isfinite(v.z);
+                if (!finite && !ic->bad) {
+                    ic->bad = true;
+                    snprintf(ic->bad_mesh, sizeof ic->bad_mesh, "%.63s", mesh->mName.data);
+                    ic->bad_vertex = face->mIndices[c];
+                }
                 const float p[3] = {v.x, v.y, v.z};
-                w[c] = weld(s, p);
+                if (finite)
+                    w[c] = weld(s, p);
             }
-            if (w[0] != w[1] && w[1] != w[2] && w[0] != w[2])
+            if (finite && w[0] != w[1] && w[1] != w[2] && w[0] != w[2])
                 add_tri(s, w[0], w[1], w[2]);
         }
     }
@@ -372,6 +385,11 @@ hz_tree *hz_tree_import(const hz_tree_import_desc *desc, hz_err *err)
     leaf_rec *lr = NULL;
     if (ic.leaf.oom || ic.bark.oom) {
         hz_err_set(err, HZ_ERR_MEMORY, "import: out of memory");
+        goto done;
+    }
+    if (ic.bad) {
+        hz_err_set(err, HZ_ERR_FORMAT, "import: '%s': vertex %u of mesh '%s' is not a finite point (NaN or infinite)",
+                   d.path, ic.bad_vertex, ic.bad_mesh);
         goto done;
     }
     if (ic.leaf.ni == 0 || ic.bark.ni == 0) {

@@ -689,6 +689,16 @@ static void test_import_obj(void **state)
     assert_int_equal(err.code, HZ_ERR_FORMAT);
     assert_non_null(strstr(err.msg, "tall_trunk.obj"));
     assert_non_null(strstr(err.msg, "beyond 1000000 m"));
+    /* A NaN in a leaf: refused naming the mesh and its vertex, not an inner
+     * branch of the hierarchy built from it. */
+    obj = fopen(HZ_TEST_TMP "/nan_leaf.obj", "w");
+    assert_non_null(obj);
+    fputs("o trunk\nv 0 0 0\nv 0.1 0 0\nv 0 3 0\nf 1 2 3\no leaves\nv 0 1 0\nv 0.1 nan 0\nv 0 1.1 0\nf 4 5 6\n", obj);
+    fclose(obj);
+    assert_null(hz_tree_import(&(hz_tree_import_desc){.path = HZ_TEST_TMP "/nan_leaf.obj"}, &err));
+    print_message("nan leaf: %s\n", err.msg);
+    assert_int_equal(err.code, HZ_ERR_FORMAT);
+    assert_non_null(strstr(err.msg, "vertex 1 of mesh 'leaves' is not a finite point"));
 }
 
 /* A tree of two leaves (a small import) still gets a crown hull: the iso
