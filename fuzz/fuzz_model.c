@@ -6,13 +6,11 @@
  * runs first and the mutations reach our conversion behind it. A model is
  * refused with a message, or it becomes a tree that validates and a scene
  * whose world boxes are finite; never a crash, a hang or a leak. */
-#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
+#include "fuzz_scene_file.h"
 #include "fuzz_util.h"
-#include "horizon/scene.h"
-#include "horizon/scene_file.h"
 #include "horizon/tree.h"
 
 static float flat(void *user, float x, float z)
@@ -53,21 +51,7 @@ static void scene(const char *dir, const char *file)
             abort();
         return;
     }
-    hz_scene *s = hz_scene_create(NULL);
-    hz_scene_file_place p = {.ground = flat};
-    if (hz_scene_file_build(f, s, &p, NULL, &err) != HZ_OK) {
-        if (!err.msg[0])
-            abort();
-    } else {
-        hz_box b;
-        hz_scene_bounds(s, &b);
-        if (!hz_box_is_empty(&b))
-            for (int k = 0; k < 3; k++)
-                if (!isfinite(b.min[k]) || !isfinite(b.max[k]))
-                    abort();
-    }
-    hz_scene_destroy(s);
-    hz_scene_file_destroy(f);
+    fuzz_scene_file_check(f, flat);
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)

@@ -4,6 +4,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "fuzz_scene_file.h"
 #include "fuzz_util.h"
 #include "horizon/scene_file.h"
 
@@ -25,20 +26,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             abort();
         return 0;
     }
-    hz_scene *s = hz_scene_create(NULL);
-    hz_scene_file_place p = {.ground = hills};
-    if (hz_scene_file_build(f, s, &p, NULL, &err) != HZ_OK) {
-        if (!err.msg[0])
-            abort();
-    } else {
-        hz_box b;
-        hz_scene_bounds(s, &b);
-        if (!hz_box_is_empty(&b))
-            for (int k = 0; k < 3; k++)
-                if (!isfinite(b.min[k]) || !isfinite(b.max[k]))
-                    abort();
-    }
-    hz_scene_destroy(s);
-    hz_scene_file_destroy(f);
+    fuzz_scene_file_check(f, hills);
     return 0;
 }
