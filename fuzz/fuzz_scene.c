@@ -17,8 +17,8 @@ static float hills(void *user, float x, float z)
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     hz_err err = {0};
-    /* Model files are not fuzzed here (assimp has its own fuzzers): only
-     * names that cannot exist are reachable from the temporary folder. */
+    /* Model files are fuzzed by fuzz_model: here the scene's folder does
+     * not exist, so a model file named in it cannot be read. */
     hz_scene_file *f = hz_scene_file_open_memory((const char *)data, size, "fuzz.scene.json", "/nonexistent", NULL,
                                                  &err);
     if (!f) {
