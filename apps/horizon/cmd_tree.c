@@ -235,8 +235,11 @@ int cmd_tree(int argc, char **argv)
                 if (!cli_parse_u32(v, 16, 4096, &prd.res))
                     return bad(a, v, "pixels in [16, 4096]");
             } else if (!strcmp(a, "--pr-shuffles")) {
-                if (!cli_parse_u32(v, 1, HZ_PR_ORDERS_MAX, &shuffles))
-                    return bad(a, v, "a count in [1, 64]");
+                if (!cli_parse_u32(v, 1, HZ_PR_ORDERS_MAX, &shuffles)) {
+                    char want[32];
+                    snprintf(want, sizeof want, "a count in [1, %u]", HZ_PR_ORDERS_MAX);
+                    return bad(a, v, want);
+                }
             } else {
                 fprintf(stderr, "horizon tree: unknown option '%s' (see horizon tree --help)\n", a);
                 return 2;
