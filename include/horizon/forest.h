@@ -136,7 +136,8 @@ typedef struct hz_forest_draw {
     bool hull;           /* crown hull + bark levels up to bark_levels */
     uint32_t bark_levels;/* bark levels to draw (1 = trunk only) */
     uint32_t node_base;  /* detailed trees: offset of this tree's nodes in counts/scales (persistent) */
-    float fade;          /* 0..1: share of the next coarser state, dithered (cross-fade band) */
+    float fade;          /* 0..1: share of the next coarser state, dithered (cross-fade band);
+                          * leaves also keep only (1 - fade) of their count, in steps of 1/16 */
     float dist;          /* metres from the eye to its bounding centre (draws are sorted by it) */
     /* Detailed trees: the model's leaves are interleaved by rank
      * (hz_forest_model_order) within HZ_FOREST_GROUPS groups of nodes;

@@ -516,6 +516,9 @@ static bool sphere_visible(const vec4 planes[6], const float *c, float r)
     return true;
 }
 
+/* Steps in which a fading tree's leaves thin out over the cross-fade band. */
+#define FADE_STEPS 16.0f
+
 /* 0 below the band, 1 beyond it, linear between. */
 static float band_fade(const float band[2], float d)
 {
@@ -555,6 +558,11 @@ static void tree_nodes(hz_forest *f, uint32_t k, const hz_forest_params *P, cons
     const float ld0 = mi->ld0;
     uint32_t lo = fresh ? 0 : UINT32_MAX, hi = fresh ? t->node_count : 0;
     int64_t kept_delta = 0;
+    /* In the cross-fade band, where the dither shows only (1 - fade) of the
+     * leaves' pixels, the leaves also thin out by rank to that share (F4
+     * enlarges what is left to the coverage the node had): in FADE_STEPS
+     * steps, so that the counts change a few times per band. */
+    const float keep = P->simplify ? 1.0f - floorf(dr->fade * FADE_STEPS) / FADE_STEPS : 1.0f;
     for (uint32_t n = 0; n < t->node_count; n++) {
         const hz_tree_node *nd = &t->nodes[n];
         uint32_t *cnt = &f->counts[sb + n];
@@ -592,7 +600,7 @@ static void tree_nodes(hz_forest *f, uint32_t k, const hz_forest_params *P, cons
                     fr->nodes_held++;
                 }
             }
-            kept = (uint32_t)ceilf((1.0f - *cur) * (float)nd->count - 1e-4f);
+            kept = (uint32_t)ceilf((1.0f - *cur) * keep * (float)nd->count - 1e-4f);
             if (kept < 1)
                 kept = 1;
             if (kept > nd->count)

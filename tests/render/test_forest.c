@@ -683,6 +683,87 @@ static void test_hull_looks_like_impostor(void **state)
     hz_renderer_destroy(ren);
 }
 
+/* Across the leaves-to-hull band the hull is dithered in on the pixels the
+ * leaves give up, and the leaves thin out by rank, to (1 - fade) of what
+ * they keep outside it (in steps of 1/16): the crown costs fewer leaves as
+ * it nears its hull, and its foliage does not thin on screen, because F4
+ * enlarges the leaves that are left. */
+static void test_leaves_fade_to_hull(void **state)
+{
+    (void)state;
+    enum { W = 256, H = 192, N = 6 };
+    hz_err err = {0};
+    hz_renderer *ren = hz_renderer_create(&(hz_renderer_desc){.width = W, .height = H}, &err);
+    assert_non_null(ren);
+    hz_forest_tree trees[1] = {{.pos = {0, 0, 0}, .scale = 1}}; /* no yaw: the bounding centre is bc */
+    one_model om = one_model_forest(&(hz_tree_desc){.species = "oak", .seed = 2, .leaves = 8000}, trees, 1);
+    const hz_tree *t = om.t;
+    const float *bc = t->bound_center, r = t->bound_radius;
+    const float dist = 1.8f * r, ff = 0.15f;
+    hz_camera cam = {.pos = {bc[0], bc[1], bc[2] + dist}, .yaw = 0, .pitch = 0, .fov_y = 45,
+                     .aspect = (float)W / H, .znear = 0.3f, .zfar = 3000};
+    uint8_t *sky = malloc(W * H * 3), *img = malloc(W * H * 3);
+    hz_scene_params none = {.fog_density = -1};
+    assert_int_equal(hz_renderer_draw(ren, &cam, &none, NULL, 0, NULL, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_rgb(ren, sky, &err), HZ_OK);
+    hz_forest_frame fr;
+    hz_forest_hook hook = {.gpu = om.gpu, .forest = om.f, .frame = &fr};
+    hz_scene_params sp = {.fog_density = -1, .draw_objects = hz_forest_draw_hook, .draw_objects_user = &hook};
+    /* Where the tree sits in the band: fade 0 (leaves only) ... past the
+     * band (the hull only). */
+    const float fades[N] = {0.0f, 0.2f, 0.45f, 0.7f, 0.97f, 1.5f};
+    uint64_t leaves[N], cover[N];
+    for (int k = 0; k < N; k++) {
+        /* dist = hull_dist (1 - ff) + fade hull_dist ff */
+        const hz_forest_params fp = {.simplify = true, .enlarge = true, .fixed_rate = true, .fixed = 0.3f,
+                                     .fade_frac = ff, .hull_dist = dist / (1.0f - ff + ff * fades[k]),
+                                     .impostor_dist = 1e4f};
+        assert_int_equal(hz_forest_update(om.f, &cam, &fp, 0, &fr, &err), HZ_OK);
+        assert_int_equal(fr.draw_count, 1);
+        if (fades[k] < 1.0f) {
+            assert_false(fr.draws[0].hull);
+            assert_float_equal(fr.draws[0].fade, fades[k], 1e-3);
+        } else {
+            assert_true(fr.draws[0].hull);
+        }
+        leaves[k] = fr.leaves_drawn;
+        assert_int_equal(hz_renderer_draw(ren, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
+        if (hook.failed)
+            fail_msg("forest draw: %s", hook.err.msg);
+        assert_int_equal(hz_renderer_read_rgb(ren, img, &err), HZ_OK);
+        cover[k] = 0; /* foliage pixels: green, where the sky is blue and bark brown */
+        for (size_t p = 0; p < (size_t)W * H; p++)
+            cover[k] += img[p * 3 + 1] > img[p * 3] && img[p * 3 + 1] > img[p * 3 + 2] + 8;
+        if (k == 2) {
+            char path[512];
+            snprintf(path, sizeof path, "%s/forest_fade_mid.png", HZ_TEST_TMP);
+            hz_image_write_png(path, img, W, H, &err);
+        }
+        print_message("fade %.2f: %llu leaves, %llu foliage pixels\n", (double)fades[k], (unsigned long long)leaves[k],
+                      (unsigned long long)cover[k]);
+    }
+    /* Leaves: (1 - step) of the count at fade 0, give or take one per node
+     * (each node keeps a whole number, at least one). */
+    for (int k = 1; k < N - 1; k++) {
+        const double keep = 1.0 - floor(fades[k] * 16.0) / 16.0;
+        assert_true(fabs((double)leaves[k] - keep * (double)leaves[0]) <= (double)t->node_count);
+        assert_true(leaves[k] < leaves[k - 1]);
+    }
+    assert_int_equal(leaves[N - 1], 0); /* the hull alone */
+    /* The crown's foliage neither thins nor swells through the band: the
+     * leaves left are enlarged to the node's coverage, and the dither hands
+     * their pixels over to the hull (none pops out at the band's end). */
+    const uint64_t lo = cover[0] < cover[N - 1] ? cover[0] : cover[N - 1];
+    const uint64_t hi = cover[0] > cover[N - 1] ? cover[0] : cover[N - 1];
+    assert_true(lo > (uint64_t)(W * H) / 40);
+    for (int k = 1; k < N - 1; k++)
+        assert_true((double)cover[k] > 0.93 * (double)lo && (double)cover[k] < 1.07 * (double)hi);
+    free(sky);
+    free(img);
+    one_model_free(&om);
+    hz_renderer_destroy(ren);
+}
+
 /* The effects' billboards show the forest's trees: a sprite from the
  * impostor's side view stands on its trunk at the bottom centre, reaches the
  * top of the image, and is mostly foliage-coloured where it is opaque. */
@@ -827,6 +908,7 @@ int main(void)
         cmocka_unit_test(test_forest_draw),
         cmocka_unit_test(test_point_leaves_match_quads),
         cmocka_unit_test(test_hull_looks_like_impostor),
+        cmocka_unit_test(test_leaves_fade_to_hull),
         cmocka_unit_test(test_forest_sprite),
         cmocka_unit_test(test_impostor_given),
     };
