@@ -37,10 +37,10 @@ static void usage(void)
             "  --min-elevation DEG     only viewpoints at or above this elevation over the crown\n"
             "                          (default 0: from the side and above, as distant trees are seen;\n"
             "                          -90: the whole sphere)\n"
-            "  --rank-res PX           item-buffer pixels across a leaf node rendered alone (default 32)\n"
-            "  --rank-tree PX          rank in the whole tree rendered PX pixels across instead (e.g. 1024),\n"
-            "                          so that a leaf's visible area is what the rest of the crown leaves\n"
-            "                          of it (default 0: each node alone)\n"
+            "  --rank-tree PX          rank in the whole tree rendered PX pixels across, so that a leaf's\n"
+            "                          visible area is what the rest of the crown leaves of it (default\n"
+            "                          2048; 0: each leaf node rendered alone)\n"
+            "  --rank-res PX           with --rank-tree 0: item-buffer pixels across a leaf node (default 32)\n"
             "  --layers L              depth-peeled layers per pixel (default 4)\n"
             "  --no-hull               skip the crown hull (built by default when missing)\n"
             "  --hull-grid N           density grid voxels along the crown (default 40)\n"
@@ -126,7 +126,8 @@ int cmd_tree(int argc, char **argv)
     const char *in = NULL, *out = NULL, *preview_file = NULL;
     bool json = false, quiet = false, no_rank = false, force_rank = false, no_hull = false, pr = false,
          hull_preview = false, have_species = false;
-    hz_rank_desc rd = {0};
+    hz_rank_desc rd = {.tree_res = HZ_RANK_TREE_RES};
+    bool rank_res_given = false;
     hz_hull_desc hd = {0};
     hz_pr_desc prd = {.rate = 0.5f};
     uint32_t shuffles = HZ_PR_ORDERS_DEFAULT;
@@ -210,6 +211,7 @@ int cmd_tree(int argc, char **argv)
             } else if (!strcmp(a, "--rank-res")) {
                 if (!cli_parse_u32(v, 4, 256, &rd.res))
                     return bad(a, v, "pixels in [4, 256]");
+                rank_res_given = true;
             } else if (!strcmp(a, "--rank-tree")) {
                 if (!cli_parse_u32(v, 0, 4096, &rd.tree_res) || (rd.tree_res && rd.tree_res < 512))
                     return bad(a, v, "0 or pixels in [512, 4096]");
@@ -258,6 +260,10 @@ int cmd_tree(int argc, char **argv)
     }
     if (no_rank && force_rank) {
         fprintf(stderr, "horizon tree: --rank and --no-rank contradict each other\n");
+        return 2;
+    }
+    if (rank_res_given && rd.tree_res) {
+        fprintf(stderr, "horizon tree: --rank-res sizes a leaf node rendered alone: give it with --rank-tree 0\n");
         return 2;
     }
     const cli_file ins[] = {{in, "--in", CLI_FILE}, {id.path, "--import", CLI_FILE}};

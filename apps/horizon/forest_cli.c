@@ -133,7 +133,7 @@ static bool cache_dir(const cli_opts *o, char *dir, size_t cap)
  * elevation, resolution, layers) and hull parameters, and the generator's version. */
 static hz_tree *cached_model(const cli_opts *o, const char *species, const char *import, hz_err *err)
 {
-    const hz_rank_desc rank = {.views = 162, .res = 32, .layers = 4, .min_elevation = 0};
+    const hz_rank_desc rank = {.views = 162, .res = 32, .layers = 4, .min_elevation = 0, .tree_res = HZ_RANK_TREE_RES};
     const hz_hull_desc hull = {.grid = 40, .triangles = 3000};
     const uint64_t seed = 1;
     char dir[700], file[1100], key[300];

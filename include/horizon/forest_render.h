@@ -30,6 +30,12 @@ typedef struct hz_rank_desc {
     void *progress_user;
 } hz_rank_desc;
 
+/* The tree_res horizon's commands rank at (tree, and the forests' models):
+ * the leaves of the grown species are about a pixel across there, and the
+ * VMI order keeps more of the full tree's own leaves at 50 % than ranked
+ * node by node, and than at 1024 (README, "VMI ranking"). */
+#define HZ_RANK_TREE_RES 2048u
+
 typedef struct hz_rank_stats {
     double ms, render_ms, vmi_ms;
     uint64_t pixels;          /* covered item-buffer pixels (all views, all nodes) */

@@ -362,7 +362,12 @@ expect_fail "tree not a tree file"  "not a horizon tree"      $T --in "$DATA/PRO
 expect_fail "tree unknown option"   "unknown option"          $T --frob
 expect_fail "tree without a source" "give a source"          $T --out "$TMP/none.hzt"
 expect_fail "tree leaves 0"         "invalid value"           $T --leaves 0
-tj=$($T --species birch --seed 2 --leaves 800 --views 12 --rank-res 16 --out "$TMP/b.hzt" --json --pr --pr-views 4 --pr-res 64 --preview "$TMP/b.png" --size 96 2>"$TMP/tree.err")
+expect_fail "tree rank-res in the tree" "with --rank-tree 0"   $T --species oak --leaves 500 --rank-res 16
+# By default a tree is ranked in the whole tree, 2048 px across (HZ_RANK_TREE_RES).
+$T --species birch --seed 2 --leaves 800 --views 12 --no-hull --json > "$TMP/rt.json" 2>&1 &&
+  python3 -c "import json,sys; j=json.load(open(sys.argv[1])); assert j['ranked'] and j['rank_res']==2048, j" "$TMP/rt.json" &&
+  ok "tree ranks in the whole tree by default" || bad "tree default ranking: $(cat "$TMP/rt.json")"
+tj=$($T --species birch --seed 2 --leaves 800 --views 12 --rank-tree 0 --rank-res 16 --out "$TMP/b.hzt" --json --pr --pr-views 4 --pr-res 64 --preview "$TMP/b.png" --size 96 2>"$TMP/tree.err")
 rc=$?
 if [ $rc -eq 0 ] && [ -s "$TMP/b.png" ] && python3 - "$tj" <<'PY'
 import json, sys
