@@ -39,8 +39,9 @@ def png16(path, w, h, v=lambda i, j: 1000 + 7 * i + 11 * j):
 # for every option each command's --help lists, so a new option is covered
 # the day it is added. A value is accepted when the run goes past option
 # parsing (it then fails on the missing input, not with "invalid value").
+# (tree: --rank-res is only taken with --rank-tree 0, node by node.)
 BASE = {"render": ["--dem", NOPE], "bench": ["--dem", NOPE], "view": ["--dem", NOPE],
-        "tree": ["--in", NOPE + ".hzt"]}
+        "tree": ["--in", NOPE + ".hzt", "--rank-tree", "0"]}
 
 
 def accepted(cmd, opt, val):
