@@ -468,6 +468,19 @@ static void one_model_free(one_model *m)
     hz_tree_destroy(m->t);
 }
 
+/* Draws the empty frame into sky (tree pixels are those that differ from it)
+ * and points sp's object hook at the forest f on gpu, its selection in fr. */
+static void forest_scene(hz_renderer *ren, const hz_camera *cam, hz_forest_gpu *gpu, hz_forest *f, hz_forest_frame *fr,
+                         hz_forest_hook *hook, hz_scene_params *sp, uint8_t *sky)
+{
+    hz_err err = {0};
+    hz_scene_params none = {.fog_density = -1};
+    assert_int_equal(hz_renderer_draw(ren, cam, &none, NULL, 0, NULL, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_rgb(ren, sky, &err), HZ_OK);
+    *hook = (hz_forest_hook){.gpu = gpu, .forest = f, .frame = fr};
+    *sp = (hz_scene_params){.fog_density = -1, .draw_objects = hz_forest_draw_hook, .draw_objects_user = hook};
+}
+
 static void test_forest_draw(void **state)
 {
     (void)state;
@@ -482,12 +495,10 @@ static void test_forest_draw(void **state)
     hz_camera cam = {.pos = {0, 8, 16}, .yaw = 0, .pitch = 0, .fov_y = 60, .aspect = (float)W / H, .znear = 0.3f,
                      .zfar = 3000};
     uint8_t *sky = malloc(W * H * 3), *full = malloc(W * H * 3), *simp = malloc(W * H * 3), *big = malloc(W * H * 3);
-    hz_scene_params none = {.fog_density = -1};
-    assert_int_equal(hz_renderer_draw(ren, &cam, &none, NULL, 0, NULL, &err), HZ_OK);
-    assert_int_equal(hz_renderer_read_rgb(ren, sky, &err), HZ_OK);
     hz_forest_frame fr;
-    hz_forest_hook hook = {.gpu = gpu, .forest = f, .frame = &fr};
-    hz_scene_params sp = {.fog_density = -1, .draw_objects = hz_forest_draw_hook, .draw_objects_user = &hook};
+    hz_forest_hook hook;
+    hz_scene_params sp;
+    forest_scene(ren, &cam, gpu, f, &fr, &hook, &sp, sky);
     uint8_t *outs[3] = {full, simp, big};
     hz_forest_params ps[3] = {{.simplify = false},
                               {.simplify = true, .fixed_rate = true, .fixed = 0.8f},
@@ -545,12 +556,10 @@ static void point_leaves_at(float fov, double max_one_only)
     hz_camera cam = {.pos = {bc[0], bc[1] + 0.4f * r, bc[2] + 1.8f * r}, .yaw = 0, .pitch = -12, .fov_y = fov,
                      .aspect = (float)W / H, .znear = 0.3f, .zfar = 3000};
     uint8_t *sky = malloc(W * H * 3), *quads = malloc(W * H * 3), *points = malloc(W * H * 3);
-    hz_scene_params none = {.fog_density = -1};
-    assert_int_equal(hz_renderer_draw(ren, &cam, &none, NULL, 0, NULL, &err), HZ_OK);
-    assert_int_equal(hz_renderer_read_rgb(ren, sky, &err), HZ_OK);
     hz_forest_frame fr;
-    hz_forest_hook hook = {.gpu = gpu, .forest = f, .frame = &fr};
-    hz_scene_params sp = {.fog_density = -1, .draw_objects = hz_forest_draw_hook, .draw_objects_user = &hook};
+    hz_forest_hook hook;
+    hz_scene_params sp;
+    forest_scene(ren, &cam, gpu, f, &fr, &hook, &sp, sky);
     /* Leaves only: every tree in the leaf state, half the leaves, enlarged. */
     hz_forest_params fp = {.simplify = true, .fixed_rate = true, .fixed = 0.5f, .enlarge = true,
                            .hull_dist = 1e4f, .impostor_dist = 2e4f};
@@ -627,12 +636,10 @@ static void test_hull_looks_like_impostor(void **state)
     hz_camera cam = {.pos = {bc[0], bc[1], bc[2] + 3.0f * r}, .yaw = 0, .pitch = 0, .fov_y = 45,
                      .aspect = (float)W / H, .znear = 0.3f, .zfar = 3000};
     uint8_t *sky = malloc(W * H * 3), *hull = malloc(W * H * 3), *imp = malloc(W * H * 3);
-    hz_scene_params none = {.fog_density = -1};
-    assert_int_equal(hz_renderer_draw(ren, &cam, &none, NULL, 0, NULL, &err), HZ_OK);
-    assert_int_equal(hz_renderer_read_rgb(ren, sky, &err), HZ_OK);
     hz_forest_frame fr;
-    hz_forest_hook hook = {.gpu = om.gpu, .forest = om.f, .frame = &fr};
-    hz_scene_params sp = {.fog_density = -1, .draw_objects = hz_forest_draw_hook, .draw_objects_user = &hook};
+    hz_forest_hook hook;
+    hz_scene_params sp;
+    forest_scene(ren, &cam, om.gpu, om.f, &fr, &hook, &sp, sky);
     /* The tree is 3 radii away: a hull beyond 0.1 radius, or an impostor
      * beyond 0.2 radius (both well past their fade bands). */
     const hz_forest_params fp[2] = {{.simplify = true, .hull_dist = 0.1f * r, .impostor_dist = 1e4f},
@@ -705,12 +712,10 @@ static void test_leaves_fade_to_hull(void **state)
     hz_camera cam = {.pos = {bc[0], bc[1], bc[2] + dist}, .yaw = 0, .pitch = 0, .fov_y = 45,
                      .aspect = (float)W / H, .znear = 0.3f, .zfar = 3000};
     uint8_t *sky = malloc(W * H * 3), *img = malloc(W * H * 3);
-    hz_scene_params none = {.fog_density = -1};
-    assert_int_equal(hz_renderer_draw(ren, &cam, &none, NULL, 0, NULL, &err), HZ_OK);
-    assert_int_equal(hz_renderer_read_rgb(ren, sky, &err), HZ_OK);
     hz_forest_frame fr;
-    hz_forest_hook hook = {.gpu = om.gpu, .forest = om.f, .frame = &fr};
-    hz_scene_params sp = {.fog_density = -1, .draw_objects = hz_forest_draw_hook, .draw_objects_user = &hook};
+    hz_forest_hook hook;
+    hz_scene_params sp;
+    forest_scene(ren, &cam, om.gpu, om.f, &fr, &hook, &sp, sky);
     /* Where the tree sits in the band: fade 0 (leaves only) ... past the
      * band (the hull only). */
     const float fades[N] = {0.0f, 0.2f, 0.45f, 0.7f, 0.97f, 1.5f};
