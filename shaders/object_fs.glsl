@@ -1,11 +1,11 @@
 #version 450 core
 // Scene objects: the material's colour, Lambert from the sun plus a sky
 // term (lit per vertex), and the scene's fog as hz_pass_info gives it:
-// exponential, plus with the fog effect the height fog (integrated along the ray) toward the
-// sky's colour behind, faded fully to it over the last stretch of the view
-// distance, as the terrain. With the light
-// map's sun heights, the sun term is shaded where the terrain or other
-// objects hide the sun.
+// exponential (its factor per vertex, as the terrain's), plus with the fog
+// effect the height fog (integrated along the ray) toward the sky's colour
+// behind, faded fully to it over the last stretch of the view distance, as
+// the terrain. With the light map's sun heights, the sun term is shaded
+// where the terrain or other objects hide the sun.
 // Variants (object_draw.c): OBJ_SUN_HEIGHTS, OBJ_HEIGHT_FOG and OBJ_FAR_FADE
 // compile those paths in. A uniform switching them off would still cost
 // every fragment on llvmpipe, which runs both sides of a branch.
@@ -31,6 +31,7 @@ uniform vec2 u_sun_h;            // the sun's horizontal unit direction
 in vec3 v_world;
 in vec3 v_normal;
 in vec2 v_light;
+in float v_fog; // exp(-density * distance), per vertex
 out vec4 o_color;
 
 // 0 in the shade of the terrain or other objects, 1 in the sun. A face is
@@ -53,9 +54,10 @@ void main()
         direct *= sun_lit(normalize(v_normal));
 #endif
     vec3 c = u_color * (v_light.x + direct * vec3(1.0, 0.97, 0.90));
+#if OBJ_HEIGHT_FOG || OBJ_FAR_FADE
     vec3 d = v_world - u_eye;
     float dist = length(d);
-    float tau = u_fog_density * dist;
+    float f = v_fog;
     vec3 fog_c = u_sky_horizon;
 #if OBJ_HEIGHT_FOG
     {
@@ -64,14 +66,18 @@ void main()
         float yp = max((v_world.y - u_height_fog.y) / u_height_fog.z, -30.0);
         float dy = yp - ye;
         float k = abs(dy) > 1e-3 ? (exp(-ye) - exp(-yp)) / dy : exp(-ye) * (1.0 - 0.5 * dy);
-        tau += u_height_fog.x * dist * k;
+        f *= exp(-u_height_fog.x * dist * k);
         float up = max(d.y / max(dist, 1e-6), 0.0);
         fog_c = mix(u_sky_horizon, u_zenith, (1.0 - exp(-3.0 * up)) / (1.0 - exp(-3.0)));
     }
 #endif
-    float f = exp(-tau);
 #if OBJ_FAR_FADE
     f *= 1.0 - smoothstep(u_fog_far.x, u_fog_far.y, dist);
 #endif
     o_color = vec4(mix(fog_c, c, f), 1.0);
+#else
+    // Only the exponential fog: its factor from the vertices (no distance
+    // per pixel), as the terrain's.
+    o_color = vec4(mix(u_sky_horizon, c, v_fog), 1.0);
+#endif
 }

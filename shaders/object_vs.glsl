@@ -11,9 +11,12 @@ uniform mat4 u_viewproj;
 uniform vec4 u_clip_plane;
 uniform vec3 u_sun_dir;
 uniform float u_ambient;
+uniform vec3 u_eye;
+uniform float u_fog_density;
 out vec3 v_world;
 out vec3 v_normal;
 out vec2 v_light; // the sky's share and the sun's (before shade); per vertex: exact on flat faces
+out float v_fog;  // the exponential fog's factor, per vertex as the terrain's (object_fs.glsl)
 
 void main()
 {
@@ -22,6 +25,7 @@ void main()
     vec3 n = normalize(mat3(a_world) * a_normal);
     v_normal = n;
     v_light = vec2(u_ambient * (0.6 + 0.4 * (0.5 + 0.5 * n.y)), (1.0 - u_ambient) * max(dot(n, u_sun_dir), 0.0));
+    v_fog = exp(-u_fog_density * length(w.xyz - u_eye));
     gl_ClipDistance[0] = dot(u_clip_plane, w);
     gl_Position = u_viewproj * hz_curve(w);
 }
