@@ -29,7 +29,6 @@ uniform vec2 u_img_tile;            // texels per tile (border excluded), border
 in vec3 v_world;
 in vec3 v_normal;
 in float v_fog;
-in float v_valid;
 out vec4 o_color;
 
 // Desert sand (not the shore's) by aridity.
@@ -123,10 +122,6 @@ void main()
     // Below a water plane in its reflection pass. Only that variant may
     // discard: a shader that can discard loses llvmpipe's early depth test.
     if (FX_CLIP_PASS && fx_bits.y != 0 && dot(fx_clip, vec4(v_world, 1.0)) < 0.0)
-        discard;
-    // cdlod over missing data (only that variant discards): a triangle with a
-    // vertex without data interpolates below 1 everywhere but at its corners.
-    if (FX_MASKED && v_valid < 0.999)
         discard;
     // Alpha: whether this ground stands above the water (a sea shows where
     // it does not: fx_water_draw). Only the water effect sets a mask: the

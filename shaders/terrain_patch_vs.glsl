@@ -50,7 +50,6 @@ const bool MORPH = true;
 out vec3 v_world;
 out vec3 v_normal;
 out float v_fog;   // the plain fog's factor (terrain_fs.glsl): per vertex, smooth enough
-out float v_valid; // 1 where the sample has data; triangles touching one without are discarded
 
 // Texel c of tile layer: the tiles are squares of u_tile + 1 texels a side
 // (+ 3 streamed: an apron of one texel around the shared border).
@@ -251,7 +250,14 @@ void main()
     } else {
         v_normal = vec3(0.0, 1.0, 0.0); // the fragment shader takes normals from the normal map
     }
-    v_valid = (t.a & 2u) != 0u ? 0.0 : 1.0;
+    // Over missing data (FX_VARIANT_MASK, bit 20): a triangle with a vertex
+    // without data is clipped away where its data share falls below 0.999,
+    // which leaves nothing of it but slivers under a thousandth of its
+    // height. Clipped here, not discarded per fragment: a shader that may
+    // discard loses llvmpipe's early depth test for every patch.
+#if (FX_VARIANT & 1048576) != 0
+    gl_ClipDistance[0] = ((t.a & 2u) != 0u ? 0.0 : 1.0) - 0.999;
+#endif
     v_world = p;
     v_fog = exp(-u_fog_density * length(p - u_eye));
     gl_Position = u_viewproj * vec4(hz_curve(p), 1.0);

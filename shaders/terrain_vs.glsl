@@ -15,7 +15,6 @@ uniform vec3 u_eye;              // world metres
 out vec3 v_world;
 out vec3 v_normal;
 out float v_fog;   // the plain fog's factor (terrain_fs.glsl): per vertex, smooth enough
-out float v_valid; // index lists come without triangles over missing data
 
 float height_at(int i, int j)
 {
@@ -36,7 +35,6 @@ void main()
     float dz = (height_at(i, ju) - height_at(i, jd)) / (float(ju - jd) * u_spacing);
     v_normal = normalize(vec3(-dx, 1.0, -dz));
 
-    v_valid = 1.0;
     v_world = vec3(float(i) * u_spacing, y, float(j) * u_spacing);
     v_fog = exp(-u_fog_density * length(v_world - u_eye));
     gl_Position = u_viewproj * vec4(hz_curve(v_world), 1.0);

@@ -72,7 +72,7 @@ typedef struct fx_frame {
 #define FX_VARIANT_COVER (1u << 17)
 #define FX_VARIANT_PATCH (1u << 18) /* terrain drawn as cdlod patches */
 #define FX_VARIANT_CLIP (1u << 19)  /* a reflection pass: discard below the water plane */
-#define FX_VARIANT_MASK (1u << 20)  /* cdlod patches over samples without data: discard there */
+#define FX_VARIANT_MASK (1u << 20)  /* cdlod patches over samples without data: clip the triangles touching them */
 #define FX_VARIANT_IMAGERY (1u << 21) /* draped imagery */
 #define FX_VARIANT_STREAM (1u << 22)  /* cdlod patches over a streamed pyramid (terrain_patch_vs.glsl's STREAM) */
 #define FX_VARIANT_DETAIL_FAR (1u << 23) /* patches beyond the ground detail's fade: its far colour only */
@@ -180,7 +180,7 @@ struct hz_renderer {
     uint32_t tile_cells, tile_top, tile_layers;
     bool streamed;             /* the tiles are a streamed pyramid's cache slots */
     bool wrap;                 /* ... of a repeating terrain: patches may lie a period off the map */
-    bool tile_masked;          /* some samples have no data: the mask variant discards there */
+    bool tile_masked;          /* some samples have no data: the mask variant clips there */
     int32_t tile_base[16];     /* first layer per level */
     GLuint patch_vao, patch_ibo, patch_vbo;
     uint32_t patch_cells, patch_index_count;

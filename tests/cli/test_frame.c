@@ -472,6 +472,74 @@ static void test_patch_chunks_draw_every_patch(void **state)
     free(pl.data);
 }
 
+/* Patches over samples without data: a triangle touching one is not drawn
+ * (the patch shader clips it away rather than discarding its fragments,
+ * which would cost llvmpipe its early depth test). The frame is that of the
+ * same patches expanded to triangles without those touching a hole, and the
+ * holes show: without the mask the frame differs. */
+static void test_patches_skip_missing_data(void **state)
+{
+    ctx *c = *state;
+    hz_err err = {0};
+    hz_camera cam;
+    hz_index_list il = {0};
+    hz_patch_list pl = {0};
+    hz_lod_stats st;
+    cdlod_frame(c, 1.0f, NULL, &cam, &pl, &il, &st);
+    const uint32_t n = c->t->hm.size;
+    uint8_t *valid = malloc((size_t)n * n);
+    for (uint32_t j = 0; j < n; j++)
+        for (uint32_t i = 0; i < n; i++)
+            valid[(size_t)j * n + i] = (i / 48 + 2 * (j / 48)) % 3 != 0; /* a third of 48-sample squares */
+    size_t kept = 0;
+    for (size_t k = 0; k < il.count; k += 3)
+        if (valid[il.data[k]] && valid[il.data[k + 1]] && valid[il.data[k + 2]]) {
+            memmove(il.data + kept, il.data + k, 3 * sizeof *il.data);
+            kept += 3;
+        }
+    float *dp = malloc(W * H * sizeof *dp), *di = malloc(W * H * sizeof *di), *du = malloc(W * H * sizeof *du);
+    uint8_t *sp_ = malloc(W * H), *si = malloc(W * H), *su = malloc(W * H);
+    hz_scene_params sp = {.patches = pl.data, .patch_count = (uint32_t)pl.count}; /* morph_scale 0 */
+    /* without the mask */
+    assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_depth(c->r, du, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_sky_mask(c->r, su, &err), HZ_OK);
+    /* with it */
+    assert_int_equal(hz_renderer_set_cdlod(c->r, c->t->lod, valid, &err), HZ_OK);
+    assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_depth(c->r, dp, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_sky_mask(c->r, sp_, &err), HZ_OK);
+    assert_int_equal(hz_renderer_draw(c->r, &cam, NULL, il.data, (uint32_t)kept, NULL, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_depth(c->r, di, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_sky_mask(c->r, si, &err), HZ_OK);
+    size_t ground = 0, depth_off = 0, sky_off = 0, holes = 0, unmasked = 0;
+    for (size_t k = 0; k < (size_t)W * H; k++) {
+        ground += !si[k];
+        unmasked += !su[k];
+        sky_off += sp_[k] != si[k];
+        depth_off += !si[k] && fabsf(dp[k] - di[k]) > 1e-6f * fmaxf(fabsf(di[k]), 1e-3f);
+        holes += su[k] != sp_[k] || fabsf(du[k] - dp[k]) > 1e-6f * fmaxf(fabsf(dp[k]), 1e-3f);
+    }
+    fprintf(stderr,
+            "patches over holes vs triangles without them: %zu of %zu ground pixels at another depth, %zu sky pixels "
+            "differ; the holes change %zu of the %zu ground pixels without them\n",
+            depth_off, ground, sky_off, holes, unmasked);
+    assert_true(unmasked > (size_t)W * H / 5);
+    assert_true(holes * 4 >= unmasked); /* the holes are in view */
+    assert_true(sky_off * 2000 <= (size_t)W * H);
+    assert_true(depth_off * 1000 <= ground);
+    assert_int_equal(hz_renderer_set_cdlod(c->r, c->t->lod, NULL, &err), HZ_OK);
+    free(valid);
+    free(dp);
+    free(di);
+    free(du);
+    free(sp_);
+    free(si);
+    free(su);
+    free(il.data);
+    free(pl.data);
+}
+
 /* With the ground detail on, the patches entirely beyond its fade are drawn
  * by a variant without its texture fetches: the picture is that of the same
  * patches expanded to triangles, whose shader works the detail out (faded to
@@ -815,6 +883,7 @@ int main(void)
         cmocka_unit_test(test_gpu_morph_matches_cpu),
         cmocka_unit_test(test_patch_chunks_draw_every_patch),
         cmocka_unit_test(test_far_patches_keep_the_detail_colour),
+        cmocka_unit_test(test_patches_skip_missing_data),
         cmocka_unit_test(test_default_camera_frames_the_summit),
         cmocka_unit_test(test_lit_map_matches_per_pixel_shading),
         cmocka_unit_test(test_stream_tiles_slide_in),
