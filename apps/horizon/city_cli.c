@@ -626,6 +626,7 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
         }
         a->hook.opts.occlusion = &a->occ;
         hide_patches(a, sp);
+        sp->sky_occluders = &a->occ; /* and the sky behind them */
         a->occ_ms = hz_time_ms() - t0;
     } else {
         a->patches_in = a->patches_drawn = sp->patch_count;
@@ -1139,8 +1140,8 @@ int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *
     const uint32_t frames = o->city.bench_frames ? o->city.bench_frames : 12;
     const size_t px = (size_t)o->width * o->height * 3;
     double *ms = calloc((size_t)frames * BENCH_CFGS, sizeof *ms);
-    double sum_obj[BENCH_CFGS][8] = {{0}}; /* after frustum, after occlusion, draw calls, state changes, occ ms,
-                                             query ms, terrain patches in view, drawn */
+    double sum_obj[BENCH_CFGS][9] = {{0}}; /* after frustum, after occlusion, draw calls, state changes, occ ms,
+                                             query ms, terrain patches in view, drawn, sky cells drawn */
     uint64_t diff[BENCH_CFGS] = {0}, diff_frames[BENCH_CFGS] = {0};
     struct {
         bool built;
@@ -1205,6 +1206,7 @@ int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *
             sum_obj[ci][5] += s->query_ms;
             sum_obj[ci][6] += a->patches_in;
             sum_obj[ci][7] += a->patches_drawn;
+            sum_obj[ci][8] += ds.sky_cells;
             if (hz_renderer_read_rgb(ren, img + px * ci, &err) != HZ_OK) {
                 fprintf(stderr, "horizon render: %s\n", err.msg);
                 goto out;
@@ -1228,9 +1230,9 @@ int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *
                frames, objects, o->width, o->height);
     else
         printf("city bench    %s path, %u frames, %u objects, %ux%u (frame ms: median over frames, all passes + "
-               "occlusion buffer)\n%-18s %9s %9s %9s %9s %9s %9s %9s %12s\n",
+               "occlusion buffer)\n%-18s %9s %9s %9s %9s %9s %9s %9s %9s %12s\n",
                kind, frames, objects, o->width, o->height, "config", "frame_ms", "frustum", "occlusion", "draws",
-               "states", "occ_ms", "terrain", "diff_px_max");
+               "states", "occ_ms", "terrain", "sky", "diff_px_max");
     for (uint32_t ci = 0; ci < BENCH_CFGS; ci++) {
         double *v = ms + ci * frames;
         qsort(v, frames, sizeof *v, cmp_d);
@@ -1239,17 +1241,18 @@ int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *
         if (json)
             printf("%s{\"config\":\"%s\",\"frame_ms\":%.3f,\"after_frustum\":%.1f,\"after_occlusion\":%.1f,"
                    "\"draw_calls\":%.1f,\"state_changes\":%.1f,\"occlusion_ms\":%.3f,\"query_ms\":%.3f,"
-                   "\"terrain_patches\":%.1f,\"terrain_patches_drawn\":%.1f,"
+                   "\"terrain_patches\":%.1f,\"terrain_patches_drawn\":%.1f,\"sky_cells\":%.1f,"
                    "\"diff_pixels_max\":%llu,\"diff_frames\":%llu}",
                    ci ? "," : "", bench_cfgs[ci].name, med, sum_obj[ci][0] / f, sum_obj[ci][1] / f,
                    sum_obj[ci][2] / f, sum_obj[ci][3] / f, sum_obj[ci][4] / f, sum_obj[ci][5] / f,
-                   sum_obj[ci][6] / f, sum_obj[ci][7] / f,
+                   sum_obj[ci][6] / f, sum_obj[ci][7] / f, sum_obj[ci][8] / f,
                    (unsigned long long)diff[ci],
                    (unsigned long long)diff_frames[ci]);
         else
-            printf("%-18s %9.1f %9.0f %9.0f %9.0f %9.0f %9.2f %9.0f %12llu\n", bench_cfgs[ci].name, med,
+            printf("%-18s %9.1f %9.0f %9.0f %9.0f %9.0f %9.2f %9.0f %9.0f %12llu\n", bench_cfgs[ci].name, med,
                    sum_obj[ci][0] / f, sum_obj[ci][1] / f, sum_obj[ci][2] / f, sum_obj[ci][3] / f,
-                   sum_obj[ci][4] / f + sum_obj[ci][5] / f, sum_obj[ci][7] / f, (unsigned long long)diff[ci]);
+                   sum_obj[ci][4] / f + sum_obj[ci][5] / f, sum_obj[ci][7] / f, sum_obj[ci][8] / f,
+                   (unsigned long long)diff[ci]);
     }
     if (json)
         printf("]}\n");

@@ -49,6 +49,11 @@ void hz_occlusion_rasterize(hz_occlusion *o, const float *tri_xyz, size_t tri_co
 void hz_occlusion_rasterize_quads(hz_occlusion *o, const float *quad_xyz, size_t quad_count, const mat4 model);
 /* True when the world box is certainly hidden behind the occluders. */
 bool hz_occlusion_box_hidden(const hz_occlusion *o, const hz_box *b);
+/* True when occluders certainly cover every point of the screen rectangle
+ * [x0, x1] x [y0, y1] (NDC, -1..1, y up), whatever their depth: what lies
+ * behind everything there (the sky) is hidden. False for a rectangle
+ * reaching off the screen. */
+bool hz_occlusion_rect_covered(const hz_occlusion *o, float x0, float y0, float x1, float y1);
 
 #ifdef __cplusplus
 }

@@ -120,6 +120,11 @@ hz_result hz_renderer_stream_upload(hz_renderer *r, uint32_t slot, const uint16_
 
 #define HZ_MAX_HISTORY 8u /* motion blur history slots */
 
+/* The plain sky is shaded per vertex of a grid of HZ_SKY_COLS x HZ_SKY_ROWS
+ * screen cells spanning the sky's side of the horizon. */
+#define HZ_SKY_COLS 48
+#define HZ_SKY_ROWS 27
+
 typedef struct hz_scene_params {
     vec3 sun_dir;       /* unit vector toward the sun; all 0 -> default (afternoon sun) */
     vec3 sky_color;     /* horizon colour the fog fades to; all 0 -> pale blue */
@@ -161,6 +166,12 @@ typedef struct hz_scene_params {
      * Lambert), baked again when the sun, ambient or climate change and then
      * hold still for a frame. true: shade every pixel instead. */
     bool no_lit_map;
+    /* Optional: a CPU occlusion buffer built for this frame's camera
+     * (horizon/occlusion.h, e.g. from the big near occluders of a city).
+     * The plain sky skips the cells of its grid that the buffer's occluders
+     * certainly cover, which the frame then covers too: at street level
+     * most of the sky is behind walls. NULL: the whole grid is drawn. */
+    const struct hz_occlusion *sky_occluders;
 } hz_scene_params;
 
 typedef struct hz_draw_stats {
@@ -176,6 +187,8 @@ typedef struct hz_draw_stats {
                                  without its texture fetches (HZ_FX_DETAIL) */
     bool lit_map;             /* the terrain read its lit map (hz_scene_params.no_lit_map) */
     double lit_bake_ms;       /* this frame baked the lit map first: its time (in upload_ms) */
+    uint32_t sky_cells;       /* cells of the plain sky's grid drawn in the main pass (of
+                                 HZ_SKY_COLS x HZ_SKY_ROWS; fewer with sky_occluders) */
 } hz_draw_stats;
 
 /* Draws sky then terrain triangles (count indices, a multiple of 3, into the

@@ -78,7 +78,7 @@ typedef struct fx_frame {
 #define FX_VARIANT_DETAIL_FAR (1u << 23) /* patches beyond the ground detail's fade: its far colour only */
 #define FX_VARIANT_LIT (1u << 24)        /* the plain terrain reads its colour from the lit map */
 #define FX_VARIANT_STILL (1u << 25)      /* patches none of whose vertices morph: no morph code */
-#define SKY_CELLS (48 * 27) /* the plain sky's grid (sky_grid_vs.glsl: SKY_COLS x SKY_ROWS) */
+#define SKY_CELLS (HZ_SKY_COLS * HZ_SKY_ROWS) /* the plain sky's grid (sky_grid_vs.glsl: SKY_COLS x SKY_ROWS) */
 #define LIT_KEY_LEN 8 /* the lit map's lighting: sun (3), ambient, snow line, tree line, aridity, zscale */
 /* The ground detail fades out between these multiples of its scale
  * (terrain_fs.glsl, splat); beyond the far one only its slow brightness
@@ -198,6 +198,8 @@ struct hz_renderer {
     bool seg_flush[PATCH_SEGS];
 
     GLuint sky_prog;          /* the plain sky */
+    uint32_t sky_cells;       /* cells of its grid the last main pass drew */
+    GLint sky_first[SKY_CELLS], sky_count[SKY_CELLS]; /* its runs of visible cells */
     sky_uniforms su;
     prog_cache terrain;       /* variant 0: the plain terrain */
     const prog_variant *terrain_cur, *terrain_plain;

@@ -15,6 +15,7 @@
 
 #include "gl_util.h"
 #include "hz_shaders.h" /* generated from shaders/<name>.glsl */
+#include "horizon/occlusion.h"
 
 #define DEFAULT_WIDTH 1280u
 #define DEFAULT_HEIGHT 720u
@@ -722,7 +723,56 @@ static void draw_plain_sky(hz_renderer *r, const fx_frame *f, const fx_view *v)
     glUniform3fv(r->su.sun_dir, 1, f->sp.sun_dir);
     /* the far plane: depth 0 in reverse-Z ([0, 1] clip depth, or [-1, 1] without glClipControl) */
     glUniform1f(r->su.sky_z, r->clip_control ? 0.0f : -1.0f);
-    glDrawArrays(GL_TRIANGLES, 0, 6 * SKY_CELLS); /* sky_grid_vs.glsl's grid */
+    const struct hz_occlusion *occ = f->sp.sky_occluders;
+    if (!occ || v->pass != HZ_PASS_MAIN) {
+        glDrawArrays(GL_TRIANGLES, 0, 6 * SKY_CELLS); /* sky_grid_vs.glsl's grid */
+        if (v->pass == HZ_PASS_MAIN)
+            r->sky_cells = SKY_CELLS;
+        return;
+    }
+    /* The grid as sky_grid_vs.glsl lays it out: the rows span the screen on
+     * the sky's side of the horizon when the camera has no roll. */
+    float a, b, c;
+    {
+        vec4 w[3];
+        const vec4 p[3] = {{0, 0, 0.5f, 1}, {1, 0, 0.5f, 1}, {0, 1, 0.5f, 1}};
+        for (int k = 0; k < 3; k++)
+            glm_mat4_mulv((vec4 *)v->inv_vp_rot, (float *)p[k], w[k]);
+        a = w[0][1] / w[0][3];
+        b = w[1][1] / w[1][3] - a;
+        c = w[2][1] / w[2][3] - a;
+    }
+    float lo = -1.0f, hi = 1.0f;
+    if (fabsf(b) <= 1e-4f * fabsf(c)) {
+        const float yh = fminf(fmaxf(-a / c, -1.0f), 1.0f);
+        if (c > 0)
+            lo = yh;
+        else
+            hi = yh;
+    }
+    /* Runs of cells not certainly covered; a cell's rectangle is widened
+     * by a thousandth of the screen against rounding between here and the
+     * shader. */
+    const float m = 2e-3f;
+    GLsizei runs = 0;
+    uint32_t drawn = 0;
+    for (int k = 0; k < SKY_CELLS; k++) {
+        const int cx = k % HZ_SKY_COLS, cy = k / HZ_SKY_COLS;
+        const float x0 = 2.0f * (float)cx / HZ_SKY_COLS - 1.0f, x1 = 2.0f * (float)(cx + 1) / HZ_SKY_COLS - 1.0f;
+        const float y0 = lo + (hi - lo) * (float)cy / HZ_SKY_ROWS, y1 = lo + (hi - lo) * (float)(cy + 1) / HZ_SKY_ROWS;
+        if (hz_occlusion_rect_covered(occ, x0 - m, y0 - m, x1 + m, y1 + m))
+            continue;
+        drawn++;
+        if (runs > 0 && r->sky_first[runs - 1] + r->sky_count[runs - 1] == 6 * k) {
+            r->sky_count[runs - 1] += 6;
+        } else {
+            r->sky_first[runs] = 6 * k;
+            r->sky_count[runs++] = 6;
+        }
+    }
+    if (runs > 0)
+        glMultiDrawArrays(GL_TRIANGLES, r->sky_first, r->sky_count, runs);
+    r->sky_cells = drawn;
 }
 
 /* The objects hook (city, forests, user objects). */
@@ -1176,6 +1226,7 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         stats->far_patches = r->n_inst - r->n_inst_near;
         stats->lit_map = fr.lit;
         stats->lit_bake_ms = bake_ms;
+        stats->sky_cells = (fr.bits & HZ_FX_SKY) ? 0 : r->sky_cells;
     }
     return hz_gl_check(err, "frame draw");
 }

@@ -235,3 +235,19 @@ bool hz_occlusion_box_hidden(const hz_occlusion *o, const hz_box *b)
                 return false;
     return true;
 }
+
+bool hz_occlusion_rect_covered(const hz_occlusion *o, float x0, float y0, float x1, float y1)
+{
+    if (!(x0 >= -1.0f && x1 <= 1.0f && y0 >= -1.0f && y1 <= 1.0f && x0 <= x1 && y0 <= y1))
+        return false;
+    /* the cells the rectangle touches (its edges included) */
+    const long i0 = (long)floorf((x0 * 0.5f + 0.5f) * (float)o->w), j0 = (long)floorf((y0 * 0.5f + 0.5f) * (float)o->h);
+    long i1 = (long)floorf((x1 * 0.5f + 0.5f) * (float)o->w), j1 = (long)floorf((y1 * 0.5f + 0.5f) * (float)o->h);
+    i1 = i1 < (long)o->w ? i1 : (long)o->w - 1;
+    j1 = j1 < (long)o->h ? j1 : (long)o->h - 1;
+    for (long j = j0; j <= j1; j++)
+        for (long i = i0; i <= i1; i++)
+            if (!(o->depth[(size_t)j * o->w + (size_t)i] < INFINITY))
+                return false;
+    return true;
+}

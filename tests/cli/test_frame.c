@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "horizon/metrics.h"
+#include "horizon/occlusion.h"
 #include "horizon/path.h"
 #include "horizon/pyramid.h"
 #include "horizon/render.h"
@@ -540,6 +541,59 @@ static void test_patches_skip_missing_data(void **state)
     free(pl.data);
 }
 
+/* The plain sky skips the cells of its grid that a CPU occlusion buffer
+ * certainly covers: with the frame's own terrain triangles as occluders,
+ * looking level at the ridges, a good part of the grid is skipped and the
+ * frame is the same, pixel for pixel. */
+static void test_sky_skips_covered_cells(void **state)
+{
+    ctx *c = *state;
+    hz_err err = {0};
+    hz_camera cam = hz_terrain_default_camera(c->t, W, H);
+    cam.pos[1] = hz_terrain_height_at(c->t, cam.pos[0], cam.pos[2]) + 20.0f; /* low, among the hills */
+    cam.pitch = 0;
+    hz_index_list il = {0};
+    hz_lod_stats st;
+    assert_int_equal(hz_lod_select(c->t->lod, &cam, &(hz_lod_params){.c = 8, .c2 = 8}, &il, NULL, NULL, &st), HZ_OK);
+    uint8_t *a = malloc(W * H * 3), *b = malloc(W * H * 3), *sky = malloc(W * H);
+    hz_draw_stats da, db;
+    assert_int_equal(hz_renderer_draw(c->r, &cam, NULL, il.data, (uint32_t)il.count, &da, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_rgb(c->r, a, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_sky_mask(c->r, sky, &err), HZ_OK);
+    hz_occlusion o;
+    assert_true(hz_occlusion_init(&o, 0, 0));
+    hz_occlusion_begin(&o, &cam);
+    const uint32_t n = c->t->hm.size;
+    float *tri = malloc(il.count * 3 * sizeof *tri);
+    for (size_t k = 0; k < il.count; k++) {
+        const float x = (float)(il.data[k] % n) * c->t->spacing, z = (float)(il.data[k] / n) * c->t->spacing;
+        tri[3 * k] = x;
+        tri[3 * k + 1] = hz_terrain_height_at(c->t, x, z);
+        tri[3 * k + 2] = z;
+    }
+    hz_occlusion_rasterize(&o, tri, il.count / 3, NULL);
+    hz_scene_params sp = {.sky_occluders = &o};
+    assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, il.data, (uint32_t)il.count, &db, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_rgb(c->r, b, &err), HZ_OK);
+    size_t sky_px = 0, off = 0;
+    for (size_t k = 0; k < (size_t)W * H; k++) {
+        sky_px += sky[k];
+        off += memcmp(a + 3 * k, b + 3 * k, 3) != 0;
+    }
+    fprintf(stderr, "sky cells drawn: %u of %u with the terrain as occluders (%u without); %zu sky pixels, %zu differ\n",
+            db.sky_cells, HZ_SKY_COLS * HZ_SKY_ROWS, da.sky_cells, sky_px, off);
+    assert_int_equal(da.sky_cells, HZ_SKY_COLS * HZ_SKY_ROWS);
+    assert_true(db.sky_cells * 10 <= da.sky_cells * 9); /* a tenth of the grid skipped at least */
+    assert_true(sky_px * 20 >= (size_t)W * H);           /* and sky left to draw */
+    assert_int_equal(off, 0);
+    hz_occlusion_free(&o);
+    free(tri);
+    free(a);
+    free(b);
+    free(sky);
+    free(il.data);
+}
+
 /* With the ground detail on, the patches entirely beyond its fade are drawn
  * by a variant without its texture fetches: the picture is that of the same
  * patches expanded to triangles, whose shader works the detail out (faded to
@@ -884,6 +938,7 @@ int main(void)
         cmocka_unit_test(test_patch_chunks_draw_every_patch),
         cmocka_unit_test(test_far_patches_keep_the_detail_colour),
         cmocka_unit_test(test_patches_skip_missing_data),
+        cmocka_unit_test(test_sky_skips_covered_cells),
         cmocka_unit_test(test_default_camera_frames_the_summit),
         cmocka_unit_test(test_lit_map_matches_per_pixel_shading),
         cmocka_unit_test(test_stream_tiles_slide_in),

@@ -501,6 +501,7 @@ static void test_occlusion(void **state)
     /* As one quad: covered. */
     const float quad[12] = {-5, -1, -10, 5, -1, -10, 5, 3, -10, -5, 3, -10};
     hz_occlusion_begin(&o, &cam);
+    assert_false(hz_occlusion_rect_covered(&o, -0.3f, -0.2f, 0.3f, 0.2f)); /* nothing yet */
     hz_occlusion_rasterize_quads(&o, quad, 1, NULL);
     hz_box over = {{-1, 0, -21}, {1, 10, -19}};
     hz_box beside = {{8, 0, -21}, {10, 2, -19}};
@@ -511,6 +512,14 @@ static void test_occlusion(void **state)
     assert_false(hz_occlusion_box_hidden(&o, &over));
     assert_false(hz_occlusion_box_hidden(&o, &beside));
     assert_false(hz_occlusion_box_hidden(&o, &front));
+    /* Screen rectangles (what the sky skips): the wall spans NDC x +-0.49,
+     * y +-0.35; one inside it is covered, one reaching past its side or off
+     * the screen is not. */
+    assert_true(hz_occlusion_rect_covered(&o, -0.3f, -0.2f, 0.3f, 0.2f));
+    assert_false(hz_occlusion_rect_covered(&o, -0.3f, -0.2f, 0.6f, 0.2f));
+    assert_false(hz_occlusion_rect_covered(&o, -0.3f, 0.2f, 0.3f, 0.5f));
+    assert_false(hz_occlusion_rect_covered(&o, -0.3f, -0.2f, 0.3f, 1.2f));
+    assert_false(hz_occlusion_rect_covered(&o, 0.3f, -0.2f, -0.3f, 0.2f));
     /* A tilted wall (a model matrix turning it 60 degrees about y): its far end
      * is farther, and a box just behind its near end but nearer than its far
      * end is kept (the cell's depth is the triangle's farthest vertex). */
