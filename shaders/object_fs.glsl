@@ -18,7 +18,6 @@
 #ifndef OBJ_FAR_FADE
 #define OBJ_FAR_FADE 1
 #endif
-uniform vec3 u_color;
 uniform vec3 u_sky_horizon, u_eye;
 uniform float u_fog_density;
 uniform vec2 u_fog_far;
@@ -30,6 +29,7 @@ uniform vec4 u_sunh;             // y: lookup step (m), z: tan(sun elevation), w
 uniform vec2 u_sun_h;            // the sun's horizontal unit direction
 in vec3 v_world;
 in vec3 v_normal;
+flat in vec3 v_color; // the material's, per instance
 in vec2 v_light;
 in float v_fog; // exp(-density * distance), per vertex
 out vec4 o_color;
@@ -53,7 +53,7 @@ void main()
     if (direct > 0.0)
         direct *= sun_lit(normalize(v_normal));
 #endif
-    vec3 c = u_color * (v_light.x + direct * vec3(1.0, 0.97, 0.90));
+    vec3 c = v_color * (v_light.x + direct * vec3(1.0, 0.97, 0.90));
 #if OBJ_HEIGHT_FOG || OBJ_FAR_FADE
     vec3 d = v_world - u_eye;
     float dist = length(d);

@@ -198,6 +198,19 @@ typedef struct hz_queue_stats {
 uint32_t hz_scene_queue_build(const hz_scene *s, const uint32_t *nodes, uint32_t count, bool sorted,
                               uint32_t *nodes_out, hz_draw_item *items, hz_queue_stats *stats);
 
+/* An item's material when materials are instance data. */
+#define HZ_MATERIAL_PER_INSTANCE UINT32_MAX
+/* hz_scene_queue_build for materials given to the shader per instance
+ * (hz_scene_gpu_draw passes their colour with each instance's matrix, so
+ * they are no state to change between draws): sorted orders by (shader,
+ * mesh) and merges equal ones into one item whose instances keep the node
+ * order whatever their material (nearest first after
+ * hz_scene_sort_near_first: near walls hide far ones of any colour before
+ * they are shaded). Items' material is HZ_MATERIAL_PER_INSTANCE and
+ * stats->material_changes 0. */
+uint32_t hz_scene_queue_build_instanced(const hz_scene *s, const uint32_t *nodes, uint32_t count, bool sorted,
+                                        uint32_t *nodes_out, hz_draw_item *items, hz_queue_stats *stats);
+
 /* ---- what stands on the ground ------------------------------------------------ */
 
 /* Raises tops (size x size samples, row-major, sample (i, j) at world

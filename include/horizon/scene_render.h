@@ -1,9 +1,10 @@
 /* horizon scene drawing (GL side of SPEC G3-G5): a scene graph's meshes in
  * one static vertex and index buffer, drawn through the renderer's object
  * hook after frustum culling (and optionally occlusion culling), from a
- * render queue sorted shader -> material -> mesh: one multi-draw per
- * material, identical meshes as instances. Needs a current OpenGL 4.5
- * context. */
+ * render queue sorted shader -> mesh (hz_scene_queue_build_instanced: the
+ * materials' colours come with the instances): one multi-draw per shader,
+ * identical meshes as instances, nearest first whatever their material.
+ * Needs a current OpenGL 4.5 context. */
 #ifndef HORIZON_SCENE_RENDER_H
 #define HORIZON_SCENE_RENDER_H
 

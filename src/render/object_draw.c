@@ -1,11 +1,11 @@
 /* Scene objects (G3-G5): the scene graph's merged meshes in one static
  * vertex + index buffer; per frame the CPU culls (hz_scene_cull, and the
- * caller's occlusion buffer), builds the render queue (hz_scene_queue_build)
- * and uploads one world matrix per drawn node into a per-instance buffer in
- * queue order; then one glMultiDrawElementsIndirect per material (each
- * command one mesh with its run of instances, baseInstance selecting their
- * matrices). The naive mode draws one object per call, in scene order, for
- * the comparison. */
+ * caller's occlusion buffer), builds the render queue
+ * (hz_scene_queue_build_instanced) and uploads one world matrix and
+ * material colour per drawn node into a per-instance buffer in queue order;
+ * then one glMultiDrawElementsIndirect per shader (each command one mesh
+ * with its run of instances, baseInstance selecting their data). The naive
+ * mode draws one object per call, in scene order, for the comparison. */
 #include "horizon/scene_render.h"
 
 #include <math.h>
@@ -23,11 +23,13 @@ typedef struct draw_cmd {
 } draw_cmd;
 
 /* The object program's variants (object_fs.glsl): the paths a pass needs. */
+/* Instance data: a world matrix (16 floats), the material's colour (3). */
+enum { INST_FLOATS = 19, INST_BYTES = INST_FLOATS * 4 };
 enum { OBJ_SUN_HEIGHTS = 1, OBJ_HEIGHT_FOG = 2, OBJ_FAR_FADE = 4, OBJ_VARIANTS = 8 };
 
 typedef struct obj_prog {
     GLuint prog;
-    GLint u_viewproj, u_clip, u_color, u_sun, u_sky, u_eye, u_fog, u_ambient, u_fog_far;
+    GLint u_viewproj, u_clip, u_sun, u_sky, u_eye, u_fog, u_ambient, u_fog_far;
     GLint u_sunh_tex, u_sunh_map, u_sunh, u_sun_h, u_height_fog, u_zenith;
 } obj_prog;
 
@@ -89,7 +91,6 @@ static const obj_prog *obj_program(hz_scene_gpu *g, unsigned key, hz_err *err)
     v->prog = p;
     v->u_viewproj = glGetUniformLocation(p, "u_viewproj");
     v->u_clip = glGetUniformLocation(p, "u_clip_plane");
-    v->u_color = glGetUniformLocation(p, "u_color");
     v->u_sun = glGetUniformLocation(p, "u_sun_dir");
     v->u_sky = glGetUniformLocation(p, "u_sky_horizon");
     v->u_eye = glGetUniformLocation(p, "u_eye");
@@ -157,10 +158,11 @@ hz_scene_gpu *hz_scene_gpu_create(const hz_scene *s, hz_err *err)
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, g->ibo);
     glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)((size_t)(ic ? ic : 1) * sizeof *ix), ix, GL_STATIC_DRAW);
     glBindBuffer(GL_ARRAY_BUFFER, g->inst_buf);
-    glBufferData(GL_ARRAY_BUFFER, 64, NULL, GL_STREAM_DRAW);
-    g->inst_cap = 64;
-    for (GLuint c = 0; c < 4; c++) {
-        glVertexAttribPointer(2 + c, 4, GL_FLOAT, GL_FALSE, 64, (const void *)(uintptr_t)(16 * c));
+    glBufferData(GL_ARRAY_BUFFER, INST_BYTES, NULL, GL_STREAM_DRAW);
+    g->inst_cap = INST_BYTES;
+    /* Per instance: the world matrix (4 columns), then the material's colour. */
+    for (GLuint c = 0; c < 5; c++) {
+        glVertexAttribPointer(2 + c, c < 4 ? 4 : 3, GL_FLOAT, GL_FALSE, INST_BYTES, (const void *)(uintptr_t)(16 * c));
         glVertexAttribDivisor(2 + c, 1);
         glEnableVertexAttribArray(2 + c);
     }
@@ -210,7 +212,7 @@ static bool scratch(hz_scene_gpu *g, uint32_t n)
     hz_draw_item *items = realloc(g->items, (size_t)c * sizeof *items);
     if (items)
         g->items = items;
-    float *mats = realloc(g->mats, (size_t)c * 16 * sizeof *mats);
+    float *mats = realloc(g->mats, (size_t)c * INST_FLOATS * sizeof *mats);
     if (mats)
         g->mats = mats;
     draw_cmd *cmds = realloc(g->cmds, (size_t)c * sizeof *cmds);
@@ -266,14 +268,20 @@ static hz_result submit(hz_scene_gpu *g, const hz_scene *s, const hz_pass_info *
     if (!n)
         return HZ_OK;
     double t0 = hz_time_ms();
-    uint32_t ni = hz_scene_queue_build(s, nodes, n, !opts->naive, g->order, g->items, NULL);
+    /* Materials are colours, passed with each instance: one item per
+     * (shader, mesh), its instances nearest first whatever their colour. */
+    uint32_t ni = hz_scene_queue_build_instanced(s, nodes, n, !opts->naive, g->order, g->items, NULL);
     if (!ni)
         return hz_err_set(err, HZ_ERR_MEMORY, "scene: out of memory for the render queue");
     st->items += ni;
     for (uint32_t k = 0; k < n; k++) {
         mat4 m;
         hz_scene_world_matrix(s, g->order[k], m);
-        memcpy(g->mats + 16 * (size_t)k, m, sizeof m);
+        float *o = g->mats + INST_FLOATS * (size_t)k;
+        memcpy(o, m, sizeof m);
+        const hz_material *mt = hz_scene_material(s, hz_scene_node_material(s, g->order[k]));
+        static const float grey[3] = {0.7f, 0.7f, 0.7f};
+        memcpy(o + 16, mt ? mt->color : grey, 3 * sizeof *o);
     }
     st->cull_ms += hz_time_ms() - t0;
     const obj_prog *v = obj_program(g, obj_key(pass), err);
@@ -282,7 +290,7 @@ static hz_result submit(hz_scene_gpu *g, const hz_scene *s, const hz_pass_info *
     glUseProgram(v->prog);
     glBindVertexArray(g->vao);
     st->state_changes += 2;
-    stream(GL_ARRAY_BUFFER, g->inst_buf, &g->inst_cap, g->mats, (size_t)n * 64);
+    stream(GL_ARRAY_BUFFER, g->inst_buf, &g->inst_cap, g->mats, (size_t)n * INST_BYTES);
     glUniformMatrix4fv(v->u_viewproj, 1, GL_FALSE, (const float *)pass->viewproj);
     hz_gl_set_curvature(v->prog, pass->cam);
     glUniform4fv(v->u_clip, 1, pass->clip_plane);
@@ -298,17 +306,10 @@ static hz_result submit(hz_scene_gpu *g, const hz_scene *s, const hz_pass_info *
     /* Closed outward meshes: back faces culled (mirrored passes flip the
      * front face, set by the renderer). */
     glEnable(GL_CULL_FACE);
-    uint32_t last_mat = UINT32_MAX;
     if (opts->naive) {
         for (uint32_t k = 0; k < ni; k++) {
             const hz_draw_item *it = &g->items[k];
             const hz_mesh_range *m = hz_scene_mesh(s, it->mesh);
-            if (it->material != last_mat) {
-                const hz_material *mt = hz_scene_material(s, it->material);
-                glUniform3fv(v->u_color, 1, mt ? mt->color : (const float[3]){0.7f, 0.7f, 0.7f});
-                last_mat = it->material;
-                st->state_changes++;
-            }
             glDrawElementsInstancedBaseVertexBaseInstance(
                 GL_TRIANGLES, (GLsizei)m->index_count, GL_UNSIGNED_INT,
                 (const void *)(uintptr_t)((size_t)m->first_index * 4), (GLsizei)it->count, (GLint)m->first_vertex,
@@ -317,7 +318,7 @@ static hz_result submit(hz_scene_gpu *g, const hz_scene *s, const hz_pass_info *
             st->triangles += (uint64_t)m->index_count / 3 * it->count;
         }
     } else {
-        /* Commands for all items, then one multi-draw per material run. */
+        /* Commands for all items, then one multi-draw per shader run. */
         for (uint32_t k = 0; k < ni; k++) {
             const hz_draw_item *it = &g->items[k];
             const hz_mesh_range *m = hz_scene_mesh(s, it->mesh);
@@ -329,11 +330,8 @@ static hz_result submit(hz_scene_gpu *g, const hz_scene *s, const hz_pass_info *
         g->cmd_cap = cmd_cap;
         for (uint32_t k = 0; k < ni;) {
             uint32_t e = k + 1;
-            while (e < ni && g->items[e].material == g->items[k].material && g->items[e].shader == g->items[k].shader)
+            while (e < ni && g->items[e].shader == g->items[k].shader)
                 e++;
-            const hz_material *mt = hz_scene_material(s, g->items[k].material);
-            glUniform3fv(v->u_color, 1, mt ? mt->color : (const float[3]){0.7f, 0.7f, 0.7f});
-            st->state_changes++;
             glMultiDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT,
                                         (const void *)(uintptr_t)((size_t)k * sizeof(draw_cmd)), (GLsizei)(e - k), 0);
             st->draw_calls++;

@@ -641,8 +641,9 @@ void hz_scene_sort_near_first(const hz_scene *s, const float eye[3], uint32_t *n
     }
 }
 
-uint32_t hz_scene_queue_build(const hz_scene *s, const uint32_t *nodes, uint32_t count, bool sorted,
-                              uint32_t *nodes_out, hz_draw_item *items, hz_queue_stats *stats)
+/* The queue; per_instance: materials are instance data, not part of the key. */
+static uint32_t queue_build(const hz_scene *s, const uint32_t *nodes, uint32_t count, bool sorted, bool per_instance,
+                            uint32_t *nodes_out, hz_draw_item *items, hz_queue_stats *stats)
 {
     hz_queue_stats st = {0};
     if (stats)
@@ -655,7 +656,7 @@ uint32_t hz_scene_queue_build(const hz_scene *s, const uint32_t *nodes, uint32_t
     for (uint32_t i = 0; i < count; i++) {
         const node *n = &s->n[nodes[i]];
         const hz_material *m = hz_scene_material(s, n->material);
-        k[i] = (qkey){m ? m->shader : 0, n->material, n->mesh, i, nodes[i]};
+        k[i] = (qkey){m ? m->shader : 0, per_instance ? HZ_MATERIAL_PER_INSTANCE : n->material, n->mesh, i, nodes[i]};
     }
     if (sorted)
         qsort(k, count, sizeof *k, cmp_qkey);
@@ -670,7 +671,7 @@ uint32_t hz_scene_queue_build(const hz_scene *s, const uint32_t *nodes, uint32_t
         }
         if (!ni || items[ni - 1].shader != k[i].shader)
             st.shader_changes++;
-        if (!ni || items[ni - 1].material != k[i].material)
+        if (!per_instance && (!ni || items[ni - 1].material != k[i].material))
             st.material_changes++;
         items[ni++] = (hz_draw_item){k[i].shader, k[i].material, k[i].mesh, i, 1};
     }
@@ -680,6 +681,18 @@ uint32_t hz_scene_queue_build(const hz_scene *s, const uint32_t *nodes, uint32_t
     if (stats)
         *stats = st;
     return ni;
+}
+
+uint32_t hz_scene_queue_build(const hz_scene *s, const uint32_t *nodes, uint32_t count, bool sorted,
+                              uint32_t *nodes_out, hz_draw_item *items, hz_queue_stats *stats)
+{
+    return queue_build(s, nodes, count, sorted, false, nodes_out, items, stats);
+}
+
+uint32_t hz_scene_queue_build_instanced(const hz_scene *s, const uint32_t *nodes, uint32_t count, bool sorted,
+                                        uint32_t *nodes_out, hz_draw_item *items, hz_queue_stats *stats)
+{
+    return queue_build(s, nodes, count, sorted, true, nodes_out, items, stats);
 }
 
 /* Slab test: the ray's entry parameter into b, or false. */

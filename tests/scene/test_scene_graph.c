@@ -346,6 +346,23 @@ static void test_render_queue(void **state)
         assert_int_equal(order[k], nodes[k]);
     assert_int_equal(st.material_changes, 10);
     assert_int_equal(st.shader_changes, 4);
+    /* Materials as instance data: one item per (shader, mesh), its nodes in
+     * the given order whatever their material. */
+    ni = hz_scene_queue_build_instanced(s, nodes, 10, true, order, items, &st);
+    const uint32_t expect_i[10] = {2, 3, 7, 8, 1, 5, 6, 9, 0, 4};
+    for (int k = 0; k < 10; k++)
+        assert_int_equal(order[k], nodes[expect_i[k]]);
+    assert_int_equal(ni, 3);
+    const uint32_t counts_i[3] = {4, 4, 2}, mesh_i[3] = {m0, m1, m0}, shader_i[3] = {0, 0, 1};
+    for (uint32_t k = 0, f = 0; k < ni; f += items[k++].count) {
+        assert_int_equal(items[k].count, counts_i[k]);
+        assert_int_equal(items[k].first, f);
+        assert_int_equal(items[k].mesh, mesh_i[k]);
+        assert_int_equal(items[k].shader, shader_i[k]);
+        assert_int_equal(items[k].material, HZ_MATERIAL_PER_INSTANCE);
+    }
+    assert_int_equal(st.shader_changes, 2);
+    assert_int_equal(st.material_changes, 0);
     hz_scene_destroy(s);
 }
 
