@@ -427,6 +427,23 @@ static void test_gpu_morph_matches_cpu(void **state)
     gpu_morph_matches_cpu(c, 2.0f, &at, false);
 }
 
+/* Draws a frame (patches in sp, or count indices) and reads its depth and
+ * sky mask. */
+static void draw_depth_sky(ctx *c, const hz_camera *cam, const hz_scene_params *sp, const uint32_t *idx,
+                           uint32_t count, hz_draw_stats *ds, float *depth, uint8_t *sky)
+{
+    hz_err err = {0};
+    assert_int_equal(hz_renderer_draw(c->r, cam, sp, idx, count, ds, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_depth(c->r, depth, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_sky_mask(c->r, sky, &err), HZ_OK);
+}
+
+/* Two window depths differ beyond float rounding. */
+static bool depth_differs(float a, float b)
+{
+    return fabsf(a - b) > 1e-6f * fmaxf(fabsf(b), 1e-3f);
+}
+
 /* A frame of many patches (the renderer draws them in 4 flushed chunks of
  * at least 64, from 8 bytes of instance data each) is the frame of the same
  * patches expanded to triangles: unmorphed, the same depth at every pixel
@@ -434,7 +451,6 @@ static void test_gpu_morph_matches_cpu(void **state)
 static void test_patch_chunks_draw_every_patch(void **state)
 {
     ctx *c = *state;
-    hz_err err = {0};
     hz_camera cam;
     hz_index_list il = {0};
     hz_patch_list pl = {0};
@@ -446,19 +462,15 @@ static void test_patch_chunks_draw_every_patch(void **state)
     uint8_t *sp_ = malloc(W * H), *si = malloc(W * H);
     hz_scene_params sp = {.patches = pl.data, .patch_count = (uint32_t)pl.count}; /* morph_scale 0 */
     hz_draw_stats ds;
-    assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, &ds, &err), HZ_OK);
+    draw_depth_sky(c, &cam, &sp, NULL, 0, &ds, dp, sp_);
     /* the upload is 8 bytes a node (an in-memory terrain) */
     assert_int_equal(ds.upload_bytes, pl.count * 8);
-    assert_int_equal(hz_renderer_read_depth(c->r, dp, &err), HZ_OK);
-    assert_int_equal(hz_renderer_read_sky_mask(c->r, sp_, &err), HZ_OK);
-    assert_int_equal(hz_renderer_draw(c->r, &cam, NULL, il.data, (uint32_t)il.count, NULL, &err), HZ_OK);
-    assert_int_equal(hz_renderer_read_depth(c->r, di, &err), HZ_OK);
-    assert_int_equal(hz_renderer_read_sky_mask(c->r, si, &err), HZ_OK);
+    draw_depth_sky(c, &cam, NULL, il.data, (uint32_t)il.count, NULL, di, si);
     size_t ground = 0, depth_off = 0, sky_off = 0;
     for (size_t k = 0; k < (size_t)W * H; k++) {
         ground += !si[k];
         sky_off += sp_[k] != si[k];
-        depth_off += fabsf(dp[k] - di[k]) > 1e-6f * fmaxf(fabsf(di[k]), 1e-3f);
+        depth_off += depth_differs(dp[k], di[k]);
     }
     fprintf(stderr, "chunked patches vs triangles: %zu of %zu ground pixels at another depth, %zu sky pixels differ\n",
             depth_off, ground, sky_off);
@@ -498,28 +510,21 @@ static void test_patches_skip_missing_data(void **state)
             memmove(il.data + kept, il.data + k, 3 * sizeof *il.data);
             kept += 3;
         }
-    float *dp = malloc(W * H * sizeof *dp), *di = malloc(W * H * sizeof *di), *du = malloc(W * H * sizeof *du);
-    uint8_t *sp_ = malloc(W * H), *si = malloc(W * H), *su = malloc(W * H);
+    /* depths and sky masks: with the mask (patches, triangles), without it */
+    float *dp = malloc(3 * W * H * sizeof *dp), *di = dp + W * H, *du = di + W * H;
+    uint8_t *sp_ = malloc(3 * W * H), *si = sp_ + W * H, *su = si + W * H;
     hz_scene_params sp = {.patches = pl.data, .patch_count = (uint32_t)pl.count}; /* morph_scale 0 */
-    /* without the mask */
-    assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
-    assert_int_equal(hz_renderer_read_depth(c->r, du, &err), HZ_OK);
-    assert_int_equal(hz_renderer_read_sky_mask(c->r, su, &err), HZ_OK);
-    /* with it */
+    draw_depth_sky(c, &cam, &sp, NULL, 0, NULL, du, su); /* without the mask */
     assert_int_equal(hz_renderer_set_cdlod(c->r, c->t->lod, valid, &err), HZ_OK);
-    assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
-    assert_int_equal(hz_renderer_read_depth(c->r, dp, &err), HZ_OK);
-    assert_int_equal(hz_renderer_read_sky_mask(c->r, sp_, &err), HZ_OK);
-    assert_int_equal(hz_renderer_draw(c->r, &cam, NULL, il.data, (uint32_t)kept, NULL, &err), HZ_OK);
-    assert_int_equal(hz_renderer_read_depth(c->r, di, &err), HZ_OK);
-    assert_int_equal(hz_renderer_read_sky_mask(c->r, si, &err), HZ_OK);
+    draw_depth_sky(c, &cam, &sp, NULL, 0, NULL, dp, sp_); /* with it */
+    draw_depth_sky(c, &cam, NULL, il.data, (uint32_t)kept, NULL, di, si);
     size_t ground = 0, depth_off = 0, sky_off = 0, holes = 0, unmasked = 0;
     for (size_t k = 0; k < (size_t)W * H; k++) {
         ground += !si[k];
         unmasked += !su[k];
         sky_off += sp_[k] != si[k];
-        depth_off += !si[k] && fabsf(dp[k] - di[k]) > 1e-6f * fmaxf(fabsf(di[k]), 1e-3f);
-        holes += su[k] != sp_[k] || fabsf(du[k] - dp[k]) > 1e-6f * fmaxf(fabsf(dp[k]), 1e-3f);
+        depth_off += !si[k] && depth_differs(dp[k], di[k]);
+        holes += su[k] != sp_[k] || depth_differs(du[k], dp[k]);
     }
     fprintf(stderr,
             "patches over holes vs triangles without them: %zu of %zu ground pixels at another depth, %zu sky pixels "
@@ -532,11 +537,7 @@ static void test_patches_skip_missing_data(void **state)
     assert_int_equal(hz_renderer_set_cdlod(c->r, c->t->lod, NULL, &err), HZ_OK);
     free(valid);
     free(dp);
-    free(di);
-    free(du);
     free(sp_);
-    free(si);
-    free(su);
     free(il.data);
     free(pl.data);
 }
