@@ -22,9 +22,10 @@ typedef struct draw_cmd {
     GLuint base_instance;
 } draw_cmd;
 
-/* The object program's variants (object_fs.glsl): the paths a pass needs. */
 /* Instance data: a world matrix (16 floats), the material's colour (3). */
 enum { INST_FLOATS = 19, INST_BYTES = INST_FLOATS * 4 };
+
+/* The object program's variants (object_fs.glsl): the paths a pass needs. */
 enum { OBJ_SUN_HEIGHTS = 1, OBJ_HEIGHT_FOG = 2, OBJ_FAR_FADE = 4, OBJ_VARIANTS = 8 };
 
 typedef struct obj_prog {

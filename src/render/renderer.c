@@ -723,17 +723,11 @@ static void draw_plain_sky(hz_renderer *r, const fx_frame *f, const fx_view *v)
     glUniform3fv(r->su.sun_dir, 1, f->sp.sun_dir);
     /* the far plane: depth 0 in reverse-Z ([0, 1] clip depth, or [-1, 1] without glClipControl) */
     glUniform1f(r->su.sky_z, r->clip_control ? 0.0f : -1.0f);
-    const struct hz_occlusion *occ = f->sp.sky_occluders;
-    if (!occ || v->pass != HZ_PASS_MAIN) {
-        glDrawArrays(GL_TRIANGLES, 0, 6 * SKY_CELLS); /* sky_grid_vs.glsl's grid */
-        if (v->pass == HZ_PASS_MAIN)
-            r->sky_cells = SKY_CELLS;
-        return;
-    }
+    const struct hz_occlusion *occ = v->pass == HZ_PASS_MAIN ? f->sp.sky_occluders : NULL;
     /* The grid as sky_grid_vs.glsl lays it out: the rows span the screen on
      * the sky's side of the horizon when the camera has no roll. */
-    float a, b, c;
-    {
+    float a = 0, b = 0, c = 0;
+    if (occ) {
         vec4 w[3];
         const vec4 p[3] = {{0, 0, 0.5f, 1}, {1, 0, 0.5f, 1}, {0, 1, 0.5f, 1}};
         for (int k = 0; k < 3; k++)
@@ -741,6 +735,12 @@ static void draw_plain_sky(hz_renderer *r, const fx_frame *f, const fx_view *v)
         a = w[0][1] / w[0][3];
         b = w[1][1] / w[1][3] - a;
         c = w[2][1] / w[2][3] - a;
+    }
+    if (!occ || !isfinite(a) || !isfinite(b) || !(fabsf(c) > 0 && isfinite(c))) {
+        glDrawArrays(GL_TRIANGLES, 0, 6 * SKY_CELLS); /* the whole grid */
+        if (v->pass == HZ_PASS_MAIN)
+            r->sky_cells = SKY_CELLS;
+        return;
     }
     float lo = -1.0f, hi = 1.0f;
     if (fabsf(b) <= 1e-4f * fabsf(c)) {
