@@ -197,6 +197,22 @@ void hz_occlusion_rasterize_quads(hz_occlusion *o, const float *quad, size_t cou
     rasterize_n(o, quad, count, model, 4);
 }
 
+/* True when every cell the screen rectangle [x0, x1] x [y0, y1] (cell units,
+ * clamped to the buffer) touches holds an occluder nearer than d; false when
+ * none of it is on screen. */
+static bool cells_nearer(const hz_occlusion *o, float x0, float y0, float x1, float y1, float d)
+{
+    const long i0 = (long)floorf(fmaxf(x0, 0)), i1 = (long)floorf(fminf(x1, (float)o->w - 0.5f));
+    const long j0 = (long)floorf(fmaxf(y0, 0)), j1 = (long)floorf(fminf(y1, (float)o->h - 0.5f));
+    if (i0 > i1 || j0 > j1)
+        return false;
+    for (long j = j0; j <= j1; j++)
+        for (long i = i0; i <= i1; i++)
+            if (!(o->depth[(size_t)j * o->w + (size_t)i] < d))
+                return false;
+    return true;
+}
+
 bool hz_occlusion_box_hidden(const hz_occlusion *o, const hz_box *b)
 {
     if (hz_box_is_empty(b))
@@ -225,29 +241,14 @@ bool hz_occlusion_box_hidden(const hz_occlusion *o, const hz_box *b)
         y1 = fmaxf(y1, s[1]);
         near = fminf(near, d);
     }
-    long i0 = (long)floorf(fmaxf(x0, 0)), i1 = (long)floorf(fminf(x1, (float)o->w - 0.5f));
-    long j0 = (long)floorf(fmaxf(y0, 0)), j1 = (long)floorf(fminf(y1, (float)o->h - 0.5f));
-    if (i0 > i1 || j0 > j1)
-        return false; /* off screen: the frustum's business */
-    for (long j = j0; j <= j1; j++)
-        for (long i = i0; i <= i1; i++)
-            if (!(o->depth[(size_t)j * o->w + (size_t)i] < near))
-                return false;
-    return true;
+    return cells_nearer(o, x0, y0, x1, y1, near); /* false off screen: the frustum's business */
 }
 
 bool hz_occlusion_rect_covered(const hz_occlusion *o, float x0, float y0, float x1, float y1)
 {
     if (!(x0 >= -1.0f && x1 <= 1.0f && y0 >= -1.0f && y1 <= 1.0f && x0 <= x1 && y0 <= y1))
         return false;
-    /* the cells the rectangle touches (its edges included) */
-    const long i0 = (long)floorf((x0 * 0.5f + 0.5f) * (float)o->w), j0 = (long)floorf((y0 * 0.5f + 0.5f) * (float)o->h);
-    long i1 = (long)floorf((x1 * 0.5f + 0.5f) * (float)o->w), j1 = (long)floorf((y1 * 0.5f + 0.5f) * (float)o->h);
-    i1 = i1 < (long)o->w ? i1 : (long)o->w - 1;
-    j1 = j1 < (long)o->h ? j1 : (long)o->h - 1;
-    for (long j = j0; j <= j1; j++)
-        for (long i = i0; i <= i1; i++)
-            if (!(o->depth[(size_t)j * o->w + (size_t)i] < INFINITY))
-                return false;
-    return true;
+    const float w = (float)o->w, h = (float)o->h;
+    return cells_nearer(o, (x0 * 0.5f + 0.5f) * w, (y0 * 0.5f + 0.5f) * h, (x1 * 0.5f + 0.5f) * w,
+                        (y1 * 0.5f + 0.5f) * h, INFINITY);
 }
