@@ -898,11 +898,7 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
         terrain_program(r, f, v, tp, patches);
         if (patches) {
             /* Still patches (no vertex morphs) without the morph code;
-             * patches beyond the ground detail's fade with its far variant.
-             * Over missing data the variants clip the triangles touching
-             * it away (terrain_patch_vs.glsl). */
-            if (r->tile_masked)
-                glEnable(GL_CLIP_DISTANCE0);
+             * patches beyond the ground detail's fade with its far variant. */
             const uint32_t near = r->n_inst_near;
             if (r->terrain_patch_still)
                 terrain_program(r, f, v, r->terrain_patch_still, true);
@@ -913,7 +909,6 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
                 terrain_program(r, f, v, r->terrain_patch_far, true);
                 patch_draw(r, r->terrain_patch_far, r->terrain_patch_far_still, near, r->n_inst);
             }
-            glDisable(GL_CLIP_DISTANCE0);
         } else {
             glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo);
             glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
@@ -945,12 +940,9 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
             glDepthFunc(GL_GEQUAL);
             glDepthMask(GL_FALSE);
             glUniform1i(tl[TL_WIRE], 1);
-            if (patches) {
-                if (r->tile_masked)
-                    glEnable(GL_CLIP_DISTANCE0);
+            if (patches)
                 patch_draw(r, tp, NULL, 0, r->n_inst);
-                glDisable(GL_CLIP_DISTANCE0);
-            } else
+            else
                 glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
             glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
             glDisable(GL_POLYGON_OFFSET_LINE);

@@ -394,6 +394,10 @@ void patch_draw(hz_renderer *r, const prog_variant *tp, const prog_variant *stil
     patch_program(r, tp);
     const prog_variant *bound = tp;
     glBindVertexArray(r->patch_vao);
+    /* Over missing data the variants clip the triangles touching it away
+     * (terrain_patch_vs.glsl). */
+    if (r->tile_masked)
+        glEnable(GL_CLIP_DISTANCE0);
     /* llvmpipe bins a whole scene on this thread before its rasteriser
      * threads start on it. Drawn in a few chunks (nearest first), each
      * flushed, the near patches are rasterised while the far ones and the
@@ -415,6 +419,7 @@ void patch_draw(hz_renderer *r, const prog_variant *tp, const prog_variant *stil
     }
     if (bound != tp)
         glUseProgram(tp->prog);
+    glDisable(GL_CLIP_DISTANCE0);
     patch_attribs(r, 0);
     glBindBuffer(GL_ARRAY_BUFFER, 0);
     glBindVertexArray(r->vao);
