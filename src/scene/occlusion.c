@@ -52,6 +52,19 @@ static bool project(const hz_occlusion *o, const mat4 mvp, const float p[3], flo
     return to_screen(o, c, s, d);
 }
 
+/* fminf and fmaxf as inline compares (at -O2 they are calls into libm, and
+ * the box test makes tens of them per box): like them, a NaN argument
+ * yields the other one. */
+static inline float min_f(float a, float b)
+{
+    return a < b || b != b ? a : b;
+}
+
+static inline float max_f(float a, float b)
+{
+    return a > b || b != b ? a : b;
+}
+
 static float edge(const float *a, const float *b, float x, float y)
 {
     return (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]);
@@ -78,10 +91,10 @@ static void raster_convex(hz_occlusion *o, float s[][2], int n, float dmax)
     const float sg = area > 0 ? 1.0f : -1.0f;
     float x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
     for (int k = 0; k < n; k++) {
-        x0 = fminf(x0, s[k][0]);
-        x1 = fmaxf(x1, s[k][0]);
-        y0 = fminf(y0, s[k][1]);
-        y1 = fmaxf(y1, s[k][1]);
+        x0 = min_f(x0, s[k][0]);
+        x1 = max_f(x1, s[k][0]);
+        y0 = min_f(y0, s[k][1]);
+        y1 = max_f(y1, s[k][1]);
     }
     /* Cells whose four corners (integer points) are all inside. Along a row
      * of corner points the inside is an interval (the polygon is convex):
@@ -90,8 +103,8 @@ static void raster_convex(hz_occlusion *o, float s[][2], int n, float dmax)
      * would refuse. A cell is covered where its row's and the next row's
      * intervals both hold its two corners: one span per row of cells, and
      * no work per cell outside the polygon. */
-    const long i0 = (long)ceilf(fmaxf(x0, 0)), i1 = (long)floorf(fminf(x1, (float)o->w));
-    const long j0 = (long)ceilf(fmaxf(y0, 0)), j1 = (long)floorf(fminf(y1, (float)o->h));
+    const long i0 = (long)ceilf(max_f(x0, 0)), i1 = (long)floorf(min_f(x1, (float)o->w));
+    const long j0 = (long)ceilf(max_f(y0, 0)), j1 = (long)floorf(min_f(y1, (float)o->h));
     if (i0 >= i1 || j0 >= j1)
         return;
     float e0[4], dx[4];
@@ -103,9 +116,9 @@ static void raster_convex(hz_occlusion *o, float s[][2], int n, float dmax)
             e0[k] = sg * edge(a, b, 0.0f, (float)j);
             dx[k] = -sg * (b[1] - a[1]); /* d(edge)/dx */
             if (dx[k] > 0)
-                lo = fmaxf(lo, -e0[k] / dx[k]);
+                lo = max_f(lo, -e0[k] / dx[k]);
             else if (dx[k] < 0)
-                hi = fminf(hi, -e0[k] / dx[k]);
+                hi = min_f(hi, -e0[k] / dx[k]);
             else if (e0[k] < 0)
                 lo = hi + 1; /* parallel to the row, outside */
         }
@@ -173,15 +186,15 @@ static void rasterize_n(hz_occlusion *o, const float *v, size_t count, const mat
             continue;
         float dmax = d[0];
         for (int k = 1; k < n; k++)
-            dmax = fmaxf(dmax, d[k]);
+            dmax = max_f(dmax, d[k]);
         if (n == 3 || convex4(s)) {
             raster_convex(o, s, n, dmax);
         } else {
             /* The quad's own two triangles, split along v1-v3. */
             float a[3][2] = {{s[0][0], s[0][1]}, {s[1][0], s[1][1]}, {s[3][0], s[3][1]}};
             float b[3][2] = {{s[1][0], s[1][1]}, {s[2][0], s[2][1]}, {s[3][0], s[3][1]}};
-            raster_convex(o, a, 3, fmaxf(d[0], fmaxf(d[1], d[3])));
-            raster_convex(o, b, 3, fmaxf(d[1], fmaxf(d[2], d[3])));
+            raster_convex(o, a, 3, max_f(d[0], max_f(d[1], d[3])));
+            raster_convex(o, b, 3, max_f(d[1], max_f(d[2], d[3])));
         }
     }
     o->raster_ms += hz_time_ms() - t0;
@@ -202,8 +215,8 @@ void hz_occlusion_rasterize_quads(hz_occlusion *o, const float *quad, size_t cou
  * none of it is on screen. */
 static bool cells_nearer(const hz_occlusion *o, float x0, float y0, float x1, float y1, float d)
 {
-    const long i0 = (long)floorf(fmaxf(x0, 0)), i1 = (long)floorf(fminf(x1, (float)o->w - 0.5f));
-    const long j0 = (long)floorf(fmaxf(y0, 0)), j1 = (long)floorf(fminf(y1, (float)o->h - 0.5f));
+    const long i0 = (long)floorf(max_f(x0, 0)), i1 = (long)floorf(min_f(x1, (float)o->w - 0.5f));
+    const long j0 = (long)floorf(max_f(y0, 0)), j1 = (long)floorf(min_f(y1, (float)o->h - 0.5f));
     if (i0 > i1 || j0 > j1)
         return false;
     for (long j = j0; j <= j1; j++)
@@ -235,11 +248,11 @@ bool hz_occlusion_box_hidden(const hz_occlusion *o, const hz_box *b)
         float s[2], d;
         if (!to_screen(o, c, s, &d))
             return false; /* reaches the eye's side of the near plane */
-        x0 = fminf(x0, s[0]);
-        x1 = fmaxf(x1, s[0]);
-        y0 = fminf(y0, s[1]);
-        y1 = fmaxf(y1, s[1]);
-        near = fminf(near, d);
+        x0 = min_f(x0, s[0]);
+        x1 = max_f(x1, s[0]);
+        y0 = min_f(y0, s[1]);
+        y1 = max_f(y1, s[1]);
+        near = min_f(near, d);
     }
     return cells_nearer(o, x0, y0, x1, y1, near); /* false off screen: the frustum's business */
 }
