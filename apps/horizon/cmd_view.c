@@ -665,7 +665,7 @@ static void queue_hud(view *v, uint32_t boxes_drawn, size_t boxes_wanted)
     }
     if (v->ca) {
         const hz_scene_draw_stats *cs = &v->ca->hook.stats;
-        snprintf(lines[nl++], 256, "objects %u, %u in frustum, %u unoccluded  %u draws  %u state changes  %.1f ms",
+        snprintf(lines[nl++], 256, "objects %u, %u in frustum, %u unoccluded  %u draws  %u state changes  %.1f ms CPU",
                  cs->objects, cs->after_frustum, cs->after_occlusion, cs->draw_calls, cs->state_changes,
                  cs->draw_ms + v->ca->occ_ms);
     }

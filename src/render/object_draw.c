@@ -494,16 +494,16 @@ void hz_scene_draw_hook(void *user, const hz_pass_info *pass)
 {
     hz_scene_hook *h = user;
     if (h && h->gpu && h->scene && !h->failed) {
-        double t0 = 0;
-        if (pass->pass == HZ_PASS_MAIN) {
+        const bool is_main = pass->pass == HZ_PASS_MAIN;
+        if (is_main && h->time_draw)
             glFinish();
-            t0 = hz_time_ms();
-        }
+        const double t0 = hz_time_ms();
         hz_scene_draw_stats st;
         if (hz_scene_gpu_draw(h->gpu, h->scene, pass, &h->opts, &st, &h->err) != HZ_OK)
             h->failed = true;
-        if (pass->pass == HZ_PASS_MAIN) {
-            glFinish();
+        if (is_main) {
+            if (h->time_draw)
+                glFinish();
             st.draw_ms = hz_time_ms() - t0;
             h->stats = st;
         }
