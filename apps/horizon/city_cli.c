@@ -304,6 +304,133 @@ static size_t mesh_quads(const hz_scene *s, uint32_t mesh, float *q)
     return n;
 }
 
+typedef struct edge_key {
+    float a[3], b[3];
+} edge_key;
+
+static int cmp_edge(const void *x, const void *y)
+{
+    return memcmp(x, y, sizeof(edge_key));
+}
+
+/* Appends the directed edges of a mesh's triangles (by vertex position,
+ * through m when not NULL) to e, and each reversed to r. */
+static size_t add_edges(const hz_scene *s, uint32_t mesh, const mat4 m, edge_key *e, edge_key *r)
+{
+    const hz_mesh_range *mr = hz_scene_mesh(s, mesh);
+    uint32_t vc, ic;
+    const hz_vertex *v = hz_scene_vertices(s, &vc);
+    const uint32_t *ix = hz_scene_indices(s, &ic);
+    const size_t n = mr->index_count / 3 * 3;
+    for (size_t k = 0; k < n; k++) {
+        const size_t k2 = k - k % 3 + (k + 1) % 3;
+        const float *p[2] = {v[mr->first_vertex + ix[mr->first_index + k]].pos,
+                             v[mr->first_vertex + ix[mr->first_index + k2]].pos};
+        float w[2][3];
+        for (int a = 0; a < 2; a++) {
+            vec4 q = {p[a][0], p[a][1], p[a][2], 1};
+            if (m)
+                glm_mat4_mulv((vec4 *)m, (vec4){p[a][0], p[a][1], p[a][2], 1}, q);
+            for (int c = 0; c < 3; c++)
+                w[a][c] = q[c] + 0.0f; /* + 0.0f: -0 and +0 are one position */
+        }
+        memcpy(e[k].a, w[0], sizeof w[0]);
+        memcpy(e[k].b, w[1], sizeof w[1]);
+        memcpy(r[k].a, w[1], sizeof w[1]);
+        memcpy(r[k].b, w[0], sizeof w[0]);
+    }
+    return n;
+}
+
+/* Whether an object is a closed, consistently wound surface: every
+ * directed edge (by vertex position) is matched by the same edge the other
+ * way round. Then a face turned away from the camera lies behind one
+ * turned toward it, so its back faces may occlude too. The object is the
+ * node's mesh with those of its children (kid[], through their local
+ * transforms): a CityJSON building's roof is a child node of its walls.
+ * 1 closed, 0 open, -1 out of memory. */
+static int object_closed(const hz_scene *s, uint32_t node, const uint32_t *kid, uint32_t kids)
+{
+    size_t n = 0;
+    const uint32_t mesh = hz_scene_node_mesh(s, node);
+    n += hz_scene_mesh(s, mesh)->index_count / 3 * 3;
+    for (uint32_t k = 0; k < kids; k++)
+        n += hz_scene_mesh(s, hz_scene_node_mesh(s, kid[k]))->index_count / 3 * 3;
+    if (!n)
+        return 0;
+    edge_key *e = malloc(2 * n * sizeof *e);
+    if (!e)
+        return -1;
+    size_t at = add_edges(s, mesh, NULL, e, e + n);
+    for (uint32_t k = 0; k < kids; k++) {
+        mat4 m;
+        hz_scene_local_matrix(s, kid[k], m);
+        at += add_edges(s, hz_scene_node_mesh(s, kid[k]), m, e + at, e + n + at);
+    }
+    qsort(e, n, sizeof *e, cmp_edge);
+    qsort(e + n, n, sizeof *e, cmp_edge);
+    const int closed = !memcmp(e, e + n, n * sizeof *e);
+    free(e);
+    return closed;
+}
+
+/* Per node with a mesh: whether it is (a part of) a closed object
+ * (object_closed): of the node with the mesh children under it; a mesh
+ * child takes its parent's answer. A node alone is answered per mesh.
+ * 0, or -1 out of memory. */
+static int nodes_closed(const hz_scene *s, uint8_t *closed)
+{
+    const uint32_t nn = hz_scene_node_count(s), nm = hz_scene_mesh_count(s);
+    uint32_t *first = calloc((size_t)nn + 1, sizeof *first), *next = calloc((size_t)nn + 1, sizeof *next),
+             *kid = malloc(((size_t)nn + 1) * sizeof *kid);
+    int8_t *mesh_closed = malloc((size_t)nm + 1);
+    int rc = -1;
+    if (!first || !next || !kid || !mesh_closed)
+        goto out;
+    memset(mesh_closed, -2, (size_t)nm + 1); /* not asked yet */
+    /* The mesh children of each node with a mesh. */
+    for (uint32_t id = nn; id >= 1; id--) {
+        const uint32_t p = hz_scene_parent(s, id);
+        if (p != HZ_NODE_NONE && p >= 1 && p <= nn && hz_scene_node_mesh(s, p) != HZ_MESH_NONE &&
+            hz_scene_node_mesh(s, id) != HZ_MESH_NONE) {
+            next[id] = first[p];
+            first[p] = id;
+        }
+    }
+    for (uint32_t id = 1; id <= nn; id++) {
+        const uint32_t mesh = hz_scene_node_mesh(s, id);
+        closed[id] = 0;
+        if (mesh == HZ_MESH_NONE)
+            continue;
+        const uint32_t p = hz_scene_parent(s, id);
+        if (p != HZ_NODE_NONE && p >= 1 && p < id && hz_scene_node_mesh(s, p) != HZ_MESH_NONE) {
+            closed[id] = closed[p]; /* a part of its parent's object */
+            continue;
+        }
+        int c;
+        if (!first[id]) {
+            if (mesh_closed[mesh] == -2)
+                mesh_closed[mesh] = (int8_t)object_closed(s, id, NULL, 0);
+            c = mesh_closed[mesh];
+        } else {
+            uint32_t kids = 0;
+            for (uint32_t k = first[id]; k; k = next[k])
+                kid[kids++] = k;
+            c = object_closed(s, id, kid, kids);
+        }
+        if (c < 0)
+            goto out;
+        closed[id] = (uint8_t)c;
+    }
+    rc = 0;
+out:
+    free(first);
+    free(next);
+    free(kid);
+    free(mesh_closed);
+    return rc;
+}
+
 /* Terrain occluders: a coarse grid over the valid data (cells of 4 x 4
  * samples), each corner at the lowest sample of the cells around it, so
  * the quads lie under the surface (inside the ground): anything behind
@@ -455,11 +582,12 @@ int city_app_place(city_app *a, const hz_terrain *t, const char *cmd)
     hz_scene_indices(a->scene, &ic);
     a->mesh_first = malloc(((size_t)nm + 1) * sizeof *a->mesh_first);
     a->mesh_quads = malloc(((size_t)nm + 1) * sizeof *a->mesh_quads);
+    a->node_closed = malloc((size_t)nn + 1);
     a->occ_node = malloc(((size_t)nn + 1) * sizeof *a->occ_node);
     a->occ_cand = malloc(((size_t)nn + 1) * 4 * sizeof *a->occ_cand); /* the nodes, the sort's scratch */
     a->occ_cand_cap = nn + 1;
     a->quads = malloc(((size_t)ic / 6 + 1) * 12 * sizeof *a->quads);
-    if (!a->mesh_first || !a->mesh_quads || !a->occ_node || !a->occ_cand || !a->quads || terrain_grid(a, t) ||
+    if (!a->mesh_first || !a->mesh_quads || !a->node_closed || !a->occ_node || !a->occ_cand || !a->quads || terrain_grid(a, t) ||
         !hz_occlusion_init(&a->occ, 0, 0)) {
         fprintf(stderr, "horizon %s: out of memory for the occluders\n", cmd);
         return 1;
@@ -469,6 +597,10 @@ int city_app_place(city_app *a, const hz_terrain *t, const char *cmd)
         a->mesh_first[m] = (uint32_t)q;
         a->mesh_quads[m] = (uint32_t)mesh_quads(a->scene, m, a->quads + 12 * q);
         q += a->mesh_quads[m];
+    }
+    if (nodes_closed(a->scene, a->node_closed)) {
+        fprintf(stderr, "horizon %s: out of memory for the occluders\n", cmd);
+        return 1;
     }
     for (uint32_t id = 1; id <= nn; id++) {
         uint32_t m = hz_scene_node_mesh(a->scene, id);
@@ -585,6 +717,7 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
         double t0 = hz_time_ms();
         hz_occlusion_begin(&a->occ, cam);
         /* The ground within 3 km, then the objects' faces. */
+        a->occ.cull_back = false; /* a height field: its back faces lie behind its front ones */
         terrain_occlude(a, cam, 3000.0f);
         /* The objects in view within 1.5 km (big near occluders; far walls
          * hide little), nearest first: an occluder whose box is already
@@ -622,6 +755,11 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
             mat4 m;
             hz_scene_world_matrix(a->scene, id, m);
             const uint32_t mesh = hz_scene_node_mesh(a->scene, id);
+            /* The objects are drawn with back faces culled: an open mesh's
+             * face turned away is not drawn, so it must not hide anything. A
+             * closed one's lies behind its front faces: kept, it fills the
+             * cells along the edges between them. */
+            a->occ.cull_back = !a->node_closed[id];
             hz_occlusion_rasterize_quads(&a->occ, a->quads + 12 * (size_t)a->mesh_first[mesh], a->mesh_quads[mesh], m);
         }
         a->hook.opts.occlusion = &a->occ;
@@ -836,6 +974,7 @@ void city_app_destroy(city_app *a)
     free(a->occ_cand);
     free(a->mesh_first);
     free(a->mesh_quads);
+    free(a->node_closed);
     free(a->quads);
     hz_scene_file_destroy(a->file);
     if (a->tin_path[0])

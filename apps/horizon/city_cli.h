@@ -55,6 +55,8 @@ typedef struct city_app {
     uint32_t ter_cn, ter_step;
     float ter_spacing;
     uint32_t *mesh_first, *mesh_quads;   /* per mesh: first quad, count */
+    uint8_t *node_closed;   /* per node: (a part of) a closed, consistently wound object (back
+                               faces occlude too) */
     float *quads;
     uint32_t *occ_node;
     uint32_t occ_nodes;

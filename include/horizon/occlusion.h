@@ -28,6 +28,12 @@ typedef struct hz_occlusion {
     double raster_ms;
     hz_camera cam;        /* of hz_occlusion_begin: its Earth curvature lowers occluders and
                              boxes as the shaders draw them */
+    /* Skip the triangles and quads that face away from the camera
+     * (clockwise on screen, the back faces of GL_CULL_FACE with GL_CCW
+     * fronts). Right for occluders drawn with back faces culled: a back
+     * face then hides nothing, and a closed mesh's front faces cover all
+     * it covers. false after hz_occlusion_init: both faces occlude. */
+    bool cull_back;
 } hz_occlusion;
 
 /* Allocates a w x h buffer (0 -> 256 x 144; w at most 1024); false on out of memory. */
@@ -36,7 +42,8 @@ void hz_occlusion_free(hz_occlusion *o);
 /* Clears the buffer for a camera. */
 void hz_occlusion_begin(hz_occlusion *o, const hz_camera *cam);
 /* Rasterises occluder triangles (world positions, 3 vertices each, xyz
- * floats, optionally transformed by model; NULL = identity). A cell takes a
+ * floats, optionally transformed by model; NULL = identity; counter-clockwise
+ * seen from the front). A cell takes a
  * triangle only when all four of its corners are inside it, at the
  * triangle's farthest vertex depth. Triangles crossing the near plane are
  * skipped (conservative). */

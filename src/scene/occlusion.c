@@ -85,8 +85,8 @@ static void raster_convex(hz_occlusion *o, float s[][2], int n, float dmax)
     float area = 0;
     for (int k = 0; k < n; k++)
         area += s[k][0] * s[(k + 1) % n][1] - s[(k + 1) % n][0] * s[k][1];
-    if (fabsf(area) < 1e-6f)
-        return;
+    if (fabsf(area) < 1e-6f || (o->cull_back && area < 0))
+        return; /* edge-on, or a back face (screen y is up: front faces turn counter-clockwise) */
     o->triangles++;
     const float sg = area > 0 ? 1.0f : -1.0f;
     float x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;

@@ -336,6 +336,36 @@ assert abs(a - b) <= 0.03 * b, (a, b)
 PY
 then ok "an object does not shade its own sunlit face"; else bad "self-shading of a face"; fi
 
+# ---- an open mesh (one quad, an OBJ) seen from behind is not drawn (back
+# faces are culled), so it hides nothing: the box behind it stays, and the
+# image with occlusion culling equals the unculled one. A closed wall in
+# front of the same camera still hides the box behind it.
+printf 'v -20 0 0\nv 20 0 0\nv 20 30 0\nv -20 30 0\nf 1 2 3 4\n' > "$TMP/quad.obj"
+cat > "$TMP/open.json" <<EOF
+{"terrain": {"generate": "perlin", "size": 129, "seed": 1, "amplitude": 1, "spacing": 10},
+ "materials": {"red": {"color": [0.9, 0.1, 0.1]}, "white": {"color": [0.8, 0.8, 0.8]}},
+ "models": {"quad": {"file": "$TMP/quad.obj", "material": "white"}, "box": {"box": [8, 8, 8], "material": "red"},
+            "wall": {"box": [40, 30, 2], "material": "white"}},
+ "nodes": [{"name": "Q", "model": "quad", "position": [500, 0, 500], "clamp": "ground"},
+           {"name": "B", "model": "box", "position": [500, 0, 560], "clamp": "ground"},
+           {"name": "W", "model": "wall", "position": [800, 0, 500], "clamp": "ground"},
+           {"name": "C", "model": "box", "position": [800, 0, 560], "clamp": "ground"}]}
+EOF
+V="--width 320 --height 180 --camera 500,8,400,180,0 --json"
+W="--width 320 --height 180 --camera 800,8,400,180,0 --json"
+j1=$($R --scene "$TMP/open.json" $V --cull occlusion --out "$TMP/open_occ.png"); r1=$?
+j2=$($R --scene "$TMP/open.json" $V --cull none --out "$TMP/open_none.png"); r2=$?
+j3=$($R --scene "$TMP/open.json" $W --cull occlusion --out "$TMP/closed_occ.png"); r3=$?
+if [ $r1 -eq 0 ] && [ $r2 -eq 0 ] && [ $r3 -eq 0 ] && cmp -s "$TMP/open_occ.png" "$TMP/open_none.png" &&
+   python3 - "$j1" "$j3" <<'PY'
+import json, sys
+a, c = (json.loads(s)['city'] for s in sys.argv[1:3])
+assert a['after_occlusion'] == a['after_frustum'] >= 2, a  # the open quad hid nothing
+assert c['after_occlusion'] < c['after_frustum'], c        # the closed wall hides its box
+PY
+then ok "an open mesh's back face hides nothing; a closed one's front hides"
+else bad "open mesh occlusion (exit $r1 $r2 $r3): $j1 $j3"; fi
+
 # ---- fog: a red box 2 km away melts into the horizon with the fog effect
 # (its height fog too, as the ground around it), and stands out without it
 cat > "$TMP/fogbox.json" <<'EOF'

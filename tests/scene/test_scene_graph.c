@@ -553,6 +553,41 @@ static void test_occlusion(void **state)
     /* A box reaching behind the eye is never hidden. */
     hz_box around = {{-1, 0, -30}, {1, 1, 2}};
     assert_false(hz_occlusion_box_hidden(&o, &around));
+    /* Back faces (cull_back): the wall turns counter-clockwise on screen, its
+     * front; given the other way round it is a back face, which the
+     * renderer's face culling would not draw: it then hides nothing. With
+     * cull_back off both windings hide. */
+    const float back[12] = {-5, 3, -10, 5, 3, -10, 5, -1, -10, -5, -1, -10};
+    const float back_tri[18] = {-5, -1, -10, 5, 3, -10, 5, -1, -10, -5, -1, -10, -5, 3, -10, 5, 3, -10};
+    o.cull_back = true;
+    hz_occlusion_begin(&o, &cam);
+    hz_occlusion_rasterize_quads(&o, quad, 1, NULL);
+    assert_int_equal(o.triangles, 1);
+    assert_true(hz_occlusion_box_hidden(&o, &behind));
+    hz_occlusion_begin(&o, &cam);
+    hz_occlusion_rasterize_quads(&o, back, 1, NULL);
+    hz_occlusion_rasterize(&o, back_tri, 2, NULL);
+    assert_int_equal(o.triangles, 0);
+    assert_int_equal(o.cells_written, 0);
+    assert_false(hz_occlusion_box_hidden(&o, &behind));
+    assert_false(hz_occlusion_rect_covered(&o, -0.3f, -0.2f, 0.3f, 0.2f));
+    /* Seen from behind (the camera turned around, beyond the wall), the
+     * front-facing quad is a back face too. */
+    hz_camera rear = {.pos = {0, 1, -20}, .yaw = 180, .fov_y = 60, .aspect = 16.0f / 9.0f, .znear = 0.5f,
+                      .zfar = 1000};
+    hz_occlusion_begin(&o, &rear);
+    hz_occlusion_rasterize_quads(&o, quad, 1, NULL);
+    assert_int_equal(o.triangles, 0);
+    hz_occlusion_begin(&o, &rear);
+    hz_occlusion_rasterize_quads(&o, back, 1, NULL);
+    assert_int_equal(o.triangles, 1);
+    hz_box before = {{-1, 0, 1}, {1, 2, 3}}; /* behind the wall for the rear camera */
+    assert_true(hz_occlusion_box_hidden(&o, &before));
+    o.cull_back = false;
+    hz_occlusion_begin(&o, &cam);
+    hz_occlusion_rasterize_quads(&o, back, 1, NULL);
+    assert_int_equal(o.triangles, 1);
+    assert_true(hz_occlusion_box_hidden(&o, &behind));
     hz_occlusion_free(&o);
 }
 
