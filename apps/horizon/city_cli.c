@@ -4,6 +4,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -471,9 +472,9 @@ static int terrain_grid(city_app *a, const hz_terrain *t)
     return 0;
 }
 
-/* Rasterises the terrain cells whose first corner lies within reach of
- * the camera (far ground hides little and costs the most): only the cells
- * of that window are visited, whatever the map's size. */
+/* Rasterises into a->occ_ter the terrain cells whose first corner lies
+ * within reach of the camera (far ground hides little and costs the most):
+ * only the cells of that window are visited, whatever the map's size. */
 static void terrain_occlude(city_app *a, const hz_camera *cam, float reach)
 {
     const uint32_t cn = a->ter_cn;
@@ -500,7 +501,7 @@ static void terrain_occlude(city_app *a, const hz_camera *cam, float reach)
                 q[3 * k + 1] = a->ter_cmin[(size_t)cc[k][1] * (cn + 1) + cc[k][0]];
                 q[3 * k + 2] = (float)cc[k][1] * cell;
             }
-            hz_occlusion_rasterize_quads(&a->occ, q, 1, NULL);
+            hz_occlusion_rasterize_quads(&a->occ_ter, q, 1, NULL);
         }
 }
 
@@ -588,7 +589,7 @@ int city_app_place(city_app *a, const hz_terrain *t, const char *cmd)
     a->occ_cand_cap = nn + 1;
     a->quads = malloc(((size_t)ic / 6 + 1) * 12 * sizeof *a->quads);
     if (!a->mesh_first || !a->mesh_quads || !a->node_closed || !a->occ_node || !a->occ_cand || !a->quads || terrain_grid(a, t) ||
-        !hz_occlusion_init(&a->occ, 0, 0)) {
+        !hz_occlusion_init(&a->occ, 0, 0) || !hz_occlusion_init(&a->occ_ter, 0, 0)) {
         fprintf(stderr, "horizon %s: out of memory for the occluders\n", cmd);
         return 1;
     }
@@ -692,6 +693,21 @@ static void hide_patches(city_app *a, hz_scene_params *sp)
     a->patches_drawn = kept;
 }
 
+/* The terrain's occluders into their own buffer (a->occ_ter), on a thread
+ * of its own while the objects' go into a->occ. */
+typedef struct ter_job {
+    city_app *a;
+    const hz_camera *cam;
+} ter_job;
+
+static void *ter_occlude(void *arg)
+{
+    ter_job *j = arg;
+    hz_occlusion_begin(&j->a->occ_ter, j->cam);
+    terrain_occlude(j->a, j->cam, 3000.0f);
+    return NULL;
+}
+
 void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam, hz_scene_params *sp)
 {
     a->hook.gpu = a->gpu;
@@ -716,9 +732,16 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
         a->occ_built = true;
         double t0 = hz_time_ms();
         hz_occlusion_begin(&a->occ, cam);
-        /* The ground within 3 km, then the objects' faces. */
-        a->occ.cull_back = false; /* a height field: its back faces lie behind its front ones */
-        terrain_occlude(a, cam, 3000.0f);
+        /* The ground within 3 km on a second thread (llvmpipe's rasteriser
+         * threads have nothing to do yet: the core is free), the objects'
+         * faces on this one, each into its own buffer; then the nearer of
+         * the two per cell. (The objects' skipping of hidden occluders sees
+         * only the objects: at street level the buildings hide them.) */
+        ter_job job = {a, cam};
+        pthread_t th;
+        const bool threaded = pthread_create(&th, NULL, ter_occlude, &job) == 0;
+        if (!threaded)
+            ter_occlude(&job);
         /* The objects in view within 1.5 km (big near occluders; far walls
          * hide little), nearest first: an occluder whose box is already
          * hidden cannot bring any cell nearer, so it is skipped. At street
@@ -762,6 +785,14 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
             a->occ.cull_back = !a->node_closed[id];
             hz_occlusion_rasterize_quads(&a->occ, a->quads + 12 * (size_t)a->mesh_first[mesh], a->mesh_quads[mesh], m);
         }
+        if (threaded)
+            pthread_join(th, NULL);
+        const size_t cells = (size_t)a->occ.w * a->occ.h;
+        for (size_t k = 0; k < cells; k++)
+            if (a->occ_ter.depth[k] < a->occ.depth[k])
+                a->occ.depth[k] = a->occ_ter.depth[k];
+        a->occ.triangles += a->occ_ter.triangles;
+        a->occ.cells_written += a->occ_ter.cells_written;
         a->hook.opts.occlusion = &a->occ;
         hide_patches(a, sp);
         sp->sky_occluders = &a->occ; /* and the sky behind them */
@@ -966,6 +997,7 @@ void city_app_destroy(city_app *a)
     hz_city_destroy(a->city);
     hz_city_destroy(a->fp);
     hz_occlusion_free(&a->occ);
+    hz_occlusion_free(&a->occ_ter);
     free(a->patch_keep);
     free(a->casters);
     free(a->ter_cmin);

@@ -63,6 +63,7 @@ typedef struct city_app {
     uint32_t *occ_cand;    /* per frame: the occluders in reach, nearest first (4 per node: + sort scratch) */
     uint32_t occ_cand_cap; /* nodes it holds (the scene's when placed, + 1) */
     hz_occlusion occ;
+    hz_occlusion occ_ter;  /* the terrain's occluders, rasterised on a thread of their own */
     double occ_ms;         /* last frame's occlusion buffer build */
     bool occ_built;        /* the last frame had an occlusion buffer */
     uint32_t occ_rest;     /* frames left without one (it hid too little) */
