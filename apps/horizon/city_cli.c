@@ -588,8 +588,8 @@ int city_app_place(city_app *a, const hz_terrain *t, const char *cmd)
     a->occ_cand = malloc(((size_t)nn + 1) * 4 * sizeof *a->occ_cand); /* the nodes, the sort's scratch */
     a->occ_cand_cap = nn + 1;
     a->quads = malloc(((size_t)ic / 6 + 1) * 12 * sizeof *a->quads);
-    if (!a->mesh_first || !a->mesh_quads || !a->node_closed || !a->occ_node || !a->occ_cand || !a->quads || terrain_grid(a, t) ||
-        !hz_occlusion_init(&a->occ, 0, 0) || !hz_occlusion_init(&a->occ_ter, 0, 0)) {
+    if (!a->mesh_first || !a->mesh_quads || !a->node_closed || !a->occ_node || !a->occ_cand || !a->quads ||
+        terrain_grid(a, t) || !hz_occlusion_init(&a->occ, 0, 0) || !hz_occlusion_init(&a->occ_ter, 0, 0)) {
         fprintf(stderr, "horizon %s: out of memory for the occluders\n", cmd);
         return 1;
     }
@@ -748,7 +748,7 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
          * level the first rows of buildings hide most of the rest. */
         vec4 planes[6];
         hz_camera_frustum(cam, planes);
-        const float reach_obj = 1500.0f;
+        const float reach_obj = 1500.0f, near2 = 2.0f * (cam->znear > 0 ? cam->znear : 1.0f);
         /* The scene's hierarchical frustum culling: whole blocks out of
          * view cost one test. */
         uint32_t nv = hz_scene_cull_curved(a->scene, cam, planes, a->occ_cand, a->occ_cand_cap, NULL), nc = 0;
@@ -780,9 +780,14 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
             const uint32_t mesh = hz_scene_node_mesh(a->scene, id);
             /* The objects are drawn with back faces culled: an open mesh's
              * face turned away is not drawn, so it must not hide anything. A
-             * closed one's lies behind its front faces: kept, it fills the
+             * closed one's lies behind its front faces, seen from outside
+             * its box (inside it, or nearer than the near plane's clipping,
+             * the eye may see through the back faces): kept, it fills the
              * cells along the edges between them. */
-            a->occ.cull_back = !a->node_closed[id];
+            bool around = true;
+            for (int c = 0; c < 3; c++)
+                around = around && cam->pos[c] > b.min[c] - near2 && cam->pos[c] < b.max[c] + near2;
+            a->occ.cull_back = around || !a->node_closed[id];
             hz_occlusion_rasterize_quads(&a->occ, a->quads + 12 * (size_t)a->mesh_first[mesh], a->mesh_quads[mesh], m);
         }
         if (threaded)

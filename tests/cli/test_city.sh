@@ -365,6 +365,27 @@ assert c['after_occlusion'] < c['after_frustum'], c        # the closed wall hid
 PY
 then ok "an open mesh's back face hides nothing; a closed one's front hides"
 else bad "open mesh occlusion (exit $r1 $r2 $r3): $j1 $j3"; fi
+# From inside a closed box every face is a back face: not drawn, the eye sees
+# through them, so they must hide nothing either (the box behind the room's
+# far wall stays).
+cat > "$TMP/room.json" <<EOF
+{"terrain": {"generate": "perlin", "size": 129, "seed": 1, "amplitude": 1, "spacing": 10},
+ "materials": {"red": {"color": [0.9, 0.1, 0.1]}, "white": {"color": [0.8, 0.8, 0.8]}},
+ "models": {"room": {"box": [60, 30, 60], "material": "white"}, "box": {"box": [8, 8, 8], "material": "red"}},
+ "nodes": [{"name": "R", "model": "room", "position": [500, 0, 500], "clamp": "ground"},
+           {"name": "B", "model": "box", "position": [500, 0, 600], "clamp": "ground"}]}
+EOF
+V="--width 320 --height 180 --camera 500,6,480,180,0 --json"
+j1=$($R --scene "$TMP/room.json" $V --cull occlusion --out "$TMP/room_occ.png"); r1=$?
+j2=$($R --scene "$TMP/room.json" $V --cull none --out "$TMP/room_none.png"); r2=$?
+if [ $r1 -eq 0 ] && [ $r2 -eq 0 ] && cmp -s "$TMP/room_occ.png" "$TMP/room_none.png" &&
+   python3 - "$j1" <<'PY'
+import json, sys
+a = json.loads(sys.argv[1])['city']
+assert a['after_occlusion'] == a['after_frustum'] == 2, a
+PY
+then ok "from inside a closed box its faces hide nothing"
+else bad "inside a closed box (exit $r1 $r2): $j1"; fi
 
 # ---- fog: a red box 2 km away melts into the horizon with the fog effect
 # (its height fog too, as the ground around it), and stands out without it
