@@ -693,6 +693,28 @@ static void hide_patches(city_app *a, hz_scene_params *sp)
     a->patches_drawn = kept;
 }
 
+/* Whether the terrain's occluder quads may occlude with their back faces
+ * too: the eye stands above the occluder surface of the valid cell under
+ * it (a height field seen from above: its back faces lie behind its front
+ * ones). Under it, over a cell without data or off the grid, the eye may
+ * look through the terrain from below, where the renderer culls it. */
+static bool eye_over_ground(const city_app *a, const hz_camera *cam)
+{
+    const uint32_t cn = a->ter_cn;
+    const float cell = (float)a->ter_step * a->ter_spacing;
+    const float fi = floorf(cam->pos[0] / cell), fj = floorf(cam->pos[2] / cell);
+    if (!cn || !(fi >= 0 && fj >= 0 && fi < (float)cn && fj < (float)cn))
+        return false;
+    const uint32_t ci = (uint32_t)fi, cj = (uint32_t)fj;
+    if (!a->ter_cell_ok[(size_t)cj * cn + ci])
+        return false;
+    float top = -INFINITY;
+    for (uint32_t dj = 0; dj < 2; dj++)
+        for (uint32_t di = 0; di < 2; di++)
+            top = fmaxf(top, a->ter_cmin[(size_t)(cj + dj) * (cn + 1) + ci + di]);
+    return cam->pos[1] > top;
+}
+
 /* The terrain's occluders into their own buffer (a->occ_ter), on a thread
  * of its own while the objects' go into a->occ. */
 typedef struct ter_job {
@@ -704,6 +726,7 @@ static void *ter_occlude(void *arg)
 {
     ter_job *j = arg;
     hz_occlusion_begin(&j->a->occ_ter, j->cam);
+    j->a->occ_ter.cull_back = !eye_over_ground(j->a, j->cam);
     terrain_occlude(j->a, j->cam, 3000.0f);
     return NULL;
 }

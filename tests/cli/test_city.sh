@@ -386,6 +386,19 @@ assert a['after_occlusion'] == a['after_frustum'] == 2, a
 PY
 then ok "from inside a closed box its faces hide nothing"
 else bad "inside a closed box (exit $r1 $r2): $j1"; fi
+# From under the ground, looking up through it (the renderer culls the
+# terrain seen from below) at a box standing on it: the ground hides nothing.
+V="--width 320 --height 180 --camera 500,-30,400,180,16 --json"
+j1=$($R --scene "$TMP/room.json" $V --cull occlusion --out "$TMP/under_occ.png"); r1=$?
+j2=$($R --scene "$TMP/room.json" $V --cull none --out "$TMP/under_none.png"); r2=$?
+if [ $r1 -eq 0 ] && [ $r2 -eq 0 ] && cmp -s "$TMP/under_occ.png" "$TMP/under_none.png" &&
+   python3 - "$j1" <<'PY'
+import json, sys
+a = json.loads(sys.argv[1])['city']
+assert a['after_occlusion'] == a['after_frustum'] >= 1, a
+PY
+then ok "from under the ground the terrain hides nothing"
+else bad "under the ground (exit $r1 $r2): $j1"; fi
 
 # ---- fog: a red box 2 km away melts into the horizon with the fog effect
 # (its height fog too, as the ground around it), and stands out without it
