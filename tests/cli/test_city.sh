@@ -375,30 +375,22 @@ cat > "$TMP/room.json" <<EOF
  "nodes": [{"name": "R", "model": "room", "position": [500, 0, 500], "clamp": "ground"},
            {"name": "B", "model": "box", "position": [500, 0, 600], "clamp": "ground"}]}
 EOF
-V="--width 320 --height 180 --camera 500,6,480,180,0 --json"
-j1=$($R --scene "$TMP/room.json" $V --cull occlusion --out "$TMP/room_occ.png"); r1=$?
-j2=$($R --scene "$TMP/room.json" $V --cull none --out "$TMP/room_none.png"); r2=$?
-if [ $r1 -eq 0 ] && [ $r2 -eq 0 ] && cmp -s "$TMP/room_occ.png" "$TMP/room_none.png" &&
-   python3 - "$j1" <<'PY'
-import json, sys
-a = json.loads(sys.argv[1])['city']
-assert a['after_occlusion'] == a['after_frustum'] == 2, a
-PY
-then ok "from inside a closed box its faces hide nothing"
-else bad "inside a closed box (exit $r1 $r2): $j1"; fi
+# hides_nothing NAME CAMERA WHAT: room.json seen from CAMERA, with occlusion
+# culling and without: the same image, and every object in view drawn.
+hides_nothing() {
+  local name="$1" cam="$2" what="$3" ja jb ra rb
+  ja=$($R --scene "$TMP/room.json" --width 320 --height 180 --camera "$cam" --json --cull occlusion \
+       --out "$TMP/${name}_occ.png"); ra=$?
+  jb=$($R --scene "$TMP/room.json" --width 320 --height 180 --camera "$cam" --json --cull none \
+       --out "$TMP/${name}_none.png"); rb=$?
+  if [ $ra -eq 0 ] && [ $rb -eq 0 ] && cmp -s "$TMP/${name}_occ.png" "$TMP/${name}_none.png" &&
+     python3 -c "import json,sys;a=json.loads(sys.argv[1])['city'];assert a['after_occlusion']==a['after_frustum']>=1,a" "$ja"
+  then ok "$what"; else bad "$what (exit $ra $rb): $ja"; fi
+}
+hides_nothing room 500,6,480,180,0 "from inside a closed box its faces hide nothing"
 # From under the ground, looking up through it (the renderer culls the
-# terrain seen from below) at a box standing on it: the ground hides nothing.
-V="--width 320 --height 180 --camera 500,-30,400,180,16 --json"
-j1=$($R --scene "$TMP/room.json" $V --cull occlusion --out "$TMP/under_occ.png"); r1=$?
-j2=$($R --scene "$TMP/room.json" $V --cull none --out "$TMP/under_none.png"); r2=$?
-if [ $r1 -eq 0 ] && [ $r2 -eq 0 ] && cmp -s "$TMP/under_occ.png" "$TMP/under_none.png" &&
-   python3 - "$j1" <<'PY'
-import json, sys
-a = json.loads(sys.argv[1])['city']
-assert a['after_occlusion'] == a['after_frustum'] >= 1, a
-PY
-then ok "from under the ground the terrain hides nothing"
-else bad "under the ground (exit $r1 $r2): $j1"; fi
+# terrain seen from below) at the boxes standing on it: the ground hides nothing.
+hides_nothing under 500,-30,400,180,16 "from under the ground the terrain hides nothing"
 
 # ---- fog: a red box 2 km away melts into the horizon with the fog effect
 # (its height fog too, as the ground around it), and stands out without it
