@@ -72,7 +72,7 @@ typedef struct hz_scene_hook {
     /* Time the objects' own GL work (stats.draw_ms): the main pass waits
      * for the GPU before and after them. That stall costs the frame the
      * overlap of the objects' rasterisation with the vertex work of the
-     * draws after them (on llvmpipe 2-4 ms of a 20-30 ms street frame), so
+     * draws after them (on llvmpipe 3-5 ms of a 20-30 ms street frame), so
      * leave it off for speed. */
     bool time_draw;
     hz_scene_draw_stats stats;
