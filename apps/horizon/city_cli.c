@@ -771,7 +771,7 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
          * level the first rows of buildings hide most of the rest. */
         vec4 planes[6];
         hz_camera_frustum(cam, planes);
-        const float reach_obj = 1500.0f, near2 = 2.0f * (cam->znear > 0 ? cam->znear : 1.0f);
+        const float reach_obj = 1500.0f;
         /* The scene's hierarchical frustum culling: whole blocks out of
          * view cost one test. */
         uint32_t nv = hz_scene_cull_curved(a->scene, cam, planes, a->occ_cand, a->occ_cand_cap, NULL), nc = 0;
@@ -807,20 +807,12 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
              * its box (inside it, or nearer than the near plane's clipping,
              * the eye may see through the back faces): kept, it fills the
              * cells along the edges between them. */
-            bool around = true;
-            for (int c = 0; c < 3; c++)
-                around = around && cam->pos[c] > b.min[c] - near2 && cam->pos[c] < b.max[c] + near2;
-            a->occ.cull_back = around || !a->node_closed[id];
+            a->occ.cull_back = hz_box_around_eye(&b, cam) || !a->node_closed[id];
             hz_occlusion_rasterize_quads(&a->occ, a->quads + 12 * (size_t)a->mesh_first[mesh], a->mesh_quads[mesh], m);
         }
         if (threaded)
             pthread_join(th, NULL);
-        const size_t cells = (size_t)a->occ.w * a->occ.h;
-        for (size_t k = 0; k < cells; k++)
-            if (a->occ_ter.depth[k] < a->occ.depth[k])
-                a->occ.depth[k] = a->occ_ter.depth[k];
-        a->occ.triangles += a->occ_ter.triangles;
-        a->occ.cells_written += a->occ_ter.cells_written;
+        hz_occlusion_merge(&a->occ, &a->occ_ter); /* both 256 x 144 (city_app_place) */
         a->hook.opts.occlusion = &a->occ;
         hide_patches(a, sp);
         sp->sky_occluders = &a->occ; /* and the sky behind them */

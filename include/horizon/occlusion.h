@@ -54,6 +54,11 @@ void hz_occlusion_rasterize(hz_occlusion *o, const float *tri_xyz, size_t tri_co
  * polygon, so the cells along the diagonal count as covered (each triangle
  * alone would leave them out); otherwise as its two triangles. */
 void hz_occlusion_rasterize_quads(hz_occlusion *o, const float *quad_xyz, size_t quad_count, const mat4 model);
+/* Takes src's occluders into o: per cell the nearer of the two depths, and
+ * src's counts. For buffers of the same size begun for the same camera and
+ * filled apart (on two threads, say). false, o unchanged, when the sizes
+ * differ. */
+bool hz_occlusion_merge(hz_occlusion *o, const hz_occlusion *src);
 /* True when the world box is certainly hidden behind the occluders. */
 bool hz_occlusion_box_hidden(const hz_occlusion *o, const hz_box *b);
 /* True when occluders certainly cover every point of the screen rectangle

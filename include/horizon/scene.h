@@ -37,6 +37,10 @@ void hz_box_add_point(hz_box *b, const float p[3]);
 void hz_box_add_box(hz_box *b, const hz_box *o);
 /* Squared distance from p to b (0 for p inside; +inf for an empty box). */
 float hz_box_distance2(const hz_box *b, const float p[3]);
+/* Whether cam's eye lies inside b grown by twice the near distance on every
+ * side: the near plane may clip b's faces (or the eye is within), so what
+ * lies behind them may show through. */
+bool hz_box_around_eye(const hz_box *b, const hz_camera *cam);
 /* The box of the 8 corners of b transformed by m (an affine matrix). */
 void hz_box_transform(const hz_box *b, const mat4 m, hz_box *dest);
 

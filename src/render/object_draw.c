@@ -383,10 +383,7 @@ static uint32_t gpu_query(hz_scene_gpu *g, const hz_scene *s, const hz_pass_info
         hz_scene_node_bounds(s, g->vis[first + k], &b);
         /* A box around the eye (or across the near plane) would be clipped
          * away: such objects are kept without asking. */
-        const float *e = pass->cam->pos;
-        const float m = 2.0f * (pass->cam->znear > 0 ? pass->cam->znear : 1.0f);
-        if (!always || (e[0] > b.min[0] - m && e[0] < b.max[0] + m && e[1] > b.min[1] - m && e[1] < b.max[1] + m &&
-                        e[2] > b.min[2] - m && e[2] < b.max[2] + m)) {
+        if (!always || hz_box_around_eye(&b, pass->cam)) {
             if (always)
                 always[k] = true;
             continue;

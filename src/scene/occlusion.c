@@ -210,6 +210,18 @@ void hz_occlusion_rasterize_quads(hz_occlusion *o, const float *quad, size_t cou
     rasterize_n(o, quad, count, model, 4);
 }
 
+bool hz_occlusion_merge(hz_occlusion *o, const hz_occlusion *src)
+{
+    if (o->w != src->w || o->h != src->h)
+        return false;
+    for (size_t k = 0; k < (size_t)o->w * o->h; k++)
+        o->depth[k] = min_f(o->depth[k], src->depth[k]);
+    o->triangles += src->triangles;
+    o->cells_written += src->cells_written;
+    o->raster_ms += src->raster_ms;
+    return true;
+}
+
 /* True when every cell the screen rectangle [x0, x1] x [y0, y1] (cell units,
  * clamped to the buffer) touches holds an occluder nearer than d; false when
  * none of it is on screen. */

@@ -695,6 +695,15 @@ uint32_t hz_scene_queue_build_instanced(const hz_scene *s, const uint32_t *nodes
     return queue_build(s, nodes, count, sorted, true, nodes_out, items, stats);
 }
 
+bool hz_box_around_eye(const hz_box *b, const hz_camera *cam)
+{
+    const float m = 2.0f * (cam->znear > 0 ? cam->znear : 1.0f);
+    for (int c = 0; c < 3; c++)
+        if (!(cam->pos[c] > b->min[c] - m && cam->pos[c] < b->max[c] + m))
+            return false;
+    return true;
+}
+
 /* Slab test: the ray's entry parameter into b, or false. */
 static bool ray_box(const hz_box *b, const float o[3], const float d[3], float t_max, float *t_enter)
 {

@@ -588,6 +588,36 @@ static void test_occlusion(void **state)
     hz_occlusion_rasterize_quads(&o, back, 1, NULL);
     assert_int_equal(o.triangles, 1);
     assert_true(hz_occlusion_box_hidden(&o, &behind));
+    /* Two buffers filled apart and merged: the nearer occluder per cell. The
+     * wall at 10 m in one, a wider one at 30 m in the other: behind the near
+     * wall's middle the merged buffer hides a box at 20 m (the far wall
+     * alone would not), and beside it, behind the far wall, a box at 40 m. */
+    hz_occlusion far_o;
+    assert_true(hz_occlusion_init(&far_o, 128, 72));
+    const float wide[12] = {-30, -3, -30, 30, -3, -30, 30, 9, -30, -30, 9, -30};
+    hz_occlusion_begin(&o, &cam);
+    hz_occlusion_begin(&far_o, &cam);
+    hz_occlusion_rasterize_quads(&o, quad, 1, NULL);
+    hz_occlusion_rasterize_quads(&far_o, wide, 1, NULL);
+    hz_box mid20 = {{-1, 0, -21}, {1, 2, -19}}, side40 = {{25, 0, -41}, {27, 2, -39}};
+    assert_false(hz_occlusion_box_hidden(&far_o, &mid20));
+    assert_false(hz_occlusion_box_hidden(&o, &side40));
+    assert_true(hz_occlusion_merge(&o, &far_o));
+    assert_int_equal(o.triangles, 2);
+    assert_true(hz_occlusion_box_hidden(&o, &mid20));
+    assert_true(hz_occlusion_box_hidden(&o, &side40));
+    hz_box side20 = {{12, 0, -21}, {14, 2, -19}}; /* in front of the far wall, beside the near one */
+    assert_false(hz_occlusion_box_hidden(&o, &side20));
+    hz_occlusion_free(&far_o);
+    assert_true(hz_occlusion_init(&far_o, 64, 36));
+    assert_false(hz_occlusion_merge(&o, &far_o)); /* another size: refused */
+    assert_int_equal(o.triangles, 2);
+    hz_occlusion_free(&far_o);
+    /* A box around the eye, or within twice the near distance of it. */
+    hz_box at_eye = {{-1, 0, -1}, {1, 2, 1}}, close = {{-1, 0, -1.9f}, {1, 2, -0.95f}};
+    assert_true(hz_box_around_eye(&at_eye, &cam));
+    assert_true(hz_box_around_eye(&close, &cam));  /* 0.95 m ahead, znear 0.5 */
+    assert_false(hz_box_around_eye(&behind, &cam));
     hz_occlusion_free(&o);
 }
 
