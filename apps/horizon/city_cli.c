@@ -472,27 +472,48 @@ static int terrain_grid(city_app *a, const hz_terrain *t)
     return 0;
 }
 
-/* Rasterises into a->occ_ter the terrain cells whose first corner lies
- * within reach of the camera (far ground hides little and costs the most):
- * only the cells of that window are visited, whatever the map's size. */
-static void terrain_occlude(city_app *a, const hz_camera *cam, float reach)
+/* The window of coarse cells within reach of the camera along x and z,
+ * clipped to the grid: {i0, i1, j0, j1}, inclusive. A rectangle, so convex:
+ * the segment from the eye to any point of it stays inside it (the back
+ * faces' rule in ter_occlude rests on that). False when it is empty. */
+static bool terrain_window(const city_app *a, const hz_camera *cam, float reach, uint32_t win[4])
 {
     const uint32_t cn = a->ter_cn;
     if (!cn)
-        return;
+        return false;
     const float cell = (float)a->ter_step * a->ter_spacing;
     const float fi0 = floorf((cam->pos[0] - reach) / cell), fi1 = ceilf((cam->pos[0] + reach) / cell);
     const float fj0 = floorf((cam->pos[2] - reach) / cell), fj1 = ceilf((cam->pos[2] + reach) / cell);
     if (!(fi1 >= 0 && fj1 >= 0 && fi0 < (float)cn && fj0 < (float)cn))
-        return;
-    const uint32_t i0 = (uint32_t)fmaxf(fi0, 0), i1 = (uint32_t)fminf(fi1, (float)(cn - 1));
-    const uint32_t j0 = (uint32_t)fmaxf(fj0, 0), j1 = (uint32_t)fminf(fj1, (float)(cn - 1));
-    for (uint32_t cj = j0; cj <= j1; cj++)
-        for (uint32_t ci = i0; ci <= i1; ci++) {
+        return false;
+    win[0] = (uint32_t)fmaxf(fi0, 0);
+    win[1] = (uint32_t)fminf(fi1, (float)(cn - 1));
+    win[2] = (uint32_t)fmaxf(fj0, 0);
+    win[3] = (uint32_t)fminf(fj1, (float)(cn - 1));
+    return true;
+}
+
+/* Whether a cell of the window has no data (it is no occluder: the window's
+ * occluder surface has a hole there). */
+static bool terrain_window_hole(const city_app *a, const uint32_t win[4])
+{
+    for (uint32_t cj = win[2]; cj <= win[3]; cj++)
+        for (uint32_t ci = win[0]; ci <= win[1]; ci++)
+            if (!a->ter_cell_ok[(size_t)cj * a->ter_cn + ci])
+                return true;
+    return false;
+}
+
+/* Rasterises into a->occ_ter the valid cells of the window (far ground
+ * hides little and costs the most): only the cells of that window are
+ * visited, whatever the map's size. */
+static void terrain_occlude(city_app *a, const uint32_t win[4])
+{
+    const uint32_t cn = a->ter_cn;
+    const float cell = (float)a->ter_step * a->ter_spacing;
+    for (uint32_t cj = win[2]; cj <= win[3]; cj++)
+        for (uint32_t ci = win[0]; ci <= win[1]; ci++) {
             if (!a->ter_cell_ok[(size_t)cj * cn + ci])
-                continue;
-            const float dx = (float)ci * cell - cam->pos[0], dz = (float)cj * cell - cam->pos[2];
-            if (!(dx * dx + dz * dz < reach * reach))
                 continue;
             const uint32_t cc[4][2] = {{ci, cj}, {ci, cj + 1}, {ci + 1, cj + 1}, {ci + 1, cj}};
             float q[12];
@@ -544,6 +565,7 @@ int city_app_place(city_app *a, const hz_terrain *t, const char *cmd)
 {
     double t0 = hz_time_ms();
     a->lod = t->lod;
+    a->ter = t;
     hz_err err = {0};
     a->scene = hz_scene_create(&(hz_scene_desc){.node_capacity = (a->city ? a->city->obj_count * 2 : 0) +
                                                                  a->file_info.nodes + 64});
@@ -695,9 +717,12 @@ static void hide_patches(city_app *a, hz_scene_params *sp)
 
 /* Whether the terrain's occluder quads may occlude with their back faces
  * too: the eye stands above the occluder surface of the valid cell under
- * it (a height field seen from above: its back faces lie behind its front
- * ones). Under it, over a cell without data or off the grid, the eye may
- * look through the terrain from below, where the renderer culls it. */
+ * it. Then a ray that meets a back face has passed under the surface since
+ * the eye, so it crossed a front face first, over the ground between: the
+ * back face lies behind ground, if the occluder surface has no hole on the
+ * way (ter_occlude checks the window). Under the surface, over a cell
+ * without data or off the grid, the eye may look through the terrain from
+ * below, where the renderer culls it. */
 static bool eye_over_ground(const city_app *a, const hz_camera *cam)
 {
     const uint32_t cn = a->ter_cn;
@@ -720,14 +745,24 @@ static bool eye_over_ground(const city_app *a, const hz_camera *cam)
 typedef struct ter_job {
     city_app *a;
     const hz_camera *cam;
+    bool under; /* the eye is under the ground */
 } ter_job;
 
 static void *ter_occlude(void *arg)
 {
     ter_job *j = arg;
     hz_occlusion_begin(&j->a->occ_ter, j->cam);
-    j->a->occ_ter.cull_back = !eye_over_ground(j->a, j->cam);
-    terrain_occlude(j->a, j->cam, 3000.0f);
+    uint32_t win[4];
+    /* Under the ground the eye looks through it (the renderer culls the
+     * ground seen from below), even where it is above the occluder quads
+     * (which lie under the surface): those would hide what shows. */
+    if (!j->under && terrain_window(j->a, j->cam, 3000.0f, win)) {
+        /* Through a hole in the window (a cell without data, where the
+         * renderer draws no ground) the eye may see the underside of the
+         * ground beyond it, which the renderer culls: no back faces then. */
+        j->a->occ_ter.cull_back = !eye_over_ground(j->a, j->cam) || terrain_window_hole(j->a, win);
+        terrain_occlude(j->a, win);
+    }
     return NULL;
 }
 
@@ -760,7 +795,7 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
          * faces on this one, each into its own buffer; then the nearer of
          * the two per cell. (The objects' skipping of hidden occluders sees
          * only the objects: at street level the buildings hide them.) */
-        ter_job job = {a, cam};
+        ter_job job = {a, cam, !(cam->pos[1] > hz_terrain_surface_at(a->ter, cam->pos[0], cam->pos[2]))};
         pthread_t th;
         const bool threaded = pthread_create(&th, NULL, ter_occlude, &job) == 0;
         if (!threaded)

@@ -50,6 +50,7 @@ typedef struct city_app {
     char tin_path[256];    /* the TINRelief grid written for the terrain (removed at the end) */
     /* occluders: the terrain's coarse cells; per mesh its face quads (local),
      * per occluding node its mesh */
+    const hz_terrain *ter;  /* the terrain placed on (city_app_place; it outlives the app) */
     float *ter_cmin;        /* (ter_cn + 1)^2 corner heights of the coarse terrain cells */
     uint8_t *ter_cell_ok;   /* ter_cn^2: the cell lies over valid data */
     uint32_t ter_cn, ter_step;

@@ -375,22 +375,53 @@ cat > "$TMP/room.json" <<EOF
  "nodes": [{"name": "R", "model": "room", "position": [500, 0, 500], "clamp": "ground"},
            {"name": "B", "model": "box", "position": [500, 0, 600], "clamp": "ground"}]}
 EOF
-# hides_nothing NAME CAMERA WHAT: room.json seen from CAMERA, with occlusion
-# culling and without: the same image, and every object in view drawn.
+# hides_nothing SCENE NAME CAMERA WHAT: $TMP/SCENE.json seen from CAMERA,
+# with occlusion culling and without: the same image, and every object in
+# view drawn.
 hides_nothing() {
-  local name="$1" cam="$2" what="$3" ja jb ra rb
-  ja=$($R --scene "$TMP/room.json" --width 320 --height 180 --camera "$cam" --json --cull occlusion \
+  local scene="$TMP/$1.json" name="$2" cam="$3" what="$4" ja jb ra rb
+  ja=$($R --scene "$scene" --width 320 --height 180 --camera "$cam" --json --cull occlusion \
        --out "$TMP/${name}_occ.png"); ra=$?
-  jb=$($R --scene "$TMP/room.json" --width 320 --height 180 --camera "$cam" --json --cull none \
+  jb=$($R --scene "$scene" --width 320 --height 180 --camera "$cam" --json --cull none \
        --out "$TMP/${name}_none.png"); rb=$?
   if [ $ra -eq 0 ] && [ $rb -eq 0 ] && cmp -s "$TMP/${name}_occ.png" "$TMP/${name}_none.png" &&
      python3 -c "import json,sys;a=json.loads(sys.argv[1])['city'];assert a['after_occlusion']==a['after_frustum']>=1,a" "$ja"
   then ok "$what"; else bad "$what (exit $ra $rb): $ja"; fi
 }
-hides_nothing room 500,6,480,180,0 "from inside a closed box its faces hide nothing"
+hides_nothing room room 500,6,480,180,0 "from inside a closed box its faces hide nothing"
 # From under the ground, looking up through it (the renderer culls the
 # terrain seen from below) at the boxes standing on it: the ground hides nothing.
-hides_nothing under 500,-30,400,180,16 "from under the ground the terrain hides nothing"
+hides_nothing room under 500,-30,400,180,16 "from under the ground the terrain hides nothing"
+# The ground's occluder quads lie under its surface (each corner at the
+# lowest sample around it, less a metre): 40 m lower on this 45 degree slope.
+# An eye 2 m inside the slope is above them but under the ground, which it
+# sees through from below: looking down past the cliff at the box in the
+# valley, the quads ahead would hide it.
+# cliff.asc: along z, a valley floor at 0 m, a 500 m cliff at z = 410, then
+# the slope rising 1 m per metre. hole.asc: flat ground, no data (a sea gap)
+# for 900 <= z < 1000, and beyond it a slope falling from 300 m at its edge
+# to 0 at z = 600. From the near shore at 10 m the eye looks across the gap
+# under that slope's edge and sees its underside (which the renderer culls):
+# the box behind it shows.
+python3 - "$TMP" <<'PY'
+import sys
+for name, height in (("cliff", lambda z: 0 if z < 410 else 500 + (z - 410)),
+                     ("hole", lambda z: -9999 if 900 <= z < 1000 else (z - 600 if 600 <= z < 900 else 0))):
+    rows = [" ".join(["%.1f" % height(j * 10)] * 129) for j in range(129)]
+    with open(f"{sys.argv[1]}/{name}.asc", "w") as f:
+        f.write("ncols 129\nnrows 129\nxllcorner 0\nyllcorner 0\ncellsize 10\nNODATA_value -9999\n")
+        f.write("\n".join(rows) + "\n")
+PY
+for dem in cliff:200 hole:300; do
+  cat > "$TMP/${dem%%:*}.json" <<EOF
+{"terrain": {"dem": "${dem%%:*}.asc", "spacing": 10},
+ "materials": {"red": {"color": [0.9, 0.1, 0.1]}},
+ "models": {"a": {"box": [40, 40, 40], "material": "red"}},
+ "nodes": [{"name": "A", "model": "a", "position": [640, 0, ${dem##*:}], "clamp": "ground"}]}
+EOF
+done
+hides_nothing cliff cliff 640,688,600,0,-59 "from inside a slope, over its occluder quads, the ground hides nothing"
+hides_nothing hole hole 640,10,1040,0,1 "across a gap without data the underside of the ground beyond hides nothing"
 
 # ---- fog: a red box 2 km away melts into the horizon with the fog effect
 # (its height fog too, as the ground around it), and stands out without it
