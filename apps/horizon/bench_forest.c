@@ -222,6 +222,12 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
             continue;
         hz_forest_reset(cf->forest);
         hz_forest_gpu_time_parts(cf->gpu, run == RUN_PARTS);
+        /* The forest's own GL time only where the frame is not what is
+         * measured (the pass timed apart) or is too slow to care (the
+         * unsimplified frames): waiting for the GPU around the trees stalls
+         * the frame (hz_forest_hook.time_draw). Elsewhere draw_ms is the
+         * submission's CPU time. */
+        cf->hook.time_draw = run == RUN_PARTS || run == RUN_FULL;
         for (uint32_t f = 0; f < frames; f++) {
             bool sampled = f % every == 0;
             if (run == RUN_FULL && !sampled)
@@ -323,11 +329,12 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
                P95(RUN_TERRAIN, frame_ms));
         printf("%-30s %12.1f %12.1f %12.1f %12.1f\n", "CPU ms (all threads)", MED(RUN_HYST, cpu_ms),
                MED(RUN_NOHYST, cpu_ms), MEDF(RUN_FULL, cpu_ms), MED(RUN_TERRAIN, cpu_ms));
-        printf("%-30s %12.1f %12.1f %12.1f\n", "forest draw ms", MED(RUN_HYST, draw_ms), MED(RUN_NOHYST, draw_ms),
+        printf("%-30s %12.1f %12s %12.1f\n", "forest draw ms (timed apart)", MED(RUN_PARTS, draw_ms), "-",
                MEDF(RUN_FULL, draw_ms));
-        printf("%-30s %12.1f\n", "  leaves (timed apart)", MED(RUN_PARTS, part_ms[0]));
+        printf("%-30s %12.1f\n", "  leaves", MED(RUN_PARTS, part_ms[0]));
         printf("%-30s %12.1f\n", "  bark + crown hulls", MED(RUN_PARTS, part_ms[1]));
         printf("%-30s %12.1f\n", "  impostors", MED(RUN_PARTS, part_ms[2]));
+        printf("%-30s %12.2f %12.2f\n", "forest submission CPU ms", MED(RUN_HYST, draw_ms), MED(RUN_NOHYST, draw_ms));
         printf("%-30s %12.0f %12.0f %12.0f\n", "triangles drawn", tri_drawn, MEDQ(RUN_NOHYST, tri_drawn),
                MEDQ(RUN_FULL, tri_drawn));
         printf("%-30s %12.0f %12.0f %12.0f\n", "trees in frustum", MEDU(RUN_HYST, in_frustum),
@@ -403,7 +410,14 @@ int bench_forest(cli_opts *o, hz_terrain *t, const bench_forest_opts *bo)
             json_num(jo, JK("cpu_ms"), pct(rr, NULL, frames, offsetof(frow, cpu_ms), 'd', 0.5), 3);
             if (run == RUN_TERRAIN)
                 continue;
-            json_num(jo, JK("forest_draw_ms"), pct(rr, NULL, frames, offsetof(frow, draw_ms), 'd', 0.5), 3);
+            /* The forest's GL time (the pass timed apart for the simplified
+             * frames), and the submission's CPU time in the frames measured. */
+            if (run == RUN_HYST)
+                json_num(jo, "forest_draw_ms", MED(RUN_PARTS, draw_ms), 3);
+            else if (run == RUN_FULL)
+                json_num(jo, JK("forest_draw_ms"), pct(rr, NULL, frames, offsetof(frow, draw_ms), 'd', 0.5), 3);
+            if (run != RUN_FULL)
+                json_num(jo, JK("forest_submit_ms"), pct(rr, NULL, frames, offsetof(frow, draw_ms), 'd', 0.5), 3);
             json_num(jo, JK("select_ms"), pct(rr, NULL, frames, offsetof(frow, select_ms), 'd', 0.5), 3);
             json_num(jo, JK("triangles_drawn"), pct(rr, NULL, frames, offsetof(frow, tri_drawn), 'q', 0.5), 0);
             json_num(jo, JK("trees_in_frustum"), pct(rr, NULL, frames, offsetof(frow, in_frustum), 'u', 0.5), 0);

@@ -204,11 +204,13 @@ int cmd_render(int argc, char **argv)
     }
     double draw[3];
     hz_draw_stats ds = {0};
-    /* Three frames timed; with objects a fourth (not counted) that waits
-     * for the GPU around them, for their own ms in the figures printed. */
-    for (int k = 0; k < (ca ? 4 : 3); k++) {
+    /* Three frames timed; with objects or trees a fourth (not counted) that
+     * waits for the GPU around them, for their own ms in the figures printed. */
+    for (int k = 0; k < (ca || cf ? 4 : 3); k++) {
         if (ca)
             ca->hook.time_draw = k == 3;
+        if (cf)
+            cf->hook.time_draw = k == 3;
         hz_draw_stats dk = {0};
         if (hz_renderer_draw(ren, &cam, &sp, draw_idx, draw_count, k < 3 ? &ds : &dk, &err) != HZ_OK)
             goto done;

@@ -658,7 +658,7 @@ static void queue_hud(view *v, uint32_t boxes_drawn, size_t boxes_wanted)
     }
     if (v->cf) {
         const hz_forest_frame *fr = &v->cf->frame;
-        snprintf(lines[nl++], 256, "forest %u trees, %u in view (%u hulls)  %.2f M of %.2f M tris  %.1f ms  %s%s",
+        snprintf(lines[nl++], 256, "forest %u trees, %u in view (%u hulls)  %.2f M of %.2f M tris  %.1f ms CPU  %s%s",
                  fr->trees, fr->trees_in_frustum, fr->trees_hull, (double)fr->triangles_drawn / 1e6,
                  (double)fr->triangles_full / 1e6, v->cf->hook.draw_ms,
                  v->o.forest.simplify ? "T simplified" : "T FULL", v->o.forest.hysteresis ? "  Y hyst." : "");

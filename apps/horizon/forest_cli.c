@@ -613,7 +613,8 @@ int cli_forest_billboards(const cli_forest *cf, const cli_opts *o, hz_renderer *
 
 void cli_forest_hook(cli_forest *cf, hz_scene_params *sp)
 {
-    cf->hook = (hz_forest_hook){.gpu = cf->gpu, .forest = cf->forest, .frame = &cf->frame};
+    cf->hook = (hz_forest_hook){.gpu = cf->gpu, .forest = cf->forest, .frame = &cf->frame,
+                                .time_draw = cf->hook.time_draw};
     sp->draw_objects = hz_forest_draw_hook;
     sp->draw_objects_user = &cf->hook;
     /* Trees are opaque (cut-outs, no blending) and cover much of the view

@@ -1130,13 +1130,15 @@ void hz_forest_draw_hook(void *user, const hz_pass_info *pass)
         return;
     double t0 = 0;
     if (pass->pass == HZ_PASS_MAIN) {
-        glFinish();
+        if (h->time_draw)
+            glFinish();
         t0 = hz_time_ms();
     }
     if (hz_forest_gpu_draw(h->gpu, h->forest, h->frame, pass, &h->err) != HZ_OK)
         h->failed = true;
     if (pass->pass == HZ_PASS_MAIN) {
-        glFinish();
+        if (h->time_draw)
+            glFinish();
         h->draw_ms = hz_time_ms() - t0;
     }
 }
