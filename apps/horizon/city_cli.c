@@ -432,14 +432,21 @@ out:
     return rc;
 }
 
-/* Terrain occluders: a coarse grid over the valid data (cells of 4 x 4
- * samples), each corner at the lowest sample of the cells around it, so
- * the quads lie under the surface (inside the ground): anything behind
- * them is behind ground. Kept as corner heights and a flag per cell; the
- * quads near the camera are made per frame (terrain_occlude). */
+/* Terrain occluders: a coarse grid over the valid data, each corner at the
+ * lowest sample of the cells around it, so the quads lie under the surface
+ * (inside the ground): anything behind them is behind ground. Kept as
+ * corner heights and a flag per cell; the quads within reach of the camera
+ * are made per frame (terrain_occlude). A cell spans 4 samples, and at
+ * least TER_CELL_M metres: on a fine DEM (a 1 m lidar grid) 4-sample cells
+ * would put a million quads within reach, and the buffer would take a
+ * third of a second per frame. */
+#define TER_REACH_M 3000.0f /* the terrain occludes within this distance along x and z */
+#define TER_CELL_M 60.0f    /* at most (2 * 3000 / 60)^2 = 10 000 cells within reach */
 static int terrain_grid(city_app *a, const hz_terrain *t)
 {
-    const uint32_t n = t->hm.size, step = 4;
+    const uint32_t n = t->hm.size;
+    const float fs = ceilf(TER_CELL_M / t->spacing);
+    const uint32_t step = !(fs > 4.0f) ? 4u : fs < (float)n ? (uint32_t)fs : n;
     const uint32_t cn = (n - 1) / step; /* coarse cells per side */
     a->ter_cn = cn;
     a->ter_step = step;
@@ -756,7 +763,7 @@ static void *ter_occlude(void *arg)
     /* Under the ground the eye looks through it (the renderer culls the
      * ground seen from below), even where it is above the occluder quads
      * (which lie under the surface): those would hide what shows. */
-    if (!j->under && terrain_window(j->a, j->cam, 3000.0f, win)) {
+    if (!j->under && terrain_window(j->a, j->cam, TER_REACH_M, win)) {
         /* Through a hole in the window (a cell without data, where the
          * renderer draws no ground) the eye may see the underside of the
          * ground beyond it, which the renderer culls: no back faces then. */
