@@ -412,26 +412,25 @@ for name, height in (("cliff", lambda z: 0 if z < 410 else 500 + (z - 410)),
         f.write("ncols 129\nnrows 129\nxllcorner 0\nyllcorner 0\ncellsize 10\nNODATA_value -9999\n")
         f.write("\n".join(rows) + "\n")
 PY
-for dem in cliff:200 hole:300; do
-  cat > "$TMP/${dem%%:*}.json" <<EOF
-{"terrain": {"dem": "${dem%%:*}.asc", "spacing": 10},
+# box_scene NAME TERRAIN SIDE X Z: $TMP/NAME.json, the terrain (a JSON
+# object) with one red box A of SIDE metres standing on it at X, Z.
+box_scene() {
+  cat > "$TMP/$1.json" <<EOF
+{"terrain": $2,
  "materials": {"red": {"color": [0.9, 0.1, 0.1]}},
- "models": {"a": {"box": [40, 40, 40], "material": "red"}},
- "nodes": [{"name": "A", "model": "a", "position": [640, 0, ${dem##*:}], "clamp": "ground"}]}
+ "models": {"a": {"box": [$3, $3, $3], "material": "red"}},
+ "nodes": [{"name": "A", "model": "a", "position": [$4, 0, $5], "clamp": "ground"}]}
 EOF
-done
+}
+box_scene cliff '{"dem": "cliff.asc", "spacing": 10}' 40 640 200
+box_scene hole '{"dem": "hole.asc", "spacing": 10}' 40 640 300
 hides_nothing cliff cliff 640,688,600,0,-59 "from inside a slope, over its occluder quads, the ground hides nothing"
 hides_nothing hole hole 640,10,1040,0,1 "across a gap without data the underside of the ground beyond hides nothing"
 # On a fine DEM (1 m, as lidar grids) the ground's occluder cells span at
 # least 60 m, not 4 samples: within the 3 km reach at most about 10 000 quads
 # (4-sample cells put 262 000 of this 2 km map into the buffer, 54 ms a frame),
 # and the culled image still equals the unculled one.
-cat > "$TMP/fine.json" <<'EOF'
-{"terrain": {"generate": "perlin", "size": 2049, "seed": 1, "amplitude": 1, "spacing": 1},
- "materials": {"red": {"color": [0.9, 0.1, 0.1]}},
- "models": {"a": {"box": [10, 10, 10], "material": "red"}},
- "nodes": [{"name": "A", "model": "a", "position": [1000, 0, 900], "clamp": "ground"}]}
-EOF
+box_scene fine '{"generate": "perlin", "size": 2049, "seed": 1, "amplitude": 1, "spacing": 1}' 10 1000 900
 hides_nothing fine fine 1000,1500,1100,0,-80 "a 1 m DEM: the culled image equals the unculled one"
 python3 -c "import json,sys;a=json.loads(sys.argv[1])['city'];assert 100<a['occluder_quads']<=10500,a" \
   "$($R --scene "$TMP/fine.json" --width 320 --height 180 --camera 1000,1500,1100,0,-80 --json --out "$TMP/fine_q.png")" &&
@@ -439,12 +438,7 @@ python3 -c "import json,sys;a=json.loads(sys.argv[1])['city'];assert 100<a['occl
 
 # ---- fog: a red box 2 km away melts into the horizon with the fog effect
 # (its height fog too, as the ground around it), and stands out without it
-cat > "$TMP/fogbox.json" <<'EOF'
-{"terrain": {"generate": "perlin", "size": 257, "seed": 1, "amplitude": 1, "spacing": 10},
- "materials": {"red": {"color": [0.9, 0.1, 0.1]}},
- "models": {"a": {"box": [40, 40, 40], "material": "red"}},
- "nodes": [{"name": "A", "model": "a", "position": [2100, 0, 1280], "clamp": "ground"}]}
-EOF
+box_scene fogbox '{"generate": "perlin", "size": 257, "seed": 1, "amplitude": 1, "spacing": 10}' 40 2100 1280
 # box_vs_horizon NAME MAX_ON MIN_OFF ARGS...: renders ARGS with the fog effect
 # and without it; the box A is picked at 640,357 in both, and its pixel lies
 # at most MAX_ON levels from the horizon just above it with the effect, at
