@@ -449,7 +449,7 @@ static int terrain_grid(city_app *a, const hz_terrain *t)
     const uint32_t step = !(fs > 4.0f) ? 4u : fs < (float)n ? (uint32_t)fs : n;
     const uint32_t cn = (n - 1) / step; /* coarse cells per side */
     a->ter_cn = cn;
-    a->ter_step = step;
+    a->ter_cell = (float)step * t->spacing;
     a->ter_cmin = malloc((size_t)(cn + 1) * (cn + 1) * sizeof *a->ter_cmin);
     a->ter_cell_ok = malloc((size_t)cn * cn + 1);
     if (!a->ter_cmin || !a->ter_cell_ok)
@@ -475,7 +475,6 @@ static int terrain_grid(city_app *a, const hz_terrain *t)
                         ok = t->valid[(size_t)j * n + i];
             a->ter_cell_ok[(size_t)cj * cn + ci] = ok;
         }
-    a->ter_spacing = t->spacing;
     return 0;
 }
 
@@ -488,7 +487,7 @@ static bool terrain_window(const city_app *a, const hz_camera *cam, float reach,
     const uint32_t cn = a->ter_cn;
     if (!cn)
         return false;
-    const float cell = (float)a->ter_step * a->ter_spacing;
+    const float cell = a->ter_cell;
     const float fi0 = floorf((cam->pos[0] - reach) / cell), fi1 = ceilf((cam->pos[0] + reach) / cell);
     const float fj0 = floorf((cam->pos[2] - reach) / cell), fj1 = ceilf((cam->pos[2] + reach) / cell);
     if (!(fi1 >= 0 && fj1 >= 0 && fi0 < (float)cn && fj0 < (float)cn))
@@ -517,7 +516,7 @@ static bool terrain_window_hole(const city_app *a, const uint32_t win[4])
 static void terrain_occlude(city_app *a, const uint32_t win[4])
 {
     const uint32_t cn = a->ter_cn;
-    const float cell = (float)a->ter_step * a->ter_spacing;
+    const float cell = a->ter_cell;
     for (uint32_t cj = win[2]; cj <= win[3]; cj++)
         for (uint32_t ci = win[0]; ci <= win[1]; ci++) {
             if (!a->ter_cell_ok[(size_t)cj * cn + ci])
@@ -733,7 +732,7 @@ static void hide_patches(city_app *a, hz_scene_params *sp)
 static bool eye_over_ground(const city_app *a, const hz_camera *cam)
 {
     const uint32_t cn = a->ter_cn;
-    const float cell = (float)a->ter_step * a->ter_spacing;
+    const float cell = a->ter_cell;
     const float fi = floorf(cam->pos[0] / cell), fj = floorf(cam->pos[2] / cell);
     if (!cn || !(fi >= 0 && fj >= 0 && fi < (float)cn && fj < (float)cn))
         return false;

@@ -53,8 +53,8 @@ typedef struct city_app {
     const hz_terrain *ter;  /* the terrain placed on (city_app_place; it outlives the app) */
     float *ter_cmin;        /* (ter_cn + 1)^2 corner heights of the coarse terrain cells */
     uint8_t *ter_cell_ok;   /* ter_cn^2: the cell lies over valid data */
-    uint32_t ter_cn, ter_step;
-    float ter_spacing;
+    uint32_t ter_cn;
+    float ter_cell;         /* metres per coarse cell side */
     uint32_t *mesh_first, *mesh_quads;   /* per mesh: first quad, count */
     uint8_t *node_closed;   /* per node: (a part of) a closed, consistently wound object (back
                                faces occlude too) */
