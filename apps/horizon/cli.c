@@ -101,7 +101,8 @@ void cli_usage_terrain(void)
             "                          quadtree, remedy, bidirectional: replaces C and C2)\n"
             "  --lod-c C --lod-c2 C2   distance and roughness factors (default 25, 2.5)\n"
             "  --criterion clamped|unclamped  Roettger's clamped form (default) or the seed's\n"
-            "  --no-cull               disable frustum culling\n"
+            "  --no-cull               disable frustum culling (and horizon culling)\n"
+            "  --no-horizon-cull       cdlod: also draw the patches that nearer ground hides\n"
             "  --bidir-distance M      bidirectional: coarsen beyond M metres, split nearer (default far/4)\n"
             "  --roam-budget N         roam: at most N triangles (default: no budget)\n"
             "  --morph-start A         cdlod: morphing starts at this fraction of a range, " STR(HZ_LOD_MORPH_START_MIN)
@@ -309,6 +310,8 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             else return bad(cmd, a, v, "clamped or unclamped");
         } else if (!strcmp(a, "--no-cull")) {
             o->lod.no_cull = true;
+        } else if (!strcmp(a, "--no-horizon-cull")) {
+            o->lod.no_horizon_cull = true;
         } else if (!strcmp(a, "--lod")) {
             NEEDV();
             if (!hz_lod_mode_from_name(v, &o->lod.mode))

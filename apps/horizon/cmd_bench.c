@@ -20,7 +20,7 @@
 
 typedef struct frame_row {
     double t;
-    uint32_t triangles, nodes_visited, nodes_culled, restricted, nodes_drawn, nodes_still;
+    uint32_t triangles, nodes_visited, nodes_culled, nodes_hidden, restricted, nodes_drawn, nodes_still;
     double lod_ms, upload_ms, draw_ms, frame_ms, upload_kb;
     double px_p99, px_max;
     uint64_t uncovered;
@@ -289,6 +289,7 @@ typedef struct bench {
     bool reference, quiet, metrics;
     const char *save_dir;
     cli_lod_frame lf;      /* this frame's selection */
+    cli_lod_frame lf_all;  /* the same with the patches nearer ground hides, for the pixel error */
     double load_ms, setup_ms;
     double warm_bake_ms;   /* the running mode's warm-up frame baked the lit map: its time */
     double tune_sil;       /* --tune-silhouette target, 0 = none */
@@ -385,7 +386,9 @@ static hz_result cache_references(bench *b)
 static hz_result frame_p99(bench *b, const hz_lod_params *lod, const hz_camera *cam, double *p99)
 {
     hz_lod_stats st;
-    if (hz_lod_select(b->t->lod, cam, lod, &b->il, NULL, NULL, &st) != HZ_OK)
+    hz_lod_params all = *lod;
+    all.no_horizon_cull = true; /* the error of the whole surface in view, hidden or not */
+    if (hz_lod_select(b->t->lod, cam, &all, &b->il, NULL, NULL, &st) != HZ_OK)
         return hz_err_set(&b->err, HZ_ERR_MEMORY, "LOD selection out of memory");
     morph_user mu = {b->t->lod, cam, &st};
     hz_px_error pe;
@@ -552,6 +555,7 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
         row->triangles = st.triangles;
         row->nodes_visited = st.nodes_visited;
         row->nodes_culled = st.nodes_culled;
+        row->nodes_hidden = st.hidden;
         row->restricted = st.restricted;
         row->lod_ms = st.ms;
         row->upload_ms = ds.upload_ms;
@@ -569,11 +573,16 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
         /* The exact screen-space error of the drawn surface (outside the
          * frame's time; --metrics off skips it for speed runs). */
         if (b->metrics) {
-            if (cli_lod_indices(b->t, &b->lf) != HZ_OK)
+            /* Over the whole surface in view, the patches nearer ground
+             * hides included: the LOD's error, whatever shows (and every
+             * sample in the frustum is covered). */
+            hz_lod_params all = *lod;
+            all.no_horizon_cull = true;
+            if (cli_lod_select(b->t, &cam, &all, &b->lf_all) != HZ_OK || cli_lod_indices(b->t, &b->lf_all) != HZ_OK)
                 return hz_err_set(&b->err, HZ_ERR_MEMORY, "out of memory expanding the patches");
             morph_user mu = {b->t->lod, &cam, &st};
             hz_px_error pe;
-            if (hz_metrics_px_error_ex(&b->t->hm, b->t->spacing, b->t->zscale, b->lf.il.data, b->lf.il.count,
+            if (hz_metrics_px_error_ex(&b->t->hm, b->t->spacing, b->t->zscale, b->lf_all.il.data, b->lf_all.il.count,
                                        st.morph_scale > 0 ? morph_height : NULL, &mu, &cam, o->height, &b->scratch,
                                        &pe) != HZ_OK)
                 return hz_err_set(&b->err, HZ_ERR_MEMORY, "pixel error out of memory");
@@ -639,7 +648,7 @@ typedef struct col {
 } col;
 /* Columns by name; those from COL_PSNR on need the reference. */
 enum {
-    COL_TRIANGLES, COL_VISITED, COL_CULLED, COL_DRAWN, COL_STILL, COL_UPLOAD_KB, COL_LOD, COL_UPLOAD_MS, COL_DRAW,
+    COL_TRIANGLES, COL_VISITED, COL_CULLED, COL_HIDDEN, COL_DRAWN, COL_STILL, COL_UPLOAD_KB, COL_LOD, COL_UPLOAD_MS, COL_DRAW,
     COL_FRAME, COL_P99, COL_PXMAX, COL_PSNR, COL_SIL, COL_POP, COL_POP_MAX, COL_POP_MEAN, NCOLS,
     NCOLS_NOREF = COL_PSNR
 };
@@ -647,6 +656,7 @@ static const col COLS[NCOLS] = {
     [COL_TRIANGLES] = {"triangles", OFF(triangles), true, false},
     [COL_VISITED] = {"nodes_visited", OFF(nodes_visited), true, false},
     [COL_CULLED] = {"nodes_culled", OFF(nodes_culled), true, false},
+    [COL_HIDDEN] = {"nodes_hidden", OFF(nodes_hidden), true, false},
     [COL_DRAWN] = {"nodes_drawn", OFF(nodes_drawn), true, false},
     [COL_STILL] = {"nodes_still", OFF(nodes_still), true, false},
     [COL_UPLOAD_KB] = {"upload_kb", OFF(upload_kb), false, false},
@@ -807,6 +817,7 @@ static json_t *bench_json(const bench *b, const hz_lod_params *lod, const frame_
         jx_set(o, "triangles", jx_int(r->triangles));
         jx_set(o, "nodes_visited", jx_int(r->nodes_visited));
         jx_set(o, "nodes_culled", jx_int(r->nodes_culled));
+        jx_set(o, "nodes_hidden", jx_int(r->nodes_hidden));
         jx_set(o, "restricted", jx_int(r->restricted));
         jx_set(o, "lod_ms", jx_fix(r->lod_ms, 4));
         jx_set(o, "upload_ms", jx_fix(r->upload_ms, 4));
@@ -1290,6 +1301,7 @@ done:
     free(b.il.data);
     free(b.rl.data);
     cli_lod_frame_free(&b.lf);
+    cli_lod_frame_free(&b.lf_all);
     hz_float_buf_free(&b.scratch);
     hz_path_free(&b.path);
     hz_terrain_destroy(b.t);

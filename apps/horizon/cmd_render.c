@@ -280,6 +280,7 @@ int cmd_render(int argc, char **argv)
         jx_set(j, "vertices", jx_int((long long)count_vertices(&il, t->hm.size)));
         jx_set(j, "nodes_visited", jx_int(st.nodes_visited));
         jx_set(j, "nodes_culled", jx_int(st.nodes_culled));
+        jx_set(j, "nodes_hidden", jx_int(st.hidden));
         jx_set(j, "leaves", jx_int(st.leaves));
         jx_set(j, "leaves_still", jx_int(st.still));
         jx_set(j, "restricted", jx_int(st.restricted));
@@ -366,7 +367,7 @@ int cmd_render(int argc, char **argv)
         curv_cli_print(&o.curv);
         printf("nodes         %u visited, %u culled, %u drawn", st.nodes_visited, st.nodes_culled, st.leaves);
         if (o.lod.mode == HZ_LOD_CDLOD)
-            printf(" (%u still: no vertex morphs)", st.still);
+            printf(" (%u still: no vertex morphs), %u hidden by nearer ground", st.still, st.hidden);
         printf("\n");
         printf("LOD           %.3f ms (median of %u; first %.3f ms)\n", lod_med, o.repeat, lod_first);
         printf("draw          %.1f ms (median of 3; first %.1f ms) on %s\n", draw_med, draw_first,

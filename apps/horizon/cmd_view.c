@@ -632,8 +632,8 @@ static void queue_hud(view *v, uint32_t boxes_drawn, size_t boxes_wanted)
              (double)t->spacing, v->width, v->height);
     snprintf(lines[nl++], 256, "FPS %.1f   frame %.2f ms   LOD %.2f ms   draw %.2f ms", v->fps, v->frame_ms,
              v->st.ms, v->ds.upload_ms + v->ds.draw_ms);
-    snprintf(lines[nl++], 256, "triangles %u   nodes %u visited, %u culled, %u drawn", v->st.triangles,
-             v->st.nodes_visited, v->st.nodes_culled, v->st.leaves);
+    snprintf(lines[nl++], 256, "triangles %u   nodes %u visited, %u culled, %u hidden, %u drawn", v->st.triangles,
+             v->st.nodes_visited, v->st.nodes_culled, v->st.hidden, v->st.leaves);
     if (v->lod.pixel_error > 0 || v->lod.mode == HZ_LOD_ROAM || v->lod.mode == HZ_LOD_CDLOD)
         snprintf(lines[nl++], 256, "LOD %s (L)   pixel error %.3g px (5/6: -/+)%s", hz_lod_mode_name(v->lod.mode),
                  (double)(v->lod.pixel_error > 0 ? v->lod.pixel_error : 1.0f),

@@ -25,6 +25,8 @@ typedef struct hz_lod_desc {
                                K = C / (2 (C - 1)); 0 -> 25 (clamped to >= 2) */
     uint32_t patch_cells;   /* cdlod: grid cells per side of the patch every node is drawn
                                with, a power of two >= 2; 0 -> 8 (clamped to the map) */
+    bool holes;             /* some samples are not drawn (nodata): a ray may pass under the
+                               ground through them, so no horizon culling */
     hz_progress_fn progress; /* optional */
     void *progress_user;
 } hz_lod_desc;
@@ -88,6 +90,8 @@ typedef struct hz_lod_params {
     uint32_t roam_budget; /* roam: at most this many triangles; 0 -> no budget */
     float morph_start;    /* cdlod: fraction of a vertex's range where morphing starts, clamped to
                              [HZ_LOD_MORPH_START_MIN, _MAX]; 0 -> HZ_LOD_MORPH_START_DEFAULT */
+    bool no_horizon_cull; /* cdlod patches: keep those that nearer ground hides (horizon
+                             culling, on by default; no_cull turns it off too) */
 } hz_lod_params;
 
 /* A growable array the caller owns; free with free(list->data). */
@@ -117,6 +121,7 @@ typedef struct hz_lod_stats {
                                bidirectional: coarse nodes split */
     uint32_t merged;        /* bidirectional: fine subtrees coarsened; roam: merges */
     uint32_t still;         /* cdlod patches: those none of whose vertices morphs (hz_patch.still) */
+    uint32_t hidden;        /* cdlod patches dropped because nearer ground hides them */
     float morph_scale;      /* cdlod: metres of morph range per h16 step of a vertex's
                                morph error (0: no morphing this frame) */
     float morph_start;      /* cdlod: morph starts at this fraction of the range */

@@ -162,6 +162,10 @@ void hz_lod_destroy(hz_lod *lod)
     free(lod->cd_qmin);
     free(lod->morph_err);
     free(lod->patch_tmp);
+    free(lod->hz_cells);
+    free(lod->hz_sorted);
+    free(lod->hz_hidden);
+    free(lod->hz_sub);
     for (int l = 0; l < 32; l++)
         free(lod->lv[l]);
     free(lod);

@@ -66,6 +66,12 @@ struct hz_lod {
     uint32_t patch_level; /* finest level drawn as patches: half-size patch / 2 */
     hz_patch *patch_tmp;  /* scratch of the patch sort */
     size_t patch_tmp_cap;
+    /* horizon culling's scratch (lod_horizon.c) */
+    struct hcell *hz_cells, *hz_sorted;
+    size_t hz_cells_cap, hz_sorted_cap;
+    uint8_t *hz_hidden;
+    size_t hz_hidden_cap;
+    uint8_t *hz_sub; /* per patch node, its occluder cells' least samples (16 bytes) */
     /* cdlod per-level node lists (forced splits add to earlier levels). */
     qnode *lv[32];
     size_t lv_n[32], lv_cap[32];
@@ -315,6 +321,16 @@ uint32_t hz__patch_triangles(uint32_t P, uint8_t coarse);
 /* Patches nearest first: a counting sort on the distance's logarithm (32
  * steps per doubling, 3 %), O(patches); tmp is scratch kept by the caller. */
 hz_result hz__sort_patches(hz_patch_list *out, hz_patch **tmp, size_t *tmp_cap);
+
+/* Horizon culling (lod_horizon.c): drops from pl the patches that nearer
+ * ground hides, keeping the order; st->hidden counts them. lambda = K / tau,
+ * morph_start as the selection's; morphing false when the patches are drawn
+ * unmorphed. Culls nothing when the eye is not above the ground nearby. */
+hz_result hz__horizon_cull(hz_lod *lod, const hz_camera *cam, float lambda, float morph_start, bool morphing,
+                           hz_patch_list *pl, hz_lod_stats *st);
+
+/* Builds the occluder cells' minima (16 bytes per patch node), once. */
+hz_result hz__horizon_prepare(hz_lod *lod);
 
 /* Mode entry points (lod.c dispatches). */
 hz_result hz__lod_select_quadtree(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, hz_index_list *out,

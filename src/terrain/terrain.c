@@ -311,6 +311,7 @@ hz_terrain *hz_terrain_create(const hz_terrain_desc *desc, hz_err *err)
     }
     t->lod = hz_lod_create(&(hz_lod_desc){.hm = &t->hm, .spacing = t->spacing, .zscale = t->zscale,
                                           .propagate_c = desc->propagate_c, .patch_cells = desc->patch_cells,
+                                          .holes = t->valid != NULL,
                                           .progress = desc->progress,
                                           .progress_user = desc->progress_user},
                            err);

@@ -282,8 +282,8 @@ static void test_modes_close_to_reference(void **state)
 /* cdlod patches at tau for the camera at (NULL: the default camera looking
  * 4 degrees down), which goes to cam, and the same patches expanded to
  * triangles. */
-static void cdlod_frame(ctx *c, float tau, const hz_camera *at, hz_camera *cam, hz_patch_list *pl,
-                        hz_index_list *il, hz_lod_stats *st)
+static void cdlod_frame_all(ctx *c, float tau, const hz_camera *at, bool all, hz_camera *cam, hz_patch_list *pl,
+                            hz_index_list *il, hz_lod_stats *st)
 {
     hz_err err = {0};
     hz_terrain *t = c->t;
@@ -295,10 +295,17 @@ static void cdlod_frame(ctx *c, float tau, const hz_camera *at, hz_camera *cam, 
         *cam = hz_terrain_default_camera(t, W, H);
         cam->pitch = -4;
     }
-    hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = tau, .viewport_height = H};
+    hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = tau, .viewport_height = H, .no_horizon_cull = all};
     assert_int_equal(hz_lod_select_patches(t->lod, cam, &p, pl, st), HZ_OK);
     assert_int_equal(hz_lod_patches_to_indices(t->lod, pl->data, pl->count, il), HZ_OK);
     assert_int_equal(il->count, (size_t)st->triangles * 3);
+}
+
+/* The same, less the patches that nearer ground hides (the default). */
+static void cdlod_frame(ctx *c, float tau, const hz_camera *at, hz_camera *cam, hz_patch_list *pl,
+                        hz_index_list *il, hz_lod_stats *st)
+{
+    cdlod_frame_all(c, tau, at, false, cam, pl, il, st);
 }
 
 /* The patch vertex shader places, stitches and morphs exactly like the CPU
@@ -542,6 +549,81 @@ static void test_patches_skip_missing_data(void **state)
     free(pl.data);
 }
 
+/* Horizon culling drops the patches that nearer ground hides, and only
+ * those: low over the ridges, looking across them at several headings and
+ * bounds, and at the summit from the default camera, the frame with the hidden patches dropped equals the frame with
+ * every patch, colour and depth, pixel for pixel (morphing on: the culling
+ * allows for how far a morphing vertex may leave the samples), while a
+ * good share of the patches is dropped. */
+static void test_horizon_culling_hides_nothing(void **state)
+{
+    ctx *c = *state;
+    hz_err err = {0};
+    hz_terrain *t = c->t;
+    assert_int_equal(hz_lod_prepare(t->lod, HZ_LOD_CDLOD), HZ_OK);
+    assert_int_equal(hz_renderer_set_cdlod(c->r, t->lod, NULL, &err), HZ_OK);
+    const float side = t->spacing * (float)(t->hm.size - 1);
+    uint8_t *rgb = malloc(2 * W * H * 3);
+    float *dep = malloc(2 * W * H * sizeof *dep);
+    hz_patch_list pl[2] = {{0}, {0}};
+    size_t all = 0, hidden = 0, views = 0, hiding = 0;
+    for (int k = 0; k < 16; k++) {
+        hz_camera cam = hz_terrain_default_camera(t, W, H);
+        if (k < 12) { /* low over the ridges, all around */
+            cam.pos[0] = side * (0.2f + 0.05f * (float)k);
+            cam.pos[2] = side * (0.75f - 0.04f * (float)k);
+            cam.pos[1] = hz_terrain_height_at(t, cam.pos[0], cam.pos[2]) +
+                         (k % 3 == 0 ? 15.0f : 60.0f + 40.0f * (float)(k % 4));
+            cam.yaw = 30.0f * (float)k;
+            cam.pitch = (float)(k % 5) - 3.0f;
+        } else { /* the default view of the summit, from above to level */
+            cam.pitch = -15.0f + 5.0f * (float)(k - 12);
+        }
+        const float tau = k % 2 || k >= 12 ? 1.0f : 2.5f;
+        hz_lod_stats st[2];
+        for (int v = 0; v < 2; v++) {
+            hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = tau, .viewport_height = H, .no_horizon_cull = v};
+            assert_int_equal(hz_lod_select_patches(t->lod, &cam, &p, &pl[v], &st[v]), HZ_OK);
+            hz_scene_params sp = {.morph_scale = st[v].morph_scale, .morph_start = st[v].morph_start,
+                                  .patches = pl[v].data, .patch_count = (uint32_t)pl[v].count};
+            assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
+            assert_int_equal(hz_renderer_read_rgb(c->r, rgb + (size_t)v * W * H * 3, &err), HZ_OK);
+            assert_int_equal(hz_renderer_read_depth(c->r, dep + (size_t)v * W * H, &err), HZ_OK);
+        }
+        /* the same selection, less the hidden patches, in the same order */
+        assert_int_equal(st[1].hidden, 0);
+        assert_int_equal(pl[0].count + st[0].hidden, pl[1].count);
+        assert_int_equal(st[0].leaves + st[0].hidden, st[1].leaves);
+        size_t j = 0;
+        for (size_t i = 0; i < pl[1].count && j < pl[0].count; i++)
+            j += pl[1].data[i].x0 == pl[0].data[j].x0 && pl[1].data[i].z0 == pl[0].data[j].z0 &&
+                 pl[1].data[i].level == pl[0].data[j].level;
+        assert_int_equal(j, pl[0].count);
+        size_t off = 0;
+        for (size_t q = 0; q < (size_t)W * H * 3; q++)
+            off += rgb[q] != rgb[(size_t)W * H * 3 + q];
+        for (size_t q = 0; q < (size_t)W * H; q++)
+            off += dep[q] != dep[(size_t)W * H + q];
+        fprintf(stderr, "view %d (tau %.1f, %.0f m up): %u of %zu patches hidden, %zu values differ\n", k,
+                (double)tau, (double)(cam.pos[1] - hz_terrain_height_at(t, cam.pos[0], cam.pos[2])), st[0].hidden,
+                pl[1].count, off);
+        if (off)
+            hz_image_write_png(HZ_TEST_TMP "/frame_horizon_culled.png", rgb, W, H, NULL);
+        assert_int_equal(off, 0);
+        all += pl[1].count;
+        hidden += st[0].hidden;
+        views++;
+        hiding += st[0].hidden > 0;
+    }
+    fprintf(stderr, "horizon culling: %zu of %zu patches hidden over %zu views\n", hidden, all, views);
+    assert_true(hiding >= views / 2);
+    assert_true(hidden * 10 >= all); /* at least a tenth */
+    free(pl[0].data);
+    free(pl[1].data);
+    free(rgb);
+    free(dep);
+}
+
 /* The plain sky skips the cells of its grid that a CPU occlusion buffer
  * certainly covers: with the frame's own terrain triangles as occluders,
  * looking level at the ridges, a good part of the grid is skipped and the
@@ -615,7 +697,7 @@ static void test_far_patches_keep_the_detail_colour(void **state)
     at.pos[1] = hz_terrain_height_at(c->t, at.pos[0], at.pos[2]) + 60.0f;
     at.yaw = 0;
     at.pitch = -4;
-    cdlod_frame(c, 1.0f, &at, &cam, &pl, &il, &st);
+    cdlod_frame_all(c, 1.0f, &at, true, &cam, &pl, &il, &st); /* the far patches too, hidden or not */
     uint8_t *a = malloc(W * H * 3), *b = malloc(W * H * 3), *sky = malloc(W * H);
     /* A high sun: the ground bright enough for its detail to show. */
     hz_scene_params sp = {.patches = pl.data, .patch_count = (uint32_t)pl.count, .effects = HZ_FX_DETAIL,
@@ -939,6 +1021,7 @@ int main(void)
         cmocka_unit_test(test_patch_chunks_draw_every_patch),
         cmocka_unit_test(test_far_patches_keep_the_detail_colour),
         cmocka_unit_test(test_patches_skip_missing_data),
+        cmocka_unit_test(test_horizon_culling_hides_nothing),
         cmocka_unit_test(test_sky_skips_covered_cells),
         cmocka_unit_test(test_default_camera_frames_the_summit),
         cmocka_unit_test(test_lit_map_matches_per_pixel_shading),

@@ -330,6 +330,115 @@ static void test_cdlod_patch_box_holds_drawn(void **state)
     hz_grid_free(&g);
 }
 
+/* What horizon culling builds on: a drawn (morphed) vertex of a patch leaves
+ * the range of the samples of the two-cell block around it by at most
+ * d / (a lambda) (d its distance, a the morph start, lambda = K / tau): a
+ * vertex morphs toward two neighbours in the block, each moved at most its
+ * morph error, which it only does beyond a lambda times that error. Checked
+ * for every vertex of every patch over random cameras and bounds; not
+ * vacuous: many vertices are morphing. (None left its block's range in these
+ * runs: the bound covers a coarse vertex of a patch that reaches far beyond
+ * its parent's range, which may itself be morphing toward samples beyond
+ * the block.) */
+static void test_cdlod_morph_stays_near_samples(void **state)
+{
+    (void)state;
+    hz_grid g;
+    terrain t;
+    rough_terrain(&g, &t);
+    hz_patch_list pl = {0};
+    const uint32_t n = t.hm.size, P = hz_lod_patch_cells(t.lod);
+    size_t vertices = 0, outside = 0, moved = 0;
+    for (int k = 0; k < 30; k++) {
+        hz_camera cam = random_camera(&t);
+        hz_lod_stats st;
+        const float tau = frand(0.5f, 4.0f);
+        hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = tau, .viewport_height = 720,
+                           .morph_start = (k & 1) ? 0.0f : frand(0.8f, 0.98f), .no_cull = true};
+        assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
+        const float lambda = 720.0f / (2.0f * tanf(glm_rad(cam.fov_y > 0 ? cam.fov_y : 60.0f) * 0.5f)) / tau;
+        for (size_t q = 0; q < pl.count; q++) {
+            const hz_patch *pt = &pl.data[q];
+            const uint32_t step = 1u << pt->shift;
+            for (uint32_t b = 0; b <= P; b++)
+                for (uint32_t a = 0; a <= P; a++) {
+                    const uint32_t i = pt->x0 + a * step, j = pt->z0 + b * step;
+                    const uint32_t bi = pt->x0 + (a / 2 < P / 2 ? a / 2 : P / 2 - 1) * 2 * step;
+                    const uint32_t bj = pt->z0 + (b / 2 < P / 2 ? b / 2 : P / 2 - 1) * 2 * step;
+                    float lo = INFINITY, hi = -INFINITY;
+                    for (uint32_t y = bj; y <= bj + 2 * step; y++)
+                        for (uint32_t x = bi; x <= bi + 2 * step; x++) {
+                            const float h = hz_heightmap_get(&t.hm, x, y);
+                            lo = fminf(lo, h), hi = fmaxf(hi, h);
+                        }
+                    const float dx = (float)i * t.spacing - cam.pos[0], dz = (float)j * t.spacing - cam.pos[2];
+                    const float dy = hz_heightmap_get(&t.hm, i, j) - cam.pos[1];
+                    const float reach = sqrtf(dx * dx + dy * dy + dz * dz) / (st.morph_start * lambda);
+                    const float h = hz_lod_morph_height(t.lod, &cam, &st, j * n + i);
+                    assert_true(h >= lo - reach - 1e-3f && h <= hi + reach + 1e-3f);
+                    outside += h < lo - 1e-3f || h > hi + 1e-3f;
+                    moved += fabsf(h - hz_heightmap_get(&t.hm, i, j)) > 1e-3f;
+                    vertices++;
+                }
+        }
+    }
+    fprintf(stderr, "morphed vertices near their samples: %zu vertices, %zu morphed, %zu outside the samples' range\n",
+            vertices, moved, outside);
+    assert_true(moved > 1000);
+    free(pl.data);
+    terrain_free(&t);
+    hz_grid_free(&g);
+}
+
+/* Horizon culling needs the eye above the ground and the map drawn whole:
+ * flying low over the ridges it hides patches; the same camera under the
+ * ground, or over a map with samples not drawn, hides none (a ray may pass
+ * under the ground through a hole, or from under it). */
+static void test_cdlod_horizon_culling_conditions(void **state)
+{
+    (void)state;
+    hz_grid g;
+    terrain t;
+    rough_terrain(&g, &t);
+    hz_err err = {0};
+    hz_lod *holes = hz_lod_create(&(hz_lod_desc){.hm = &t.hm, .spacing = t.spacing, .zscale = 1.0f, .holes = true}, &err);
+    assert_non_null(holes);
+    hz_patch_list pl = {0};
+    size_t hidden = 0, views = 0;
+    const float side = t.spacing * (float)(t.hm.size - 1);
+    for (int k = 0; k < 16; k++) {
+        hz_camera cam = {.fov_y = 60, .aspect = 16.0f / 9, .znear = 1, .zfar = 1e5f, .yaw = 22.5f * (float)k,
+                         .pitch = -2};
+        cam.pos[0] = side * frand(0.3f, 0.7f), cam.pos[2] = side * frand(0.3f, 0.7f);
+        const float ground = hz_heightmap_get(&t.hm, (uint32_t)(cam.pos[0] / t.spacing + 0.5f),
+                                              (uint32_t)(cam.pos[2] / t.spacing + 0.5f));
+        cam.pos[1] = ground + 20.0f;
+        hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = 1.0f, .viewport_height = 720};
+        hz_lod_stats st;
+        assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
+        hidden += st.hidden;
+        views += st.hidden > 0;
+        assert_int_equal(hz_lod_select_patches(holes, &cam, &p, &pl, &st), HZ_OK);
+        assert_int_equal(st.hidden, 0);
+        p.no_cull = true;
+        assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
+        assert_int_equal(st.hidden, 0);
+        p.no_cull = false;
+        cam.pos[1] = ground - 5.0f; /* inside the hill */
+        assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
+        assert_int_equal(st.hidden, 0);
+        cam.pos[0] = -100.0f, cam.pos[1] = ground + 20.0f; /* off the map */
+        assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
+        assert_int_equal(st.hidden, 0);
+    }
+    fprintf(stderr, "horizon culling: %zu patches hidden in %d of 16 views 20 m over the ground\n", hidden, (int)views);
+    assert_true(views >= 8);
+    free(pl.data);
+    hz_lod_destroy(holes);
+    terrain_free(&t);
+    hz_grid_free(&g);
+}
+
 /* A patch the selection marks still (drawn without the morph code) has no
  * vertex that morphs, for any camera, bound, morph start and Earth
  * curvature; and the mark is not vacuous: many patches carry it, and many
@@ -680,6 +789,8 @@ int main(void)
         cmocka_unit_test(test_modes_valid_generated_and_real),
         cmocka_unit_test(test_cdlod_patch_box_holds_drawn),
         cmocka_unit_test(test_cdlod_still_patches_do_not_morph),
+        cmocka_unit_test(test_cdlod_morph_stays_near_samples),
+        cmocka_unit_test(test_cdlod_horizon_culling_conditions),
         cmocka_unit_test(test_pixel_error_bound),
         cmocka_unit_test(test_cdlod_no_popping),
         cmocka_unit_test(test_cdlod_morph_targets),
