@@ -33,10 +33,10 @@
  * drawn height leaves the samples' range by more than d_far / (a lambda),
  * d_far the cell's farthest distance, about tau / a pixels of slope.
  *
- * Conditions (otherwise nothing is culled): the eye above every sample within
- * 3 near-plane distances (a crossing nearer would be clipped away; also the
- * eye above the ground), over the map, and every sample drawn (a hole lets a
- * ray through the surface: hz_lod_desc.holes).
+ * Conditions (otherwise nothing is culled): no ground within 3 near-plane
+ * distances of the eye (a crossing nearer would be clipped away; also the
+ * eye above the ground), the eye over the map, and every sample drawn (a
+ * hole lets a ray through the surface: hz_lod_desc.holes).
  *
  * Azimuths are pseudo-angles (the "diamond angle": monotonic, no atan2),
  * 4096 bins over the circle, about a pixel each at a 60 degree view. */
@@ -121,15 +121,18 @@ static inline float slope_hi(float dy, float rmin, float rmax)
     return dy / (dy > 0.0f ? rmin : rmax);
 }
 
-/* Whether the eye may cull: over the map, above every sample within 3 near
- * distances (and so above the ground): the highest sample of the (at most
- * four) nodes of the finest level at least that wide around it. */
+/* Whether the eye may cull: over the map, and more than 3 near distances
+ * above every sample within 3 near distances (the highest sample of the, at
+ * most four, nodes of the finest level at least that wide around it), so no
+ * ground lies within 3 near distances of the eye: a ray meets the ground
+ * beyond the near plane (up to 70 degrees off the view axis), where it is
+ * drawn, not clipped away. (It also puts the eye above the ground.) */
 static bool eye_ok(const hz_lod *lod, const hz_camera *cam)
 {
     const float sp = lod->spacing, ext = (float)(lod->size - 1) * sp;
     if (!(cam->pos[0] >= 0.0f && cam->pos[2] >= 0.0f && cam->pos[0] <= ext && cam->pos[2] <= ext))
         return false;
-    const float reach = 3.0f * (cam->znear > 0.0f ? cam->znear : 1.0f) / sp + 1.0f; /* samples */
+    const float near3 = 3.0f * (cam->znear > 0.0f ? cam->znear : 1.0f), reach = near3 / sp + 1.0f; /* samples */
     uint32_t l = lod->levels - 1;
     while (l > 0 && (float)half_of(lod, l) < reach)
         l--;
@@ -143,7 +146,7 @@ static bool eye_ok(const hz_lod *lod, const hz_camera *cam)
         const float h = (lod->hm->offset + lod->hm->scale * (float)lod->mx[node_index(lod, l, cx, cz)]) * lod->zscale;
         hi = h > hi ? h : hi;
     }
-    return cam->pos[1] > hi;
+    return cam->pos[1] - near3 > hi + 0.01f * near3; /* (a morphing vertex there moves far less) */
 }
 
 /* The view's azimuths in bins, [f0, f1] unwrapped (f0 in 0 .. HB): the

@@ -390,10 +390,12 @@ static void test_cdlod_morph_stays_near_samples(void **state)
     hz_grid_free(&g);
 }
 
-/* Horizon culling needs the eye above the ground and the map drawn whole:
- * flying low over the ridges it hides patches; the same camera under the
- * ground, or over a map with samples not drawn, hides none (a ray may pass
- * under the ground through a hole, or from under it). */
+/* Horizon culling needs the eye above the ground, no ground nearer than the
+ * near plane can clip, and the map drawn whole: flying low over the ridges it
+ * hides patches; the same camera under the ground, half a metre over it (1 m
+ * near plane), off the map, or over a map with samples not drawn, hides none
+ * (a ray may pass under the ground through a hole, a clipped piece of it, or
+ * from under it). */
 static void test_cdlod_horizon_culling_conditions(void **state)
 {
     (void)state;
@@ -427,9 +429,37 @@ static void test_cdlod_horizon_culling_conditions(void **state)
         cam.pos[1] = ground - 5.0f; /* inside the hill */
         assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
         assert_int_equal(st.hidden, 0);
+        cam.pos[1] = ground + 0.5f; /* over the ground, but it is nearer than the near plane below */
+        assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
+        assert_int_equal(st.hidden, 0);
         cam.pos[0] = -100.0f, cam.pos[1] = ground + 20.0f; /* off the map */
         assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
         assert_int_equal(st.hidden, 0);
+    }
+    /* A plain with a 100 m wall across: from 10 m up the ground behind the
+     * wall is hidden; from 0.5 m up, over the flat plain (every sample near
+     * the eye below it), a ray down may meet the ground nearer than the 1 m
+     * near plane, which clips it away: nothing is culled. */
+    {
+        hz_grid w;
+        assert_int_equal(hz_grid_alloc(&w, 257, 257, NULL), HZ_OK);
+        for (uint32_t j = 0; j < 257; j++)
+            for (uint32_t i = 0; i < 257; i++)
+                w.z[(size_t)j * 257 + i] = j >= 150 && j <= 155 ? 100.0f : 0.0f;
+        terrain wt;
+        terrain_init(&wt, "wall", &w, 10.0f);
+        hz_camera cam = {.pos = {1280.0f, 10.0f, 600.0f}, .yaw = 180.0f, .fov_y = 60, .aspect = 16.0f / 9,
+                         .znear = 1, .zfar = 1e5f};
+        hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = 1.0f, .viewport_height = 720};
+        hz_lod_stats st;
+        assert_int_equal(hz_lod_select_patches(wt.lod, &cam, &p, &pl, &st), HZ_OK);
+        fprintf(stderr, "behind a wall, from 10 m up: %u of %zu patches hidden\n", st.hidden, pl.count + st.hidden);
+        assert_true(st.hidden > 0);
+        cam.pos[1] = 0.5f;
+        assert_int_equal(hz_lod_select_patches(wt.lod, &cam, &p, &pl, &st), HZ_OK);
+        assert_int_equal(st.hidden, 0);
+        terrain_free(&wt);
+        hz_grid_free(&w);
     }
     fprintf(stderr, "horizon culling: %zu patches hidden in %d of 16 views 20 m over the ground\n", hidden, (int)views);
     assert_true(views >= 8);
