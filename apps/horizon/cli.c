@@ -102,7 +102,7 @@ void cli_usage_terrain(void)
             "  --lod-c C --lod-c2 C2   distance and roughness factors (default 25, 2.5)\n"
             "  --criterion clamped|unclamped  Roettger's clamped form (default) or the seed's\n"
             "  --no-cull               disable frustum culling (and horizon culling)\n"
-            "  --no-horizon-cull       cdlod: also draw the patches that nearer ground hides\n"
+            "  --horizon-cull          cdlod: drop the patches that nearer ground hides\n"
             "  --bidir-distance M      bidirectional: coarsen beyond M metres, split nearer (default far/4)\n"
             "  --roam-budget N         roam: at most N triangles (default: no budget)\n"
             "  --morph-start A         cdlod: morphing starts at this fraction of a range, " STR(HZ_LOD_MORPH_START_MIN)
@@ -310,8 +310,8 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             else return bad(cmd, a, v, "clamped or unclamped");
         } else if (!strcmp(a, "--no-cull")) {
             o->lod.no_cull = true;
-        } else if (!strcmp(a, "--no-horizon-cull")) {
-            o->lod.no_horizon_cull = true;
+        } else if (!strcmp(a, "--horizon-cull")) {
+            o->lod.horizon_cull = true;
         } else if (!strcmp(a, "--lod")) {
             NEEDV();
             if (!hz_lod_mode_from_name(v, &o->lod.mode))

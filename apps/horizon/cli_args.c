@@ -24,7 +24,7 @@ static const char *const COMMON_VALUE[] = {
     "city", "scene", "footprints", "imagery", "imagery-max", "pick", "cull", "draw", "tin-cell", "height-field", "levels-field", "city-bench",
     "city-bench-frames", "curvature", "lit-map", NULL};
 /* ... and flags. */
-static const char *const COMMON_FLAG[] = {"no-cull",   "no-horizon-cull", "no-enlarge", "no-hysteresis", "no-node-cull", "no-simplify",
+static const char *const COMMON_FLAG[] = {"no-cull",   "horizon-cull", "no-enlarge", "no-hysteresis", "no-node-cull", "no-simplify",
                                           "json",      "quiet",      "wireframe",     "help",         "version",
                                           NULL};
 static const char *const BENCH_VALUE[] = {"effect-costs", "fps", "frames", "full-every", "json", "metrics",

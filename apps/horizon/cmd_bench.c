@@ -387,7 +387,7 @@ static hz_result frame_p99(bench *b, const hz_lod_params *lod, const hz_camera *
 {
     hz_lod_stats st;
     hz_lod_params all = *lod;
-    all.no_horizon_cull = true; /* the error of the whole surface in view, hidden or not */
+    all.horizon_cull = false; /* the error of the whole surface in view, hidden or not */
     if (hz_lod_select(b->t->lod, cam, &all, &b->il, NULL, NULL, &st) != HZ_OK)
         return hz_err_set(&b->err, HZ_ERR_MEMORY, "LOD selection out of memory");
     morph_user mu = {b->t->lod, cam, &st};
@@ -577,7 +577,7 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
              * hides included: the LOD's error, whatever shows (and every
              * sample in the frustum is covered). */
             hz_lod_params all = *lod;
-            all.no_horizon_cull = true;
+            all.horizon_cull = false;
             if (cli_lod_select(b->t, &cam, &all, &b->lf_all) != HZ_OK || cli_lod_indices(b->t, &b->lf_all) != HZ_OK)
                 return hz_err_set(&b->err, HZ_ERR_MEMORY, "out of memory expanding the patches");
             morph_user mu = {b->t->lod, &cam, &st};

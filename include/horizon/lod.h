@@ -90,8 +90,10 @@ typedef struct hz_lod_params {
     uint32_t roam_budget; /* roam: at most this many triangles; 0 -> no budget */
     float morph_start;    /* cdlod: fraction of a vertex's range where morphing starts, clamped to
                              [HZ_LOD_MORPH_START_MIN, _MAX]; 0 -> HZ_LOD_MORPH_START_DEFAULT */
-    bool no_horizon_cull; /* cdlod patches: keep those that nearer ground hides (horizon
-                             culling, on by default; no_cull turns it off too) */
+    bool horizon_cull;    /* cdlod patches: drop those that nearer ground hides (horizon
+                             culling; off by default: it costs about 1 ms of CPU a frame on
+                             the peers' flight and saved 0-10 % of the frame on llvmpipe;
+                             no_cull turns it off) */
 } hz_lod_params;
 
 /* A growable array the caller owns; free with free(list->data). */

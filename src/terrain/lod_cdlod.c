@@ -511,7 +511,7 @@ hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_
     hz_result r = cdlod_select(lod, cam, &p, NULL, &st);
     if (r == HZ_OK)
         r = emit_patches(lod, cam, out, &st);
-    if (r == HZ_OK && !p.no_cull && !p.no_horizon_cull && !lod->desc.holes) {
+    if (r == HZ_OK && p.horizon_cull && !p.no_cull && !lod->desc.holes) {
         const float tau = p.pixel_error > 0 ? p.pixel_error : 1.0f;
         r = hz__horizon_cull(lod, cam, pixel_k(cam, &p) / tau, st.morph_start, st.morph_scale > 0.0f, out, &st);
     }

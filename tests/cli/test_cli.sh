@@ -168,6 +168,14 @@ $R --generate perlin --size 513 --seed 4 --out "$TMP/c.png" >/dev/null 2>&1
 cmp -s "$TMP/a.png" "$TMP/b.png" && ok "repeatable render" || bad "same seed gave a different image"
 cmp -s "$TMP/a.png" "$TMP/c.png" && bad "different seeds gave the same image" || ok "seed changes terrain"
 
+# --horizon-cull: a mountain hides the ground behind it; the picture is the same, byte for byte.
+hc() { $R --generate perlin --size 513 --lod cdlod --camera 2500,1300,2500,45,-2 "$@" --json |
+       python3 -c "import json,sys;j=json.load(sys.stdin);print(j['nodes_hidden'],j['triangles'])"; }
+read h0 t0 < <(hc --out "$TMP/hc0.png")
+read h1 t1 < <(hc --horizon-cull --out "$TMP/hc1.png")
+[ "$h0" = 0 ] && [ "${h1:-0}" -gt 100 ] && [ "$t1" -lt "$t0" ] && cmp -s "$TMP/hc0.png" "$TMP/hc1.png" &&
+  ok "--horizon-cull: $h1 patches hidden, $t0 -> $t1 triangles, the same image" || bad "--horizon-cull: hidden $h0/$h1, triangles $t0/$t1"
+
 # More C*C2 -> more triangles.
 t1=$($R --generate diamond --size 1025 --lod quadtree --lod-c 25 --lod-c2 2.5 --json --out "$TMP/d.png" | python3 -c "import json,sys;print(json.load(sys.stdin)['triangles'])")
 t2=$($R --generate diamond --size 1025 --lod quadtree --lod-c 50 --lod-c2 5 --json --out "$TMP/d.png" | python3 -c "import json,sys;print(json.load(sys.stdin)['triangles'])")

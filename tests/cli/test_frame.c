@@ -295,13 +295,13 @@ static void cdlod_frame_all(ctx *c, float tau, const hz_camera *at, bool all, hz
         *cam = hz_terrain_default_camera(t, W, H);
         cam->pitch = -4;
     }
-    hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = tau, .viewport_height = H, .no_horizon_cull = all};
+    hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = tau, .viewport_height = H, .horizon_cull = !all};
     assert_int_equal(hz_lod_select_patches(t->lod, cam, &p, pl, st), HZ_OK);
     assert_int_equal(hz_lod_patches_to_indices(t->lod, pl->data, pl->count, il), HZ_OK);
     assert_int_equal(il->count, (size_t)st->triangles * 3);
 }
 
-/* The same, less the patches that nearer ground hides (the default). */
+/* The same, less the patches that nearer ground hides (horizon culling on). */
 static void cdlod_frame(ctx *c, float tau, const hz_camera *at, hz_camera *cam, hz_patch_list *pl,
                         hz_index_list *il, hz_lod_stats *st)
 {
@@ -582,7 +582,7 @@ static void test_horizon_culling_hides_nothing(void **state)
         const float tau = k % 2 || k >= 12 ? 1.0f : 2.5f;
         hz_lod_stats st[2];
         for (int v = 0; v < 2; v++) {
-            hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = tau, .viewport_height = H, .no_horizon_cull = v};
+            hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = tau, .viewport_height = H, .horizon_cull = !v};
             assert_int_equal(hz_lod_select_patches(t->lod, &cam, &p, &pl[v], &st[v]), HZ_OK);
             hz_scene_params sp = {.morph_scale = st[v].morph_scale, .morph_start = st[v].morph_start,
                                   .patches = pl[v].data, .patch_count = (uint32_t)pl[v].count};

@@ -415,11 +415,15 @@ static void test_cdlod_horizon_culling_conditions(void **state)
         const float ground = hz_heightmap_get(&t.hm, (uint32_t)(cam.pos[0] / t.spacing + 0.5f),
                                               (uint32_t)(cam.pos[2] / t.spacing + 0.5f));
         cam.pos[1] = ground + 20.0f;
-        hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = 1.0f, .viewport_height = 720};
+        hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = 1.0f, .viewport_height = 720, .horizon_cull = true};
         hz_lod_stats st;
         assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
         hidden += st.hidden;
         views += st.hidden > 0;
+        p.horizon_cull = false; /* the default: off */
+        assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
+        assert_int_equal(st.hidden, 0);
+        p.horizon_cull = true;
         assert_int_equal(hz_lod_select_patches(holes, &cam, &p, &pl, &st), HZ_OK);
         assert_int_equal(st.hidden, 0);
         p.no_cull = true;
@@ -450,7 +454,7 @@ static void test_cdlod_horizon_culling_conditions(void **state)
         terrain_init(&wt, "wall", &w, 10.0f);
         hz_camera cam = {.pos = {1280.0f, 10.0f, 600.0f}, .yaw = 180.0f, .fov_y = 60, .aspect = 16.0f / 9,
                          .znear = 1, .zfar = 1e5f};
-        hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = 1.0f, .viewport_height = 720};
+        hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = 1.0f, .viewport_height = 720, .horizon_cull = true};
         hz_lod_stats st;
         assert_int_equal(hz_lod_select_patches(wt.lod, &cam, &p, &pl, &st), HZ_OK);
         fprintf(stderr, "behind a wall, from 10 m up: %u of %zu patches hidden\n", st.hidden, pl.count + st.hidden);
