@@ -289,7 +289,7 @@ typedef struct bench {
     bool reference, quiet, metrics;
     const char *save_dir;
     cli_lod_frame lf;      /* this frame's selection */
-    cli_lod_frame lf_all;  /* the same with the patches nearer ground hides, for the pixel error */
+    cli_lod_frame lf_all;  /* with --horizon-cull, the frame without it, for the pixel error */
     double load_ms, setup_ms;
     double warm_bake_ms;   /* the running mode's warm-up frame baked the lit map: its time */
     double tune_sil;       /* --tune-silhouette target, 0 = none */
@@ -576,13 +576,19 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
             /* Over the whole surface in view, the patches nearer ground
              * hides included: the LOD's error, whatever shows (and every
              * sample in the frustum is covered). */
-            hz_lod_params all = *lod;
-            all.horizon_cull = false;
-            if (cli_lod_select(b->t, &cam, &all, &b->lf_all) != HZ_OK || cli_lod_indices(b->t, &b->lf_all) != HZ_OK)
+            cli_lod_frame *lf = &b->lf;
+            if (lod->horizon_cull) { /* select again, without it */
+                hz_lod_params all = *lod;
+                all.horizon_cull = false;
+                lf = &b->lf_all;
+                if (cli_lod_select(b->t, &cam, &all, lf) != HZ_OK)
+                    return hz_err_set(&b->err, HZ_ERR_MEMORY, "LOD selection out of memory");
+            }
+            if (cli_lod_indices(b->t, lf) != HZ_OK)
                 return hz_err_set(&b->err, HZ_ERR_MEMORY, "out of memory expanding the patches");
             morph_user mu = {b->t->lod, &cam, &st};
             hz_px_error pe;
-            if (hz_metrics_px_error_ex(&b->t->hm, b->t->spacing, b->t->zscale, b->lf_all.il.data, b->lf_all.il.count,
+            if (hz_metrics_px_error_ex(&b->t->hm, b->t->spacing, b->t->zscale, lf->il.data, lf->il.count,
                                        st.morph_scale > 0 ? morph_height : NULL, &mu, &cam, o->height, &b->scratch,
                                        &pe) != HZ_OK)
                 return hz_err_set(&b->err, HZ_ERR_MEMORY, "pixel error out of memory");

@@ -298,8 +298,9 @@ hz_result hz__horizon_cull(hz_lod *lod, const hz_camera *cam, float lambda, floa
     for (size_t k = 0; k < pl->count; k++) {
         const hz_patch *p = &pl->data[k];
         const uint32_t s = half_of(lod, p->level);
+        const size_t ni = node_index(lod, p->level, p->x0 + s, p->z0 + s);
         vec3 box[2];
-        box_of(lod, node_index(lod, p->level, p->x0 + s, p->z0 + s), p->x0 + s, p->z0 + s, s, box);
+        box_of(lod, ni, p->x0 + s, p->z0 + s, s, box);
         float rmin, rmax;
         hcell *e = &c[k];
         e->ring = UINT32_MAX;
@@ -336,7 +337,6 @@ hz_result hz__horizon_cull(hz_lod *lod, const hz_camera *cam, float lambda, floa
         for (uint32_t b = 0; b <= n; b++)
             for (uint32_t a = 0; a <= n; a++)
                 q[b * (n + 1) + a] = diamond(x0 + step * (float)a, z0 + step * (float)b);
-        const size_t ni = node_index(lod, p->level, p->x0 + s, p->z0 + s);
         const uint8_t *qs = lod->hz_sub + ni * 16;
         const uint32_t N = 1u << off, kk = N / n;
         const uint32_t lo = lod->mn[ni], range = lod->mx[ni] - lo;
