@@ -29,6 +29,9 @@ uniform vec2 u_img_tile;            // texels per tile (border excluded), border
 in vec3 v_world;
 in vec3 v_normal;
 in float v_fog;
+#ifdef FX_VLIT
+in vec3 v_lit; // --lit-map vertex: the lit colour interpolated from the vertices
+#endif
 out vec4 o_color;
 
 // Desert sand (not the shore's) by aridity.
@@ -130,7 +133,11 @@ void main()
     if (FX_LIT) {
         // Trilinear like the normal map: far pixels read the lit colour
         // averaged over what they cover.
+#ifdef FX_VLIT
+        vec3 lit = v_lit;
+#else
         vec3 lit = texture(u_lit, v_world.xz * u_nrm_scale.x + u_nrm_scale.y).rgb;
+#endif
         o_color = vec4(plain_fog(wired(lit)), above);
         return;
     }

@@ -47,6 +47,19 @@ const bool MORPH = false;
 const bool MORPH = true;
 #endif
 
+// VLIT: the lit map is read per vertex (FX_VARIANT_VLIT, bit 26; --lit-map
+// vertex) and interpolated over the triangles, as fixed-function lighting is:
+// the fragment shader then only interpolates a colour.
+#if (FX_VARIANT & 67108864) != 0
+const bool VLIT = true;
+uniform sampler2D u_lit;   // the lit colour per sample (terrain_litmap.c)
+uniform float u_lit_lod;   // samples a pixel covers at one metre: the mip level is log2(d * this)
+uniform int u_lit_top;     // the lit map's last mip level
+out vec3 v_lit;
+#else
+const bool VLIT = false;
+#endif
+
 out vec3 v_world;
 out vec3 v_normal;
 out float v_fog;   // the plain fog's factor (terrain_fs.glsl): per vertex, smooth enough
@@ -130,6 +143,21 @@ vec3 coarse_normal(int i, int j, ivec2 org, int shift, int layer)
     return normalize(vec3(-(he - hw) / (2.0 * float(st2) * u_spacing), 1.0, -(hs - hn) / (2.0 * float(st2) * u_spacing)));
 }
 
+#if (FX_VARIANT & 67108864) != 0
+// The lit colour of sample s, averaged over what a pixel covers at the
+// vertex's distance (mip level lod): a function of the vertex alone, so every
+// patch that draws it gives it the same colour (no seam between levels), and
+// continuous in the distance. Two texel fetches blended by hand: textureLod
+// with a level per vertex costs llvmpipe several times more.
+vec3 lit_at(ivec2 s, float lod)
+{
+    int k = int(lod), top = u_lit_top;
+    int k0 = min(k, top), k1 = min(k + 1, top);
+    ivec2 s0 = min(s >> k0, ivec2((u_map >> k0) - 1)), s1 = min(s >> k1, ivec2((u_map >> k1) - 1));
+    return mix(texelFetch(u_lit, s0, k0).rgb, texelFetch(u_lit, s1, k1).rgb, lod - float(k));
+}
+#endif
+
 void main()
 {
     int c1 = u_size + 1;
@@ -181,6 +209,7 @@ void main()
     float nm = float(slide.x & 255u) / 255.0; // how far the normal leans to the parent level's
     bool odd = ((u | w) & 1) == 1;
     ivec2 a = ivec2(i, j), b = ivec2(i, j); // an odd vertex: the two it collapses between
+    float mc = 0.0; // the colour's morph (VLIT)
     if (MORPH && u_morph_scale > 0.0) {
         float m = morph_factor(t, p);
         // A tile that just arrived slides in: the vertices this level adds
@@ -200,6 +229,7 @@ void main()
         }
         if (odd)
             nm = m;
+        mc = m;
         if (m > 0.0) {
             // Toward the midpoint of the two neighbours it collapses between,
             // each as drawn (morphed one level itself).
@@ -257,6 +287,15 @@ void main()
     // discard loses llvmpipe's early depth test for every patch.
 #if (FX_VARIANT & 1048576) != 0
     gl_ClipDistance[0] = ((t.a & 2u) != 0u ? 0.0 : 1.0) - 0.999;
+#endif
+#if (FX_VARIANT & 67108864) != 0
+    // Morphing, the colour moves as the height does: toward the midpoint of
+    // the two samples the vertex collapses between (a = b = the vertex when
+    // it does not morph).
+    float lod = log2(max(distance(hz_curve(vec3(p.x, h, p.z)), u_eye) * u_lit_lod, 1.0));
+    v_lit = lit_at(ivec2(i, j), lod);
+    if (MORPH && mc > 0.0)
+        v_lit = mix(v_lit, 0.5 * (lit_at(a, lod) + lit_at(b, lod)), mc);
 #endif
     v_world = p;
     v_fog = exp(-u_fog_density * length(p - u_eye));

@@ -121,9 +121,10 @@ void cli_usage_terrain(void)
             "  --effects LIST          sky, flare, shadows, detail, billboards, fog, water, weather,\n"
             "                          motionblur, bloom; all, none, default; -NAME removes one\n"
             "                          (default: all but weather and motionblur)\n"
-            "  --lit-map on|off        without terrain effects, read the terrain's colour from a map lit\n"
-            "                          per sample (baked again when the sun changes; default on) or\n"
-            "                          shade every pixel\n"
+            "  --lit-map on|off|vertex without terrain effects, read the terrain's colour from a map lit\n"
+            "                          per sample (baked again when the sun changes; default on), shade\n"
+            "                          every pixel (off), or read the map per vertex of the cdlod\n"
+            "                          patches and interpolate it (vertex: cheaper, less detail)\n"
             "  --sun AZ,EL             sun azimuth (clockwise from north) and elevation, degrees\n"
             "                          (default 245,30: west-south-west, afternoon)\n"
             "  --time S                effect time in seconds: clouds, waves, weather (default 0)\n"
@@ -570,9 +571,10 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             o->wireframe = true;
         } else if (!strcmp(a, "--lit-map")) {
             NEEDV();
-            if (strcmp(v, "on") && strcmp(v, "off"))
-                return bad(cmd, a, v, "on or off");
+            if (strcmp(v, "on") && strcmp(v, "off") && strcmp(v, "vertex"))
+                return bad(cmd, a, v, "on, off or vertex");
             o->no_lit_map = !strcmp(v, "off");
+            o->lit_per_vertex = !strcmp(v, "vertex");
         } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
             o->quiet = true;
         } else if ((city_rc = city_cli_option(&o->city, a, v, cmd, &i)) >= 0) {

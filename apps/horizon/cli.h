@@ -28,6 +28,7 @@ typedef struct cli_opts {
     bool json;
     bool wireframe;
     bool no_lit_map;      /* --lit-map off */
+    bool lit_per_vertex;  /* --lit-map vertex */
     bool quiet;
     uint32_t repeat; /* LOD selections to time; median reported */
     /* forest (SPEC F) */
@@ -86,6 +87,7 @@ typedef struct app_fx {
     float fog;            /* --fog: 0 default, < 0 off */
     bool fog_capped;      /* default fog with the default view distance: at most CLI_FOG_CLEAR_DAY */
     bool no_lit_map;      /* --lit-map off: the plain terrain shaded per pixel */
+    bool lit_per_vertex;  /* --lit-map vertex: the lit map read per vertex */
     bool water;
     float water_level;
     uint8_t *lightmap;

@@ -30,6 +30,7 @@ typedef struct frame_row {
     uint64_t ref_hash;  /* FNV-1a of the reference image this frame was compared with */
     double sky_frac;    /* fraction of the LOD frame's pixels that are sky */
     bool lit_map;       /* the terrain read its lit map (hz_draw_stats) */
+    bool lit_vertex;    /* ... per vertex */
     double lit_bake_ms; /* the frame baked it first (in upload_ms) */
 } frame_row;
 
@@ -561,6 +562,7 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
         row->upload_ms = ds.upload_ms;
         row->draw_ms = ds.draw_ms;
         row->lit_map = ds.lit_map;
+        row->lit_vertex = ds.lit_per_vertex;
         row->lit_bake_ms = ds.lit_bake_ms;
         uint8_t *cur = b->img[f & 1], *prev = b->img[(f + 1) & 1];
         if (hz_renderer_read_rgb(b->ren, cur, &b->err) != HZ_OK ||
@@ -801,13 +803,15 @@ static json_t *bench_json(const bench *b, const hz_lod_params *lod, const frame_
     jx_set(j, "tuned_for_silhouette", jx_num(b->tune_sil));
     jx_set(j, "tuned_for_psnr_db", jx_num(b->tune_psnr));
     jx_set(j, "metrics", jx_bool(b->metrics));
-    uint32_t lit_frames = 0;
+    uint32_t lit_frames = 0, lit_vertex = 0;
     double lit_bake = b->warm_bake_ms;
     for (size_t i = 0; i < b->frames; i++) {
         lit_frames += rows[i].lit_map;
+        lit_vertex += rows[i].lit_vertex;
         lit_bake += rows[i].lit_bake_ms;
     }
     jx_set(j, "lit_map_frames", jx_int(lit_frames));
+    jx_set(j, "lit_per_vertex_frames", jx_int(lit_vertex));
     jx_set(j, "lit_bake_ms", jx_fix(lit_bake, 1));
     jx_set(j, "load_ms", jx_fix(b->load_ms, 1));
     jx_set(j, "setup_ms", jx_fix(b->setup_ms, 1));

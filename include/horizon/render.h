@@ -166,6 +166,11 @@ typedef struct hz_scene_params {
      * Lambert), baked again when the sun, ambient or climate change and then
      * hold still for a frame. true: shade every pixel instead. */
     bool no_lit_map;
+    /* With the lit map and cdlod patches: read it per vertex and interpolate
+     * the colour over the triangles (Gouraud, as fixed-function lighting
+     * does) instead of once per pixel. Cheaper per pixel (on llvmpipe about a
+     * tenth of the frame), with less detail between the vertices. */
+    bool lit_per_vertex;
     /* Optional: a CPU occlusion buffer built for this frame's camera
      * (horizon/occlusion.h, e.g. from the big near occluders of a city).
      * The plain sky skips the cells of its grid that the buffer's occluders
@@ -186,6 +191,7 @@ typedef struct hz_draw_stats {
     uint32_t far_patches;     /* cdlod patches entirely beyond the ground detail's fade, drawn
                                  without its texture fetches (HZ_FX_DETAIL) */
     bool lit_map;             /* the terrain read its lit map (hz_scene_params.no_lit_map) */
+    bool lit_per_vertex;      /* ... per vertex of its patches (hz_scene_params.lit_per_vertex) */
     double lit_bake_ms;       /* this frame baked the lit map first: its time (in upload_ms) */
     uint32_t sky_cells;       /* cells of the plain sky's grid drawn in the main pass (of
                                  HZ_SKY_COLS x HZ_SKY_ROWS; fewer with sky_occluders) */

@@ -39,15 +39,16 @@ static GLuint compile_shader(GLenum type, const char *src, const char *name, boo
             hz_err_set(err, HZ_ERR_GL, "GL: shader %s does not start with a #version line", name);
             return 0;
         }
-        char consts[440];
+        char consts[480];
         snprintf(consts, sizeof consts,
                  "const int FX_ENABLED = %u;\nconst bool FX_HAS_COLORMAP = %s;\nconst bool FX_HAS_COVER = %s;\n"
                  "const bool FX_CLIP_PASS = %s;\nconst bool FX_HAS_IMAGERY = %s;\n"
-                 "const bool FX_DETAIL_FAR = %s;\nconst bool FX_LIT = %s;\n",
+                 "const bool FX_DETAIL_FAR = %s;\nconst bool FX_LIT = %s;\n%s",
                  variant & HZ_FX_ALL, (variant & FX_VARIANT_COLORMAP) ? "true" : "false",
                  (variant & FX_VARIANT_COVER) ? "true" : "false", (variant & FX_VARIANT_CLIP) ? "true" : "false",
                  (variant & FX_VARIANT_IMAGERY) ? "true" : "false",
-                 (variant & FX_VARIANT_DETAIL_FAR) ? "true" : "false", (variant & FX_VARIANT_LIT) ? "true" : "false");
+                 (variant & FX_VARIANT_DETAIL_FAR) ? "true" : "false", (variant & FX_VARIANT_LIT) ? "true" : "false",
+                 (variant & FX_VARIANT_VLIT) ? "#define FX_VLIT 1\n" : "");
         const char *parts[6] = {src, consts, "#line 1 1\n", hz_shader_fx_common, "\n#line 2 0\n", nl + 1};
         const GLint lens[6] = {(GLint)(nl + 1 - src), -1, -1, -1, -1, -1};
         return hz_gl_compile(type, 6, parts, lens, name, err);

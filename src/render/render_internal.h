@@ -78,6 +78,7 @@ typedef struct fx_frame {
 #define FX_VARIANT_DETAIL_FAR (1u << 23) /* patches beyond the ground detail's fade: its far colour only */
 #define FX_VARIANT_LIT (1u << 24)        /* the plain terrain reads its colour from the lit map */
 #define FX_VARIANT_STILL (1u << 25)      /* patches none of whose vertices morph: no morph code */
+#define FX_VARIANT_VLIT (1u << 26)       /* patches read the lit map per vertex (--lit-map vertex) */
 #define SKY_CELLS (HZ_SKY_COLS * HZ_SKY_ROWS) /* the plain sky's grid (sky_grid_vs.glsl: SKY_COLS x SKY_ROWS) */
 #define LIT_KEY_LEN 8 /* the lit map's lighting: sun (3), ambient, snow line, tree line, aridity, zscale */
 /* The ground detail fades out between these multiples of its scale
@@ -111,7 +112,7 @@ void prog_cache_clear(prog_cache *c);
 /* Uniform location slots per family. */
 enum { TL_SIZE, TL_SPACING, TL_HSCALE, TL_HOFFSET, TL_VIEWPROJ, TL_SUN, TL_HORIZON, TL_EYE, TL_FOG, TL_AMBIENT,
        TL_HRANGE, TL_WIRE, TL_MORPH_SCALE, TL_MORPH_START, TL_NORMAL_TEX, TL_NRM_SCALE, TL_MAP, TL_TILE, TL_TOP,
-       TL_BASE, TL_CLIMATE, TL_IMG_MAP, TL_IMG_TILE, TL_TILE_SHIFT, TL_WATER_MASK };
+       TL_BASE, TL_CLIMATE, TL_IMG_MAP, TL_IMG_TILE, TL_TILE_SHIFT, TL_WATER_MASK, TL_LIT_LOD, TL_LIT_TOP };
 enum { BL_VIEWPROJ, BL_CAM_RIGHT, BL_CAM_UP, BL_PX_PER_M, BL_BLEND, BL_FIRST, BL_FACING };
 enum { WL_RECT, WL_LEVEL, WL_VIEWPROJ, WL_HAS_REFLECTION, WL_VIEWPORT, WL_SIZE, WL_SPACING, WL_HSCALE, WL_HOFFSET,
        WL_DEEP, WL_CLARITY, WL_WAVES, WL_REFLECTIVITY, WL_GRID, WL_HAS_VALID, WL_SEA, WL_COAST_RECT,

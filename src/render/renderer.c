@@ -42,7 +42,7 @@ static const char *const terrain_names[] = {
     "u_size",    "u_spacing", "u_hscale", "u_hoffset",     "u_viewproj",    "u_sun_dir",    "u_sky_horizon",
     "u_eye",     "u_fog_density", "u_ambient", "u_hrange", "u_wire",        "u_morph_scale", "u_morph_start",
     "u_normal_tex", "u_nrm_scale", "u_map",   "u_tile",     "u_top",         "u_base",       "u_climate",
-    "u_img_map", "u_img_tile", "u_tile_shift", "u_water_mask", NULL};
+    "u_img_map", "u_img_tile", "u_tile_shift", "u_water_mask", "u_lit_lod", "u_lit_top", NULL};
 
 /* Whether the frame's colour target keeps alpha (the renderer's own is
  * RGBA8; a window's may have none). */
@@ -92,8 +92,11 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
     }
     r->terrain_patch_cur = r->terrain_patch_far = r->terrain_patch_still = r->terrain_patch_far_still = NULL;
     if (patches) {
+        /* --lit-map vertex: the patches read the lit map per vertex (in
+         * memory only: a streamed terrain has no lit map). */
+        const bool vlit = f->lit && f->sp.lit_per_vertex && !r->streamed;
         const uint32_t pkey = key | FX_VARIANT_PATCH | (r->tile_masked ? FX_VARIANT_MASK : 0u) |
-                              (r->streamed ? FX_VARIANT_STREAM : 0u);
+                              (r->streamed ? FX_VARIANT_STREAM : 0u) | (vlit ? FX_VARIANT_VLIT : 0u);
         /* llvmpipe runs the morph code for every vertex, morphing or not
          * (both sides of a branch, masked): still patches get a variant
          * without it. Streamed tiles slide in by morphing: always with it. */
@@ -858,6 +861,16 @@ static void terrain_program(hz_renderer *r, const fx_frame *f, const fx_view *v,
     glBindTexture(GL_TEXTURE_2D, r->normal_tex);
     glUniform1i(tl[TL_NORMAL_TEX], r->normal_tex != 0);
     glUniform2f(tl[TL_NRM_SCALE], 1.0f / (r->spacing * (float)r->size), 0.5f / (float)r->size);
+    if (tp->key & FX_VARIANT_VLIT) {
+        /* Samples a pixel covers at one metre, across the view's height, and
+         * the lit map's last mip level. */
+        const float fov = v->cam.fov_y > 0.0f ? v->cam.fov_y : 60.0f;
+        glUniform1f(tl[TL_LIT_LOD], 2.0f * tanf(glm_rad(fov) * 0.5f) / ((float)v->h * r->spacing));
+        GLint top = 0;
+        while ((r->size >> (top + 1)) > 0)
+            top++;
+        glUniform1i(tl[TL_LIT_TOP], top);
+    }
 }
 
 static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v, GLuint ibo, uint32_t count)
@@ -1217,6 +1230,7 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         stats->reflections = r->n_refl;
         stats->far_patches = r->n_inst - r->n_inst_near;
         stats->lit_map = fr.lit;
+        stats->lit_per_vertex = fr.lit && npatch && r->terrain_patch_cur && (r->terrain_patch_cur->key & FX_VARIANT_VLIT);
         stats->lit_bake_ms = bake_ms;
         stats->sky_cells = (fr.bits & HZ_FX_SKY) ? 0 : r->sky_cells;
     }

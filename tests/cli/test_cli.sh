@@ -176,6 +176,18 @@ read h1 t1 < <(hc --horizon-cull --out "$TMP/hc1.png")
 [ "$h0" = 0 ] && [ "${h1:-0}" -gt 100 ] && [ "$t1" -lt "$t0" ] && cmp -s "$TMP/hc0.png" "$TMP/hc1.png" &&
   ok "--horizon-cull: $h1 patches hidden, $t0 -> $t1 triangles, the same image" || bad "--horizon-cull: hidden $h0/$h1, triangles $t0/$t1"
 
+# --lit-map vertex: the cdlod patches read the lit map per vertex (bench counts those frames);
+# another picture than the per-pixel read, close to it.
+lv() { $HZ bench --quiet --generate perlin --size 257 --lod cdlod --frames 3 --width 320 --height 180 --metrics off \
+         --effects none "$@" --json "$TMP/lv.json" >/dev/null 2>&1 &&
+       python3 -c "import json,sys;j=json.load(open('$TMP/lv.json'));print(j['lit_map_frames'],j['lit_per_vertex_frames'],'%.1f'%j['psnr_db_median'])"; }
+read lm0 lv0 p0 < <(lv)
+read lm1 lv1 p1 < <(lv --lit-map vertex)
+[ "$lm0" = 3 ] && [ "$lv0" = 0 ] && [ "$lm1" = 3 ] && [ "$lv1" = 3 ] &&
+  python3 -c "import sys; a,b=float('$p0'),float('$p1'); sys.exit(not (b < a and b > 25))" &&
+  ok "--lit-map vertex: $lv1 of 3 frames per vertex, PSNR $p0 -> $p1 dB" || bad "--lit-map vertex: frames $lm0/$lv0, $lm1/$lv1, PSNR $p0/$p1"
+expect_fail "bad --lit-map"         "on, off or vertex"       $R --lit-map sideways
+
 # More C*C2 -> more triangles.
 t1=$($R --generate diamond --size 1025 --lod quadtree --lod-c 25 --lod-c2 2.5 --json --out "$TMP/d.png" | python3 -c "import json,sys;print(json.load(sys.stdin)['triangles'])")
 t2=$($R --generate diamond --size 1025 --lod quadtree --lod-c 50 --lod-c2 5 --json --out "$TMP/d.png" | python3 -c "import json,sys;print(json.load(sys.stdin)['triangles'])")
