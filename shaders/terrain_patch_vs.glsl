@@ -51,13 +51,10 @@ const bool MORPH = true;
 // vertex) and interpolated over the triangles, as fixed-function lighting is:
 // the fragment shader then only interpolates a colour.
 #if (FX_VARIANT & 67108864) != 0
-const bool VLIT = true;
 uniform sampler2D u_lit;   // the lit colour per sample (terrain_litmap.c)
 uniform float u_lit_lod;   // samples a pixel covers at one metre: the mip level is log2(d * this)
 uniform int u_lit_top;     // the lit map's last mip level
 out vec3 v_lit;
-#else
-const bool VLIT = false;
 #endif
 
 out vec3 v_world;
