@@ -1230,7 +1230,8 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         stats->reflections = r->n_refl;
         stats->far_patches = r->n_inst - r->n_inst_near;
         stats->lit_map = fr.lit;
-        stats->lit_per_vertex = fr.lit && npatch && r->terrain_patch_cur && (r->terrain_patch_cur->key & FX_VARIANT_VLIT);
+        /* (The variant is chosen only with the lit map and patches.) */
+        stats->lit_per_vertex = r->terrain_patch_cur && (r->terrain_patch_cur->key & FX_VARIANT_VLIT);
         stats->lit_bake_ms = bake_ms;
         stats->sky_cells = (fr.bits & HZ_FX_SKY) ? 0 : r->sky_cells;
     }
