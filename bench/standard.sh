@@ -108,6 +108,12 @@ if [ -f "$PEERS/tools/gen_testdata.py" ]; then
       lod "peers4097_cdlod_tau1.5_morph0.98" 120 $P --lod cdlod --pixel-error 1.5 --morph-start 0.98
       lod "peers4097_cdlod_tau1.5_morph0.98_speed" 120 $P --lod cdlod --pixel-error 1.5 --morph-start 0.98 \
         --reference off --metrics off
+      # Irrlicht's silhouette error with a near bound (README, against Irrlicht): 2 px on the
+      # far ground, 8 px within 850 m; per pixel and lit per vertex as Irrlicht lights
+      N="--lod cdlod --pixel-error 2 --near-pixel-error 8 --near-error-distance 850"
+      lod "peers4097_cdlod_tau2_near8" 120 $P $N
+      lod "peers4097_cdlod_tau2_near8_speed" 120 $P $N --reference off --metrics off
+      lod "peers4097_cdlod_tau2_near8_vertex_speed" 120 $P $N --lit-map vertex --reference off --metrics off
     fi
     # at Ogre tau 1's image error (../shared/peers/RESULTS.md): median silhouette and PSNR
     if [ $m = 4097 ]; then ogre="--tune-silhouette 0.000168 --tune-psnr 41.0"; else ogre="--tune-silhouette 0.00009 --tune-psnr 46.7"; fi

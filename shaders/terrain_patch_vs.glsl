@@ -22,6 +22,8 @@ uniform float u_fog_density;     // per metre; 0 disables
 uniform vec3 u_eye;              // world metres
 uniform float u_morph_scale;     // metres of range per q step; 0 = no morphing
 uniform float u_morph_start;     // morphing starts at this fraction of the range
+uniform float u_morph_near;      // the near bound (hz_lod_morph_range): tau / tau_near, 1 = none
+uniform float u_morph_near_d0;   // and its distance, metres
 uniform int u_map;               // samples per side of the map
 uniform int u_tile;              // T: cells per tile side
 uniform int u_tile_shift;        // log2 T (in memory T is a power of two). No integer division
@@ -92,6 +94,8 @@ float morph_factor(uvec4 t, vec3 p)
     if (t.g == 65535u)
         return 0.0;
     float R = u_morph_scale * float(t.g);
+    float rn = u_morph_near * R; // the near bound's range, as hz_lod_morph_range
+    R = min(R, rn * max(1.0, rn / u_morph_near_d0));
     if (R <= 0.0)
         return 1.0;
     return clamp((distance(hz_curve(p), u_eye) - u_morph_start * R) / ((1.0 - u_morph_start) * R), 0.0, 1.0);

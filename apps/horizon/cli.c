@@ -99,6 +99,9 @@ void cli_usage_terrain(void)
             "  --lod MODE              cdlod (default, 1 px), quadtree, remedy, bidirectional or roam\n"
             "  --pixel-error TAU       screen-space error bound in pixels (roam and cdlod: default 1;\n"
             "                          quadtree, remedy, bidirectional: replaces C and C2)\n"
+            "  --near-pixel-error TAU  cdlod: a looser bound near the eye: TAU within --near-error-distance,\n"
+            "                          falling as 1/sqrt(distance) to --pixel-error (default: off)\n"
+            "  --near-error-distance M cdlod: where the near bound starts to tighten (default 500 m)\n"
             "  --lod-c C --lod-c2 C2   distance and roughness factors (default 25, 2.5)\n"
             "  --criterion clamped|unclamped  Roettger's clamped form (default) or the seed's\n"
             "  --no-cull               disable frustum culling (and horizon culling)\n"
@@ -321,6 +324,14 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             NEEDV();
             if (!cli_parse_float(v, 0.01, 1000, &o->lod.pixel_error))
                 return bad(cmd, a, v, "pixels in [0.01, 1000]");
+        } else if (!strcmp(a, "--near-pixel-error")) {
+            NEEDV();
+            if (!cli_parse_float(v, 0.01, 1000, &o->lod.near_pixel_error))
+                return bad(cmd, a, v, "pixels in [0.01, 1000]");
+        } else if (!strcmp(a, "--near-error-distance")) {
+            NEEDV();
+            if (!cli_parse_float(v, 0.001, 1e8, &o->lod.near_distance))
+                return bad(cmd, a, v, "metres in [0.001, 1e8]");
         } else if (!strcmp(a, "--bidir-distance")) {
             NEEDV();
             if (!cli_parse_float(v, 0.001, 1e8, &o->lod.bidir_distance))
@@ -850,6 +861,8 @@ void cli_scene_lod(hz_scene_params *sp, const hz_lod_stats *st)
 {
     sp->morph_scale = st->morph_scale;
     sp->morph_start = st->morph_start;
+    sp->morph_near = st->morph_near;
+    sp->morph_near_distance = st->morph_near_distance;
 }
 
 float cli_pixel_error(const hz_lod_params *p)
@@ -857,6 +870,14 @@ float cli_pixel_error(const hz_lod_params *p)
     if (p->pixel_error > 0 || (p->mode != HZ_LOD_CDLOD && p->mode != HZ_LOD_ROAM))
         return p->pixel_error;
     return 1.0f;
+}
+
+void cli_near_json(json_t *j, const hz_lod_params *p)
+{
+    const bool on = p->mode == HZ_LOD_CDLOD && p->near_pixel_error > cli_pixel_error(p);
+    jx_set(j, "near_pixel_error", on ? jx_num(p->near_pixel_error) : json_null());
+    jx_set(j, "near_error_distance", on ? jx_num(p->near_distance > 0 ? p->near_distance : HZ_LOD_NEAR_DISTANCE_DEFAULT)
+                                        : json_null());
 }
 
 hz_camera cli_camera(const cli_opts *o, const hz_terrain *t)

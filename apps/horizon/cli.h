@@ -211,6 +211,8 @@ void cli_lod_frame_free(cli_lod_frame *f);
 /* The pixel error bound p selects with: p->pixel_error, or 1 for cdlod and
  * roam when it is 0 (their default); 0 for the quadtree modes on C and C2. */
 float cli_pixel_error(const hz_lod_params *p);
+/* near_pixel_error and near_error_distance into j (null when cdlod has no near bound). */
+void cli_near_json(json_t *j, const hz_lod_params *p);
 /* The camera: --camera or the terrain's default, with --fov/--far applied. */
 hz_camera cli_camera(const cli_opts *o, const hz_terrain *t);
 /* Resolves --curvature for the loaded terrain (o->curv.radius, which

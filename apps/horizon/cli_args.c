@@ -18,7 +18,7 @@ static const char *const COMMON_VALUE[] = {
     "dem", "dump-mesh", "effects", "exposure", "far", "fit", "fog", "forest", "forest-at", "forest-density",
     "forest-file", "forest-save", "forest-leaves", "forest-seed", "forest-trees", "format", "fov", "gamma", "generate", "height",
     "height-fog", "height-offset", "height-range", "hull-dist", "latitude", "layout", "lod", "lod-c", "lod-c2",
-    "max-memory", "morph-start", "near", "out", "patch-cells", "pixel-error", "rate-weights", "raw-size", "repeat",
+    "max-memory", "morph-start", "near", "near-error-distance", "near-pixel-error", "out", "patch-cells", "pixel-error", "rate-weights", "raw-size", "repeat",
     "roam-budget", "seed", "size", "spacing", "sun", "textures", "time", "tree-cache", "tree-far", "tree-near",
     "trees", "units", "voids", "water-level", "weather", "weather-intensity", "width", "wind", "zscale",
     "city", "scene", "footprints", "imagery", "imagery-max", "pick", "cull", "draw", "tin-cell", "height-field", "levels-field", "city-bench",

@@ -758,6 +758,7 @@ static json_t *bench_json(const bench *b, const hz_lod_params *lod, const frame_
     jx_set(j, "spacing", jx_num(b->t->spacing));
     jx_set(j, "lod_mode", jx_str(hz_lod_mode_name(lod->mode)));
     jx_set(j, "pixel_error", jx_num(cli_pixel_error(lod)));
+    cli_near_json(j, lod);
     jx_set(j, "tuned_for_p99", jx_num(tuned_for));
     jx_set(j, "criterion", jx_str(lod->criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped"));
     jx_set(j, "lod_c", jx_num(lod->c > 0 ? lod->c : 25));

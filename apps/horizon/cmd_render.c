@@ -263,6 +263,7 @@ int cmd_render(int argc, char **argv)
         jx_set(j, "layout", jx_str(hz_layout_name(t->hm.layout)));
         jx_set(j, "lod_mode", jx_str(hz_lod_mode_name(o.lod.mode)));
         jx_set(j, "pixel_error", jx_num(cli_pixel_error(&o.lod)));
+        cli_near_json(j, &o.lod);
         jx_set(j, "lod_c", jx_num(o.lod.c > 0 ? o.lod.c : 25));
         jx_set(j, "lod_c2", jx_num(o.lod.c2 > 0 ? o.lod.c2 : 2.5f));
         jx_set(j, "criterion", jx_str(o.lod.criterion == HZ_LOD_UNCLAMPED ? "unclamped" : "clamped"));

@@ -273,6 +273,7 @@ int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         {"terrain", required_argument, 0, 'T'}, {"cache-mb", required_argument, 0, 'm'},
         {"out", required_argument, 0, 'o'},     {"camera", required_argument, 0, 'c'},
         {"pixel-error", required_argument, 0, 'e'}, {"width", required_argument, 0, 'w'},
+        {"near-pixel-error", required_argument, 0, 1012}, {"near-error-distance", required_argument, 0, 1013},
         {"height", required_argument, 0, 'H'},  {"path", required_argument, 0, 'p'},
         {"frames", required_argument, 0, 'f'},  {"json", no_argument, 0, 'J'},
         {"quiet", no_argument, 0, 'q'},         {"lod", required_argument, 0, 'l'},
@@ -303,6 +304,8 @@ int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         case 'm': if (!num("--cache-mb", optarg, 4, 1 << 20, &v)) return 2; o->cache_mb = v; break;
         case 'o': o->out = optarg; break;
         case 'e': if (!num("--pixel-error", optarg, 0.05, 100, &v)) return 2; o->tau = v; break;
+        case 1012: if (!num("--near-pixel-error", optarg, 0.05, 1000, &v)) return 2; o->near_tau = v; break;
+        case 1013: if (!num("--near-error-distance", optarg, 0.001, 1e8, &v)) return 2; o->near_distance = v; break;
         case 'w': if (!num("--width", optarg, 16, 8192, &v)) return 2; o->width = (uint32_t)v; break;
         case 'H': if (!num("--height", optarg, 16, 8192, &v)) return 2; o->height = (uint32_t)v; break;
         case 'f':
@@ -391,6 +394,7 @@ int parse_stream(int argc, char **argv, sopts *o, const char *cmd)
         }
         default:
             fprintf(stderr, "horizon %s --terrain: options are --terrain --cache-mb --out --camera --pixel-error "
+                            "--near-pixel-error --near-error-distance "
                             "--width --height --path --frames --json --quiet --disk-cache --disk-cache-mb "
                             "--http-timeout --http-retries --http-connections --curvature --imagery --imagery-max --water-level; bench "
                             "also --realtime --fps --deterministic; view also --speed --dt --script --screenshot "
@@ -489,7 +493,8 @@ int sctx_open(sctx *c, const sopts *o, const coarse *ground, const char *cmd)
         sctx_free(c);
         return 1;
     }
-    c->lp = (hz_lod_params){.mode = HZ_LOD_CDLOD, .pixel_error = (float)o->tau, .viewport_height = o->height};
+    c->lp = (hz_lod_params){.mode = HZ_LOD_CDLOD, .pixel_error = (float)o->tau, .viewport_height = o->height,
+                            .near_pixel_error = (float)o->near_tau, .near_distance = (float)o->near_distance};
     if ((o->imagery && stream_imagery(c, o, cmd)) || stream_water(c, o, ground, cmd)) {
         sctx_free(c);
         return 1;
@@ -700,6 +705,7 @@ int stream_render(int argc, char **argv)
     hz_err err = {0};
     hz_scene_params sp = {.patches = c.pl.data, .patch_count = (uint32_t)c.pl.count,
                           .morph_scale = st.morph_scale, .morph_start = st.morph_start,
+                          .morph_near = st.morph_near, .morph_near_distance = st.morph_near_distance,
                           .fog_density = cli_fog_default(cam.zfar), .effects = stream_effects(&c)};
     hz_draw_stats ds = {0};
     rc = 1;
@@ -729,6 +735,7 @@ int stream_render(int argc, char **argv)
         json_object_set_new(j, "out", jx_str(out));
         json_object_set_new(j, "lod_mode", jx_str("cdlod"));
         json_object_set_new(j, "pixel_error", jx_dbl(o.tau));
+        cli_near_json(j, &c.lp);
         curv_cli_json(j, &o.curv);
         json_object_set_new(j, "camera", json_pack("[f,f,f,f,f]", (double)cam.pos[0], (double)cam.pos[1],
                                                    (double)cam.pos[2], (double)cam.yaw, (double)cam.pitch));
@@ -907,6 +914,7 @@ int stream_bench(int argc, char **argv)
             goto done;
         hz_scene_params sp = {.patches = c.pl.data, .patch_count = (uint32_t)c.pl.count,
                               .morph_scale = st.morph_scale, .morph_start = st.morph_start,
+                              .morph_near = st.morph_near, .morph_near_distance = st.morph_near_distance,
                               .fog_density = cli_fog_default(cam.zfar), .effects = stream_effects(&c)};
         hz_draw_stats ds = {0};
         if (hz_renderer_draw(c.r, &cam, &sp, NULL, 0, &ds, &err) != HZ_OK) {
@@ -956,6 +964,7 @@ int stream_bench(int argc, char **argv)
     json_object_set_new(j, "path", jx_str(path.name[0] ? path.name : "flyover"));
     json_object_set_new(j, "frames", json_integer(F));
     json_object_set_new(j, "pixel_error", jx_dbl(o.tau));
+    cli_near_json(j, &c.lp);
     curv_cli_json(j, &o.curv);
     json_object_set_new(j, "cache_mb_limit", jx_dbl(o.cache_mb));
     json_object_set_new(j, "frame_ms_median", jx_dbl(med_frame));

@@ -1001,6 +1001,7 @@ static void print_json(view *v)
     jx_set(j, "draw_ms", jx_fix(v->ds.draw_ms, 3));
     jx_set(j, "lod_mode", jx_str(hz_lod_mode_name(v->lod.mode)));
     jx_set(j, "pixel_error", jx_num(cli_pixel_error(&v->lod)));
+    cli_near_json(j, &v->lod);
     jx_set(j, "lod_c", jx_num(v->lod.c > 0 ? v->lod.c : 25.0f));
     jx_set(j, "lod_c2", jx_num(v->lod.c2 > 0 ? v->lod.c2 : 2.5f));
     jx_set(j, "camera_mode", jx_str(hz_flycam_mode_name(&v->fc)));

@@ -11,6 +11,7 @@
 typedef struct sopts {
     const char *terrain, *out, *path, *json_out;
     double cache_mb, tau;
+    double near_tau, near_distance; /* --near-pixel-error, --near-error-distance (0: off, default) */
     bool have_camera, json, quiet;
     float camera[5];
     uint32_t width, height, frames;

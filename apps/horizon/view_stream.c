@@ -179,6 +179,7 @@ static bool frame(sview *v, bool *failed)
     v->late_frames += v->ss.late > 0;
     hz_scene_params sp = {.patches = v->c.pl.data, .patch_count = (uint32_t)v->c.pl.count,
                           .morph_scale = v->st.morph_scale, .morph_start = v->st.morph_start,
+                          .morph_near = v->st.morph_near, .morph_near_distance = v->st.morph_near_distance,
                           .fog_density = cli_fog_default(v->fc.cam.zfar), .effects = stream_effects(&v->c)};
     hz_draw_stats ds = {0};
     if (hz_renderer_draw(v->c.r, &v->fc.cam, &sp, NULL, 0, &ds, &v->err) != HZ_OK) {

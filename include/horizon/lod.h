@@ -94,7 +94,19 @@ typedef struct hz_lod_params {
                              culling; off by default: it costs about 1 ms of CPU a frame on
                              the peers' flight and saved 0-10 % of the frame on llvmpipe;
                              no_cull turns it off) */
+    /* cdlod: a looser bound near the eye. Within near_distance metres the
+     * bound is near_pixel_error (> pixel_error; otherwise off); beyond, it
+     * tightens as 1 / sqrt(distance) and is pixel_error from
+     * near_distance * (near_pixel_error / pixel_error)^2 on. The far ground
+     * (the skyline) keeps pixel_error while the near ground, whose shape
+     * the full-resolution shading hides, gets fewer triangles. The bound
+     * depends on the distance alone, so every vertex keeps one morph range
+     * (hz_lod_morph_range) and nothing pops. */
+    float near_pixel_error;
+    float near_distance;  /* metres; 0 -> HZ_LOD_NEAR_DISTANCE_DEFAULT */
 } hz_lod_params;
+
+#define HZ_LOD_NEAR_DISTANCE_DEFAULT 500.0f
 
 /* A growable array the caller owns; free with free(list->data). */
 typedef struct hz_index_list {
@@ -125,8 +137,11 @@ typedef struct hz_lod_stats {
     uint32_t still;         /* cdlod patches: those none of whose vertices morphs (hz_patch.still) */
     uint32_t hidden;        /* cdlod patches dropped because nearer ground hides them */
     float morph_scale;      /* cdlod: metres of morph range per h16 step of a vertex's
-                               morph error (0: no morphing this frame) */
+                               morph error at pixel_error (0: no morphing this frame);
+                               hz_lod_morph_range applies the near bound */
     float morph_start;      /* cdlod: morph starts at this fraction of the range */
+    float morph_near;       /* cdlod: pixel_error / near_pixel_error (1: no near bound) */
+    float morph_near_distance; /* cdlod: the near bound's distance, metres */
     double ms;              /* CPU time of the selection */
 } hz_lod_stats;
 
@@ -194,8 +209,14 @@ const hz_heightmap *hz_lod_query_heightmap(const hz_lod *lod);
 
 /* cdlod's nested, dilated error bound of the node a patch draws (h16 steps;
  * metres = value * heightmap scale * zscale). Its split range in metres is
- * stats.morph_scale * value: an unsplit node lies at least that far. */
+ * hz_lod_morph_range(stats, value): an unsplit node lies at least that far. */
 float hz_lod_patch_error(hz_lod *lod, const hz_patch *p);
+
+/* cdlod: the range in metres of an error of q h16 steps (a vertex's morph
+ * error, a node's error bound) in the frame of stats: the distance where the
+ * error projects to the bound (pixel_error, or near_pixel_error falling
+ * with the distance). Increasing in q. The vertex shader computes the same. */
+float hz_lod_morph_range(const hz_lod_stats *stats, float q);
 
 /* Grid cells per side of a cdlod patch. */
 uint32_t hz_lod_patch_cells(const hz_lod *lod);
@@ -217,7 +238,7 @@ hz_result hz_patches_to_indices(uint32_t n, uint32_t P, const hz_patch *patches,
 /* Per-sample morph errors for cdlod (row-major, size*size values, h16 steps;
  * 65535 = never morphs), built on first use (may take a moment: progress goes
  * to the desc's callback). NULL on out of memory. A vertex's morph range in
- * metres is stats.morph_scale * value. */
+ * metres is hz_lod_morph_range(stats, value). */
 const uint16_t *hz_lod_morph_errors(hz_lod *lod);
 
 /* The height a sample collapses to on the coarser level (h16 steps, times

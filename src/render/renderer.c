@@ -42,7 +42,8 @@ static const char *const terrain_names[] = {
     "u_size",    "u_spacing", "u_hscale", "u_hoffset",     "u_viewproj",    "u_sun_dir",    "u_sky_horizon",
     "u_eye",     "u_fog_density", "u_ambient", "u_hrange", "u_wire",        "u_morph_scale", "u_morph_start",
     "u_normal_tex", "u_nrm_scale", "u_map",   "u_tile",     "u_top",         "u_base",       "u_climate",
-    "u_img_map", "u_img_tile", "u_tile_shift", "u_water_mask", "u_lit_lod", "u_lit_top", NULL};
+    "u_img_map", "u_img_tile", "u_tile_shift", "u_water_mask", "u_lit_lod", "u_lit_top",
+    "u_morph_near", "u_morph_near_d0", NULL};
 
 /* Whether the frame's colour target keeps alpha (the renderer's own is
  * RGBA8; a window's may have none). */
@@ -853,6 +854,8 @@ static void terrain_program(hz_renderer *r, const fx_frame *f, const fx_view *v,
     /* cdlod geomorphing (patches, main view only); reflections are unmorphed. */
     glUniform1f(tl[TL_MORPH_SCALE], patches ? sp->morph_scale : 0.0f);
     glUniform1f(tl[TL_MORPH_START], sp->morph_start);
+    glUniform1f(tl[TL_MORPH_NEAR], sp->morph_near > 0.0f ? sp->morph_near : 1.0f);
+    glUniform1f(tl[TL_MORPH_NEAR_D0], sp->morph_near_distance > 0.0f ? sp->morph_near_distance : 1.0f);
     if (tp->key & FX_VARIANT_LIT) {
         glActiveTexture(GL_TEXTURE0 + FX_UNIT_LIT);
         glBindTexture(GL_TEXTURE_2D, r->lit_tex);

@@ -42,6 +42,9 @@
  * one metre). An unsplit node is then at distance >= R, so its error projects
  * to <= tau pixels. Splits a restricted quadtree needs but the error does not
  * are forced (never refused), so the split set is a pure function of the eye.
+ * With a near bound (near_pixel_error) every range, the nodes' and the
+ * vertices' alike, is cd_range of it: a monotone function of the error
+ * alone, so what follows holds unchanged.
  *
  * Triangulation: every grid, at every spacing, is a "union jack": cell
  * (a, b) (in units of the grid's spacing) is split along its main diagonal
@@ -277,7 +280,7 @@ float hz_lod_morph_factor(hz_lod *lod, const hz_camera *cam, const hz_lod_stats 
     if (q == UINT16_MAX)
         return 0.0f;
     const uint32_t n = lod->size, i = index % n, j = index / n;
-    const float R = stats->morph_scale * (float)q;
+    const float R = hz_lod_morph_range(stats, (float)q);
     if (R <= 0.0f)
         return 1.0f;
     const float dx = (float)i * lod->spacing - cam->pos[0];
@@ -288,6 +291,12 @@ float hz_lod_morph_factor(hz_lod *lod, const hz_camera *cam, const hz_lod_stats 
     const float a = stats->morph_start;
     const float m = (d - a * R) / ((1.0f - a) * R);
     return m < 0.0f ? 0.0f : (m > 1.0f ? 1.0f : m);
+}
+
+float hz_lod_morph_range(const hz_lod_stats *stats, float q)
+{
+    const float rho = stats->morph_near > 0.0f ? stats->morph_near : 1.0f;
+    return cd_range(stats->morph_scale * q, rho, stats->morph_near_distance);
 }
 
 /* A vertex moved toward its true-height target (one level of morphing). */
@@ -411,6 +420,8 @@ static hz_result cdlod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_pa
     hz_camera_frustum(cam, c.planes);
     st->morph_scale = lambda * hsw;
     st->morph_start = a;
+    cd_near(p, &st->morph_near, &st->morph_near_distance);
+    const float rho = st->morph_near, d0 = st->morph_near_distance;
 
     for (uint32_t l = 0; l < lod->levels; l++)
         lod->lv_n[l] = 0;
@@ -429,7 +440,7 @@ static hz_result cdlod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_pa
             if (is_culled || !can_split)
                 continue;
             /* distance to the box < range, compared squared */
-            const float range = lambda * lod->cd_err[cd_node(lod, l, x, z)] * hsw;
+            const float range = cd_range(lambda * lod->cd_err[cd_node(lod, l, x, z)] * hsw, rho, d0);
             if (box_distance2((const vec3 *)box, cam->pos) < range * range) {
                 hz_result r = split_node(&c, l, x, z, false);
                 if (r != HZ_OK)
@@ -458,7 +469,7 @@ static uint8_t patch_still(const hz_lod *lod, const hz_lod_stats *st, uint32_t l
         const float lo = box[0][a] - eye[a], hi = box[1][a] - eye[a];
         d2 += lo * lo > hi * hi ? lo * lo : hi * hi;
     }
-    const float start = st->morph_start * st->morph_scale * (float)q - 0.01f;
+    const float start = st->morph_start * hz_lod_morph_range(st, (float)q) - 0.01f;
     return start > 0.0f && d2 * 1.002f < start * start; /* d * 1.001 + 0.01 < the start, squared */
 }
 
@@ -513,7 +524,9 @@ hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_
         r = emit_patches(lod, cam, out, &st);
     if (r == HZ_OK && p.horizon_cull && !p.no_cull && !lod->desc.holes) {
         const float tau = p.pixel_error > 0 ? p.pixel_error : 1.0f;
-        r = hz__horizon_cull(lod, cam, pixel_k(cam, &p) / tau, st.morph_start, st.morph_scale > 0.0f, out, &st);
+        /* the near bound: a morph moves a vertex at most d / (a K / tau_n) */
+        r = hz__horizon_cull(lod, cam, pixel_k(cam, &p) / tau * st.morph_near, st.morph_start,
+                             st.morph_scale > 0.0f, out, &st);
     }
     st.ms = hz_time_ms() - t0;
     if (stats)

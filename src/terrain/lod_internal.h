@@ -309,6 +309,29 @@ static inline float cd_morph_start(float asked)
     return a < lo ? lo : (a > hi ? hi : a);
 }
 
+/* cdlod's near bound (hz_lod_params.near_pixel_error): the bound at distance
+ * d is tau(d) = tau_n for d <= d0, tau_n sqrt(d0 / d) beyond, never below
+ * tau. An error e (metres) has the range R' where e K = R' tau(R'), K pixels
+ * per metre at one metre; d tau(d) grows with d, so R' is unique. With
+ * R = e K / tau (the range at tau) and rho = tau / tau_n:
+ *   R' = rho R                 while rho R <= d0,
+ *   R' = (rho R)^2 / d0        while that is below R,
+ *   R' = R                     beyond (from d0 / rho^2 on).
+ * R' / R never falls as R grows (tau(d) never rises with d), so ranges grow
+ * from level to level at least as much as the error bounds do. */
+static inline void cd_near(const hz_lod_params *p, float *rho, float *d0)
+{
+    const float tau = p->pixel_error > 0 ? p->pixel_error : 1.0f;
+    *rho = p->near_pixel_error > tau ? tau / p->near_pixel_error : 1.0f;
+    *d0 = p->near_distance > 0 ? p->near_distance : HZ_LOD_NEAR_DISTANCE_DEFAULT;
+}
+
+static inline float cd_range(float R, float rho, float d0)
+{
+    const float rn = rho * R, far = rn * (rn > d0 ? rn / d0 : 1.0f);
+    return far < R ? far : R;
+}
+
 /* The two neighbours sample (i, j) of an n x n map collapses between, at the
  * spacing where it first appears: along x, along z, or on the diagonal
  * (union jack by the coarser cell's parity) of the coarser cell it centres.

@@ -510,6 +510,7 @@ typedef struct sel {
     const hz_camera *cam;
     vec4 planes[6];
     float margin, lambda, hsw, spacing;
+    float rho, d0; /* the near bound (cd_range) */
     bool no_cull;
     uint32_t cur; /* shift being processed */
     hz_lod_stats *st;
@@ -1030,6 +1031,9 @@ hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_para
     hz_camera_frustum(cam, c.planes);
     st.morph_scale = c.lambda * c.hsw;
     st.morph_start = a;
+    cd_near(&p, &c.rho, &c.d0);
+    st.morph_near = c.rho;
+    st.morph_near_distance = c.d0;
     for (uint32_t l = 0; l <= top; l++)
         s->lv_n[l] = 0;
     hz_result r = HZ_OK;
@@ -1052,9 +1056,10 @@ hz_result hz_stream_select(hz_stream *s, const hz_camera *cam, const hz_lod_para
                 if (r != HZ_OK || culled || sh == 0)
                     continue;
                 const float d2 = s->lv[sh][k].d2;
-                const float range =
+                const float range = cd_range(
                     c.lambda * (float)q->nd[((li >> s->node_k_log2[sh]) + 1) * (q->k + 2) + (li & (q->k - 1)) + 1] *
-                    c.hsw;
+                        c.hsw,
+                    c.rho, c.d0);
                 const bool whole = in->wrap && sh + 1 >= top;
                 const bool near = d2 < PREFETCH * PREFETCH * range * range;
                 size_t cl;

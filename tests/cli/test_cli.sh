@@ -176,6 +176,18 @@ read h1 t1 < <(hc --horizon-cull --out "$TMP/hc1.png")
 [ "$h0" = 0 ] && [ "${h1:-0}" -gt 100 ] && [ "$t1" -lt "$t0" ] && cmp -s "$TMP/hc0.png" "$TMP/hc1.png" &&
   ok "--horizon-cull: $h1 patches hidden, $t0 -> $t1 triangles, the same image" || bad "--horizon-cull: hidden $h0/$h1, triangles $t0/$t1"
 
+# --near-pixel-error: a looser bound near the eye, the far ground kept at --pixel-error: fewer
+# triangles than the uniform bound, more than the near bound everywhere; the JSON says so.
+nb() { $R --generate perlin --size 513 --lod cdlod --camera 1200,450,1200,45,-8 --pixel-error 1 "$@" --json --out "$TMP/nb.png" |
+       python3 -c "import json,sys;j=json.load(sys.stdin);print(j['triangles'],j['near_pixel_error'],j['near_error_distance'])"; }
+read n0 z0 d0 < <(nb)
+read n1 z1 d1 < <(nb --near-pixel-error 4 --near-error-distance 300)
+read n2 z2 d2 < <(nb --pixel-error 4)
+[ "$z0" = None ] && [ "$z1" = 4.0 ] && [ "$d1" = 300.0 ] && [ "${n1:-0}" -lt "${n0:-0}" ] && [ "${n1:-0}" -gt "${n2:-0}" ] &&
+  ok "--near-pixel-error 4: $n0 -> $n1 triangles (uniform 4 px: $n2)" || bad "--near-pixel-error: $n0/$z0/$d0, $n1/$z1/$d1, $n2"
+expect_fail "bad --near-pixel-error"    "pixels in"  $R --near-pixel-error 0
+expect_fail "bad --near-error-distance" "metres in"  $R --near-error-distance -5
+
 # --lit-map vertex: the cdlod patches read the lit map per vertex (bench counts those frames);
 # another picture than the per-pixel read, close to it.
 lv() { $HZ bench --quiet --generate perlin --size 257 --lod cdlod --frames 3 --width 320 --height 180 --metrics off \

@@ -279,11 +279,11 @@ static void test_modes_close_to_reference(void **state)
     free(simg);
 }
 
-/* cdlod patches at tau for the camera at (NULL: the default camera looking
- * 4 degrees down), which goes to cam, and the same patches expanded to
- * triangles. */
-static void cdlod_frame_all(ctx *c, float tau, const hz_camera *at, bool all, hz_camera *cam, hz_patch_list *pl,
-                            hz_index_list *il, hz_lod_stats *st)
+/* cdlod patches at tau (near_tau within near_d metres, hz_lod_params) for
+ * the camera at (NULL: the default camera looking 4 degrees down), which goes
+ * to cam, and the same patches expanded to triangles. */
+static void cdlod_frame_near(ctx *c, float tau, float near_tau, float near_d, const hz_camera *at, bool all,
+                             hz_camera *cam, hz_patch_list *pl, hz_index_list *il, hz_lod_stats *st)
 {
     hz_err err = {0};
     hz_terrain *t = c->t;
@@ -295,10 +295,17 @@ static void cdlod_frame_all(ctx *c, float tau, const hz_camera *at, bool all, hz
         *cam = hz_terrain_default_camera(t, W, H);
         cam->pitch = -4;
     }
-    hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = tau, .viewport_height = H, .horizon_cull = !all};
+    hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = tau, .viewport_height = H, .horizon_cull = !all,
+                       .near_pixel_error = near_tau, .near_distance = near_d};
     assert_int_equal(hz_lod_select_patches(t->lod, cam, &p, pl, st), HZ_OK);
     assert_int_equal(hz_lod_patches_to_indices(t->lod, pl->data, pl->count, il), HZ_OK);
     assert_int_equal(il->count, (size_t)st->triangles * 3);
+}
+
+static void cdlod_frame_all(ctx *c, float tau, const hz_camera *at, bool all, hz_camera *cam, hz_patch_list *pl,
+                            hz_index_list *il, hz_lod_stats *st)
+{
+    cdlod_frame_near(c, tau, 0.0f, 0.0f, at, all, cam, pl, il, st);
 }
 
 /* The same, less the patches that nearer ground hides (horizon culling on). */
@@ -311,8 +318,9 @@ static void cdlod_frame(ctx *c, float tau, const hz_camera *at, hz_camera *cam, 
 /* The patch vertex shader places, stitches and morphs exactly like the CPU
  * (hz_lod_patches_to_indices, hz_lod_morph_height): a cdlod frame drawn as
  * patches with GPU morphing has the silhouette and the depth of the expanded
- * triangles drawn over a heightmap that holds the CPU-morphed heights. */
-static void gpu_morph_matches_cpu(ctx *c, float tau, const hz_camera *at, bool horizon)
+ * triangles drawn over a heightmap that holds the CPU-morphed heights.
+ * near_tau > tau: with that near bound (within near_d metres). */
+static void gpu_morph_matches_cpu(ctx *c, float tau, float near_tau, float near_d, const hz_camera *at, bool horizon)
 {
     hz_err err = {0};
     hz_terrain *t = c->t;
@@ -321,8 +329,9 @@ static void gpu_morph_matches_cpu(ctx *c, float tau, const hz_camera *at, bool h
     hz_index_list il = {0};
     hz_patch_list pl = {0};
     hz_lod_stats st;
-    cdlod_frame(c, tau, at, &cam, &pl, &il, &st);
+    cdlod_frame_near(c, tau, near_tau, near_d, at, false, &cam, &pl, &il, &st);
     assert_true(st.morph_scale > 0);
+    assert_true(near_tau > tau ? st.morph_near < 1.0f : st.morph_near == 1.0f);
     size_t stitched = 0;
     for (size_t k = 0; k < pl.count; k++)
         stitched += pl.data[k].coarse != 0;
@@ -344,7 +353,8 @@ static void gpu_morph_matches_cpu(ctx *c, float tau, const hz_camera *at, bool h
 
     uint8_t *rgb = malloc(W * H * 3), *gpu = malloc(W * H), *cpu = malloc(W * H), *flat = malloc(W * H);
     hz_scene_params sp = {.morph_scale = st.morph_scale, .morph_start = st.morph_start, .patches = pl.data,
-                          .patch_count = (uint32_t)pl.count};
+                          .patch_count = (uint32_t)pl.count, .morph_near = st.morph_near,
+                          .morph_near_distance = st.morph_near_distance};
     assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
     assert_int_equal(hz_renderer_read_sky_mask(c->r, gpu, &err), HZ_OK);
     assert_int_equal(hz_renderer_read_rgb(c->r, rgb, &err), HZ_OK);
@@ -405,6 +415,19 @@ static void gpu_morph_matches_cpu(ctx *c, float tau, const hz_camera *at, bool h
     assert_true(ground > (size_t)W * H / 8);
     assert_true(off_flat * 20 > ground); /* the morph moves over 5 % of the ground */
     assert_true(off_cpu * 50 < off_flat);
+    if (near_tau > tau) {
+        /* The shader does apply the near bound: without it the morphs (the
+         * far ranges, longer) are off the CPU's. */
+        sp.morph_scale = st.morph_scale;
+        sp.morph_near = 0.0f;
+        assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
+        assert_int_equal(hz_renderer_read_depth(c->r, df, &err), HZ_OK);
+        size_t off_far = 0;
+        for (size_t k = 0; k < (size_t)W * H; k++)
+            off_far += !gpu[k] && !cpu[k] && fabsf(df[k] - dc[k]) > 2e-4f * dc[k];
+        fprintf(stderr, "near bound: %zu ground pixels off the CPU morph without it, %zu with it\n", off_far, off_cpu);
+        assert_true(off_cpu * 20 < off_far);
+    }
     free(dg);
     free(dc);
     free(df);
@@ -422,7 +445,7 @@ static void gpu_morph_matches_cpu(ctx *c, float tau, const hz_camera *at, bool h
 static void test_gpu_morph_matches_cpu(void **state)
 {
     ctx *c = *state;
-    gpu_morph_matches_cpu(c, 12.0f, NULL, true); /* from above the centre, to the horizon */
+    gpu_morph_matches_cpu(c, 12.0f, 0.0f, 0.0f, NULL, true); /* from above the centre, to the horizon */
     /* Low over the map's far quarter, looking down: fine patches morph in
      * tiles other than the first of their level (256 cells a tile). */
     hz_camera at = hz_terrain_default_camera(c->t, W, H);
@@ -431,7 +454,9 @@ static void test_gpu_morph_matches_cpu(void **state)
     at.pos[1] = hz_terrain_height_at(c->t, at.pos[0], at.pos[2]) + 300.0f;
     at.yaw = 30.0f;
     at.pitch = -25.0f;
-    gpu_morph_matches_cpu(c, 2.0f, &at, false);
+    gpu_morph_matches_cpu(c, 2.0f, 0.0f, 0.0f, &at, false);
+    /* The same with a near bound: 8 px within 400 m, 2 px from 6.4 km on. */
+    gpu_morph_matches_cpu(c, 2.0f, 8.0f, 400.0f, &at, false);
 }
 
 /* Draws a frame (patches in sp, or count indices) and reads its depth and

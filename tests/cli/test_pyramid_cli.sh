@@ -48,6 +48,14 @@ assert -118.1 < c['se'][0] < -117.5 and 35.8 < c['se'][1] < 36.1, c" && ok "corn
   $HZ render --terrain "$TMP/sierra.hzp" --out "$TMP/sierra.png" --camera 540000,4200,400000,60,-6 \
      --width 320 --height 180 --json > "$TMP/srender.json" && ok "render --terrain sierra" || bad "render sierra"
   [ "$(json "$TMP/srender.json" "d['terrain_in_view']")" = True ] && ok "sierra in view" || bad "sierra not in view"
+  # A near bound on a streamed terrain: fewer triangles, said in the JSON.
+  $HZ render --terrain "$TMP/sierra.hzp" --out "$TMP/sierra_near.png" --camera 540000,4200,400000,60,-6 \
+     --width 320 --height 180 --near-pixel-error 6 --near-error-distance 2000 --json > "$TMP/snear.json" &&
+    python3 -c "
+import json; a=json.load(open('$TMP/srender.json')); b=json.load(open('$TMP/snear.json'))
+assert b['near_pixel_error'] == 6 and b['near_error_distance'] == 2000 and a['near_pixel_error'] is None, b
+assert 0 < b['triangles'] < a['triangles'], (a['triangles'], b['triangles'])
+print(a['triangles'], '->', b['triangles'])" && ok "render --terrain --near-pixel-error" || bad "render --terrain --near-pixel-error"
   # The data's east edge (lon -118, padding beyond) at a distance, where coarse tiles draw it: from
   # inside, looking across it, and from outside, along it. Against the same view at a fine pixel
   # error, nothing grows out of the edge into the sky (no wall up, no teeth down): vertices next
