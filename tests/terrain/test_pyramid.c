@@ -373,9 +373,11 @@ static void test_stream_crack_free_while_tiles_missing(void **state)
                          .yaw = 120.0f + 90.0f * u, .pitch = -25.0f, .fov_y = 60.0f, .aspect = 16.0f / 9.0f,
                          .znear = 1.0f, .zfar = 60000.0f};
         hz_lod_stats st;
-        assert_int_equal(hz_stream_select(s, &cam, &(hz_lod_params){.mode = HZ_LOD_CDLOD, .pixel_error = 0.5f}, &pl,
-                                          &st),
-                         HZ_OK);
+        /* every third frame with a near bound (3 px within 800 m) */
+        const hz_lod_params lp = {.mode = HZ_LOD_CDLOD, .pixel_error = 0.5f,
+                                  .near_pixel_error = f % 3 == 1 ? 3.0f : 0.0f, .near_distance = 800.0f};
+        assert_int_equal(hz_stream_select(s, &cam, &lp, &pl, &st), HZ_OK);
+        assert_true(f % 3 == 1 ? st.morph_near < 0.2f : st.morph_near == 1.0f);
         /* Late tiles: acknowledge at most two decoded tiles per frame. */
         uint32_t slot;
         const uint16_t *tex;
