@@ -33,6 +33,8 @@ if rows:
     for name, j in rows:
         if j.get("pixel_error") or j.get("lod_mode") in ("roam", "cdlod"):
             lod = "{} τ={:g}".format(j.get("lod_mode", "quadtree"), j.get("pixel_error") or 1)
+            if j.get("near_pixel_error"):
+                lod += " ({:g} within {:g} m)".format(j["near_pixel_error"], j["near_error_distance"])
         else:
             lod = "{} C={:g} C2={:g} {}".format(j.get("lod_mode", "quadtree"), j["lod_c"], j["lod_c2"],
                                                j.get("criterion", ""))

@@ -93,12 +93,16 @@ float morph_factor(uvec4 t, vec3 p)
 {
     if (t.g == 65535u)
         return 0.0;
-    float R = u_morph_scale * float(t.g);
-    float rn = u_morph_near * R; // the near bound's range, as hz_lod_morph_range
-    R = min(R, rn * max(1.0, rn / u_morph_near_d0));
+    float R0 = u_morph_scale * float(t.g);
+    float rn = u_morph_near * R0; // the near bound's range, as hz_lod_morph_range
+    float R = min(R0, rn * max(1.0, rn / u_morph_near_d0));
     if (R <= 0.0)
         return 1.0;
-    return clamp((distance(hz_curve(p), u_eye) - u_morph_start * R) / ((1.0 - u_morph_start) * R), 0.0, 1.0);
+    // a zone widened as the near bound's error grows (cd_morph_start_at; 0.8 is
+    // HZ_LOD_MORPH_START_MIN)
+    float q = R0 / R;
+    float a = R < R0 ? max(0.8, 1.0 - (1.0 - u_morph_start) * q * q) : u_morph_start;
+    return clamp((distance(hz_curve(p), u_eye) - a * R) / ((1.0 - a) * R), 0.0, 1.0);
 }
 
 // The morph target: half the 17-bit sum of the two neighbours' heights in b

@@ -101,7 +101,10 @@ typedef struct hz_lod_params {
      * (the skyline) keeps pixel_error while the near ground, whose shape
      * the full-resolution shading hides, gets fewer triangles. The bound
      * depends on the distance alone, so every vertex keeps one morph range
-     * (hz_lod_morph_range) and nothing pops. */
+     * (hz_lod_morph_range) and nothing pops. A vertex whose bound is looser
+     * morphs over a wider zone (its error, larger, would otherwise drift
+     * across the zone faster): from the range times
+     * max(HZ_LOD_MORPH_START_MIN, 1 - (1 - morph_start) (tau(R) / tau)^2). */
     float near_pixel_error;
     float near_distance;  /* metres; 0 -> HZ_LOD_NEAR_DISTANCE_DEFAULT */
 } hz_lod_params;

@@ -283,12 +283,12 @@ float hz_lod_morph_factor(hz_lod *lod, const hz_camera *cam, const hz_lod_stats 
     const float R = hz_lod_morph_range(stats, (float)q);
     if (R <= 0.0f)
         return 1.0f;
+    const float a = cd_morph_start_at(stats->morph_start, stats->morph_scale * (float)q, R);
     const float dx = (float)i * lod->spacing - cam->pos[0];
     const float dz = (float)j * lod->spacing - cam->pos[2];
     /* To the point as drawn (lowered by the Earth curvature), as the shader does. */
     const float dy = hworld(lod, i, j) - hz_curvature_drop(cam->earth_radius, dx, dz) - cam->pos[1];
     const float d = sqrtf(dx * dx + dy * dy + dz * dz);
-    const float a = stats->morph_start;
     const float m = (d - a * R) / ((1.0f - a) * R);
     return m < 0.0f ? 0.0f : (m > 1.0f ? 1.0f : m);
 }
@@ -469,7 +469,8 @@ static uint8_t patch_still(const hz_lod *lod, const hz_lod_stats *st, uint32_t l
         const float lo = box[0][a] - eye[a], hi = box[1][a] - eye[a];
         d2 += lo * lo > hi * hi ? lo * lo : hi * hi;
     }
-    const float start = st->morph_start * hz_lod_morph_range(st, (float)q) - 0.01f;
+    const float R = hz_lod_morph_range(st, (float)q);
+    const float start = cd_morph_start_at(st->morph_start, st->morph_scale * (float)q, R) * R - 0.01f;
     return start > 0.0f && d2 * 1.002f < start * start; /* d * 1.001 + 0.01 < the start, squared */
 }
 
@@ -524,8 +525,10 @@ hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_
         r = emit_patches(lod, cam, out, &st);
     if (r == HZ_OK && p.horizon_cull && !p.no_cull && !lod->desc.holes) {
         const float tau = p.pixel_error > 0 ? p.pixel_error : 1.0f;
-        /* the near bound: a morph moves a vertex at most d / (a K / tau_n) */
-        r = hz__horizon_cull(lod, cam, pixel_k(cam, &p) / tau * st.morph_near, st.morph_start,
+        /* the near bound: a morph moves a vertex at most d / (a K / tau_n),
+         * a the least morph start (cd_morph_start_at at R / Rp = 1 / rho) */
+        const float rho = st.morph_near;
+        r = hz__horizon_cull(lod, cam, pixel_k(cam, &p) / tau * rho, cd_morph_start_at(st.morph_start, 1.0f, rho),
                              st.morph_scale > 0.0f, out, &st);
     }
     st.ms = hz_time_ms() - t0;

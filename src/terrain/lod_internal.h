@@ -332,6 +332,20 @@ static inline float cd_range(float R, float rho, float d0)
     return far < R ? far : R;
 }
 
+/* The morph start of a vertex whose range R at tau became Rp (cd_range).
+ * Its error projects to tau(Rp) = tau R / Rp at Rp, so across a zone of the
+ * same width it would drift (R / Rp)^2 times as fast as at tau: the zone
+ * widens by that factor, down to HZ_LOD_MORPH_START_MIN (where consecutive
+ * levels' zones would overlap). A function of the vertex's error alone, as
+ * the range is; a start times range grows with the error. */
+static inline float cd_morph_start_at(float a, float R, float Rp)
+{
+    if (Rp >= R || R <= 0.0f)
+        return a;
+    const float q = R / Rp, w = 1.0f - (1.0f - a) * q * q, lo = (float)HZ_LOD_MORPH_START_MIN;
+    return w > lo ? w : lo;
+}
+
 /* The two neighbours sample (i, j) of an n x n map collapses between, at the
  * spacing where it first appears: along x, along z, or on the diagonal
  * (union jack by the coarser cell's parity) of the coarser cell it centres.
