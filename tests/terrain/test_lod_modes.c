@@ -205,16 +205,47 @@ static float morph_h(void *user, uint32_t index)
     return hz_lod_morph_height(u->lod, u->cam, u->st, index);
 }
 
+/* A 257^2 Perlin terrain at 10 m for the error-bound tests. */
+static void perlin_terrain(hz_grid *g, terrain *t)
+{
+    hz_err err = {0};
+    assert_int_equal(hz_generate(&(hz_gen_desc){.kind = HZ_GEN_PERLIN, .size = 257, .seed = 11}, g, &err), HZ_OK);
+    terrain_init(t, "perlin", g, 10.0f);
+}
+
+/* cdlod patches for cam and p into pl: nearest first (to within 1/32 of a
+ * doubling, 3 %), and the selection's invariant, exactly: no node is drawn
+ * inside its split range (a 1 % shorter range would break it). Returns the
+ * nodes checked against their range (the finest patches are exact). */
+static size_t check_patch_ranges(terrain *t, const hz_camera *cam, const hz_lod_params *p, int k, hz_patch_list *pl,
+                                 hz_lod_stats *st)
+{
+    assert_int_equal(hz_lod_select_patches(t->lod, cam, p, pl, st), HZ_OK);
+    const uint32_t lp_level = (uint32_t)(log2((t->hm.size - 1) / hz_lod_patch_cells(t->lod)));
+    size_t ranged = 0;
+    for (size_t q = 0; q < pl->count; q++) {
+        if (q)
+            assert_true(pl->data[q].dist >= (pl->data[q - 1].dist + 1.0f) * 0.969f - 1.0f);
+        if (pl->data[q].level >= lp_level)
+            continue;
+        const float range = hz_lod_morph_range(st, hz_lod_patch_error(t->lod, &pl->data[q]));
+        if (pl->data[q].dist < range * 0.99f)
+            fprintf(stderr, "cdlod camera %d: a level-%u node at %.1f m inside its range %.1f m\n", k,
+                    pl->data[q].level, (double)pl->data[q].dist, (double)range);
+        assert_true(pl->data[q].dist >= range * 0.99f);
+        ranged++;
+    }
+    return ranged;
+}
+
 /* roam's wedgies and cdlod's nested bounds are strict: no sample in the
  * frustum is off by more than tau pixels on the surface as drawn. */
 static void test_pixel_error_bound(void **state)
 {
     (void)state;
     hz_grid g;
-    hz_err err = {0};
-    assert_int_equal(hz_generate(&(hz_gen_desc){.kind = HZ_GEN_PERLIN, .size = 257, .seed = 11}, &g, &err), HZ_OK);
     terrain t;
-    terrain_init(&t, "perlin", &g, 10.0f);
+    perlin_terrain(&g, &t);
     hz_index_list il = {0};
     hz_patch_list pl = {0};
     hz_float_buf scratch = {0};
@@ -243,25 +274,8 @@ static void test_pixel_error_bound(void **state)
             /* a camera that sees next to nothing proves nothing */
             assert_true(pe.samples >= 500);
             worst[mi] = pe.max_px / tau > worst[mi] ? pe.max_px / tau : worst[mi];
-            if (modes[mi] == HZ_LOD_CDLOD) {
-                /* The selection's invariant, exactly: no node is drawn inside its
-                 * split range (a 1 % shorter range would break it). */
-                assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
-                const uint32_t lp_level = (uint32_t)(log2((t.hm.size - 1) / hz_lod_patch_cells(t.lod)));
-                for (size_t q = 0; q < pl.count; q++) {
-                    /* nearest first, to within 1/32 of a doubling (3 %) */
-                    if (q)
-                        assert_true(pl.data[q].dist >= (pl.data[q - 1].dist + 1.0f) * 0.969f - 1.0f);
-                    if (pl.data[q].level >= lp_level)
-                        continue; /* the finest patches are exact */
-                    const float range = hz_lod_morph_range(&st, hz_lod_patch_error(t.lod, &pl.data[q]));
-                    if (pl.data[q].dist < range * 0.99f)
-                        fprintf(stderr, "cdlod camera %d: a level-%u node at %.1f m inside its range %.1f m\n", k,
-                                pl.data[q].level, (double)pl.data[q].dist, (double)range);
-                    assert_true(pl.data[q].dist >= range * 0.99f);
-                    ranged++;
-                }
-            }
+            if (modes[mi] == HZ_LOD_CDLOD)
+                ranged += check_patch_ranges(&t, &cam, &p, k, &pl, &st);
         }
     fprintf(stderr, "largest error / tau: roam %.3f, cdlod %.3f; %zu cdlod nodes checked against their range\n",
             worst[0], worst[1], ranged);
@@ -646,10 +660,8 @@ static void test_cdlod_near_bound(void **state)
 {
     (void)state;
     hz_grid g;
-    hz_err err = {0};
-    assert_int_equal(hz_generate(&(hz_gen_desc){.kind = HZ_GEN_PERLIN, .size = 257, .seed = 11}, &g, &err), HZ_OK);
     terrain t;
-    terrain_init(&t, "perlin", &g, 10.0f);
+    perlin_terrain(&g, &t);
     const uint32_t n = t.hm.size, H = 720;
     float *surf = malloc((size_t)n * n * sizeof *surf);
     hz_index_list il = {0};
@@ -695,19 +707,14 @@ static void test_cdlod_near_bound(void **state)
                     above_far = px / tau > above_far ? px / tau : above_far;
                 }
             }
-        assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
-        const uint32_t lp_level = (uint32_t)(log2((n - 1) / hz_lod_patch_cells(t.lod)));
+        ranged += check_patch_ranges(&t, &cam, &p, k, &pl, &st);
         for (size_t q = 0; q < pl.count; q++) {
-            if (pl.data[q].level >= lp_level)
-                continue;
-            const float range = hz_lod_morph_range(&st, hz_lod_patch_error(t.lod, &pl.data[q]));
-            assert_true(pl.data[q].dist >= range * 0.99f);
             /* the range is where the node's error projects to tau(range) */
             const float e = hz_lod_patch_error(t.lod, &pl.data[q]) * t.hm.scale;
+            const float range = hz_lod_morph_range(&st, hz_lod_patch_error(t.lod, &pl.data[q]));
             const float b = range <= d0 ? tau_n : fmaxf(tau, tau_n * sqrtf(d0 / range));
             if (range > 1.0f)
                 assert_true(fabsf(e * K / range - b) <= 2e-3f * b);
-            ranged++;
         }
     }
     fprintf(stderr, "near bound: largest error / tau(d) %.3f, %zu samples above the far tau, far ones at most %.3f "
