@@ -634,10 +634,15 @@ static void queue_hud(view *v, uint32_t boxes_drawn, size_t boxes_wanted)
              v->st.ms, v->ds.upload_ms + v->ds.draw_ms);
     snprintf(lines[nl++], 256, "triangles %u   nodes %u visited, %u culled, %u hidden, %u drawn", v->st.triangles,
              v->st.nodes_visited, v->st.nodes_culled, v->st.hidden, v->st.leaves);
-    if (v->lod.pixel_error > 0 || v->lod.mode == HZ_LOD_ROAM || v->lod.mode == HZ_LOD_CDLOD)
-        snprintf(lines[nl++], 256, "LOD %s (L)   pixel error %.3g px (5/6: -/+)%s", hz_lod_mode_name(v->lod.mode),
-                 (double)(v->lod.pixel_error > 0 ? v->lod.pixel_error : 1.0f),
+    if (v->lod.pixel_error > 0 || v->lod.mode == HZ_LOD_ROAM || v->lod.mode == HZ_LOD_CDLOD) {
+        char near[64] = "";
+        if (v->lod.mode == HZ_LOD_CDLOD && v->lod.near_pixel_error > cli_pixel_error(&v->lod))
+            snprintf(near, sizeof near, ", %.3g px within %.0f m", (double)v->lod.near_pixel_error,
+                     (double)(v->lod.near_distance > 0 ? v->lod.near_distance : HZ_LOD_NEAR_DISTANCE_DEFAULT));
+        snprintf(lines[nl++], 256, "LOD %s (L)   pixel error %.3g px%s (5/6: -/+)%s", hz_lod_mode_name(v->lod.mode),
+                 (double)(v->lod.pixel_error > 0 ? v->lod.pixel_error : 1.0f), near,
                  v->lod.no_cull ? "  NO CULLING" : "");
+    }
     else
         snprintf(lines[nl++], 256, "LOD %s (L)   C %.2f   C2 %.3f   (1/2: C -/+, 3/4: C2 -/+)  %s%s",
                  hz_lod_mode_name(v->lod.mode), (double)(v->lod.c > 0 ? v->lod.c : 25.0f),
