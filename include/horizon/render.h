@@ -135,7 +135,7 @@ typedef struct hz_scene_params {
                            frame's selection); 0 = no morphing. Patches only (hz_renderer_set_cdlod) */
     float morph_start;
     float morph_near;          /* hz_lod_stats.morph_near / morph_near_distance: the near */
-    float morph_near_distance; /* bound's ranges (hz_lod_morph_range); 0 = none */
+    float morph_near_distance; /* bound's ranges (hz_lod_morph_range); either 0 = none */
     hz_draw_hook_fn draw_objects; /* optional: called in every scene pass after the terrain */
     void *draw_objects_user;
     bool objects_first; /* draw_objects draws opaque occluders (buildings): call it before the

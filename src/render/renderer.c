@@ -854,8 +854,10 @@ static void terrain_program(hz_renderer *r, const fx_frame *f, const fx_view *v,
     /* cdlod geomorphing (patches, main view only); reflections are unmorphed. */
     glUniform1f(tl[TL_MORPH_SCALE], patches ? sp->morph_scale : 0.0f);
     glUniform1f(tl[TL_MORPH_START], sp->morph_start);
-    glUniform1f(tl[TL_MORPH_NEAR], sp->morph_near > 0.0f ? sp->morph_near : 1.0f);
-    glUniform1f(tl[TL_MORPH_NEAR_D0], sp->morph_near_distance > 0.0f ? sp->morph_near_distance : 1.0f);
+    /* the near bound (hz_lod_morph_range): none unless both are set */
+    const bool near = sp->morph_near > 0.0f && sp->morph_near < 1.0f && sp->morph_near_distance > 0.0f;
+    glUniform1f(tl[TL_MORPH_NEAR], near ? sp->morph_near : 1.0f);
+    glUniform1f(tl[TL_MORPH_NEAR_D0], near ? sp->morph_near_distance : 1.0f);
     if (tp->key & FX_VARIANT_LIT) {
         glActiveTexture(GL_TEXTURE0 + FX_UNIT_LIT);
         glBindTexture(GL_TEXTURE_2D, r->lit_tex);

@@ -295,6 +295,7 @@ float hz_lod_morph_factor(hz_lod *lod, const hz_camera *cam, const hz_lod_stats 
 
 float hz_lod_morph_range(const hz_lod_stats *stats, float q)
 {
+    /* morph_near 0 or morph_near_distance 0 (stats filled by hand): none */
     const float rho = stats->morph_near > 0.0f ? stats->morph_near : 1.0f;
     return cd_range(stats->morph_scale * q, rho, stats->morph_near_distance);
 }

@@ -328,6 +328,8 @@ static inline void cd_near(const hz_lod_params *p, float *rho, float *d0)
 
 static inline float cd_range(float R, float rho, float d0)
 {
+    if (!(rho < 1.0f && d0 > 0.0f))
+        return R; /* no near bound */
     const float rn = rho * R, far = rn * (rn > d0 ? rn / d0 : 1.0f);
     return far < R ? far : R;
 }
@@ -340,7 +342,7 @@ static inline float cd_range(float R, float rho, float d0)
  * the range is; a start times range grows with the error. */
 static inline float cd_morph_start_at(float a, float R, float Rp)
 {
-    if (Rp >= R || R <= 0.0f)
+    if (Rp >= R || !(Rp > 0.0f))
         return a;
     const float q = R / Rp, w = 1.0f - (1.0f - a) * q * q, lo = (float)HZ_LOD_MORPH_START_MIN;
     return w > lo ? w : lo;

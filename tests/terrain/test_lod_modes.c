@@ -723,7 +723,7 @@ static void test_cdlod_near_bound(void **state)
     assert_true(worst > 0.5);     /* the bound is used, not just met */
     assert_true(loose > 500);     /* the near ground is coarser than tau allows */
     assert_true(far_checked > 1000 && above_far <= 1.001);
-    assert_true(tris[2] < 0.98 * (double)tris[0] && tris[2] > tris[1]);
+    assert_true((double)tris[2] < 0.98 * (double)tris[0] && tris[2] > tris[1]);
     assert_true(ranged > 100);
     free(surf);
     free(il.data);
