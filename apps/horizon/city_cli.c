@@ -692,11 +692,16 @@ int city_app_gpu(city_app *a, const char *cmd)
  * drawn, morphing included: hz_lod_patch_box) is behind the occlusion
  * buffer are dropped; the rest keep their order (nearest first). Holes
  * appear only where nothing shows through. */
-static void hide_patches(city_app *a, hz_scene_params *sp)
+static void hide_patches(city_app *a, const hz_camera *cam, hz_scene_params *sp)
 {
     a->patches_in = a->patches_drawn = sp->patch_count;
     if (!sp->patches || !sp->patch_count || !a->lod)
         return;
+    /* the selection's morphing, as the renderer draws it */
+    const hz_lod_stats st = {.morph_scale = sp->morph_scale,
+                             .morph_start = sp->morph_start,
+                             .morph_near = sp->morph_near,
+                             .morph_near_distance = sp->morph_near_distance};
     if (sp->patch_count > a->patch_keep_cap) {
         hz_patch *k = realloc(a->patch_keep, sp->patch_count * sizeof *k);
         if (!k)
@@ -709,7 +714,7 @@ static void hide_patches(city_app *a, hz_scene_params *sp)
         const hz_patch *p = &sp->patches[k];
         vec3 box[2];
         bool hidden = false;
-        if (p->layer1 == 0 && hz_lod_patch_box(a->lod, p, box)) {
+        if (p->layer1 == 0 && hz_lod_patch_box(a->lod, p, cam, &st, box)) {
             hz_box b = {{box[0][0], box[0][1], box[0][2]}, {box[1][0], box[1][1], box[1][2]}};
             hidden = hz_occlusion_box_hidden(&a->occ, &b);
         }
@@ -855,7 +860,7 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
             pthread_join(th, NULL);
         hz_occlusion_merge(&a->occ, &a->occ_ter); /* both 256 x 144 (city_app_place) */
         a->hook.opts.occlusion = &a->occ;
-        hide_patches(a, sp);
+        hide_patches(a, cam, sp);
         sp->sky_occluders = &a->occ; /* and the sky behind them */
         a->occ_ms = hz_time_ms() - t0;
     } else {

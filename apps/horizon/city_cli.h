@@ -69,7 +69,7 @@ typedef struct city_app {
     bool occ_built;        /* the last frame had an occlusion buffer */
     uint32_t occ_rest;     /* frames left without one (it hid too little) */
     /* the terrain's cdlod patches behind the occluders are not drawn either */
-    const hz_lod *lod;     /* the terrain's (city_app_place) */
+    hz_lod *lod;           /* the terrain's (city_app_place) */
     hz_patch *patch_keep;  /* this frame's visible patches (sp->patches points here) */
     size_t patch_keep_cap;
     uint32_t patches_in, patches_drawn; /* last frame: terrain patches in the view, drawn */

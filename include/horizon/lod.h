@@ -280,13 +280,13 @@ bool hz_lod_query_node(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t half,
 
 /* World-space box of a node: metres, y from the node's min/max times zscale. */
 bool hz_lod_node_box(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t half, vec3 box[2]);
-/* A box holding in-memory cdlod patch p as drawn, morphing included (flat
- * world; occlusion and culling lower it for the Earth's curvature): its
- * footprint, and the height range of its great-grandparent node (or the
- * root). A morphed vertex is a mix of samples of its own, its parent's and
- * its grandparent's grids around it (the shader morphs one level deep), all
- * inside that node. False for a patch of no node of lod. */
-bool hz_lod_patch_box(const hz_lod *lod, const hz_patch *p, vec3 box[2]);
+/* A box holding in-memory cdlod patch p as drawn for cam in the frame of
+ * stats (hz_lod_select_patches' camera and figures), morphing included
+ * (flat world; occlusion and culling lower it for the Earth's curvature):
+ * its footprint, and the height range of its node's samples, widened by
+ * what its corners take while they morph (a corner collapses toward samples
+ * beyond the patch). False for a patch of no node of lod. */
+bool hz_lod_patch_box(hz_lod *lod, const hz_patch *p, const hz_camera *cam, const hz_lod_stats *stats, vec3 box[2]);
 
 #ifdef __cplusplus
 }

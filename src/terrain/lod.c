@@ -250,24 +250,6 @@ bool hz_lod_node_box(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t half, v
     return true;
 }
 
-bool hz_lod_patch_box(const hz_lod *lod, const hz_patch *p, vec3 box[2])
-{
-    const uint32_t n1 = lod->size - 1, s = p->level < lod->levels ? half_of(lod, p->level) : 0;
-    if (s == 0 || p->x0 % (2 * s) || p->z0 % (2 * s) || p->x0 + 2 * s > n1 || p->z0 + 2 * s > n1)
-        return false;
-    /* the great-grandparent (or the root): its corner is p's rounded down to 16 s */
-    const uint32_t g = 16 * s < n1 ? 8 * s : n1 / 2;
-    const uint32_t gx = p->x0 / (2 * g) * (2 * g) + g, gz = p->z0 / (2 * g) * (2 * g) + g;
-    size_t i;
-    uint32_t l;
-    if (!lookup(lod, gx, gz, g, &i, &l))
-        return false;
-    box_flat(lod, i, gx, gz, g, box);
-    box[0][0] = (float)p->x0 * lod->spacing, box[1][0] = (float)(p->x0 + 2 * s) * lod->spacing;
-    box[0][2] = (float)p->z0 * lod->spacing, box[1][2] = (float)(p->z0 + 2 * s) * lod->spacing;
-    return true;
-}
-
 void hz_lod_set_progress(hz_lod *lod, hz_progress_fn fn, void *user)
 {
     lod->desc.progress = fn;

@@ -328,6 +328,33 @@ float hz_lod_morph_height(hz_lod *lod, const hz_camera *cam, const hz_lod_stats 
     return h + m * (target - h);
 }
 
+bool hz_lod_patch_box(hz_lod *lod, const hz_patch *p, const hz_camera *cam, const hz_lod_stats *stats, vec3 box[2])
+{
+    if (p->level >= lod->levels)
+        return false;
+    const uint32_t s = half_of(lod, p->level);
+    if (!hz_lod_node_box(lod, p->x0 + s, p->z0 + s, s, box))
+        return false;
+    /* Every vertex of the patch, morphed or not, is a mix of samples of its
+     * node and of its corners as drawn or moved one level: a vertex inside
+     * the patch or on an edge collapses between two vertices of the patch
+     * (a power of two cells on a corner aligned to its size), but a corner,
+     * which a coarser node brings in, collapses toward samples beyond it.
+     * A corner that does not morph for this eye stays on its sample. */
+    const uint32_t n = lod->size;
+    for (uint32_t c = 0; c < 4; c++) {
+        const uint32_t idx = (p->z0 + (c >> 1) * 2 * s) * n + p->x0 + (c & 1) * 2 * s;
+        if (hz_lod_morph_factor(lod, cam, stats, idx) <= 0.0f)
+            continue;
+        const float y[2] = {hz_lod_morph_height(lod, cam, stats, idx), morph1(lod, cam, stats, idx)};
+        for (int k = 0; k < 2; k++) {
+            box[0][1] = fminf(box[0][1], y[k]);
+            box[1][1] = fmaxf(box[1][1], y[k]);
+        }
+    }
+    return true;
+}
+
 /* ---- selection ------------------------------------------------------------ */
 
 typedef struct cd_ctx {

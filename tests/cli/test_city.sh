@@ -136,8 +136,11 @@ assert b['after_occlusion'] == b['scene_objects'] == 4688, b
 # instances; naive: one draw per object, and no material state either
 assert a['draw_calls'] == 1 and n['draw_calls'] == n['after_occlusion'] == n['after_frustum'], (a, n)
 assert n['state_changes'] == a['state_changes'] <= 3, (a, n)
-# the terrain's patches behind the buildings are not drawn either (the images below stay equal)
+# the terrain's patches behind the buildings are not drawn either (the images below stay equal):
+# most of them, each tested with its own samples' heights (57 of 149; with its great-grandparent
+# node's heights, 91)
 assert a['terrain_patches_drawn'] < a['terrain_patches'] == b['terrain_patches'] == b['terrain_patches_drawn'], (a, b)
+assert a['terrain_patches_drawn'] * 2 < a['terrain_patches'], a
 print("terrain patches drawn: %d of %d" % (a['terrain_patches_drawn'], a['terrain_patches']), file=sys.stderr)
 PY
 then ok "street level: occlusion culls $(echo "$j1" | python3 -c "import json,sys;c=json.load(sys.stdin)['city'];print(c['after_frustum']-c['after_occlusion'])") objects, sorted queue 1 draw"

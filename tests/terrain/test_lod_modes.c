@@ -308,7 +308,10 @@ static void random_patches(terrain *t, int k, const hz_camera *cam, hz_patch_lis
 }
 
 /* The box occlusion culling tests a patch by (hz_lod_patch_box) holds every
- * vertex of the patch as drawn, morphed, for any camera and bound. */
+ * vertex of the patch as drawn, morphed, for any camera and bound; and it is
+ * tight: within the heights of the patch's node and its eight neighbours of
+ * the same size (a patch's corners may collapse toward samples beyond it),
+ * not those of a far larger ancestor. */
 static void test_cdlod_patch_box_holds_drawn(void **state)
 {
     (void)state;
@@ -316,7 +319,7 @@ static void test_cdlod_patch_box_holds_drawn(void **state)
     terrain t;
     rough_terrain(&g, &t);
     hz_patch_list pl = {0};
-    size_t vertices = 0, moved = 0, tight = 0;
+    size_t vertices = 0, moved = 0, near = 0, patches = 0;
     for (int k = 0; k < 40; k++) {
         hz_camera cam = random_camera(&t);
         hz_lod_stats st;
@@ -325,28 +328,72 @@ static void test_cdlod_patch_box_holds_drawn(void **state)
         for (size_t q = 0; q < pl.count; q++) {
             const hz_patch *pt = &pl.data[q];
             vec3 box[2];
-            assert_true(hz_lod_patch_box(t.lod, pt, box));
+            assert_true(hz_lod_patch_box(t.lod, pt, &cam, &st, box));
             const uint32_t step = 1u << pt->shift, side = hz_lod_patch_cells(t.lod) << pt->shift;
             assert_true(box[0][0] == (float)pt->x0 * t.spacing && box[1][0] == (float)(pt->x0 + side) * t.spacing);
-            float lo = INFINITY, hi = -INFINITY;
+            assert_true(box[0][2] == (float)pt->z0 * t.spacing && box[1][2] == (float)(pt->z0 + side) * t.spacing);
             for (uint32_t j = pt->z0; j <= pt->z0 + side; j += step)
                 for (uint32_t i = pt->x0; i <= pt->x0 + side; i += step) {
                     const uint32_t idx = j * n + i;
                     const float h = hz_lod_morph_height(t.lod, &cam, &st, idx);
                     assert_true(h >= box[0][1] - 1e-3f && h <= box[1][1] + 1e-3f);
-                    lo = fminf(lo, h), hi = fmaxf(hi, h);
                     vertices++;
                     moved += fabsf(h - hz_heightmap_get(&t.hm, i, j)) > 1e-3f;
                 }
-            /* not vacuous: the box is near the drawn range for most patches */
-            tight += box[1][1] - box[0][1] <= 4.0f * (hi - lo) + 1.0f;
+            /* the heights of the 3 x 3 nodes of the patch's size around it */
+            const uint32_t half = side / 2;
+            float nlo = INFINITY, nhi = -INFINITY;
+            for (int dz = -1; dz <= 1; dz++)
+                for (int dx = -1; dx <= 1; dx++) {
+                    const int64_t cx = (int64_t)pt->x0 + half + dx * (int64_t)side;
+                    const int64_t cz = (int64_t)pt->z0 + half + dz * (int64_t)side;
+                    vec3 nb[2];
+                    if (cx > 0 && cz > 0 && hz_lod_node_box(t.lod, (uint32_t)cx, (uint32_t)cz, half, nb))
+                        nlo = fminf(nlo, nb[0][1]), nhi = fmaxf(nhi, nb[1][1]);
+                }
+            assert_true(nlo <= nhi); /* the patch's own node */
+            near += box[0][1] >= nlo - 1e-3f && box[1][1] <= nhi + 1e-3f;
+            patches++;
         }
         assert_true(pl.count > 0);
     }
-    fprintf(stderr, "patch boxes: %zu vertices inside, %zu of them morphed; %zu boxes within 4x the drawn range\n",
-            vertices, moved, tight);
+    fprintf(stderr,
+            "patch boxes: %zu vertices inside, %zu of them morphed; of %zu boxes %zu within their 3 x 3 nodes' "
+            "heights\n",
+            vertices, moved, patches, near);
     assert_true(moved > 1000);
-    assert_false(hz_lod_patch_box(t.lod, &(hz_patch){.x0 = 3, .z0 = 0, .level = 3}, (vec3[2]){{0}})); /* no node */
+    assert_true((double)near >= 0.95 * (double)patches);
+    /* The selection never had a corner morphing in these frames, but a
+     * corner collapses toward samples beyond its patch: with every range
+     * a thousandth as long, all vertices are fully morphed, and the boxes
+     * must still hold them, beyond their node's heights where a corner
+     * moves out. */
+    hz_camera cam = random_camera(&t);
+    hz_lod_stats st;
+    random_patches(&t, 1, &cam, &pl, &st);
+    st.morph_scale *= 1e-3f;
+    size_t outside_node = 0;
+    const uint32_t n = t.hm.size;
+    for (size_t q = 0; q < pl.count; q++) {
+        const hz_patch *pt = &pl.data[q];
+        const uint32_t step = 1u << pt->shift, side = hz_lod_patch_cells(t.lod) << pt->shift;
+        vec3 box[2], nb[2];
+        assert_true(hz_lod_patch_box(t.lod, pt, &cam, &st, box));
+        assert_true(hz_lod_node_box(t.lod, pt->x0 + side / 2, pt->z0 + side / 2, side / 2, nb));
+        bool out = false;
+        for (uint32_t j = pt->z0; j <= pt->z0 + side; j += step)
+            for (uint32_t i = pt->x0; i <= pt->x0 + side; i += step) {
+                const float h = hz_lod_morph_height(t.lod, &cam, &st, j * n + i);
+                assert_true(h >= box[0][1] - 1e-3f && h <= box[1][1] + 1e-3f);
+                out |= h < nb[0][1] - 1e-3f || h > nb[1][1] + 1e-3f;
+            }
+        outside_node += out;
+    }
+    fprintf(stderr, "fully morphed: %zu of %zu patches draw a vertex beyond their node's heights\n", outside_node,
+            pl.count);
+    assert_true(outside_node > 0);
+    hz_lod_stats st0 = {0};
+    assert_false(hz_lod_patch_box(t.lod, &(hz_patch){.x0 = 3, .z0 = 0, .level = 3}, &(hz_camera){0}, &st0, (vec3[2]){{0}})); /* no node */
     free(pl.data);
     terrain_free(&t);
     hz_grid_free(&g);
