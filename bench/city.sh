@@ -31,13 +31,13 @@ for path in ("street", "overview"):
     print(f"**{path}** path: {d['frames']} frames, {d['objects']} objects in the scene, {d['width']}x{d['height']}, "
           "--effects none; frame ms = median over frames of the whole frame (terrain, sky, objects) plus the "
           "occlusion buffer; diff = most pixels of a frame differing from the unculled frame drawn in the same queue order\n")
-    print("| culling | queue | frame ms | after frustum | after occlusion | draw calls | state changes | occlusion ms (buffer or queries) | terrain patches drawn | sky cells drawn | diff px |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| culling | queue | frame ms | after frustum | after occlusion | draw calls | state changes | occlusion ms (buffer or queries) | terrain patches drawn | their blocks hidden | sky cells drawn | diff px |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for c in d["configs"]:
         cull, queue = c["config"].split("_")
         print(f"| {cull} | {queue} | {c['frame_ms']:.1f} | {c['after_frustum']:.0f} | {c['after_occlusion']:.0f} | "
               f"{c['draw_calls']:.0f} | {c['state_changes']:.0f} | {c['occlusion_ms'] + c['query_ms']:.2f} | "
-              f"{c['terrain_patches_drawn']:.0f} | {c['sky_cells']:.0f} | "
+              f"{c['terrain_patches_drawn']:.0f} | {c['terrain_blocks_hidden']:.0f} | {c['sky_cells']:.0f} | "
               f"{c['diff_pixels_max'] if c['config'] not in ('none_naive', 'none_sorted') else '(ref)'} |")
     cfg = {c["config"]: c for c in d["configs"]}
     base, best, gpu = cfg["frustum_sorted"], cfg["occlusion_sorted"], cfg["gpuquery_sorted"]

@@ -687,14 +687,46 @@ int city_app_gpu(city_app *a, const char *cmd)
     return 0;
 }
 
+/* hz_patch.hidden bits of the blocks of p that block (bx, bz) of the cut
+ * into per_side x per_side holds and the occlusion buffer hides; a block
+ * shown is tested by its quarters down to the finest cut
+ * (hz_lod_patch_blocks), whose boxes lie within its own. */
+static uint16_t hidden_blocks(city_app *a, const hz_patch *p, const hz_camera *cam, const hz_lod_stats *st,
+                              uint32_t per_side, uint32_t bx, uint32_t bz)
+{
+    const uint32_t B = hz_lod_patch_blocks(hz_lod_patch_cells(a->lod));
+    vec3 box[2];
+    if (per_side > 1 && hz_lod_patch_block_box(a->lod, p, per_side, bx, bz, cam, st, box)) {
+        const hz_box b = {{box[0][0], box[0][1], box[0][2]}, {box[1][0], box[1][1], box[1][2]}};
+        if (hz_occlusion_box_hidden(&a->occ, &b)) {
+            /* every finest block inside it */
+            const uint32_t k = B / per_side;
+            uint16_t bits = 0;
+            for (uint32_t z = bz * k; z < (bz + 1) * k; z++)
+                for (uint32_t x = bx * k; x < (bx + 1) * k; x++)
+                    bits |= (uint16_t)(1u << (z * B + x));
+            return bits;
+        }
+    }
+    if (per_side >= B)
+        return 0;
+    uint16_t bits = 0;
+    for (uint32_t q = 0; q < 4; q++)
+        bits |= hidden_blocks(a, p, cam, st, 2 * per_side, 2 * bx + (q & 1), 2 * bz + (q >> 1));
+    return bits;
+}
+
 /* The seed's occlusion culling for the terrain too: at street level the
  * buildings hide most of it. sp's in-memory cdlod patches whose box (as
  * drawn, morphing included: hz_lod_patch_box) is behind the occlusion
- * buffer are dropped; the rest keep their order (nearest first). Holes
- * appear only where nothing shows through. */
+ * buffer are dropped; the rest keep their order (nearest first), and of
+ * those the blocks (hz_lod_patch_block_box) behind it are marked hidden
+ * (hz_patch.hidden), which the renderer leaves out. Holes appear only
+ * where nothing shows through. */
 static void hide_patches(city_app *a, const hz_camera *cam, hz_scene_params *sp)
 {
     a->patches_in = a->patches_drawn = sp->patch_count;
+    a->blocks_hidden = 0;
     if (!sp->patches || !sp->patch_count || !a->lod)
         return;
     /* the selection's morphing, as the renderer draws it */
@@ -718,8 +750,14 @@ static void hide_patches(city_app *a, const hz_camera *cam, hz_scene_params *sp)
             hz_box b = {{box[0][0], box[0][1], box[0][2]}, {box[1][0], box[1][1], box[1][2]}};
             hidden = hz_occlusion_box_hidden(&a->occ, &b);
         }
-        if (!hidden)
-            a->patch_keep[kept++] = *p;
+        if (hidden)
+            continue;
+        hz_patch *q = &a->patch_keep[kept++];
+        *q = *p;
+        if (p->layer1 == 0)
+            q->hidden |= hidden_blocks(a, p, cam, &st, 1, 0, 0);
+        for (uint16_t h = q->hidden; h; h &= (uint16_t)(h - 1))
+            a->blocks_hidden++;
     }
     sp->patches = a->patch_keep;
     sp->patch_count = kept;
@@ -865,6 +903,7 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
         a->occ_ms = hz_time_ms() - t0;
     } else {
         a->patches_in = a->patches_drawn = sp->patch_count;
+        a->blocks_hidden = 0;
     }
     a->hook.next = sp->draw_objects;
     a->hook.next_user = sp->draw_objects_user;
@@ -978,6 +1017,7 @@ void city_app_print(const city_app *a, json_t *json)
         jx_set(o, "shadow_caster_samples", jx_int((long long)a->caster_samples));
         jx_set(o, "terrain_patches", jx_int(a->patches_in));
         jx_set(o, "terrain_patches_drawn", jx_int(a->patches_drawn));
+        jx_set(o, "terrain_blocks_hidden", jx_int(a->blocks_hidden));
         jx_set(o, "place_ms", jx_fix(a->place_ms, 1));
         jx_set(o, "meshes", jx_int(hz_scene_mesh_count(a->scene)));
         if (c) {
@@ -1377,8 +1417,9 @@ int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *
     const uint32_t frames = o->city.bench_frames ? o->city.bench_frames : 12;
     const size_t px = (size_t)o->width * o->height * 3;
     double *ms = calloc((size_t)frames * BENCH_CFGS, sizeof *ms);
-    double sum_obj[BENCH_CFGS][9] = {{0}}; /* after frustum, after occlusion, draw calls, state changes, occ ms,
-                                             query ms, terrain patches in view, drawn, sky cells drawn */
+    double sum_obj[BENCH_CFGS][10] = {{0}}; /* after frustum, after occlusion, draw calls, state changes, occ ms,
+                                              query ms, terrain patches in view, drawn, sky cells drawn,
+                                              blocks of the drawn patches hidden */
     uint64_t diff[BENCH_CFGS] = {0}, diff_frames[BENCH_CFGS] = {0};
     struct {
         bool built;
@@ -1444,6 +1485,7 @@ int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *
             sum_obj[ci][6] += a->patches_in;
             sum_obj[ci][7] += a->patches_drawn;
             sum_obj[ci][8] += ds.sky_cells;
+            sum_obj[ci][9] += a->blocks_hidden;
             if (hz_renderer_read_rgb(ren, img + px * ci, &err) != HZ_OK) {
                 fprintf(stderr, "horizon render: %s\n", err.msg);
                 goto out;
@@ -1478,11 +1520,12 @@ int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *
         if (json)
             printf("%s{\"config\":\"%s\",\"frame_ms\":%.3f,\"after_frustum\":%.1f,\"after_occlusion\":%.1f,"
                    "\"draw_calls\":%.1f,\"state_changes\":%.1f,\"occlusion_ms\":%.3f,\"query_ms\":%.3f,"
-                   "\"terrain_patches\":%.1f,\"terrain_patches_drawn\":%.1f,\"sky_cells\":%.1f,"
+                   "\"terrain_patches\":%.1f,\"terrain_patches_drawn\":%.1f,\"terrain_blocks_hidden\":%.1f,"
+                   "\"sky_cells\":%.1f,"
                    "\"diff_pixels_max\":%llu,\"diff_frames\":%llu}",
                    ci ? "," : "", bench_cfgs[ci].name, med, sum_obj[ci][0] / f, sum_obj[ci][1] / f,
                    sum_obj[ci][2] / f, sum_obj[ci][3] / f, sum_obj[ci][4] / f, sum_obj[ci][5] / f,
-                   sum_obj[ci][6] / f, sum_obj[ci][7] / f, sum_obj[ci][8] / f,
+                   sum_obj[ci][6] / f, sum_obj[ci][7] / f, sum_obj[ci][9] / f, sum_obj[ci][8] / f,
                    (unsigned long long)diff[ci],
                    (unsigned long long)diff_frames[ci]);
         else

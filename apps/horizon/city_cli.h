@@ -73,6 +73,7 @@ typedef struct city_app {
     hz_patch *patch_keep;  /* this frame's visible patches (sp->patches points here) */
     size_t patch_keep_cap;
     uint32_t patches_in, patches_drawn; /* last frame: terrain patches in the view, drawn */
+    uint32_t blocks_hidden;             /* ... and blocks of the drawn ones left out (hz_patch.hidden) */
     /* the objects as shadow casters of the light map (hz_lightmap_desc.casters): per terrain
      * sample the top of the highest object box over it, -inf elsewhere; NULL when none */
     float *casters;

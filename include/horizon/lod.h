@@ -200,6 +200,11 @@ typedef struct hz_patch {
      * farthest point is nearer than its vertices' morph starts), so the
      * renderer draws it without the morph code. 0 = may morph. */
     uint8_t still;
+    /* Occlusion culling (set by the caller after selection): bit B * bz + bx
+     * set leaves block (bx, bz) of the patch's B x B blocks undrawn, B =
+     * hz_lod_patch_blocks (each block P / B cells square, bx along x). The
+     * selection sets 0: every block drawn. */
+    uint16_t hidden;
 } hz_patch;
 
 typedef struct hz_patch_list {
@@ -287,6 +292,19 @@ bool hz_lod_node_box(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t half, v
  * what its corners take while they morph (a corner collapses toward samples
  * beyond the patch). False for a patch of no node of lod. */
 bool hz_lod_patch_box(hz_lod *lod, const hz_patch *p, const hz_camera *cam, const hz_lod_stats *stats, vec3 box[2]);
+
+/* Blocks per side of a cdlod patch of patch_cells cells (hz_lod_patch_cells)
+ * for hz_patch.hidden: 4 (8 cells or more), 2 (4 cells), 1 (2 cells: a
+ * patch is drawn whole). */
+uint32_t hz_lod_patch_blocks(uint32_t patch_cells);
+
+/* The same box for block (bx, bz) of patch p cut into per_side x per_side
+ * blocks (1, 2, 4 ... up to hz_lod_patch_blocks; bx along x): its footprint
+ * and its samples' heights, widened while a corner of the block morphs. A
+ * block's box lies within the box of every larger block holding it. False
+ * for a patch of no node of lod or a block outside it. */
+bool hz_lod_patch_block_box(hz_lod *lod, const hz_patch *p, uint32_t per_side, uint32_t bx, uint32_t bz,
+                            const hz_camera *cam, const hz_lod_stats *stats, vec3 box[2]);
 
 #ifdef __cplusplus
 }

@@ -186,6 +186,18 @@ struct hz_renderer {
     int32_t tile_base[16];     /* first layer per level */
     GLuint patch_vao, patch_ibo, patch_vbo;
     uint32_t patch_cells, patch_index_count;
+    /* The patch's cells go block by block (hz_lod_patch_blocks per side, in
+     * Morton order): a block is block_indices consecutive indices, so the
+     * blocks a patch shows (hz_patch.hidden) are a few ranges. */
+    uint32_t patch_blocks, block_indices;
+    uint8_t block_morton[16];  /* block bit (B * bz + bx) of each position in the index order */
+    uint16_t *inst_hidden;     /* hz_patch.hidden of each instance, in instance order */
+    uint32_t inst_hidden_cap;
+    bool any_hidden;           /* some instance of this frame has a hidden block */
+    GLuint patch_cmd_buf;      /* indirect draws of the patches with hidden blocks */
+    uint32_t *patch_cmds;      /* their commands (5 words each) */
+    size_t patch_cmds_cap;     /* commands */
+    size_t cmd_bytes;          /* their bytes uploaded this frame */
     uint32_t *inst_scratch;
     size_t inst_scratch_cap, inst_cap, inst_bytes;
     uint32_t n_inst;           /* instances uploaded for this frame */

@@ -1228,7 +1228,7 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
     double t3 = hz_time_ms();
     if (stats) {
         stats->upload_ms = t1 - t0 + bake_ms;
-        stats->upload_bytes = (size_t)count * sizeof(uint32_t) + (npatch ? r->inst_bytes : 0);
+        stats->upload_bytes = (size_t)count * sizeof(uint32_t) + (npatch ? r->inst_bytes + r->cmd_bytes : 0);
         stats->draw_ms = t3 - t2;
         stats->billboards = (fr.bits & HZ_FX_BILLBOARDS) ? (uint32_t)r->n_trees : 0;
         stats->particles = (fr.bits & HZ_FX_WEATHER) ? (uint32_t)r->n_particles : 0;

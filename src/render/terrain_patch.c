@@ -144,18 +144,33 @@ static hz_result patch_grid(hz_renderer *r, uint32_t P, hz_err *err)
         if (!idx)
             return hz_err_set(err, HZ_ERR_MEMORY, "renderer: out of memory for the patch indices");
         uint16_t *o = idx;
-        for (uint32_t w = 0; w < P; w++)
-            for (uint32_t u = 0; u < P; u++) {
-                uint32_t t[6];
-                hz_lod_cell_triangles(((u + w) & 1u) == 0, w * c1 + u, (w + 1) * c1 + u, w * c1 + u + 1,
-                                      (w + 1) * c1 + u + 1, t);
-                for (int k = 0; k < 6; k++)
-                    *o++ = (uint16_t)t[k];
+        /* Block by block in Morton order (neighbouring blocks next to each
+         * other, so a patch's visible blocks make few ranges), each row by
+         * row. */
+        const uint32_t B = hz_lod_patch_blocks(P), C = P / B;
+        for (uint32_t m = 0; m < B * B; m++) {
+            uint32_t bx = 0, bz = 0;
+            for (uint32_t b = 0; b < 4; b++) {
+                bx |= ((m >> (2 * b)) & 1u) << b;
+                bz |= ((m >> (2 * b + 1)) & 1u) << b;
             }
+            r->block_morton[m] = (uint8_t)(bz * B + bx);
+            for (uint32_t w = bz * C; w < (bz + 1) * C; w++)
+                for (uint32_t u = bx * C; u < (bx + 1) * C; u++) {
+                    uint32_t t[6];
+                    hz_lod_cell_triangles(((u + w) & 1u) == 0, w * c1 + u, (w + 1) * c1 + u, w * c1 + u + 1,
+                                          (w + 1) * c1 + u + 1, t);
+                    for (int k = 0; k < 6; k++)
+                        *o++ = (uint16_t)t[k];
+                }
+        }
+        r->patch_blocks = B;
+        r->block_indices = C * C * 6;
         if (!r->patch_vao) {
             glGenVertexArrays(1, &r->patch_vao);
             glGenBuffers(1, &r->patch_ibo);
             glGenBuffers(1, &r->patch_vbo);
+            glGenBuffers(1, &r->patch_cmd_buf);
         }
         glBindVertexArray(r->patch_vao);
         glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->patch_ibo);
@@ -270,6 +285,17 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32
         r->inst_scratch = s;
         r->inst_scratch_cap = bytes;
     }
+    if (count > r->inst_hidden_cap) {
+        uint16_t *h = realloc(r->inst_hidden, count * sizeof *h);
+        if (!h)
+            return hz_err_set(err, HZ_ERR_MEMORY, "renderer: out of memory for %u patch instances", count);
+        r->inst_hidden = h;
+        r->inst_hidden_cap = count;
+    }
+    /* hidden bits beyond the patch's blocks mean nothing */
+    const uint16_t block_mask = (uint16_t)((1u << (r->patch_blocks * r->patch_blocks)) - 1u);
+    r->any_hidden = false;
+    r->cmd_bytes = 0;
     const uint32_t T = r->tile_cells, n = r->size;
     for (uint32_t k = 0; r->streamed && k < count; k++) {
         const hz_patch *q = &p[k];
@@ -292,6 +318,8 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32
         o[4] = q->slide | ((uint32_t)q->slide_edge[0] << 8) | ((uint32_t)q->slide_edge[1] << 16) |
                ((uint32_t)q->slide_edge[2] << 24);
         o[5] = q->slide_edge[3];
+        r->inst_hidden[k] = q->hidden & block_mask;
+        r->any_hidden |= r->inst_hidden[k] != 0;
     }
     patch_segments(r, count, near);
     for (uint32_t g = 0; !r->streamed && g < r->n_seg; g++) {
@@ -309,9 +337,12 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32
                 return hz_err_set(err, HZ_ERR_VALUE, "renderer: patch %u (%u, %u, shift %u) lies outside the map", k,
                                   q->x0, q->z0, q->shift);
             /* the shader finds the tile: level min(shift, top), (x0 >> level) / T */
-            uint32_t *o = r->inst_scratch + words * (size_t)at[q->still == 0]++;
+            const uint32_t slot = at[q->still == 0]++;
+            uint32_t *o = r->inst_scratch + words * (size_t)slot;
             o[0] = q->x0 | (q->z0 << 16);
             o[1] = q->shift | ((uint32_t)q->coarse << 4);
+            r->inst_hidden[slot] = q->hidden & block_mask;
+            r->any_hidden |= r->inst_hidden[slot] != 0;
         }
     }
     for (uint32_t g = 0; r->streamed && g < r->n_seg; g++)
@@ -366,15 +397,77 @@ static void patch_program(const hz_renderer *r, const prog_variant *tp)
     glUniform1iv(loc[TL_BASE], 16, r->tile_base);
 }
 
+/* One indirect command: count indices from first, instances [base, base + n). */
+static void push_cmd(hz_renderer *r, size_t *nc, uint32_t count, uint32_t n, uint32_t first, uint32_t base)
+{
+    uint32_t *c = r->patch_cmds + 5 * (*nc)++;
+    c[0] = count, c[1] = n, c[2] = first, c[3] = 0, c[4] = base;
+}
+
+/* Instances [a, b) with some hidden blocks: one indirect command per run
+ * of whole patches (instanced) and per range of shown blocks of the
+ * others. False when out of memory (nothing drawn). */
+static bool patch_run_blocks(hz_renderer *r, uint32_t a, uint32_t b)
+{
+    const uint32_t B2 = r->patch_blocks * r->patch_blocks;
+    /* at most one command per whole run, and B2 / 2 + 1 ranges per patch */
+    const size_t need = (size_t)(b - a) * (B2 / 2 + 1) + 1;
+    if (need > r->patch_cmds_cap) {
+        uint32_t *c = realloc(r->patch_cmds, need * 5 * sizeof *c);
+        if (!c)
+            return false;
+        r->patch_cmds = c;
+        r->patch_cmds_cap = need;
+    }
+    size_t nc = 0;
+    uint32_t whole = a; /* the run of whole patches so far: [whole, k) */
+    for (uint32_t k = a; k < b; k++) {
+        const uint16_t hid = r->inst_hidden[k];
+        if (!hid)
+            continue;
+        if (whole < k)
+            push_cmd(r, &nc, r->patch_index_count, k - whole, 0, whole);
+        whole = k + 1;
+        for (uint32_t m = 0; m < B2;) {
+            if (hid >> r->block_morton[m] & 1u) {
+                m++;
+                continue;
+            }
+            uint32_t e = m + 1;
+            while (e < B2 && !(hid >> r->block_morton[e] & 1u))
+                e++;
+            push_cmd(r, &nc, (e - m) * r->block_indices, 1, m * r->block_indices, k);
+            m = e;
+        }
+    }
+    if (whole < b)
+        push_cmd(r, &nc, r->patch_index_count, b - whole, 0, whole);
+    if (!nc)
+        return true;
+    patch_attribs(r, 0); /* the commands' base instances address the instances */
+    glBindBuffer(GL_DRAW_INDIRECT_BUFFER, r->patch_cmd_buf);
+    glBufferData(GL_DRAW_INDIRECT_BUFFER, (GLsizeiptr)(nc * 5 * sizeof(uint32_t)), r->patch_cmds, GL_STREAM_DRAW);
+    r->cmd_bytes += nc * 5 * sizeof(uint32_t);
+    glMultiDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_SHORT, (const void *)0, (GLsizei)nc, 0);
+    glBindBuffer(GL_DRAW_INDIRECT_BUFFER, 0);
+    return true;
+}
+
 /* Instances [a, b) with program tp (bound when it is not the current one). */
-static void patch_run(const hz_renderer *r, const prog_variant *tp, const prog_variant **bound, uint32_t a,
-                      uint32_t b)
+static void patch_run(hz_renderer *r, const prog_variant *tp, const prog_variant **bound, uint32_t a, uint32_t b)
 {
     if (a >= b)
         return;
     if (*bound != tp) {
         glUseProgram(tp->prog);
         *bound = tp;
+    }
+    if (r->any_hidden) {
+        uint32_t k = a;
+        while (k < b && !r->inst_hidden[k])
+            k++;
+        if (k < b && patch_run_blocks(r, a, b))
+            return;
     }
     patch_attribs(r, a);
     glDrawElementsInstanced(GL_TRIANGLES, (GLsizei)r->patch_index_count, GL_UNSIGNED_SHORT, (const void *)0,
@@ -431,7 +524,10 @@ void patch_destroy(hz_renderer *r)
     glDeleteVertexArrays(1, &r->patch_vao);
     glDeleteBuffers(1, &r->patch_ibo);
     glDeleteBuffers(1, &r->patch_vbo);
+    glDeleteBuffers(1, &r->patch_cmd_buf);
     free(r->inst_scratch);
+    free(r->inst_hidden);
+    free(r->patch_cmds);
 }
 
 hz_result hz_renderer_set_stream(hz_renderer *r, const hz_pyr_info *info, uint32_t slots, uint32_t texels, hz_err *err)

@@ -328,22 +328,22 @@ float hz_lod_morph_height(hz_lod *lod, const hz_camera *cam, const hz_lod_stats 
     return h + m * (target - h);
 }
 
-bool hz_lod_patch_box(hz_lod *lod, const hz_patch *p, const hz_camera *cam, const hz_lod_stats *stats, vec3 box[2])
+/* The box of the square of patch vertices with corner (x0, z0) and half
+ * side s samples (a node of lod), as drawn for cam in the frame of stats.
+ * Every vertex of the square, morphed or not, is a mix of samples of the
+ * square and of its corners as drawn or moved one level: a vertex inside it
+ * or on an edge collapses between two vertices of the square (a power of
+ * two cells on a corner aligned to its size), but a corner, which a coarser
+ * node brings in, collapses toward samples beyond it. A corner that does
+ * not morph for this eye stays on its sample. */
+static bool square_box(hz_lod *lod, uint32_t x0, uint32_t z0, uint32_t s, const hz_camera *cam,
+                       const hz_lod_stats *stats, vec3 box[2])
 {
-    if (p->level >= lod->levels)
+    if (!hz_lod_node_box(lod, x0 + s, z0 + s, s, box))
         return false;
-    const uint32_t s = half_of(lod, p->level);
-    if (!hz_lod_node_box(lod, p->x0 + s, p->z0 + s, s, box))
-        return false;
-    /* Every vertex of the patch, morphed or not, is a mix of samples of its
-     * node and of its corners as drawn or moved one level: a vertex inside
-     * the patch or on an edge collapses between two vertices of the patch
-     * (a power of two cells on a corner aligned to its size), but a corner,
-     * which a coarser node brings in, collapses toward samples beyond it.
-     * A corner that does not morph for this eye stays on its sample. */
     const uint32_t n = lod->size;
     for (uint32_t c = 0; c < 4; c++) {
-        const uint32_t idx = (p->z0 + (c >> 1) * 2 * s) * n + p->x0 + (c & 1) * 2 * s;
+        const uint32_t idx = (z0 + (c >> 1) * 2 * s) * n + x0 + (c & 1) * 2 * s;
         if (hz_lod_morph_factor(lod, cam, stats, idx) <= 0.0f)
             continue;
         const float y[2] = {hz_lod_morph_height(lod, cam, stats, idx), morph1(lod, cam, stats, idx)};
@@ -353,6 +353,31 @@ bool hz_lod_patch_box(hz_lod *lod, const hz_patch *p, const hz_camera *cam, cons
         }
     }
     return true;
+}
+
+bool hz_lod_patch_box(hz_lod *lod, const hz_patch *p, const hz_camera *cam, const hz_lod_stats *stats, vec3 box[2])
+{
+    if (p->level >= lod->levels)
+        return false;
+    const uint32_t s = half_of(lod, p->level);
+    return square_box(lod, p->x0, p->z0, s, cam, stats, box);
+}
+
+uint32_t hz_lod_patch_blocks(uint32_t patch_cells)
+{
+    return patch_cells >= 8 ? 4 : (patch_cells >= 2 ? patch_cells / 2 : 1);
+}
+
+bool hz_lod_patch_block_box(hz_lod *lod, const hz_patch *p, uint32_t per_side, uint32_t bx, uint32_t bz,
+                            const hz_camera *cam, const hz_lod_stats *stats, vec3 box[2])
+{
+    const uint32_t B = hz_lod_patch_blocks(lod->patch);
+    if (p->level >= lod->levels || per_side == 0 || per_side > B || (per_side & (per_side - 1)) || bx >= per_side ||
+        bz >= per_side)
+        return false;
+    /* a block is P / per_side >= 2 cells: a node of half P / (2 per_side) vertices */
+    const uint32_t side = 2 * half_of(lod, p->level) / per_side;
+    return square_box(lod, p->x0 + bx * side, p->z0 + bz * side, side / 2, cam, stats, box);
 }
 
 /* ---- selection ------------------------------------------------------------ */

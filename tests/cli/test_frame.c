@@ -517,6 +517,92 @@ static void test_patch_chunks_draw_every_patch(void **state)
     free(pl.data);
 }
 
+/* Blocks a patch marks hidden (hz_patch.hidden, what occlusion culling
+ * sets) are not drawn, and only they: patches with random masks (whole,
+ * partly hidden in runs and gaps, all hidden) draw the frame of the same
+ * patches expanded to triangles less the cells of the hidden blocks, the
+ * same depth at every pixel and the same sky; and the masks change the
+ * frame. */
+static void test_patch_hidden_blocks_not_drawn(void **state)
+{
+    ctx *c = *state;
+    hz_camera cam;
+    hz_index_list il = {0}, one = {0}, kept = {0};
+    hz_patch_list pl = {0};
+    hz_lod_stats st;
+    cdlod_frame(c, 0.5f, NULL, &cam, &pl, &il, &st);
+    assert_true(pl.count >= 4 * 64); /* several flushed chunks */
+    const uint32_t P = hz_lod_patch_cells(c->t->lod), B = hz_lod_patch_blocks(P), n = c->t->hm.size;
+    assert_int_equal(B, 4);
+    uint64_t rng = 0x5eed5eedULL;
+    size_t partial = 0, hidden_tris = 0;
+    for (size_t k = 0; k < pl.count; k++) {
+        hz_patch *q = &pl.data[k];
+        rng = rng * 6364136223846793005ULL + 1442695040888963407ULL;
+        const uint32_t kind = (uint32_t)(rng >> 60) & 3u;
+        q->hidden = kind == 0 ? 0 : (kind == 1 ? 0xffffu : (uint16_t)(rng >> 20));
+        partial += q->hidden != 0 && q->hidden != 0xffffu;
+        /* the reference: the patch's triangles outside its hidden blocks */
+        one.count = 0;
+        assert_int_equal(hz_lod_patches_to_indices(c->t->lod, q, 1, &one), HZ_OK);
+        const uint32_t cell = (P / B) << q->shift;
+        for (size_t t = 0; t < one.count; t += 3) {
+            uint32_t i = 0, j = 0;
+            for (int v = 0; v < 3; v++)
+                i += one.data[t + v] % n, j += one.data[t + v] / n;
+            const uint32_t bx = (i - 3 * q->x0) / (3 * cell), bz = (j - 3 * q->z0) / (3 * cell);
+            assert_true(bx < B && bz < B);
+            if (q->hidden >> (bz * B + bx) & 1u) {
+                hidden_tris++;
+                continue;
+            }
+            if (kept.count + 3 > kept.cap) {
+                kept.cap = kept.cap ? 2 * kept.cap : 4096;
+                kept.data = realloc(kept.data, kept.cap * sizeof *kept.data);
+                assert_non_null(kept.data);
+            }
+            memcpy(kept.data + kept.count, one.data + t, 3 * sizeof *kept.data);
+            kept.count += 3;
+        }
+    }
+    fprintf(stderr, "%zu patches, %zu partly hidden; %zu of %zu triangles hidden\n", pl.count, partial, hidden_tris,
+            il.count / 3);
+    assert_true(partial > pl.count / 3 && hidden_tris * 6 > il.count / 3);
+    float *dp = malloc(W * H * sizeof *dp), *di = malloc(W * H * sizeof *di);
+    uint8_t *sp_ = malloc(W * H), *si = malloc(W * H);
+    hz_scene_params sp = {.patches = pl.data, .patch_count = (uint32_t)pl.count}; /* morph_scale 0 */
+    draw_depth_sky(c, &cam, &sp, NULL, 0, NULL, dp, sp_);
+    draw_depth_sky(c, &cam, NULL, kept.data, (uint32_t)kept.count, NULL, di, si);
+    size_t ground = 0, depth_off = 0, sky_off = 0, changed = 0;
+    for (size_t k = 0; k < (size_t)W * H; k++) {
+        ground += !si[k];
+        sky_off += sp_[k] != si[k];
+        depth_off += depth_differs(dp[k], di[k]);
+    }
+    /* the whole patches, for comparison */
+    for (size_t k = 0; k < pl.count; k++)
+        pl.data[k].hidden = 0;
+    draw_depth_sky(c, &cam, &sp, NULL, 0, NULL, di, si);
+    for (size_t k = 0; k < (size_t)W * H; k++)
+        changed += depth_differs(dp[k], di[k]);
+    fprintf(stderr,
+            "patches with hidden blocks vs the triangles left: %zu of %zu ground pixels at another depth, %zu sky "
+            "pixels differ; %zu pixels differ from the whole patches\n",
+            depth_off, ground, sky_off, changed);
+    assert_true(ground > (size_t)W * H / 10);
+    assert_true(sky_off * 2000 <= (size_t)W * H);
+    assert_true(depth_off * 1000 <= ground);
+    assert_true(changed > (size_t)W * H / 10);
+    free(dp);
+    free(di);
+    free(sp_);
+    free(si);
+    free(il.data);
+    free(one.data);
+    free(kept.data);
+    free(pl.data);
+}
+
 /* Patches over samples without data: a triangle touching one is not drawn
  * (the patch shader clips it away rather than discarding its fragments,
  * which would cost llvmpipe its early depth test). The frame is that of the
@@ -1102,6 +1188,7 @@ int main(void)
         cmocka_unit_test(test_modes_close_to_reference),
         cmocka_unit_test(test_gpu_morph_matches_cpu),
         cmocka_unit_test(test_patch_chunks_draw_every_patch),
+        cmocka_unit_test(test_patch_hidden_blocks_not_drawn),
         cmocka_unit_test(test_far_patches_keep_the_detail_colour),
         cmocka_unit_test(test_patches_skip_missing_data),
         cmocka_unit_test(test_horizon_culling_hides_nothing),

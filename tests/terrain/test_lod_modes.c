@@ -307,11 +307,70 @@ static void random_patches(terrain *t, int k, const hz_camera *cam, hz_patch_lis
     assert_int_equal(hz_lod_select_patches(t->lod, cam, &p, pl, st), HZ_OK);
 }
 
-/* The box occlusion culling tests a patch by (hz_lod_patch_box) holds every
- * vertex of the patch as drawn, morphed, for any camera and bound; and it is
- * tight: within the heights of the patch's node and its eight neighbours of
- * the same size (a patch's corners may collapse toward samples beyond it),
- * not those of a far larger ancestor. */
+/* Asserts that every vertex of the square of patch vertices at (x0, z0),
+ * side samples wide and step apart, lies in box as drawn for cam and st,
+ * and that box has the square's footprint; true when a vertex lies beyond
+ * the heights of the square's own samples. */
+static bool square_holds_drawn(terrain *t, const hz_camera *cam, const hz_lod_stats *st, uint32_t x0, uint32_t z0,
+                               uint32_t side, uint32_t step, vec3 box[2], size_t *vertices, size_t *moved)
+{
+    assert_true(box[0][0] == (float)x0 * t->spacing && box[1][0] == (float)(x0 + side) * t->spacing);
+    assert_true(box[0][2] == (float)z0 * t->spacing && box[1][2] == (float)(z0 + side) * t->spacing);
+    vec3 nb[2];
+    assert_true(hz_lod_node_box(t->lod, x0 + side / 2, z0 + side / 2, side / 2, nb));
+    const uint32_t n = t->hm.size;
+    bool out = false;
+    for (uint32_t j = z0; j <= z0 + side; j += step)
+        for (uint32_t i = x0; i <= x0 + side; i += step) {
+            const float h = hz_lod_morph_height(t->lod, cam, st, j * n + i);
+            assert_true(h >= box[0][1] - 1e-3f && h <= box[1][1] + 1e-3f);
+            out |= h < nb[0][1] - 1e-3f || h > nb[1][1] + 1e-3f;
+            (*vertices)++;
+            *moved += fabsf(h - hz_heightmap_get(&t->hm, i, j)) > 1e-3f;
+        }
+    return out;
+}
+
+/* Every block of patch pt (hz_lod_patch_block_box, at every cut up to
+ * hz_lod_patch_blocks per side) holds its vertices as drawn and lies within
+ * the box of the block of the coarser cut holding it (the patch's first);
+ * the number of finest blocks with a vertex beyond their samples' heights. */
+static size_t blocks_hold_drawn(terrain *t, const hz_camera *cam, const hz_lod_stats *st, const hz_patch *pt,
+                                vec3 pbox[2], size_t *vertices, size_t *moved)
+{
+    const uint32_t P = hz_lod_patch_cells(t->lod), B = hz_lod_patch_blocks(P);
+    vec3 prev[4][4][2], cur[4][4][2];
+    assert_true(hz_lod_patch_block_box(t->lod, pt, 1, 0, 0, cam, st, prev[0][0]));
+    assert_memory_equal(prev[0][0], pbox, sizeof(vec3[2]));
+    size_t out = 0;
+    for (uint32_t per = 2; per <= B; per *= 2) {
+        const uint32_t side = (P / per) << pt->shift;
+        for (uint32_t bz = 0; bz < per; bz++)
+            for (uint32_t bx = 0; bx < per; bx++) {
+                float(*box)[3] = cur[bz][bx];
+                const float(*up)[3] = prev[bz / 2][bx / 2];
+                assert_true(hz_lod_patch_block_box(t->lod, pt, per, bx, bz, cam, st, box));
+                assert_true(box[0][1] >= up[0][1] - 1e-3f && box[1][1] <= up[1][1] + 1e-3f);
+                const bool o = square_holds_drawn(t, cam, st, pt->x0 + bx * side, pt->z0 + bz * side, side,
+                                                  1u << pt->shift, box, vertices, moved);
+                out += per == B && o;
+            }
+        memcpy(prev, cur, sizeof prev);
+    }
+    vec3 none[2];
+    assert_false(hz_lod_patch_block_box(t->lod, pt, B, B, 0, cam, st, none));
+    assert_false(hz_lod_patch_block_box(t->lod, pt, 2 * B, 0, 0, cam, st, none));
+    assert_false(hz_lod_patch_block_box(t->lod, pt, 3, 0, 0, cam, st, none));
+    assert_false(hz_lod_patch_block_box(t->lod, pt, 0, 0, 0, cam, st, none));
+    return out;
+}
+
+/* The boxes occlusion culling tests a patch and its blocks by
+ * (hz_lod_patch_box, hz_lod_patch_block_box) hold every vertex of them as
+ * drawn, morphed, for any camera and bound; and they are tight: a patch's
+ * within the heights of its node and its eight neighbours of the same size
+ * (a patch's corners may collapse toward samples beyond it), not those of a
+ * far larger ancestor; a block's within its patch's. */
 static void test_cdlod_patch_box_holds_drawn(void **state)
 {
     (void)state;
@@ -320,26 +379,22 @@ static void test_cdlod_patch_box_holds_drawn(void **state)
     rough_terrain(&g, &t);
     hz_patch_list pl = {0};
     size_t vertices = 0, moved = 0, near = 0, patches = 0;
+    assert_int_equal(hz_lod_patch_cells(t.lod), 8);
+    assert_int_equal(hz_lod_patch_blocks(8), 4);
+    assert_int_equal(hz_lod_patch_blocks(64), 4);
+    assert_int_equal(hz_lod_patch_blocks(4), 2);
+    assert_int_equal(hz_lod_patch_blocks(2), 1);
     for (int k = 0; k < 40; k++) {
         hz_camera cam = random_camera(&t);
         hz_lod_stats st;
         random_patches(&t, k, &cam, &pl, &st);
-        const uint32_t n = t.hm.size;
         for (size_t q = 0; q < pl.count; q++) {
             const hz_patch *pt = &pl.data[q];
             vec3 box[2];
             assert_true(hz_lod_patch_box(t.lod, pt, &cam, &st, box));
-            const uint32_t step = 1u << pt->shift, side = hz_lod_patch_cells(t.lod) << pt->shift;
-            assert_true(box[0][0] == (float)pt->x0 * t.spacing && box[1][0] == (float)(pt->x0 + side) * t.spacing);
-            assert_true(box[0][2] == (float)pt->z0 * t.spacing && box[1][2] == (float)(pt->z0 + side) * t.spacing);
-            for (uint32_t j = pt->z0; j <= pt->z0 + side; j += step)
-                for (uint32_t i = pt->x0; i <= pt->x0 + side; i += step) {
-                    const uint32_t idx = j * n + i;
-                    const float h = hz_lod_morph_height(t.lod, &cam, &st, idx);
-                    assert_true(h >= box[0][1] - 1e-3f && h <= box[1][1] + 1e-3f);
-                    vertices++;
-                    moved += fabsf(h - hz_heightmap_get(&t.hm, i, j)) > 1e-3f;
-                }
+            const uint32_t side = hz_lod_patch_cells(t.lod) << pt->shift;
+            square_holds_drawn(&t, &cam, &st, pt->x0, pt->z0, side, 1u << pt->shift, box, &vertices, &moved);
+            blocks_hold_drawn(&t, &cam, &st, pt, box, &vertices, &moved);
             /* the heights of the 3 x 3 nodes of the patch's size around it */
             const uint32_t half = side / 2;
             float nlo = INFINITY, nhi = -INFINITY;
@@ -358,42 +413,36 @@ static void test_cdlod_patch_box_holds_drawn(void **state)
         assert_true(pl.count > 0);
     }
     fprintf(stderr,
-            "patch boxes: %zu vertices inside, %zu of them morphed; of %zu boxes %zu within their 3 x 3 nodes' "
-            "heights\n",
+            "patch boxes: %zu vertices inside (patches and blocks), %zu of them morphed; of %zu patch boxes %zu "
+            "within their 3 x 3 nodes' heights\n",
             vertices, moved, patches, near);
     assert_true(moved > 1000);
     assert_true((double)near >= 0.95 * (double)patches);
-    /* The selection never had a corner morphing in these frames, but a
-     * corner collapses toward samples beyond its patch: with every range
+    /* The selection never had a patch corner morphing in these frames, but
+     * a corner collapses toward samples beyond its square: with every range
      * a thousandth as long, all vertices are fully morphed, and the boxes
-     * must still hold them, beyond their node's heights where a corner
+     * must still hold them, beyond their samples' heights where a corner
      * moves out. */
     hz_camera cam = random_camera(&t);
     hz_lod_stats st;
     random_patches(&t, 1, &cam, &pl, &st);
     st.morph_scale *= 1e-3f;
-    size_t outside_node = 0;
-    const uint32_t n = t.hm.size;
+    size_t outside = 0, blocks_outside = 0;
     for (size_t q = 0; q < pl.count; q++) {
         const hz_patch *pt = &pl.data[q];
-        const uint32_t step = 1u << pt->shift, side = hz_lod_patch_cells(t.lod) << pt->shift;
-        vec3 box[2], nb[2];
+        vec3 box[2];
         assert_true(hz_lod_patch_box(t.lod, pt, &cam, &st, box));
-        assert_true(hz_lod_node_box(t.lod, pt->x0 + side / 2, pt->z0 + side / 2, side / 2, nb));
-        bool out = false;
-        for (uint32_t j = pt->z0; j <= pt->z0 + side; j += step)
-            for (uint32_t i = pt->x0; i <= pt->x0 + side; i += step) {
-                const float h = hz_lod_morph_height(t.lod, &cam, &st, j * n + i);
-                assert_true(h >= box[0][1] - 1e-3f && h <= box[1][1] + 1e-3f);
-                out |= h < nb[0][1] - 1e-3f || h > nb[1][1] + 1e-3f;
-            }
-        outside_node += out;
+        outside += square_holds_drawn(&t, &cam, &st, pt->x0, pt->z0, hz_lod_patch_cells(t.lod) << pt->shift,
+                                      1u << pt->shift, box, &vertices, &moved);
+        blocks_outside += blocks_hold_drawn(&t, &cam, &st, pt, box, &vertices, &moved);
     }
-    fprintf(stderr, "fully morphed: %zu of %zu patches draw a vertex beyond their node's heights\n", outside_node,
-            pl.count);
-    assert_true(outside_node > 0);
+    fprintf(stderr,
+            "fully morphed: %zu of %zu patches and %zu of %zu blocks draw a vertex beyond their samples' heights\n",
+            outside, pl.count, blocks_outside, 16 * pl.count);
+    assert_true(outside > 0 && blocks_outside > 0);
     hz_lod_stats st0 = {0};
-    assert_false(hz_lod_patch_box(t.lod, &(hz_patch){.x0 = 3, .z0 = 0, .level = 3}, &(hz_camera){0}, &st0, (vec3[2]){{0}})); /* no node */
+    assert_false(hz_lod_patch_box(t.lod, &(hz_patch){.x0 = 3, .z0 = 0, .level = 3}, &(hz_camera){0}, &st0,
+                                  (vec3[2]){{0}})); /* no node */
     free(pl.data);
     terrain_free(&t);
     hz_grid_free(&g);
