@@ -186,9 +186,10 @@ struct hz_renderer {
     int32_t tile_base[16];     /* first layer per level */
     GLuint patch_vao, patch_ibo, patch_vbo;
     uint32_t patch_cells, patch_index_count;
-    /* The patch's cells go block by block (hz_lod_patch_blocks per side, in
-     * Morton order): a block is block_indices consecutive indices, so the
-     * blocks a patch shows (hz_patch.hidden) are a few ranges. */
+    /* The patch's index buffer: its cells row by row (patch_index_count
+     * indices), then again block by block (hz_lod_patch_blocks per side, in
+     * Morton order): there a block is block_indices consecutive indices, so
+     * the blocks a patch shows (hz_patch.hidden) are a few ranges. */
     uint32_t patch_blocks, block_indices;
     uint8_t block_morton[16];  /* block bit (B * bz + bx) of each position in the index order */
     uint16_t *inst_hidden;     /* hz_patch.hidden of each instance, in instance order */

@@ -140,13 +140,22 @@ static hz_result patch_grid(hz_renderer *r, uint32_t P, hz_err *err)
 {
     if (r->patch_cells != P) {
         const uint32_t c1 = P + 1;
-        uint16_t *idx = malloc((size_t)P * P * 6 * sizeof *idx);
+        uint16_t *idx = malloc((size_t)P * P * 12 * sizeof *idx);
         if (!idx)
             return hz_err_set(err, HZ_ERR_MEMORY, "renderer: out of memory for the patch indices");
         uint16_t *o = idx;
-        /* Block by block in Morton order (neighbouring blocks next to each
-         * other, so a patch's visible blocks make few ranges), each row by
-         * row. */
+        /* The cells row by row (whole patches), then again block by block in
+         * Morton order (neighbouring blocks next to each other, so a patch's
+         * shown blocks make few ranges), each row by row. On the peers'
+         * flight whole patches in the block order took 2-3 % longer. */
+        for (uint32_t w = 0; w < P; w++)
+            for (uint32_t u = 0; u < P; u++) {
+                uint32_t t[6];
+                hz_lod_cell_triangles(((u + w) & 1u) == 0, w * c1 + u, (w + 1) * c1 + u, w * c1 + u + 1,
+                                      (w + 1) * c1 + u + 1, t);
+                for (int k = 0; k < 6; k++)
+                    *o++ = (uint16_t)t[k];
+            }
         const uint32_t B = hz_lod_patch_blocks(P), C = P / B;
         for (uint32_t m = 0; m < B * B; m++) {
             uint32_t bx = 0, bz = 0;
@@ -174,7 +183,7 @@ static hz_result patch_grid(hz_renderer *r, uint32_t P, hz_err *err)
         }
         glBindVertexArray(r->patch_vao);
         glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->patch_ibo);
-        glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)((size_t)P * P * 6 * sizeof *idx), idx, GL_STATIC_DRAW);
+        glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)((size_t)P * P * 12 * sizeof *idx), idx, GL_STATIC_DRAW);
         glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
         glEnableVertexAttribArray(0);
         glVertexAttribDivisor(0, 1);
@@ -436,7 +445,7 @@ static bool patch_run_blocks(hz_renderer *r, uint32_t a, uint32_t b)
             uint32_t e = m + 1;
             while (e < B2 && !(hid >> r->block_morton[e] & 1u))
                 e++;
-            push_cmd(r, &nc, (e - m) * r->block_indices, 1, m * r->block_indices, k);
+            push_cmd(r, &nc, (e - m) * r->block_indices, 1, r->patch_index_count + m * r->block_indices, k);
             m = e;
         }
     }
