@@ -716,13 +716,42 @@ static uint16_t hidden_blocks(city_app *a, const hz_patch *p, const hz_camera *c
     return bits;
 }
 
+/* What hides of patches [first, count) of sp, every second one: vis[k]
+ * gets 0x10000 when patch k is behind the buffer, else its hidden blocks. */
+typedef struct hide_job {
+    city_app *a;
+    const hz_camera *cam;
+    const hz_scene_params *sp;
+    const hz_lod_stats *st;
+    uint32_t first;
+} hide_job;
+
+static void *hide_run(void *arg)
+{
+    const hide_job *j = arg;
+    city_app *a = j->a;
+    for (uint32_t k = j->first; k < j->sp->patch_count; k += 2) {
+        const hz_patch *p = &j->sp->patches[k];
+        uint32_t v = 0;
+        vec3 box[2];
+        if (p->layer1 == 0 && hz_lod_patch_box(a->lod, p, j->cam, j->st, box)) {
+            const hz_box b = {{box[0][0], box[0][1], box[0][2]}, {box[1][0], box[1][1], box[1][2]}};
+            v = hz_occlusion_box_hidden(&a->occ, &b) ? 0x10000u : hidden_blocks(a, p, j->cam, j->st, 1, 0, 0);
+        }
+        a->patch_vis[k] = v;
+    }
+    return NULL;
+}
+
 /* The seed's occlusion culling for the terrain too: at street level the
  * buildings hide most of it. sp's in-memory cdlod patches whose box (as
  * drawn, morphing included: hz_lod_patch_box) is behind the occlusion
  * buffer are dropped; the rest keep their order (nearest first), and of
  * those the blocks (hz_lod_patch_block_box) behind it are marked hidden
  * (hz_patch.hidden), which the renderer leaves out. Holes appear only
- * where nothing shows through. */
+ * where nothing shows through. The patches are tested on two threads
+ * (llvmpipe's rasteriser threads have nothing to do yet), every second
+ * one each. */
 static void hide_patches(city_app *a, const hz_camera *cam, hz_scene_params *sp)
 {
     a->patches_in = a->patches_drawn = sp->patch_count;
@@ -736,26 +765,31 @@ static void hide_patches(city_app *a, const hz_camera *cam, hz_scene_params *sp)
                              .morph_near_distance = sp->morph_near_distance};
     if (sp->patch_count > a->patch_keep_cap) {
         hz_patch *k = realloc(a->patch_keep, sp->patch_count * sizeof *k);
-        if (!k)
+        if (k)
+            a->patch_keep = k;
+        uint32_t *v = realloc(a->patch_vis, sp->patch_count * sizeof *v);
+        if (v)
+            a->patch_vis = v;
+        if (!k || !v)
             return; /* all drawn */
-        a->patch_keep = k;
         a->patch_keep_cap = sp->patch_count;
     }
+    hide_job jobs[2] = {{a, cam, sp, &st, 0}, {a, cam, sp, &st, 1}};
+    pthread_t th;
+    const bool threaded = sp->patch_count > 1 && pthread_create(&th, NULL, hide_run, &jobs[1]) == 0;
+    hide_run(&jobs[0]);
+    if (threaded)
+        pthread_join(th, NULL);
+    else
+        hide_run(&jobs[1]);
     uint32_t kept = 0;
     for (uint32_t k = 0; k < sp->patch_count; k++) {
-        const hz_patch *p = &sp->patches[k];
-        vec3 box[2];
-        bool hidden = false;
-        if (p->layer1 == 0 && hz_lod_patch_box(a->lod, p, cam, &st, box)) {
-            hz_box b = {{box[0][0], box[0][1], box[0][2]}, {box[1][0], box[1][1], box[1][2]}};
-            hidden = hz_occlusion_box_hidden(&a->occ, &b);
-        }
-        if (hidden)
+        const uint32_t v = a->patch_vis[k];
+        if (v & 0x10000u)
             continue;
         hz_patch *q = &a->patch_keep[kept++];
-        *q = *p;
-        if (p->layer1 == 0)
-            q->hidden |= hidden_blocks(a, p, cam, &st, 1, 0, 0);
+        *q = sp->patches[k];
+        q->hidden |= (uint16_t)v;
         for (uint16_t h = q->hidden; h; h &= (uint16_t)(h - 1))
             a->blocks_hidden++;
     }
@@ -1105,6 +1139,7 @@ void city_app_destroy(city_app *a)
     hz_occlusion_free(&a->occ);
     hz_occlusion_free(&a->occ_ter);
     free(a->patch_keep);
+    free(a->patch_vis);
     free(a->casters);
     free(a->ter_cmin);
     free(a->ter_cell_ok);

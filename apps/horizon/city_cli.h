@@ -71,6 +71,7 @@ typedef struct city_app {
     /* the terrain's cdlod patches behind the occluders are not drawn either */
     hz_lod *lod;           /* the terrain's (city_app_place) */
     hz_patch *patch_keep;  /* this frame's visible patches (sp->patches points here) */
+    uint32_t *patch_vis;   /* per patch in view: hidden whole (0x10000) or its hidden blocks */
     size_t patch_keep_cap;
     uint32_t patches_in, patches_drawn; /* last frame: terrain patches in the view, drawn */
     uint32_t blocks_hidden;             /* ... and blocks of the drawn ones left out (hz_patch.hidden) */

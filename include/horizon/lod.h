@@ -286,7 +286,8 @@ bool hz_lod_query_node(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t half,
 /* World-space box of a node: metres, y from the node's min/max times zscale. */
 bool hz_lod_node_box(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t half, vec3 box[2]);
 /* A box holding in-memory cdlod patch p as drawn for cam in the frame of
- * stats (hz_lod_select_patches' camera and figures), morphing included
+ * stats (hz_lod_select_patches' camera and figures, which set p->still),
+ * morphing included
  * (flat world; occlusion and culling lower it for the Earth's curvature):
  * its footprint, and the height range of its node's samples, widened by
  * what its corners take while they morph (a corner collapses toward samples

@@ -336,13 +336,13 @@ float hz_lod_morph_height(hz_lod *lod, const hz_camera *cam, const hz_lod_stats 
  * two cells on a corner aligned to its size), but a corner, which a coarser
  * node brings in, collapses toward samples beyond it. A corner that does
  * not morph for this eye stays on its sample. */
-static bool square_box(hz_lod *lod, uint32_t x0, uint32_t z0, uint32_t s, const hz_camera *cam,
+static bool square_box(hz_lod *lod, uint32_t x0, uint32_t z0, uint32_t s, bool still, const hz_camera *cam,
                        const hz_lod_stats *stats, vec3 box[2])
 {
     if (!hz_lod_node_box(lod, x0 + s, z0 + s, s, box))
         return false;
     const uint32_t n = lod->size;
-    for (uint32_t c = 0; c < 4; c++) {
+    for (uint32_t c = 0; c < 4 && !still; c++) {
         const uint32_t idx = (z0 + (c >> 1) * 2 * s) * n + x0 + (c & 1) * 2 * s;
         if (hz_lod_morph_factor(lod, cam, stats, idx) <= 0.0f)
             continue;
@@ -360,7 +360,7 @@ bool hz_lod_patch_box(hz_lod *lod, const hz_patch *p, const hz_camera *cam, cons
     if (p->level >= lod->levels)
         return false;
     const uint32_t s = half_of(lod, p->level);
-    return square_box(lod, p->x0, p->z0, s, cam, stats, box);
+    return square_box(lod, p->x0, p->z0, s, p->still != 0, cam, stats, box);
 }
 
 uint32_t hz_lod_patch_blocks(uint32_t patch_cells)
@@ -377,7 +377,7 @@ bool hz_lod_patch_block_box(hz_lod *lod, const hz_patch *p, uint32_t per_side, u
         return false;
     /* a block is P / per_side >= 2 cells: a node of half P / (2 per_side) vertices */
     const uint32_t side = 2 * half_of(lod, p->level) / per_side;
-    return square_box(lod, p->x0 + bx * side, p->z0 + bz * side, side / 2, cam, stats, box);
+    return square_box(lod, p->x0 + bx * side, p->z0 + bz * side, side / 2, p->still != 0, cam, stats, box);
 }
 
 /* ---- selection ------------------------------------------------------------ */
