@@ -1045,6 +1045,7 @@ void city_app_print(const city_app *a, json_t *json)
         jx_set(o, "queue_items", jx_int(s->items));
         jx_set(o, "triangles_drawn", jx_int((long long)s->triangles));
         jx_set(o, "cull_ms", jx_fix(s->cull_ms, 3));
+        jx_set(o, "occlusion_tests", jx_int(s->occlusion_tests));
         jx_set(o, "occlusion_ms", jx_fix(a->occ_ms, 3));
         jx_set(o, "draw_ms", jx_fix(s->draw_ms, 3));
         jx_set(o, "occluder_quads", jx_int((long long)a->occ.triangles));

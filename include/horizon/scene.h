@@ -152,6 +152,9 @@ typedef struct hz_cull_stats {
     uint32_t nodes_tested;   /* boxes tested against the planes */
     uint32_t subtrees_culled;/* subtrees dropped whole */
     uint32_t subtrees_inside;/* subtrees accepted whole (fully inside, children not tested) */
+    uint32_t in_frustum;     /* nodes with a mesh in the frustum (before occlusion) */
+    uint32_t occlusion_tests;/* boxes tested against the occlusion buffer */
+    uint32_t subtrees_hidden;/* subtrees (of more than one node) it hid whole */
 } hz_cull_stats;
 
 /* Box against planes (hz_camera_frustum layout: inside when dot(n, p) + d
@@ -169,6 +172,13 @@ uint32_t hz_scene_cull(const hz_scene *s, const vec4 planes[6], uint32_t *out, u
  * planes are cam's frustum (or any planes the caller wants). */
 uint32_t hz_scene_cull_curved(const hz_scene *s, const hz_camera *cam, const vec4 planes[6], uint32_t *out,
                               uint32_t cap, hz_cull_stats *stats);
+/* The same with hierarchical occlusion culling (G4): a subtree whose box
+ * occ (a buffer begun for cam; NULL: none) hides is dropped whole, and so
+ * is a node whose own box it hides. Its nodes in the frustum still count in
+ * stats->in_frustum. */
+struct hz_occlusion;
+uint32_t hz_scene_cull_occluded(const hz_scene *s, const hz_camera *cam, const vec4 planes[6],
+                                const struct hz_occlusion *occ, uint32_t *out, uint32_t cap, hz_cull_stats *stats);
 
 /* ---- render queue (G5) ------------------------------------------------------ */
 

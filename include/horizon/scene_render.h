@@ -54,6 +54,7 @@ typedef struct hz_scene_draw_stats {
     double draw_ms;            /* main pass: the objects' GL time, between two glFinish when the
                                   hook's time_draw is set; else the submission's CPU time */
     uint32_t nodes_tested;     /* frustum: boxes tested */
+    uint32_t occlusion_tests;  /* boxes tested against the occlusion buffer (subtrees first) */
     uint32_t queries;          /* GPU occlusion queries issued */
     double query_ms;           /* issuing them and reading the results back */
 } hz_scene_draw_stats;

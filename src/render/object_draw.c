@@ -437,21 +437,14 @@ hz_result hz_scene_gpu_draw(hz_scene_gpu *g, const hz_scene *s, const hz_pass_in
     } else {
         hz_camera_frustum(pass->cam, planes);
     }
-    uint32_t n = hz_scene_cull_curved(s, pass->cam, planes, g->vis, g->scratch_cap, &cs);
+    /* With occlusion (main pass), hierarchical: a block of buildings behind
+     * the buffer is one test. */
+    const hz_occlusion *occ = pass->pass == HZ_PASS_MAIN ? opts->occlusion : NULL;
+    uint32_t n = hz_scene_cull_occluded(s, pass->cam, planes, occ, g->vis, g->scratch_cap, &cs);
     st.objects = cs.objects;
-    st.after_frustum = n;
+    st.after_frustum = cs.in_frustum;
     st.nodes_tested = cs.nodes_tested;
-    /* Occlusion (main pass). */
-    if (opts->occlusion && pass->pass == HZ_PASS_MAIN) {
-        uint32_t kept = 0;
-        for (uint32_t k = 0; k < n; k++) {
-            hz_box b;
-            hz_scene_node_bounds(s, g->vis[k], &b);
-            if (!hz_occlusion_box_hidden(opts->occlusion, &b))
-                g->vis[kept++] = g->vis[k];
-        }
-        n = kept;
-    }
+    st.occlusion_tests = cs.occlusion_tests;
     /* Nearest first (the queue keeps this order within each item): near
      * objects fill the depth buffer first, and the hidden fragments of
      * those behind fail the depth test before shading. */

@@ -5,6 +5,8 @@
  * tree from a file cannot overflow anything. */
 #include "horizon/scene.h"
 
+#include "horizon/occlusion.h"
+
 #include "horizon/safety.h"
 
 #include <float.h>
@@ -38,61 +40,6 @@ struct hz_scene {
     hz_material *mat;
     uint32_t matcount, matcap;
 };
-
-void hz_box_empty(hz_box *b)
-{
-    glm_vec3_fill(b->min, FLT_MAX);
-    glm_vec3_fill(b->max, -FLT_MAX);
-}
-
-bool hz_box_is_empty(const hz_box *b)
-{
-    return b->min[0] > b->max[0] || b->min[1] > b->max[1] || b->min[2] > b->max[2];
-}
-
-void hz_box_add_point(hz_box *b, const float p[3])
-{
-    for (int k = 0; k < 3; k++) {
-        b->min[k] = fminf(b->min[k], p[k]);
-        b->max[k] = fmaxf(b->max[k], p[k]);
-    }
-}
-
-float hz_box_distance2(const hz_box *b, const float p[3])
-{
-    float d2 = 0;
-    for (int c = 0; c < 3; c++) {
-        const float v = fmaxf(fmaxf(b->min[c] - p[c], p[c] - b->max[c]), 0.0f);
-        d2 += v * v;
-    }
-    return d2;
-}
-
-void hz_box_add_box(hz_box *b, const hz_box *o)
-{
-    if (hz_box_is_empty(o))
-        return;
-    hz_box_add_point(b, o->min);
-    hz_box_add_point(b, o->max);
-}
-
-void hz_box_transform(const hz_box *b, const mat4 m, hz_box *dest)
-{
-    hz_box r;
-    hz_box_empty(&r);
-    if (!hz_box_is_empty(b)) {
-        /* Arvo: the box of a transformed box from the matrix's columns. */
-        for (int k = 0; k < 3; k++) {
-            r.min[k] = r.max[k] = m[3][k];
-            for (int c = 0; c < 3; c++) {
-                float a = m[c][k] * b->min[c], e = m[c][k] * b->max[c];
-                r.min[k] += fminf(a, e);
-                r.max[k] += fmaxf(a, e);
-            }
-        }
-    }
-    *dest = r;
-}
 
 hz_scene *hz_scene_create(const hz_scene_desc *desc)
 {
@@ -498,27 +445,6 @@ void hz_scene_visit(const hz_scene *s, hz_scene_visit_fn fn, void *user)
     }
 }
 
-int hz_box_vs_planes(const hz_box *b, const vec4 *planes, uint32_t plane_count)
-{
-    if (hz_box_is_empty(b))
-        return -1;
-    int res = 1;
-    for (uint32_t k = 0; k < plane_count; k++) {
-        const float *p = planes[k];
-        /* The corner farthest along the normal, and the nearest. */
-        float far = p[3], near = p[3];
-        for (int c = 0; c < 3; c++) {
-            far += p[c] * (p[c] >= 0 ? b->max[c] : b->min[c]);
-            near += p[c] * (p[c] >= 0 ? b->min[c] : b->max[c]);
-        }
-        if (far < 0)
-            return -1;
-        if (near < 0)
-            res = 0;
-    }
-    return res;
-}
-
 /* A box against the planes as cam draws it (cam NULL or flat: as it is). */
 static int drawn_box_vs_planes(const hz_box *b, const hz_camera *cam, const vec4 *planes)
 {
@@ -540,9 +466,16 @@ uint32_t hz_scene_cull(const hz_scene *s, const vec4 planes[6], uint32_t *out, u
 uint32_t hz_scene_cull_curved(const hz_scene *s, const hz_camera *cam, const vec4 planes[6], uint32_t *out,
                               uint32_t cap, hz_cull_stats *stats)
 {
+    return hz_scene_cull_occluded(s, cam, planes, NULL, out, cap, stats);
+}
+
+uint32_t hz_scene_cull_occluded(const hz_scene *s, const hz_camera *cam, const vec4 planes[6],
+                                const struct hz_occlusion *occ, uint32_t *out, uint32_t cap, hz_cull_stats *stats)
+{
     hz_cull_stats st = {0};
     uint32_t n_out = 0;
     uint32_t inside_root = 0; /* while > 0: inside a subtree accepted whole */
+    uint32_t hidden_root = 0; /* while > 0: inside a subtree the buffer hides (only counted) */
     for (uint32_t k = 1; k < s->count; k++)
         st.objects += s->n[k].mesh != HZ_MESH_NONE;
     for (uint32_t id = s->n[0].first_child; id;) {
@@ -564,12 +497,27 @@ uint32_t hz_scene_cull_curved(const hz_scene *s, const hz_camera *cam, const vec
                 take = drawn_box_vs_planes(&n->own, cam, planes) >= 0;
             }
         }
-        if (take) {
+        st.in_frustum += take;
+        if (occ && descend && !hidden_root) {
+            /* the subtree's box, then the node's own (a leaf's are one) */
+            if (n->first_child) {
+                st.occlusion_tests++;
+                if (hz_occlusion_box_hidden(occ, &n->sub)) {
+                    st.subtrees_hidden++;
+                    hidden_root = id;
+                }
+            }
+            if (take && !hidden_root) {
+                st.occlusion_tests++;
+                take = !hz_occlusion_box_hidden(occ, &n->own);
+            }
+        }
+        if (take && !hidden_root) {
             if (n_out < cap)
                 out[n_out] = id;
             n_out++;
         }
-        /* Leaving the accepted subtree ends the free pass. */
+        /* Leaving an accepted or hidden subtree ends its pass. */
         uint32_t next;
         if (descend && n->first_child) {
             next = n->first_child;
@@ -578,6 +526,8 @@ uint32_t hz_scene_cull_curved(const hz_scene *s, const hz_camera *cam, const vec
             for (uint32_t m = id; m; m = s->n[m].parent) {
                 if (m == inside_root)
                     inside_root = 0;
+                if (m == hidden_root)
+                    hidden_root = 0;
                 if (s->n[m].next_sibling) {
                     next = s->n[m].next_sibling;
                     break;
@@ -693,15 +643,6 @@ uint32_t hz_scene_queue_build_instanced(const hz_scene *s, const uint32_t *nodes
                                         uint32_t *nodes_out, hz_draw_item *items, hz_queue_stats *stats)
 {
     return queue_build(s, nodes, count, sorted, true, nodes_out, items, stats);
-}
-
-bool hz_box_around_eye(const hz_box *b, const hz_camera *cam)
-{
-    const float m = 2.0f * (cam->znear > 0 ? cam->znear : 1.0f);
-    for (int c = 0; c < 3; c++)
-        if (!(cam->pos[c] > b->min[c] - m && cam->pos[c] < b->max[c] + m))
-            return false;
-    return true;
 }
 
 /* Slab test: the ray's entry parameter into b, or false. */

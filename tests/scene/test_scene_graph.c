@@ -622,6 +622,66 @@ static void test_occlusion(void **state)
 }
 
 
+/* G3 + G4 in one pass (hz_scene_cull_occluded): behind a wall 10 m ahead a
+ * group of five boxes is dropped with one test of its box; in a second
+ * group one box peeks over the wall, so the group is tested box by box and
+ * only that one is kept; a group beside the wall is kept whole. The result
+ * is the frustum's list less exactly the boxes the buffer hides one by one,
+ * and in_frustum counts the hidden ones too. */
+static void test_cull_occluded(void **state)
+{
+    (void)state;
+    hz_scene *s = hz_scene_create(NULL);
+    const uint32_t box = add_box(s, 1); /* 2 m cubes */
+    const uint32_t hid = hz_scene_add_node(s, 0, "behind"), peek = hz_scene_add_node(s, 0, "peeking"),
+                   side = hz_scene_add_node(s, 0, "beside");
+    uint32_t ids[12];
+    for (int k = 0; k < 12; k++) {
+        const uint32_t g = k < 5 ? hid : (k < 9 ? peek : side);
+        ids[k] = hz_scene_add_node(s, g, NULL);
+        hz_scene_set_mesh(s, ids[k], box, 0);
+        const float x = k < 9 ? (float)(k % 5) - 2.0f : 14.0f + 2.0f * (float)(k - 9);
+        hz_scene_set_translation(s, ids[k], (float[3]){x * 0.8f, k == 6 ? 8.0f : 0.0f, -20.0f - (float)(k % 3)});
+    }
+    hz_scene_update(s);
+    hz_camera cam = {.pos = {0, 1, 0}, .fov_y = 60, .aspect = 16.0f / 9.0f, .znear = 0.5f, .zfar = 1000};
+    hz_occlusion o;
+    assert_true(hz_occlusion_init(&o, 128, 72));
+    hz_occlusion_begin(&o, &cam);
+    const float wall[12] = {-5, -1, -10, 5, -1, -10, 5, 3, -10, -5, 3, -10};
+    hz_occlusion_rasterize_quads(&o, wall, 1, NULL);
+    vec4 planes[6];
+    hz_camera_frustum(&cam, planes);
+    uint32_t all[12], out[12];
+    hz_cull_stats fs, st;
+    const uint32_t nf = hz_scene_cull_curved(s, &cam, planes, all, 12, &fs);
+    assert_int_equal(nf, 12);
+    assert_int_equal(fs.occlusion_tests, 0);
+    const uint32_t n = hz_scene_cull_occluded(s, &cam, planes, &o, out, 12, &st);
+    /* the same as testing each box of the frustum's list alone */
+    uint32_t m = 0;
+    for (uint32_t k = 0; k < nf; k++) {
+        hz_box b;
+        hz_scene_node_bounds(s, all[k], &b);
+        if (!hz_occlusion_box_hidden(&o, &b)) {
+            assert_true(m < n);
+            assert_int_equal(out[m++], all[k]);
+        }
+    }
+    assert_int_equal(m, n);
+    assert_int_equal(n, 1 + 3); /* the peeking box and the group beside */
+    assert_int_equal(out[0], ids[6]);
+    assert_int_equal(st.in_frustum, 12);
+    assert_int_equal(st.visible, n);
+    assert_int_equal(st.subtrees_hidden, 1);
+    /* three groups, then the peeking group's four boxes and the side group's three */
+    assert_int_equal(st.occlusion_tests, 3 + 4 + 3);
+    /* no buffer: frustum culling alone */
+    assert_int_equal(hz_scene_cull_occluded(s, &cam, planes, NULL, out, 12, &st), 12);
+    hz_occlusion_free(&o);
+    hz_scene_destroy(s);
+}
+
 /* Signed distance in cells from point (x, y) to the inside of the convex
  * screen polygon s (n vertices, either winding): > 0 inside. */
 static double poly_margin(const double s[4][2], int n, double x, double y)
@@ -721,6 +781,7 @@ int main(void)
         cmocka_unit_test(test_render_queue),    cmocka_unit_test(test_raycast), cmocka_unit_test(test_ground_heights),
         cmocka_unit_test(test_sort_near_first),
         cmocka_unit_test(test_depth_first),     cmocka_unit_test(test_occlusion), cmocka_unit_test(test_occlusion_raster_exact),
+        cmocka_unit_test(test_cull_occluded),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
