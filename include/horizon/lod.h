@@ -287,11 +287,11 @@ bool hz_lod_query_node(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t half,
 bool hz_lod_node_box(const hz_lod *lod, uint32_t x, uint32_t z, uint32_t half, vec3 box[2]);
 /* A box holding in-memory cdlod patch p as drawn for cam in the frame of
  * stats (hz_lod_select_patches' camera and figures, which set p->still),
- * morphing included
- * (flat world; occlusion and culling lower it for the Earth's curvature):
- * its footprint, and the height range of its node's samples, widened by
- * what its corners take while they morph (a corner collapses toward samples
- * beyond the patch). False for a patch of no node of lod. */
+ * morphing included (flat world; occlusion and culling lower it for the
+ * Earth's curvature): its footprint, and the height range of its node's
+ * samples, widened by what its corners take while they morph (a corner
+ * collapses toward samples beyond the patch). False for a patch of no node
+ * of lod. */
 bool hz_lod_patch_box(hz_lod *lod, const hz_patch *p, const hz_camera *cam, const hz_lod_stats *stats, vec3 box[2]);
 
 /* Blocks per side of a cdlod patch of patch_cells cells (hz_lod_patch_cells)

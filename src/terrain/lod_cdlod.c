@@ -335,7 +335,8 @@ float hz_lod_morph_height(hz_lod *lod, const hz_camera *cam, const hz_lod_stats 
  * or on an edge collapses between two vertices of the square (a power of
  * two cells on a corner aligned to its size), but a corner, which a coarser
  * node brings in, collapses toward samples beyond it. A corner that does
- * not morph for this eye stays on its sample. */
+ * not morph for this eye stays on its sample, as does every vertex of a
+ * still patch (hz_patch.still). */
 static bool square_box(hz_lod *lod, uint32_t x0, uint32_t z0, uint32_t s, bool still, const hz_camera *cam,
                        const hz_lod_stats *stats, vec3 box[2])
 {
