@@ -518,22 +518,28 @@ static void test_patch_chunks_draw_every_patch(void **state)
 }
 
 /* Blocks a patch marks hidden (hz_patch.hidden, what occlusion culling
- * sets) are not drawn, and only they: patches with random masks (whole,
+ * sets) are not drawn, and only they, for patches of lod (blocks per side): patches with random masks (whole,
  * partly hidden in runs and gaps, all hidden) draw the frame of the same
  * patches expanded to triangles less the cells of the hidden blocks, the
  * same depth at every pixel and the same sky; and the masks change the
  * frame. */
-static void test_patch_hidden_blocks_not_drawn(void **state)
+static void hidden_blocks_case(ctx *c, hz_lod *lod, uint32_t blocks)
 {
-    ctx *c = *state;
-    hz_camera cam;
+    hz_err err = {0};
+    hz_camera cam = hz_terrain_default_camera(c->t, W, H);
+    cam.pitch = -4;
     hz_index_list il = {0}, one = {0}, kept = {0};
     hz_patch_list pl = {0};
     hz_lod_stats st;
-    cdlod_frame(c, 0.5f, NULL, &cam, &pl, &il, &st);
+    assert_int_equal(hz_lod_prepare(lod, HZ_LOD_CDLOD), HZ_OK);
+    assert_int_equal(hz_renderer_set_cdlod(c->r, lod, NULL, &err), HZ_OK);
+    hz_lod_params lp = {.mode = HZ_LOD_CDLOD, .pixel_error = 0.5f, .viewport_height = H, .horizon_cull = true};
+    assert_int_equal(hz_lod_select_patches(lod, &cam, &lp, &pl, &st), HZ_OK);
+    assert_int_equal(hz_lod_patches_to_indices(lod, pl.data, pl.count, &il), HZ_OK);
     assert_true(pl.count >= 4 * 64); /* several flushed chunks */
-    const uint32_t P = hz_lod_patch_cells(c->t->lod), B = hz_lod_patch_blocks(P), n = c->t->hm.size;
-    assert_int_equal(B, 4);
+    const uint32_t P = hz_lod_patch_cells(lod), B = hz_lod_patch_blocks(P), n = c->t->hm.size;
+    assert_int_equal(B, blocks);
+    const uint16_t all = (uint16_t)((1u << (B * B)) - 1u);
     uint64_t rng = 0x5eed5eedULL;
     size_t partial = 0, hidden_tris = 0;
     for (size_t k = 0; k < pl.count; k++) {
@@ -541,10 +547,10 @@ static void test_patch_hidden_blocks_not_drawn(void **state)
         rng = rng * 6364136223846793005ULL + 1442695040888963407ULL;
         const uint32_t kind = (uint32_t)(rng >> 60) & 3u;
         q->hidden = kind == 0 ? 0 : (kind == 1 ? 0xffffu : (uint16_t)(rng >> 20));
-        partial += q->hidden != 0 && q->hidden != 0xffffu;
+        partial += (q->hidden & all) != 0 && (q->hidden & all) != all;
         /* the reference: the patch's triangles outside its hidden blocks */
         one.count = 0;
-        assert_int_equal(hz_lod_patches_to_indices(c->t->lod, q, 1, &one), HZ_OK);
+        assert_int_equal(hz_lod_patches_to_indices(lod, q, 1, &one), HZ_OK);
         const uint32_t cell = (P / B) << q->shift;
         for (size_t t = 0; t < one.count; t += 3) {
             uint32_t i = 0, j = 0;
@@ -565,8 +571,8 @@ static void test_patch_hidden_blocks_not_drawn(void **state)
             kept.count += 3;
         }
     }
-    fprintf(stderr, "%zu patches, %zu partly hidden; %zu of %zu triangles hidden\n", pl.count, partial, hidden_tris,
-            il.count / 3);
+    fprintf(stderr, "%u-cell patches: %zu, %zu partly hidden; %zu of %zu triangles hidden\n", P, pl.count, partial,
+            hidden_tris, il.count / 3);
     assert_true(partial > pl.count / 3 && hidden_tris * 6 > il.count / 3);
     float *dp = malloc(W * H * sizeof *dp), *di = malloc(W * H * sizeof *di);
     uint8_t *sp_ = malloc(W * H), *si = malloc(W * H);
@@ -601,6 +607,22 @@ static void test_patch_hidden_blocks_not_drawn(void **state)
     free(one.data);
     free(kept.data);
     free(pl.data);
+}
+
+/* 8-cell patches (4 x 4 blocks of 2 cells) and 4-cell ones (2 x 2 blocks of
+ * 2 cells). */
+static void test_patch_hidden_blocks_not_drawn(void **state)
+{
+    ctx *c = *state;
+    hidden_blocks_case(c, c->t->lod, 4);
+    hz_err err = {0};
+    hz_lod *lod4 = hz_lod_create(
+        &(hz_lod_desc){.hm = &c->t->hm, .spacing = c->t->spacing, .zscale = c->t->zscale, .patch_cells = 4}, &err);
+    assert_non_null(lod4);
+    hidden_blocks_case(c, lod4, 2);
+    /* the terrain's own patches for the tests after this one */
+    assert_int_equal(hz_renderer_set_cdlod(c->r, c->t->lod, NULL, &err), HZ_OK);
+    hz_lod_destroy(lod4);
 }
 
 /* Patches over samples without data: a triangle touching one is not drawn
