@@ -687,6 +687,13 @@ int city_app_gpu(city_app *a, const char *cmd)
     return 0;
 }
 
+/* Whether the occlusion buffer hides a terrain box (hz_lod_patch_box). */
+static bool ter_box_hidden(const city_app *a, vec3 box[2])
+{
+    const hz_box b = {{box[0][0], box[0][1], box[0][2]}, {box[1][0], box[1][1], box[1][2]}};
+    return hz_occlusion_box_hidden(&a->occ, &b);
+}
+
 /* hz_patch.hidden bits of the blocks of p that block (bx, bz) of the cut
  * into per_side x per_side holds and the occlusion buffer hides; a block
  * shown is tested by its quarters down to the finest cut
@@ -697,8 +704,7 @@ static uint16_t hidden_blocks(city_app *a, const hz_patch *p, const hz_camera *c
     const uint32_t B = hz_lod_patch_blocks(hz_lod_patch_cells(a->lod));
     vec3 box[2];
     if (per_side > 1 && hz_lod_patch_block_box(a->lod, p, per_side, bx, bz, cam, st, box)) {
-        const hz_box b = {{box[0][0], box[0][1], box[0][2]}, {box[1][0], box[1][1], box[1][2]}};
-        if (hz_occlusion_box_hidden(&a->occ, &b)) {
+        if (ter_box_hidden(a, box)) {
             /* every finest block inside it */
             const uint32_t k = B / per_side;
             uint16_t bits = 0;
@@ -734,10 +740,8 @@ static void *hide_run(void *arg)
         const hz_patch *p = &j->sp->patches[k];
         uint32_t v = 0;
         vec3 box[2];
-        if (p->layer1 == 0 && hz_lod_patch_box(a->lod, p, j->cam, j->st, box)) {
-            const hz_box b = {{box[0][0], box[0][1], box[0][2]}, {box[1][0], box[1][1], box[1][2]}};
-            v = hz_occlusion_box_hidden(&a->occ, &b) ? 0x10000u : hidden_blocks(a, p, j->cam, j->st, 1, 0, 0);
-        }
+        if (p->layer1 == 0 && hz_lod_patch_box(a->lod, p, j->cam, j->st, box))
+            v = ter_box_hidden(a, box) ? 0x10000u : hidden_blocks(a, p, j->cam, j->st, 1, 0, 0);
         a->patch_vis[k] = v;
     }
     return NULL;

@@ -272,6 +272,16 @@ uint32_t hz_lod_patch_cells(const hz_lod *lod)
 
 /* ---- morphing (the vertex shader does the same) ------------------------- */
 
+/* The morph range in metres of an error of q h16 steps in the frame of st
+ * (hz_lod_morph_range), and where its zone starts, as a fraction of it
+ * (cd_morph_start_at: wider for an error the near bound loosens). */
+static float morph_zone(const hz_lod_stats *st, float q, float *start)
+{
+    const float R = hz_lod_morph_range(st, q);
+    *start = cd_morph_start_at(st->morph_start, st->morph_scale * q, R);
+    return R;
+}
+
 float hz_lod_morph_factor(hz_lod *lod, const hz_camera *cam, const hz_lod_stats *stats, uint32_t index)
 {
     if (!stats || stats->morph_scale <= 0.0f || cdlod_prepare(lod) != HZ_OK)
@@ -280,10 +290,10 @@ float hz_lod_morph_factor(hz_lod *lod, const hz_camera *cam, const hz_lod_stats 
     if (q == UINT16_MAX)
         return 0.0f;
     const uint32_t n = lod->size, i = index % n, j = index / n;
-    const float R = hz_lod_morph_range(stats, (float)q);
+    float a;
+    const float R = morph_zone(stats, (float)q, &a);
     if (R <= 0.0f)
         return 1.0f;
-    const float a = cd_morph_start_at(stats->morph_start, stats->morph_scale * (float)q, R);
     const float dx = (float)i * lod->spacing - cam->pos[0];
     const float dz = (float)j * lod->spacing - cam->pos[2];
     /* To the point as drawn (lowered by the Earth curvature), as the shader does. */
@@ -523,8 +533,9 @@ static uint8_t patch_still(const hz_lod *lod, const hz_lod_stats *st, uint32_t l
         const float lo = box[0][a] - eye[a], hi = box[1][a] - eye[a];
         d2 += lo * lo > hi * hi ? lo * lo : hi * hi;
     }
-    const float R = hz_lod_morph_range(st, (float)q);
-    const float start = cd_morph_start_at(st->morph_start, st->morph_scale * (float)q, R) * R - 0.01f;
+    float frac;
+    const float R = morph_zone(st, (float)q, &frac);
+    const float start = frac * R - 0.01f;
     return start > 0.0f && d2 * 1.002f < start * start; /* d * 1.001 + 0.01 < the start, squared */
 }
 
