@@ -452,7 +452,10 @@ static int terrain_grid(city_app *a, const hz_terrain *t)
     a->ter_cell = (float)step * t->spacing;
     a->ter_cmin = malloc((size_t)(cn + 1) * (cn + 1) * sizeof *a->ter_cmin);
     a->ter_cell_ok = malloc((size_t)cn * cn + 1);
-    if (!a->ter_cmin || !a->ter_cell_ok)
+    /* A window spans at most 2 * reach / cell + 2 cells per side. */
+    const size_t side = (size_t)fminf((float)cn, ceilf(2.0f * TER_REACH_M / a->ter_cell) + 2.0f);
+    a->ter_quads = malloc((side * side + 1) * 12 * sizeof *a->ter_quads);
+    if (!a->ter_cmin || !a->ter_cell_ok || !a->ter_quads)
         return 1;
     /* Corner heights: min over the samples of the (up to 4) coarse cells touching the corner. */
     for (uint32_t cj = 0; cj <= cn; cj++)
@@ -517,19 +520,20 @@ static void terrain_occlude(city_app *a, const uint32_t win[4])
 {
     const uint32_t cn = a->ter_cn;
     const float cell = a->ter_cell;
+    size_t nq = 0;
     for (uint32_t cj = win[2]; cj <= win[3]; cj++)
         for (uint32_t ci = win[0]; ci <= win[1]; ci++) {
             if (!a->ter_cell_ok[(size_t)cj * cn + ci])
                 continue;
             const uint32_t cc[4][2] = {{ci, cj}, {ci, cj + 1}, {ci + 1, cj + 1}, {ci + 1, cj}};
-            float q[12];
+            float *q = a->ter_quads + 12 * nq++;
             for (int k = 0; k < 4; k++) {
                 q[3 * k] = (float)cc[k][0] * cell;
                 q[3 * k + 1] = a->ter_cmin[(size_t)cc[k][1] * (cn + 1) + cc[k][0]];
                 q[3 * k + 2] = (float)cc[k][1] * cell;
             }
-            hz_occlusion_rasterize_quads(&a->occ_ter, q, 1, NULL);
         }
+    hz_occlusion_rasterize_quads(&a->occ_ter, a->ter_quads, nq, NULL);
 }
 
 /* The objects as the light map's shadow casters: the highest point of their
@@ -853,7 +857,8 @@ static void *ter_occlude(void *arg)
     return NULL;
 }
 
-void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam, hz_scene_params *sp)
+void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam, uint32_t fb_w, uint32_t fb_h,
+                    hz_scene_params *sp)
 {
     a->hook.gpu = a->gpu;
     a->hook.scene = a->scene;
@@ -876,6 +881,11 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
     if (!o->city.no_occlusion && !a->occ_rest) {
         a->occ_built = true;
         double t0 = hz_time_ms();
+        /* The ground's occluders with pixel samples at the frame's size:
+         * its quads side by side cover the cells along their common edges
+         * together (the buildings' quads stand apart, and their samples
+         * cost more than they hide). */
+        hz_occlusion_set_viewport(&a->occ_ter, fb_w, fb_h);
         hz_occlusion_begin(&a->occ, cam);
         /* The ground within 3 km on a second thread (llvmpipe's rasteriser
          * threads have nothing to do yet: the core is free), the objects'
@@ -1147,6 +1157,7 @@ void city_app_destroy(city_app *a)
     free(a->patch_vis);
     free(a->casters);
     free(a->ter_cmin);
+    free(a->ter_quads);
     free(a->ter_cell_ok);
     free(a->occ_node);
     free(a->occ_cand);
@@ -1501,7 +1512,7 @@ int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *
             a->occ_built = adapt[ci].built;
             a->occ_rest = adapt[ci].rest;
             a->hook.stats = adapt[ci].stats;
-            city_app_frame(a, o, &cam, &sp);
+            city_app_frame(a, o, &cam, o->width, o->height, &sp);
             o->city = keep;
             hz_draw_stats ds = {0};
             if (hz_renderer_draw(ren, &cam, &sp, idx, count, &ds, &err) != HZ_OK || a->hook.failed) {

@@ -53,6 +53,7 @@ typedef struct city_app {
     const hz_terrain *ter;  /* the terrain placed on (city_app_place; it outlives the app) */
     float *ter_cmin;        /* (ter_cn + 1)^2 corner heights of the coarse terrain cells */
     uint8_t *ter_cell_ok;   /* ter_cn^2: the cell lies over valid data */
+    float *ter_quads;       /* a window's occluder quads, 12 floats each (terrain_occlude) */
     uint32_t ter_cn;
     float ter_cell;         /* metres per coarse cell side */
     uint32_t *mesh_first, *mesh_quads;   /* per mesh: first quad, count */
@@ -103,7 +104,8 @@ int city_app_gpu(city_app *a, const char *cmd);
 /* Per frame: the occlusion buffer for cam (unless off) and sp's object
  * hook (chained in front of a hook sp already has). With the buffer, the
  * terrain's in-memory cdlod patches it hides are dropped from sp too. */
-void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam, hz_scene_params *sp);
+void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam, uint32_t fb_w, uint32_t fb_h,
+                    hz_scene_params *sp);
 /* --pick: what is under the point (x, y) of cam's image (w x h; continuous:
  * pixel (i, j) spans [i, i + 1) x [j, j + 1), so its centre is i + 0.5): the
  * nearest of the scene's triangles and the terrain's surface; printed, with

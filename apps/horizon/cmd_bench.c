@@ -320,7 +320,7 @@ static void frame_params(bench *b, const hz_camera *cam, uint32_t f, uint32_t hi
     *sp = (hz_scene_params){0};
     app_fx_params(&b->afx, b->t, cam, &b->o.lod, (double)f / b->fps + b->o.time, sp);
     if (b->ca)
-        city_app_frame(b->ca, &b->o, cam, sp);
+        city_app_frame(b->ca, &b->o, cam, b->o.width, b->o.height, sp);
     sp->history = history;
     sp->reset_history = f == 0;
 }

@@ -200,7 +200,7 @@ int cmd_render(int argc, char **argv)
             err.msg[0] = 0;
             goto done_bench;
         }
-        city_app_frame(ca, &o, &cam, &sp);
+        city_app_frame(ca, &o, &cam, o.width, o.height, &sp);
     }
     double draw[3];
     hz_draw_stats ds = {0};

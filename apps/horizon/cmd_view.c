@@ -903,7 +903,7 @@ static bool frame(view *v, bool *render_failed)
         cli_forest_hook(v->cf, &sp);
     }
     if (v->ca)
-        city_app_frame(v->ca, &v->o, &v->fc.cam, &sp);
+        city_app_frame(v->ca, &v->o, &v->fc.cam, v->width, v->height, &sp);
     uint32_t count = v->fans || patches ? 0 : (uint32_t)v->il.count;
     if (patches && !v->fans) {
         sp.patches = v->pl.data;

@@ -34,18 +34,41 @@ typedef struct hz_occlusion {
      * face then hides nothing, and a closed mesh's front faces cover all
      * it covers. false after hz_occlusion_init: both faces occlude. */
     bool cull_back;
+    /* Pixel samples (hz_occlusion_set_viewport; all 0/NULL without): the
+     * screen's pixels, px_w x px_h; per cell a partial layer, the bits of
+     * the pixel centres (8 per row of pixels, bottom row first) that
+     * occluders nearer than zpart cover, merged across occluders, so that a
+     * cell covered by several (walls side by side) becomes covered. */
+    uint32_t px_w, px_h;
+    uint32_t *col_px, *row_px; /* w + 1, h + 1: a cell's first pixel column / row */
+    uint32_t *col_of, *row_of; /* px_w, px_h: the cell column / row of a pixel's centre */
+    uint64_t *mask;            /* w * h */
+    float *zpart;              /* w * h */
 } hz_occlusion;
 
 /* Allocates a w x h buffer (0 -> 256 x 144; w at most 1024); false on out of memory. */
 bool hz_occlusion_init(hz_occlusion *o, uint32_t w, uint32_t h);
 void hz_occlusion_free(hz_occlusion *o);
+/* Tells the buffer the size in pixels of the image its camera draws, so
+ * that it also takes a cell as covered when its occluders together (none
+ * of them whole) cover the centre of every pixel in it. The buffer is then
+ * conservative for an image drawn at that size without multisampling: the
+ * occluders must be drawn (or lie behind what is drawn) where they are
+ * rasterised. A sample counts as covered only when it lies at least 1/16
+ * pixel inside a polygon (the GPU snaps vertices to a subpixel grid). True
+ * when samples are on; false when the cells would be more than 8 x 8
+ * pixels, or on out of memory: then only whole cells count, as without
+ * (0 x 0 switches samples off). */
+bool hz_occlusion_set_viewport(hz_occlusion *o, uint32_t px_w, uint32_t px_h);
 /* Clears the buffer for a camera. */
 void hz_occlusion_begin(hz_occlusion *o, const hz_camera *cam);
 /* Rasterises occluder triangles (world positions, 3 vertices each, xyz
  * floats, optionally transformed by model; NULL = identity; counter-clockwise
  * seen from the front). A cell takes a
  * triangle only when all four of its corners are inside it, at the
- * triangle's farthest vertex depth. Triangles crossing the near plane are
+ * triangle's farthest vertex depth (or, with pixel samples, when its
+ * pixels' centres are all covered, by this and earlier occluders; the cell
+ * then takes the farthest depth of them). Triangles crossing the near plane are
  * skipped (conservative). */
 void hz_occlusion_rasterize(hz_occlusion *o, const float *tri_xyz, size_t tri_count, const mat4 model);
 /* The same for quads: 4 vertices each, in order around, standing for the
@@ -54,7 +77,8 @@ void hz_occlusion_rasterize(hz_occlusion *o, const float *tri_xyz, size_t tri_co
  * polygon, so the cells along the diagonal count as covered (each triangle
  * alone would leave them out); otherwise as its two triangles. */
 void hz_occlusion_rasterize_quads(hz_occlusion *o, const float *quad_xyz, size_t quad_count, const mat4 model);
-/* Takes src's occluders into o: per cell the nearer of the two depths, and
+/* Takes src's occluders into o: per cell the nearer of the two depths,
+ * src's partial layers (when both have the same pixel samples), and
  * src's counts. For buffers of the same size begun for the same camera and
  * filled apart (on two threads, say). false, o unchanged, when the sizes
  * differ. */

@@ -773,6 +773,165 @@ static void test_occlusion_raster_exact(void **state)
     hz_occlusion_free(&o);
 }
 
+/* Pixel samples (hz_occlusion_set_viewport). World x of pixel column x at
+ * 10 m ahead of a camera at the origin looking down -z (60 degrees, 16:9),
+ * for an image W pixels wide. */
+static float wall_x(float x, float W)
+{
+    return (x / W * 2.0f - 1.0f) * tanf(glm_rad(30.0f)) * (16.0f / 9.0f) * 10.0f;
+}
+
+/* A wall at 10 m from pixel column x0 to x1, image rows 180-540 of 720. */
+static void wall_quad(float x0, float x1, float W, float q[12])
+{
+    const float y0 = -0.25f * tanf(glm_rad(30.0f)) * 20.0f, y1 = -y0;
+    const float v[12] = {wall_x(x0, W), y0, -10, wall_x(x1, W), y0, -10,
+                         wall_x(x1, W), y1, -10, wall_x(x0, W), y1, -10};
+    memcpy(q, v, sizeof v);
+}
+
+/* G4 with pixel samples: walls side by side, their common edges through
+ * the cells, hide what is behind them together; a gap that holds pixel
+ * centres does not, one between two centres does (nothing drawn shows
+ * there); two buffers merge their partial cells. */
+static void test_occlusion_samples(void **state)
+{
+    (void)state;
+    hz_occlusion o, o2;
+    assert_true(hz_occlusion_init(&o, 160, 90));
+    assert_true(hz_occlusion_init(&o2, 160, 90));
+    /* Cells of more than 8 x 8 pixels, or no image: no samples. */
+    assert_false(hz_occlusion_set_viewport(&o, 1600, 900));
+    assert_null(o.mask);
+    assert_false(hz_occlusion_set_viewport(&o, 0, 0));
+    hz_camera cam = {.pos = {0, 0, 0}, .fov_y = 60, .aspect = 16.0f / 9.0f, .znear = 0.5f, .zfar = 1000};
+    const float W = 1280;
+    /* Seven walls side by side from column 300.3 to 980.3, each edge
+     * inside a cell (8 pixels a cell). */
+    float strips[7 * 12];
+    for (int k = 0; k < 7; k++)
+        wall_quad(300.3f + 97.1f * (float)k, 300.3f + 97.1f * (float)(k + 1), W, strips + 12 * k);
+    /* A box 2 m wide behind the walls, 20 m away, across the seams. */
+    hz_box behind = {{-4, -1, -21}, {4, 1, -19}};
+    for (int samples = 0; samples < 2; samples++) {
+        assert_int_equal(hz_occlusion_set_viewport(&o, samples ? 1280 : 0, samples ? 720 : 0), samples);
+        hz_occlusion_begin(&o, &cam);
+        hz_occlusion_rasterize_quads(&o, strips, 7, NULL);
+        assert_int_equal(hz_occlusion_box_hidden(&o, &behind), samples);
+    }
+    /* Two walls with a gap between: 640.2-640.8 holds the centres of
+     * column 640 (640.5): the box behind shows through it. 640.6-641.4
+     * holds none: hidden. */
+    const float gaps[2][2] = {{640.2f, 640.8f}, {640.6f, 641.4f}};
+    for (int g = 0; g < 2; g++) {
+        float two[24];
+        wall_quad(300.3f, gaps[g][0], W, two);
+        wall_quad(gaps[g][1], 980.3f, W, two + 12);
+        hz_occlusion_begin(&o, &cam);
+        hz_occlusion_rasterize_quads(&o, two, 2, NULL);
+        assert_int_equal(hz_occlusion_box_hidden(&o, &behind), g == 1);
+    }
+    /* Merged: the odd walls in one buffer, the even ones in the other. */
+    for (int samples = 0; samples < 2; samples++) {
+        hz_occlusion_set_viewport(&o, samples ? 1280 : 0, samples ? 720 : 0);
+        hz_occlusion_set_viewport(&o2, samples ? 1280 : 0, samples ? 720 : 0);
+        hz_occlusion_begin(&o, &cam);
+        hz_occlusion_begin(&o2, &cam);
+        for (int k = 0; k < 7; k++)
+            hz_occlusion_rasterize_quads(k & 1 ? &o2 : &o, strips + 12 * k, 1, NULL);
+        assert_false(hz_occlusion_box_hidden(&o, &behind));
+        assert_true(hz_occlusion_merge(&o, &o2));
+        assert_int_equal(hz_occlusion_box_hidden(&o, &behind), samples);
+    }
+    hz_occlusion_free(&o2);
+    /* Against brute force, for random polygons and polygons cut in pieces
+     * (sharing edges), at 1280 x 720 (8 pixels a cell) and 1000 x 600
+     * (6.25 x 6.67): every cell covered has each of its pixel centres
+     * inside a polygon no farther than the cell's depth, and no cell is
+     * farther than the whole-cell rule alone makes it. */
+    const uint32_t sizes[2][2] = {{1280, 720}, {1000, 600}};
+    hz_occlusion ref;
+    assert_true(hz_occlusion_init(&ref, 160, 90));
+    uint32_t rng = 777;
+    long gained = 0, checked = 0;
+    for (int scene = 0; scene < 60; scene++) {
+        const uint32_t PW = sizes[scene & 1][0], PH = sizes[scene & 1][1];
+        assert_true(hz_occlusion_set_viewport(&o, PW, PH));
+        float q[8 * 12];
+        int nq = 0;
+        while (nq < 8) {
+            float c[3], u[3], v[3];
+            for (int a = 0; a < 3; a++) {
+                rng = rng * 1664525u + 1013904223u;
+                c[a] = (float)(rng >> 8) / 16777216.0f;
+                rng = rng * 1664525u + 1013904223u;
+                u[a] = ((float)(rng >> 8) / 16777216.0f - 0.5f) * 16.0f;
+                rng = rng * 1664525u + 1013904223u;
+                v[a] = ((float)(rng >> 8) / 16777216.0f - 0.5f) * 16.0f;
+            }
+            const float z = -2.0f - 38.0f * c[2];
+            const float cx = (c[0] - 0.5f) * 1.6f * -z, cy = (c[1] - 0.5f) * 0.9f * -z;
+            /* a quad (u, v parallelogram) in 1 to 4 pieces along u */
+            const int pieces = 1 + (int)(rng >> 30);
+            float cut[5] = {-1, 0, 0, 0, 1};
+            for (int k = 1; k < pieces; k++)
+                cut[k] = -1.0f + 2.0f * (float)k / (float)pieces + 0.13f;
+            cut[pieces] = 1;
+            for (int k = 0; k < pieces && nq < 8; k++, nq++) {
+                const float fu[4] = {cut[k], cut[k + 1], cut[k + 1], cut[k]}, fv[4] = {-1, -1, 1, 1};
+                for (int m = 0; m < 4; m++)
+                    for (int a = 0; a < 3; a++)
+                        q[12 * nq + 3 * m + a] = (a == 0 ? cx : a == 1 ? cy : z) + fu[m] * u[a] + fv[m] * v[a];
+            }
+        }
+        hz_occlusion_begin(&o, &cam);
+        hz_occlusion_begin(&ref, &cam);
+        hz_occlusion_rasterize_quads(&o, q, (size_t)nq, NULL);
+        hz_occlusion_rasterize_quads(&ref, q, (size_t)nq, NULL);
+        /* Each polygon on screen, in pixels (double), and its depth. */
+        double sc[8][4][2], dmax[8];
+        bool front[8];
+        for (int t = 0; t < nq; t++) {
+            dmax[t] = 0;
+            front[t] = true;
+            for (int k = 0; k < 4; k++) {
+                const float *pk = q + 12 * t + 3 * k;
+                double cl[4];
+                for (int r = 0; r < 4; r++)
+                    cl[r] = o.viewproj[0][r] * pk[0] + o.viewproj[1][r] * pk[1] + o.viewproj[2][r] * pk[2] +
+                            o.viewproj[3][r];
+                front[t] = front[t] && cl[3] >= cam.znear;
+                sc[t][k][0] = (cl[0] / cl[3] * 0.5 + 0.5) * PW;
+                sc[t][k][1] = (cl[1] / cl[3] * 0.5 + 0.5) * PH;
+                dmax[t] = fmax(dmax[t], cl[3]);
+            }
+        }
+        for (uint32_t py = 0; py < PH; py++) {
+            const uint32_t j = (uint32_t)(((double)py + 0.5) * o.h / PH);
+            for (uint32_t px = 0; px < PW; px++) {
+                const uint32_t i = (uint32_t)(((double)px + 0.5) * o.w / PW);
+                const float d = o.depth[(size_t)j * o.w + i];
+                if (isinf(d))
+                    continue;
+                bool ok = false;
+                for (int t = 0; t < nq && !ok; t++)
+                    ok = front[t] && dmax[t] <= (double)d * (1 + 1e-5) &&
+                         poly_margin(sc[t], 4, px + 0.5, py + 0.5) >= -1e-4;
+                assert_true(ok);
+                checked++;
+            }
+        }
+        for (size_t k = 0; k < (size_t)o.w * o.h; k++) {
+            assert_true(o.depth[k] <= ref.depth[k]);
+            gained += o.depth[k] < ref.depth[k];
+        }
+    }
+    assert_true(checked > 1000000); /* covered pixels checked */
+    assert_true(gained > 2000);     /* cells only the samples cover (or cover nearer) */
+    hz_occlusion_free(&ref);
+    hz_occlusion_free(&o);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -781,6 +940,7 @@ int main(void)
         cmocka_unit_test(test_render_queue),    cmocka_unit_test(test_raycast), cmocka_unit_test(test_ground_heights),
         cmocka_unit_test(test_sort_near_first),
         cmocka_unit_test(test_depth_first),     cmocka_unit_test(test_occlusion), cmocka_unit_test(test_occlusion_raster_exact),
+        cmocka_unit_test(test_occlusion_samples),
         cmocka_unit_test(test_cull_occluded),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
