@@ -1507,6 +1507,11 @@ int city_app_bench(city_app *a, struct cli_opts *o, hz_terrain *t, hz_renderer *
             const uint32_t *idx;
             uint32_t count;
             cli_lod_scene(&lf, &sp, &idx, &count);
+            /* Each configuration blurs motion with its own frames (and the
+             * warm-up draws with none of theirs), as if it ran alone. */
+            _Static_assert(BENCH_CFGS < HZ_MAX_HISTORY, "a motion blur slot per configuration");
+            sp.history = r == 0 ? (uint32_t)BENCH_CFGS : ci;
+            sp.reset_history = k == 0;
             /* Each configuration keeps its own adaptive occlusion state, as
              * if it ran alone. */
             a->occ_built = adapt[ci].built;

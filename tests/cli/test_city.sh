@@ -248,6 +248,17 @@ c = {x["config"]: x for x in d["configs"]}
 assert c["occlusion_sorted"]["diff_pixels_max"] == 0 and c["frustum_sorted"]["diff_pixels_max"] == 0, c
 PY
 then ok "--city-bench writes its figures and the last frame"; else bad "--city-bench (exit $rc): $j"; fi
+# with every effect, motion blur included: each configuration blurs with its
+# own frames, so the culled ones still equal the unculled
+j=$($HZ render --quiet --width 320 --height 180 --effects all --scene "$TMP/c3.json" --city-bench street \
+    --city-bench-frames 3 --json --out "$TMP/c3fx.png"); rc=$?
+if [ $rc -eq 0 ] && python3 - "$j" <<'PY'
+import json, sys
+c = {x["config"]: x for x in json.loads(sys.argv[1])["configs"]}
+for k in ("frustum_naive", "frustum_sorted", "occlusion_naive", "occlusion_sorted"):
+    assert c[k]["diff_pixels_max"] == 0, (k, c[k])
+PY
+then ok "--city-bench --effects all: culled frames equal to the unculled"; else bad "--city-bench --effects all (exit $rc): $j"; fi
 
 # ---- a forest over the city: no tree is planted where a building stands; the
 # planting goes around the buildings instead of losing the trees (2000 asked,
