@@ -194,6 +194,29 @@ static inline long ceil_l(float x)
     return i + (x > (float)i);
 }
 
+/* A convex polygon's edges: edge k's inside is c + ex x + ey y >= 0, a
+ * left bound (ex > 0) or a right one (ex < 0) at x = a + xb y. */
+typedef struct edge_lines {
+    float ex[4], ey[4], xb[4];
+} edge_lines;
+
+/* Narrows [lo, hi] to the polygon's x interval at height y, with the edges'
+ * constants c and a (with or without a margin); false when a horizontal
+ * edge leaves y outside. */
+static inline bool span_at(const float *c, const float *a, const edge_lines *l, int n, float y, float *lo, float *hi)
+{
+    for (int k = 0; k < n; k++) {
+        const float x = a[k] + l->xb[k] * y;
+        if (l->ex[k] > 0)
+            *lo = greater(*lo, x);
+        else if (l->ex[k] < 0)
+            *hi = lesser(*hi, x);
+        else if (c[k] + l->ey[k] * y < 0)
+            return false;
+    }
+    return *lo <= *hi;
+}
+
 /* The pixel centres a convex polygon covers (s in cells, sg its winding's
  * sign), taken into the cells it does not already cover at depth dmax. A
  * centre is covered at least 1/16 pixel inside every edge. Per row of
@@ -222,7 +245,9 @@ static bool raster_samples(hz_occlusion *o, float s[][2], int n, float sg, float
      * (|ex| + |ey|) / 16 is at least 1/16 pixel, as the edge's length is
      * at most |ex| + |ey|. A left (ex > 0) or right (ex < 0) bound at
      * x = xa + xb y. */
-    float er[4], ec[4], ex[4], ey[4], xa[4], xb[4], xr[4]; /* er, xr: ec, xa of the edge itself, no margin */
+    float er[4], ec[4], xa[4], xr[4]; /* er, xr: ec, xa of the edge itself, no margin */
+    edge_lines lines;
+    float *ex = lines.ex, *ey = lines.ey, *xb = lines.xb;
     for (int k = 0; k < n; k++) {
         const float *a = p[k], *b = p[(k + 1) % n];
         ex[k] = -sg * (b[1] - a[1]);
@@ -254,17 +279,11 @@ static bool raster_samples(hz_occlusion *o, float s[][2], int n, float sg, float
                 }
             }
             for (int e = 0; e < 2; e++) {
-                const float y = e ? yb : ya;
                 float lo = -INFINITY, hi = INFINITY;
-                for (int k = 0; k < n; k++) {
-                    const float x = xr[k] + xb[k] * y;
-                    if (ex[k] > 0)
-                        lo = greater(lo, x);
-                    else if (ex[k] < 0)
-                        hi = lesser(hi, x);
+                if (span_at(er, xr, &lines, n, e ? yb : ya, &lo, &hi)) {
+                    xl = lesser(xl, lo);
+                    xh = greater(xh, hi);
                 }
-                xl = lesser(xl, lo);
-                xh = greater(xh, hi);
             }
             const long qa = ceil_l(greater(xl - 0.5f, 0)), qb = floor_l(lesser(xh - 0.5f, (float)o->px_w - 1));
             if (qa > qb)
@@ -285,16 +304,7 @@ static bool raster_samples(hz_occlusion *o, float s[][2], int n, float sg, float
                 continue;
             const float y = (float)py + 0.5f;
             float lo = 0.5f, hi = (float)o->px_w - 0.5f;
-            for (int k = 0; k < n; k++) {
-                const float x = xa[k] + xb[k] * y;
-                if (ex[k] > 0)
-                    lo = greater(lo, x);
-                else if (ex[k] < 0)
-                    hi = lesser(hi, x);
-                else if (ec[k] + ey[k] * y < 0)
-                    lo = hi + 1; /* a horizontal edge, the row outside it */
-            }
-            if (!(lo <= hi))
+            if (!span_at(ec, xa, &lines, n, y, &lo, &hi))
                 continue;
             const long c0 = ceil_l(lo - 0.5f), c1 = floor_l(hi - 0.5f);
             if (c0 > c1)
