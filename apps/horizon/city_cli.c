@@ -452,8 +452,10 @@ static int terrain_grid(city_app *a, const hz_terrain *t)
     a->ter_cell = (float)step * t->spacing;
     a->ter_cmin = malloc((size_t)(cn + 1) * (cn + 1) * sizeof *a->ter_cmin);
     a->ter_cell_ok = malloc((size_t)cn * cn + 1);
-    /* A window spans at most 2 * reach / cell + 2 cells per side. */
-    const size_t side = (size_t)fminf((float)cn, ceilf(2.0f * TER_REACH_M / a->ter_cell) + 2.0f);
+    /* A window spans at most ceil(2 * reach / cell) + 2 cells per side
+     * (terrain_window's floor and ceil; one more against rounding). */
+    const size_t side = (size_t)fminf((float)cn, ceilf(2.0f * TER_REACH_M / a->ter_cell) + 3.0f);
+    a->ter_quads_cap = side * side;
     a->ter_quads = malloc((side * side + 1) * 12 * sizeof *a->ter_quads);
     if (!a->ter_cmin || !a->ter_cell_ok || !a->ter_quads)
         return 1;
@@ -520,6 +522,8 @@ static void terrain_occlude(city_app *a, const uint32_t win[4])
 {
     const uint32_t cn = a->ter_cn;
     const float cell = a->ter_cell;
+    if ((size_t)(win[1] - win[0] + 1) * (win[3] - win[2] + 1) > a->ter_quads_cap)
+        return; /* cannot happen (terrain_grid's bound); no occluders is conservative */
     size_t nq = 0;
     for (uint32_t cj = win[2]; cj <= win[3]; cj++)
         for (uint32_t ci = win[0]; ci <= win[1]; ci++) {

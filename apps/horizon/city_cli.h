@@ -54,6 +54,7 @@ typedef struct city_app {
     float *ter_cmin;        /* (ter_cn + 1)^2 corner heights of the coarse terrain cells */
     uint8_t *ter_cell_ok;   /* ter_cn^2: the cell lies over valid data */
     float *ter_quads;       /* a window's occluder quads, 12 floats each (terrain_occlude) */
+    size_t ter_quads_cap;   /* quads it holds */
     uint32_t ter_cn;
     float ter_cell;         /* metres per coarse cell side */
     uint32_t *mesh_first, *mesh_quads;   /* per mesh: first quad, count */
