@@ -20,10 +20,9 @@ static void samples_free(hz_occlusion *o)
     free(o->row_px);
     free(o->col_of);
     free(o->row_of);
-    o->col_of = o->row_of = NULL;
     free(o->mask);
     free(o->zpart);
-    o->col_px = o->row_px = NULL;
+    o->col_px = o->row_px = o->col_of = o->row_of = NULL;
     o->mask = NULL;
     o->zpart = NULL;
     o->px_w = o->px_h = 0;
@@ -160,7 +159,7 @@ static inline void take_samples(hz_occlusion *o, size_t k, uint64_t m, uint64_t 
     const float oz = o->zpart[k];
     if (om && !(oz < o->depth[k]))
         om = 0; /* behind the whole-cell depth: worthless */
-    if (m == full || (m | om) == full) {
+    if ((m | om) == full) {
         o->depth[k] = m == full ? d : max_f(d, oz);
         o->mask[k] = 0;
         o->cells_written++;
