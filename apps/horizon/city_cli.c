@@ -515,28 +515,60 @@ static bool terrain_window_hole(const city_app *a, const uint32_t win[4])
     return false;
 }
 
-/* Rasterises into a->occ_ter the valid cells of the window (far ground
- * hides little and costs the most): only the cells of that window are
- * visited, whatever the map's size. */
-static void terrain_occlude(city_app *a, const uint32_t win[4])
+/* Appends coarse cell (ci, cj)'s occluder quad to a->ter_quads (at *nq)
+ * when the cell has data. */
+static void ter_quad(city_app *a, long ci, long cj, size_t *nq)
 {
     const uint32_t cn = a->ter_cn;
     const float cell = a->ter_cell;
+    if (!a->ter_cell_ok[(size_t)cj * cn + (size_t)ci])
+        return;
+    const long cc[4][2] = {{ci, cj}, {ci, cj + 1}, {ci + 1, cj + 1}, {ci + 1, cj}};
+    float *q = a->ter_quads + 12 * (*nq)++;
+    for (int k = 0; k < 4; k++) {
+        q[3 * k] = (float)cc[k][0] * cell;
+        q[3 * k + 1] = a->ter_cmin[(size_t)cc[k][1] * (cn + 1) + (size_t)cc[k][0]];
+        q[3 * k + 2] = (float)cc[k][1] * cell;
+    }
+}
+
+/* Rasterises into a->occ_ter the valid cells of the window (far ground
+ * hides little and costs the most): only the cells of that window are
+ * visited, whatever the map's size. Nearest first, ring by ring around the
+ * camera's cell: a far quad then finds the cells it would cover already
+ * nearer and costs little, and the cells' partial layers (pixel samples)
+ * take the near depths first (a layer keeps the farthest depth of what it
+ * holds, and leaves out occluders more than twice as far). In rows order
+ * the street bench drew 268 objects and 76 patches, in rings 240 and 71. */
+static void terrain_occlude(city_app *a, const hz_camera *cam, const uint32_t win[4])
+{
     if ((size_t)(win[1] - win[0] + 1) * (win[3] - win[2] + 1) > a->ter_quads_cap)
         return; /* cannot happen (terrain_grid's bound); no occluders is conservative */
+    const long i0 = win[0], i1 = win[1], j0 = win[2], j1 = win[3];
+    /* the camera's cell, clamped into the window */
+    const float fi = floorf(cam->pos[0] / a->ter_cell), fj = floorf(cam->pos[2] / a->ter_cell);
+    const long ic = (long)fminf(fmaxf(fi, (float)i0), (float)i1), jc = (long)fminf(fmaxf(fj, (float)j0), (float)j1);
+    long rings = ic - i0;
+    rings = i1 - ic > rings ? i1 - ic : rings;
+    rings = jc - j0 > rings ? jc - j0 : rings;
+    rings = j1 - jc > rings ? j1 - jc : rings;
     size_t nq = 0;
-    for (uint32_t cj = win[2]; cj <= win[3]; cj++)
-        for (uint32_t ci = win[0]; ci <= win[1]; ci++) {
-            if (!a->ter_cell_ok[(size_t)cj * cn + ci])
-                continue;
-            const uint32_t cc[4][2] = {{ci, cj}, {ci, cj + 1}, {ci + 1, cj + 1}, {ci + 1, cj}};
-            float *q = a->ter_quads + 12 * nq++;
-            for (int k = 0; k < 4; k++) {
-                q[3 * k] = (float)cc[k][0] * cell;
-                q[3 * k + 1] = a->ter_cmin[(size_t)cc[k][1] * (cn + 1) + cc[k][0]];
-                q[3 * k + 2] = (float)cc[k][1] * cell;
+    for (long r = 0; r <= rings; r++) {
+        /* ring r: the cells r cells from (ic, jc) along x or z, the rest less */
+        const long ja = jc - r > j0 ? jc - r : j0, jb = jc + r < j1 ? jc + r : j1;
+        const long ia = ic - r > i0 ? ic - r : i0, ib = ic + r < i1 ? ic + r : i1;
+        for (long j = ja; j <= jb; j++) {
+            if (j == jc - r || j == jc + r) {
+                for (long i = ia; i <= ib; i++)
+                    ter_quad(a, i, j, &nq);
+            } else {
+                if (ic - r >= i0)
+                    ter_quad(a, ic - r, j, &nq);
+                if (r && ic + r <= i1)
+                    ter_quad(a, ic + r, j, &nq);
             }
         }
+    }
     hz_occlusion_rasterize_quads(&a->occ_ter, a->ter_quads, nq, NULL);
 }
 
@@ -856,7 +888,7 @@ static void *ter_occlude(void *arg)
          * renderer draws no ground) the eye may see the underside of the
          * ground beyond it, which the renderer culls: no back faces then. */
         j->a->occ_ter.cull_back = !eye_over_ground(j->a, j->cam) || terrain_window_hole(j->a, win);
-        terrain_occlude(j->a, win);
+        terrain_occlude(j->a, j->cam, win);
     }
     return NULL;
 }
