@@ -31,6 +31,7 @@ typedef struct node {
 struct hz_scene {
     node *n;
     uint32_t count, cap;   /* count includes the hidden root */
+    uint32_t objects;      /* nodes with a mesh (the cull's stats; no walk over every node a frame) */
     hz_vertex *v;
     uint32_t vcount, vcap;
     uint32_t *idx;
@@ -342,6 +343,7 @@ void hz_scene_set_mesh(hz_scene *s, uint32_t id, uint32_t mesh, uint32_t materia
 {
     HZ_ASSERT(id && id < s->count);
     HZ_ASSERT(mesh == HZ_MESH_NONE || mesh < s->mcount);
+    s->objects += (mesh != HZ_MESH_NONE) - (s->n[id].mesh != HZ_MESH_NONE);
     s->n[id].mesh = mesh;
     s->n[id].material = material;
     s->n[id].dirty_mesh = 1;
@@ -476,8 +478,7 @@ uint32_t hz_scene_cull_occluded(const hz_scene *s, const hz_camera *cam, const v
     uint32_t n_out = 0;
     uint32_t inside_root = 0; /* while > 0: inside a subtree accepted whole */
     uint32_t hidden_root = 0; /* while > 0: inside a subtree the buffer hides (only counted) */
-    for (uint32_t k = 1; k < s->count; k++)
-        st.objects += s->n[k].mesh != HZ_MESH_NONE;
+    st.objects = s->objects;
     for (uint32_t id = s->n[0].first_child; id;) {
         const node *n = &s->n[id];
         bool descend = true;

@@ -292,6 +292,14 @@ static void test_frustum_culling(void **state)
     assert_int_equal(st.nodes_tested, 2);
     /* cap smaller than the count: the count is still right. */
     assert_int_equal(hz_scene_cull(s, planes, out, 2, NULL), 4);
+    /* The object count follows meshes set, replaced and taken away. */
+    hz_scene_set_mesh(s, ids[4], box, 0);           /* replaced: still one */
+    hz_scene_set_mesh(s, ids[5], HZ_MESH_NONE, 0);  /* taken away */
+    hz_scene_set_mesh(s, ids[5], HZ_MESH_NONE, 0);  /* again: no change */
+    hz_scene_set_mesh(s, back, box, 0);             /* a group node gets one */
+    hz_scene_update(s);
+    hz_scene_cull(s, planes, out, 8, &st);
+    assert_int_equal(st.objects, 8);
     hz_scene_destroy(s);
 }
 
