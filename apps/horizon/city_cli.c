@@ -569,6 +569,13 @@ static void terrain_occlude(city_app *a, const hz_camera *cam, const uint32_t wi
             }
         }
     }
+    /* (the window's cells with data, counted apart from the rings: --json) */
+    uint32_t valid = 0;
+    for (long j = j0; j <= j1; j++)
+        for (long i = i0; i <= i1; i++)
+            valid += a->ter_cell_ok[(size_t)j * a->ter_cn + (size_t)i] != 0;
+    a->ter_window_cells = valid;
+    a->ter_occluders = (uint32_t)nq;
     hz_occlusion_rasterize_quads(&a->occ_ter, a->ter_quads, nq, NULL);
 }
 
@@ -878,6 +885,7 @@ typedef struct ter_job {
 static void *ter_occlude(void *arg)
 {
     ter_job *j = arg;
+    j->a->ter_window_cells = j->a->ter_occluders = 0;
     hz_occlusion_begin(&j->a->occ_ter, j->cam);
     uint32_t win[4];
     /* Under the ground the eye looks through it (the renderer culls the
@@ -988,6 +996,7 @@ void city_app_frame(city_app *a, const struct cli_opts *o, const hz_camera *cam,
     } else {
         a->patches_in = a->patches_drawn = sp->patch_count;
         a->blocks_hidden = 0;
+        a->ter_window_cells = a->ter_occluders = 0;
     }
     a->hook.next = sp->draw_objects;
     a->hook.next_user = sp->draw_objects_user;
@@ -1103,6 +1112,8 @@ void city_app_print(const city_app *a, json_t *json)
         jx_set(o, "terrain_patches", jx_int(a->patches_in));
         jx_set(o, "terrain_patches_drawn", jx_int(a->patches_drawn));
         jx_set(o, "terrain_blocks_hidden", jx_int(a->blocks_hidden));
+        jx_set(o, "terrain_window_cells", jx_int(a->ter_window_cells));
+        jx_set(o, "terrain_occluders", jx_int(a->ter_occluders));
         jx_set(o, "place_ms", jx_fix(a->place_ms, 1));
         jx_set(o, "meshes", jx_int(hz_scene_mesh_count(a->scene)));
         if (c) {

@@ -77,6 +77,8 @@ typedef struct city_app {
     size_t patch_keep_cap;
     uint32_t patches_in, patches_drawn; /* last frame: terrain patches in the view, drawn */
     uint32_t blocks_hidden;             /* ... and blocks of the drawn ones left out (hz_patch.hidden) */
+    uint32_t ter_window_cells;          /* last buffer: the terrain's cells with data within reach, */
+    uint32_t ter_occluders;             /* ... and the occluder quads made of them (one each) */
     /* the objects as shadow casters of the light map (hz_lightmap_desc.casters): per terrain
      * sample the top of the highest object box over it, -inf elsewhere; NULL when none */
     float *casters;

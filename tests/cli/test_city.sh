@@ -141,6 +141,9 @@ assert n['state_changes'] == a['state_changes'] <= 3, (a, n)
 # node's heights, 91)
 assert a['terrain_patches_drawn'] < a['terrain_patches'] == b['terrain_patches'] == b['terrain_patches_drawn'], (a, b)
 assert a['terrain_patches_drawn'] * 2 < a['terrain_patches'], a
+# the terrain's occluders: one quad for every cell with data within reach (taken ring by ring)
+assert a['terrain_occluders'] == a['terrain_window_cells'] > 100, a
+assert b['terrain_occluders'] == b['terrain_window_cells'] == 0, b
 print("terrain patches drawn: %d of %d" % (a['terrain_patches_drawn'], a['terrain_patches']), file=sys.stderr)
 PY
 then ok "street level: occlusion culls $(echo "$j1" | python3 -c "import json,sys;c=json.load(sys.stdin)['city'];print(c['after_frustum']-c['after_occlusion'])") objects, sorted queue 1 draw"
