@@ -504,15 +504,16 @@ static bool terrain_window(const city_app *a, const hz_camera *cam, float reach,
     return true;
 }
 
-/* Whether a cell of the window has no data (it is no occluder: the window's
- * occluder surface has a hole there). */
-static bool terrain_window_hole(const city_app *a, const uint32_t win[4])
+/* The cells of the window with data. Fewer than the window's cells: a cell
+ * without data is no occluder, and the window's occluder surface has a hole
+ * there. */
+static uint32_t terrain_window_cells(const city_app *a, const uint32_t win[4])
 {
+    uint32_t n = 0;
     for (uint32_t cj = win[2]; cj <= win[3]; cj++)
         for (uint32_t ci = win[0]; ci <= win[1]; ci++)
-            if (!a->ter_cell_ok[(size_t)cj * a->ter_cn + ci])
-                return true;
-    return false;
+            n += a->ter_cell_ok[(size_t)cj * a->ter_cn + ci] != 0;
+    return n;
 }
 
 /* Appends coarse cell (ci, cj)'s occluder quad to a->ter_quads (at *nq)
@@ -569,13 +570,7 @@ static void terrain_occlude(city_app *a, const hz_camera *cam, const uint32_t wi
             }
         }
     }
-    /* (the window's cells with data, counted apart from the rings: --json) */
-    uint32_t valid = 0;
-    for (long j = j0; j <= j1; j++)
-        for (long i = i0; i <= i1; i++)
-            valid += a->ter_cell_ok[(size_t)j * a->ter_cn + (size_t)i] != 0;
-    a->ter_window_cells = valid;
-    a->ter_occluders = (uint32_t)nq;
+    a->ter_occluders = (uint32_t)nq; /* (one per cell with data: --json, against ter_window_cells) */
     hz_occlusion_rasterize_quads(&a->occ_ter, a->ter_quads, nq, NULL);
 }
 
@@ -895,7 +890,10 @@ static void *ter_occlude(void *arg)
         /* Through a hole in the window (a cell without data, where the
          * renderer draws no ground) the eye may see the underside of the
          * ground beyond it, which the renderer culls: no back faces then. */
-        j->a->occ_ter.cull_back = !eye_over_ground(j->a, j->cam) || terrain_window_hole(j->a, win);
+        const uint32_t cells = terrain_window_cells(j->a, win);
+        j->a->ter_window_cells = cells; /* (counted apart from the rings of terrain_occlude: --json) */
+        j->a->occ_ter.cull_back =
+            !eye_over_ground(j->a, j->cam) || cells < (win[1] - win[0] + 1) * (win[3] - win[2] + 1);
         terrain_occlude(j->a, j->cam, win);
     }
     return NULL;
