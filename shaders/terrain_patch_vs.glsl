@@ -52,6 +52,17 @@ const bool MORPH = true;
 // VLIT: the lit map is read per vertex (FX_VARIANT_VLIT, bit 26; --lit-map
 // vertex) and interpolated over the triangles, as fixed-function lighting is:
 // the fragment shader then only interpolates a colour.
+// FINE (FX_VARIANT_FINE, bit 27, with VLIT and STILL): a still patch of the
+// finest level, a vertex on every sample. By default these read the lit map
+// per vertex, the other patches per pixel: each vertex reads it filtered as
+// the per-pixel read would there (trilinear, at its mip level), so that
+// the two agree but for the interpolation inside the cells, and a patch
+// that turns still or starts to morph does not change colour.
+#if (FX_VARIANT & 134217728) != 0
+const bool FINE = true;
+#else
+const bool FINE = false;
+#endif
 #if (FX_VARIANT & 67108864) != 0
 uniform sampler2D u_lit;   // the lit colour per sample (terrain_litmap.c)
 uniform float u_lit_lod;   // samples a pixel covers at one metre: the mip level is log2(d * this)
@@ -154,6 +165,31 @@ vec3 coarse_normal(int i, int j, ivec2 org, int shift, int layer)
 // patch that draws it gives it the same colour (no seam between levels), and
 // continuous in the distance. Two texel fetches blended by hand: textureLod
 // with a level per vertex costs llvmpipe several times more.
+// The mip level the per-pixel read takes at sample s, dv from the eye: a
+// pixel's footprint on the surface (the sample's normal, from the normal
+// map), projected onto the map, along its longer screen axis (the texture
+// unit's level follows the larger derivative). Seen at a low angle the
+// footprint stretches along the view: the distance alone would read too
+// fine a level there.
+uniform sampler2D u_normals; // per-sample normals (x, z)
+float lit_lod(ivec2 s, vec3 dv)
+{
+    vec2 nxz = texelFetch(u_normals, s, 0).rg;
+    vec3 n = vec3(nxz.x, sqrt(max(1.0 - dot(nxz, nxz), 0.0)), nxz.y);
+    float d = length(dv);
+    vec3 r = dv / max(d, 1e-6);
+    vec3 side = cross(r, vec3(0.0, 1.0, 0.0));
+    side = dot(side, side) > 1e-8 ? normalize(side) : vec3(1.0, 0.0, 0.0);
+    vec3 up = cross(side, r);
+    // a screen step along t lands on the surface moved by t - r (n.t) / (n.r);
+    // its map part is the xz of that (at most 64 times the step)
+    float nr = dot(n, r);
+    nr = abs(nr) > 1.0 / 64.0 ? nr : (nr < 0.0 ? -1.0 : 1.0) / 64.0;
+    vec2 fs = side.xz - r.xz * dot(n, side) / nr, fu = up.xz - r.xz * dot(n, up) / nr;
+    float f = sqrt(max(dot(fs, fs), dot(fu, fu)));
+    return log2(max(d * u_lit_lod * f, 1.0));
+}
+
 vec3 lit_at(ivec2 s, float lod)
 {
     int k = int(lod), top = u_lit_top;
@@ -297,10 +333,15 @@ void main()
     // Morphing, the colour moves as the height does: toward the midpoint of
     // the two samples the vertex collapses between (a = b = the vertex when
     // it does not morph).
-    float lod = log2(max(distance(hz_curve(vec3(p.x, h, p.z)), u_eye) * u_lit_lod, 1.0));
-    v_lit = lit_at(ivec2(i, j), lod);
-    if (MORPH && mc > 0.0)
-        v_lit = mix(v_lit, 0.5 * (lit_at(a, lod) + lit_at(b, lod)), mc);
+    vec3 dv = hz_curve(vec3(p.x, h, p.z)) - u_eye;
+    if (FINE) {
+        v_lit = textureLod(u_lit, (vec2(i, j) + 0.5) / float(u_map), lit_lod(ivec2(i, j), dv)).rgb;
+    } else {
+        float lod = log2(max(length(dv) * u_lit_lod, 1.0));
+        v_lit = lit_at(ivec2(i, j), lod);
+        if (MORPH && mc > 0.0)
+            v_lit = mix(v_lit, 0.5 * (lit_at(a, lod) + lit_at(b, lod)), mc);
+    }
 #endif
     v_world = p;
     v_fog = exp(-u_fog_density * length(p - u_eye));

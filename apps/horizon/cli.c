@@ -124,10 +124,13 @@ void cli_usage_terrain(void)
             "  --effects LIST          sky, flare, shadows, detail, billboards, fog, water, weather,\n"
             "                          motionblur, bloom; all, none, default; -NAME removes one\n"
             "                          (default: all but weather and motionblur)\n"
-            "  --lit-map on|off|vertex without terrain effects, read the terrain's colour from a map lit\n"
-            "                          per sample (baked again when the sun changes; default on), shade\n"
-            "                          every pixel (off), or read the map per vertex of the cdlod\n"
-            "                          patches and interpolate it (vertex: cheaper, less detail)\n"
+            "  --lit-map on|off|vertex|pixel\n"
+            "                          without terrain effects, read the terrain's colour from a map lit\n"
+            "                          per sample (baked again when the sun changes; default on: per\n"
+            "                          vertex where cdlod patches have one on every sample and the map\n"
+            "                          is smooth, else per pixel), shade every pixel (off), read it per\n"
+            "                          vertex of every patch (vertex: cheaper, less detail) or per pixel\n"
+            "                          of every patch (pixel)\n"
             "  --sun AZ,EL             sun azimuth (clockwise from north) and elevation, degrees\n"
             "                          (default 245,30: west-south-west, afternoon)\n"
             "  --time S                effect time in seconds: clouds, waves, weather (default 0)\n"
@@ -582,10 +585,11 @@ int cli_parse(int argc, char **argv, int first, cli_opts *o, const char *cmd)
             o->wireframe = true;
         } else if (!strcmp(a, "--lit-map")) {
             NEEDV();
-            if (strcmp(v, "on") && strcmp(v, "off") && strcmp(v, "vertex"))
-                return bad(cmd, a, v, "on, off or vertex");
+            if (strcmp(v, "on") && strcmp(v, "off") && strcmp(v, "vertex") && strcmp(v, "pixel"))
+                return bad(cmd, a, v, "on, off, vertex or pixel");
             o->no_lit_map = !strcmp(v, "off");
             o->lit_per_vertex = !strcmp(v, "vertex");
+            o->lit_pixel = !strcmp(v, "pixel");
         } else if (!strcmp(a, "--quiet") || !strcmp(a, "-q")) {
             o->quiet = true;
         } else if ((city_rc = city_cli_option(&o->city, a, v, cmd, &i)) >= 0) {

@@ -29,6 +29,7 @@ typedef struct cli_opts {
     bool wireframe;
     bool no_lit_map;      /* --lit-map off */
     bool lit_per_vertex;  /* --lit-map vertex */
+    bool lit_pixel;       /* --lit-map pixel */
     bool quiet;
     uint32_t repeat; /* LOD selections to time; median reported */
     /* forest (SPEC F) */
@@ -88,6 +89,7 @@ typedef struct app_fx {
     bool fog_capped;      /* default fog with the default view distance: at most CLI_FOG_CLEAR_DAY */
     bool no_lit_map;      /* --lit-map off: the plain terrain shaded per pixel */
     bool lit_per_vertex;  /* --lit-map vertex: the lit map read per vertex */
+    bool lit_pixel;       /* --lit-map pixel: ... per pixel on every patch */
     bool water;
     float water_level;
     uint8_t *lightmap;

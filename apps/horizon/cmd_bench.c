@@ -31,6 +31,7 @@ typedef struct frame_row {
     double sky_frac;    /* fraction of the LOD frame's pixels that are sky */
     bool lit_map;       /* the terrain read its lit map (hz_draw_stats) */
     bool lit_vertex;    /* ... per vertex */
+    uint32_t lit_vertex_patches; /* patches that read it per vertex */
     double lit_bake_ms; /* the frame baked it first (in upload_ms) */
 } frame_row;
 
@@ -563,6 +564,7 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
         row->draw_ms = ds.draw_ms;
         row->lit_map = ds.lit_map;
         row->lit_vertex = ds.lit_per_vertex;
+        row->lit_vertex_patches = ds.lit_vertex_patches;
         row->lit_bake_ms = ds.lit_bake_ms;
         uint8_t *cur = b->img[f & 1], *prev = b->img[(f + 1) & 1];
         if (hz_renderer_read_rgb(b->ren, cur, &b->err) != HZ_OK ||
@@ -805,14 +807,17 @@ static json_t *bench_json(const bench *b, const hz_lod_params *lod, const frame_
     jx_set(j, "tuned_for_psnr_db", jx_num(b->tune_psnr));
     jx_set(j, "metrics", jx_bool(b->metrics));
     uint32_t lit_frames = 0, lit_vertex = 0;
+    uint64_t lit_vertex_patches = 0;
     double lit_bake = b->warm_bake_ms;
     for (size_t i = 0; i < b->frames; i++) {
         lit_frames += rows[i].lit_map;
         lit_vertex += rows[i].lit_vertex;
+        lit_vertex_patches += rows[i].lit_vertex_patches;
         lit_bake += rows[i].lit_bake_ms;
     }
     jx_set(j, "lit_map_frames", jx_int(lit_frames));
     jx_set(j, "lit_per_vertex_frames", jx_int(lit_vertex));
+    jx_set(j, "lit_vertex_patches", jx_int((long long)lit_vertex_patches));
     jx_set(j, "lit_bake_ms", jx_fix(lit_bake, 1));
     jx_set(j, "load_ms", jx_fix(b->load_ms, 1));
     jx_set(j, "setup_ms", jx_fix(b->setup_ms, 1));
@@ -838,6 +843,7 @@ static json_t *bench_json(const bench *b, const hz_lod_params *lod, const frame_
         jx_set(o, "nodes_still", jx_int(r->nodes_still));
         jx_set(o, "upload_kb", jx_fix(r->upload_kb, 3));
         jx_set(o, "lit_map", jx_bool(r->lit_map));
+        jx_set(o, "lit_vertex_patches", jx_int(r->lit_vertex_patches));
         if (r->lit_bake_ms > 0)
             jx_set(o, "lit_bake_ms", jx_fix(r->lit_bake_ms, 1));
         jx_set(o, "px_error_p99", jx_num(r->px_p99));

@@ -284,6 +284,7 @@ int app_fx_setup(app_fx *a, const cli_opts *o, const hz_terrain *t, hz_renderer 
     a->fog_capped = o->fog == 0.0f && !(o->far > 0);
     a->no_lit_map = o->no_lit_map;
     a->lit_per_vertex = o->lit_per_vertex;
+    a->lit_pixel = o->lit_pixel;
     if (o->have_sun)
         hz_sun_direction(o->sun[0], o->sun[1], a->sun);
     else
@@ -407,6 +408,7 @@ void app_fx_params(app_fx *a, const hz_terrain *t, const hz_camera *cam, const h
     sp->fx = &a->fx;
     sp->no_lit_map = a->no_lit_map;
     sp->lit_per_vertex = a->lit_per_vertex;
+    sp->lit_pixel = a->lit_pixel;
     glm_vec3_copy(a->sun, sp->sun_dir);
     sp->fog_density = a->fog_capped ? cli_fog_default(cam->zfar) : a->fog;
     sp->time = time;

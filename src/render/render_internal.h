@@ -79,6 +79,8 @@ typedef struct fx_frame {
 #define FX_VARIANT_LIT (1u << 24)        /* the plain terrain reads its colour from the lit map */
 #define FX_VARIANT_STILL (1u << 25)      /* patches none of whose vertices morph: no morph code */
 #define FX_VARIANT_VLIT (1u << 26)       /* patches read the lit map per vertex (--lit-map vertex) */
+#define FX_VARIANT_FINE (1u << 27)       /* with VLIT and STILL: full-resolution patches, read per vertex
+                                            at the per-pixel read's filtering (terrain_patch_vs.glsl) */
 #define SKY_CELLS (HZ_SKY_COLS * HZ_SKY_ROWS) /* the plain sky's grid (sky_grid_vs.glsl: SKY_COLS x SKY_ROWS) */
 #define LIT_KEY_LEN 8 /* the lit map's lighting: sun (3), ambient, snow line, tree line, aridity, zscale */
 /* The ground detail fades out between these multiples of its scale
@@ -174,6 +176,12 @@ struct hz_renderer {
     bool lit_prev_set;         /* lit_prev holds the last plain frame's lighting */
     bool lit_failed;           /* a bake failed (GL): per-pixel shading until the next heightmap */
     float lit_key[LIT_KEY_LEN], lit_prev[LIT_KEY_LEN];
+    /* Per block of lit_smooth_cells x lit_smooth_cells cells (a full-resolution
+     * cdlod patch), lit_smooth_n a side: 1 where interpolating the map over
+     * the mesh's triangles instead of bilinearly changes no colour by more
+     * than LIT_SMOOTH_TOL (litmap_smooth). NULL: none (no map, or no patches). */
+    uint8_t *lit_smooth;
+    uint32_t lit_smooth_cells, lit_smooth_n;
 
     /* cdlod patches (terrain_patch.c) */
     GLuint tiles_tex, tiles_buf; /* GL_TEXTURE_BUFFER (RGBA16UI) over tiles_buf: the tiles of the
@@ -206,10 +214,11 @@ struct hz_renderer {
                                   (patch_detail_split; all of them without the detail); the rest
                                   draw with terrain_patch_far */
     /* The instances come in segments (the flushed chunks, split at
-     * n_inst_near), each with its still patches (hz_patch.still) first:
-     * segment k is [seg[k], seg[k + 1]), still up to seg_still[k];
-     * seg_flush[k]: it ends a chunk (a glFlush follows it). */
-    uint32_t seg[PATCH_SEGS + 1], seg_still[PATCH_SEGS], n_seg;
+     * n_inst_near), each with its still patches (hz_patch.still) first, and
+     * of those the full-resolution ones (shift 0) first: segment k is
+     * [seg[k], seg[k + 1]), still up to seg_still[k], full-resolution still
+     * up to seg_fine[k]; seg_flush[k]: it ends a chunk (a glFlush follows it). */
+    uint32_t seg[PATCH_SEGS + 1], seg_still[PATCH_SEGS], seg_fine[PATCH_SEGS], n_seg;
     bool seg_flush[PATCH_SEGS];
 
     GLuint sky_prog;          /* the plain sky */
@@ -222,6 +231,9 @@ struct hz_renderer {
     const prog_variant *terrain_patch_far; /* the same beyond the detail's fade (NULL: no detail) */
     const prog_variant *terrain_patch_still, *terrain_patch_far_still; /* the same two without the
                                               morph code, for the still patches (NULL: streamed) */
+    const prog_variant *terrain_patch_fine; /* still full-resolution patches reading the lit map per
+                                               vertex (NULL: per pixel; see hz_scene_params.lit_pixel) */
+    uint32_t fine_patches;     /* instances of this frame drawn with it */
     const prog_variant *terrain_clip_cur;  /* this frame's reflection-pass variant (NULL: no water) */
 
     /* Current heightmap, world units (metres, zscale applied). */
@@ -327,12 +339,17 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
 double litmap_prepare(hz_renderer *r, const fx_frame *f, bool plain, bool *use);
 /* The heightmap changed: the map goes (GL objects of the last one freed). */
 void litmap_invalidate(hz_renderer *r);
+/* Whether the full-resolution patch with its corner at sample (x0, z0) may
+ * read the lit map per vertex: the map is baked and smooth enough over it
+ * (hz_renderer.lit_smooth, for the current patch size). */
+bool litmap_smooth_at(const hz_renderer *r, uint32_t x0, uint32_t z0);
 void litmap_release(hz_renderer *r);
 void litmap_destroy(hz_renderer *r);
 
 /* ---- terrain_patch.c: cdlod patches ---- */
 /* Converts and uploads a frame's patches (instances), in segments (the
- * flushed chunks, split at near), each with its still patches first. */
+ * flushed chunks, split at near), each with its still patches first, the
+ * full-resolution ones (shift 0) of those first. */
 hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32_t near, hz_err *err);
 /* How many of the uploaded patches (nearest first) come nearer to the eye
  * than dist, horizontally (a bound for any point they draw, whatever its
@@ -340,9 +357,11 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32
 uint32_t patch_detail_split(const hz_renderer *r, const hz_patch *p, uint32_t count, const float eye[3], float dist);
 /* Draws uploaded patches [first, end) (segment bounds), flushed at the chunk
  * ends (PATCH_CHUNKS) they reach: the still ones with still (when not
- * NULL), the others with tp. Both programs' frame uniforms are set
- * (terrain_program); tp is bound on return. */
-void patch_draw(hz_renderer *r, const prog_variant *tp, const prog_variant *still, uint32_t first, uint32_t end);
+ * NULL), of those the full-resolution ones with fine (when not NULL), the
+ * others with tp. Every program's frame uniforms are set (terrain_program);
+ * tp is bound on return. */
+void patch_draw(hz_renderer *r, const prog_variant *tp, const prog_variant *still, const prog_variant *fine,
+                uint32_t first, uint32_t end);
 void patch_destroy(hz_renderer *r);
 
 /* ---- fx_ground.c: light map, detail, colour map, forest cover ---- */

@@ -92,6 +92,7 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
             return HZ_ERR_GL;
     }
     r->terrain_patch_cur = r->terrain_patch_far = r->terrain_patch_still = r->terrain_patch_far_still = NULL;
+    r->terrain_patch_fine = NULL;
     if (patches) {
         /* --lit-map vertex: the patches read the lit map per vertex (in
          * memory only: a streamed terrain has no lit map). */
@@ -112,6 +113,19 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
                                hz_shader_terrain_fs, "terrain (still patches)", 2, terrain_names, err);
             if (!r->terrain_patch_still)
                 return HZ_ERR_GL;
+            /* A still patch of the finest level has a vertex on every sample
+             * of the lit map: read per vertex and interpolated, the colour
+             * differs from the per-pixel read only inside the cells
+             * (triangles instead of bilinear), and costs a fraction. */
+            if (f->lit && !vlit && !f->sp.lit_pixel) {
+                r->terrain_patch_fine =
+                    prog_cache_get(&r->terrain, pkey | FX_VARIANT_STILL | FX_VARIANT_VLIT | FX_VARIANT_FINE,
+                                   hz_shader_terrain_patch_vs,
+                                   hz_shader_terrain_fs, "terrain (full-resolution still patches)", 2, terrain_names,
+                                   err);
+                if (!r->terrain_patch_fine)
+                    return HZ_ERR_GL;
+            }
         }
         if (key & HZ_FX_DETAIL) {
             r->terrain_patch_far =
@@ -918,14 +932,16 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
             /* Still patches (no vertex morphs) without the morph code;
              * patches beyond the ground detail's fade with its far variant. */
             const uint32_t near = r->n_inst_near;
+            if (r->terrain_patch_fine)
+                terrain_program(r, f, v, r->terrain_patch_fine, true);
             if (r->terrain_patch_still)
                 terrain_program(r, f, v, r->terrain_patch_still, true);
-            patch_draw(r, tp, r->terrain_patch_still, 0, near); /* binds tp again */
+            patch_draw(r, tp, r->terrain_patch_still, r->terrain_patch_fine, 0, near); /* binds tp again */
             if (near < r->n_inst) {
                 if (r->terrain_patch_far_still)
                     terrain_program(r, f, v, r->terrain_patch_far_still, true);
                 terrain_program(r, f, v, r->terrain_patch_far, true);
-                patch_draw(r, r->terrain_patch_far, r->terrain_patch_far_still, near, r->n_inst);
+                patch_draw(r, r->terrain_patch_far, r->terrain_patch_far_still, NULL, near, r->n_inst);
             }
         } else {
             glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo);
@@ -959,7 +975,7 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
             glDepthMask(GL_FALSE);
             glUniform1i(tl[TL_WIRE], 1);
             if (patches)
-                patch_draw(r, tp, NULL, 0, r->n_inst);
+                patch_draw(r, tp, NULL, NULL, 0, r->n_inst);
             else
                 glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
             glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
@@ -1136,7 +1152,7 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         glBindVertexArray(0);
         return HZ_ERR_GL;
     }
-    r->n_inst = r->n_inst_near = 0;
+    r->n_inst = r->n_inst_near = r->fine_patches = 0;
     uint32_t near = npatch;
     if (npatch > 0 && r->terrain_patch_far) {
         /* 0.1 % more: the shader's distance is rounded. */
@@ -1237,6 +1253,7 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         stats->lit_map = fr.lit;
         /* (The variant is chosen only with the lit map and patches.) */
         stats->lit_per_vertex = r->terrain_patch_cur && (r->terrain_patch_cur->key & FX_VARIANT_VLIT);
+        stats->lit_vertex_patches = stats->lit_per_vertex ? r->n_inst : r->fine_patches;
         stats->lit_bake_ms = bake_ms;
         stats->sky_cells = (fr.bits & HZ_FX_SKY) ? 0 : r->sky_cells;
     }

@@ -13,6 +13,7 @@
 
 #include "hz_shaders.h"
 
+#include <stdlib.h>
 #include <string.h>
 
 /* At most this much for the map with its mip levels (RGBA8, 4/3 n^2 texels):
@@ -72,6 +73,69 @@ static hz_result lit_setup(hz_renderer *r, hz_err *err)
     return res;
 }
 
+/* Interpolated over a cell's two triangles instead of bilinearly, a colour
+ * is off by at most a quarter of the cell's twist |a - b - c + d| (at its
+ * centre, whichever the diagonal). Blocks whose twist stays within 4 *
+ * LIT_SMOOTH_TOL in every cell and channel are smooth. */
+#define LIT_SMOOTH_TOL 2
+
+/* The smooth blocks of P x P cells (hz_renderer.lit_smooth) of the baked
+ * map, read back a row of blocks at a time. Not fatal when out of memory or
+ * on a GL error: no block is smooth then (every patch reads per pixel). */
+static void litmap_smooth(hz_renderer *r, uint32_t P)
+{
+    free(r->lit_smooth);
+    r->lit_smooth = NULL;
+    r->lit_smooth_cells = r->lit_smooth_n = 0;
+    const uint32_t n = r->size;
+    if (!P || n < 2 || (n - 1) % P)
+        return;
+    const uint32_t nb = (n - 1) / P;
+    uint8_t *mask = calloc((size_t)nb * nb, 1);
+    uint8_t *rows = malloc((size_t)(P + 1) * n * 4);
+    if (!mask || !rows) {
+        free(mask);
+        free(rows);
+        return;
+    }
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    for (uint32_t bj = 0; bj < nb; bj++) {
+        glGetTextureSubImage(r->lit_tex, 0, 0, (GLint)(bj * P), 0, (GLsizei)n, (GLsizei)(P + 1), 1, GL_RGBA,
+                             GL_UNSIGNED_BYTE, (GLsizei)((size_t)(P + 1) * n * 4), rows);
+        for (uint32_t bi = 0; bi < nb; bi++) {
+            bool smooth = true;
+            for (uint32_t j = 0; j < P && smooth; j++) {
+                const uint8_t *r0 = rows + ((size_t)j * n + (size_t)bi * P) * 4, *r1 = r0 + (size_t)n * 4;
+                for (uint32_t i = 0; i < P * 4 && smooth; i++) {
+                    if ((i & 3) == 3)
+                        continue; /* alpha */
+                    const int t = (int)r0[i] - r0[i + 4] - r1[i] + r1[i + 4];
+                    smooth = abs(t) <= 4 * LIT_SMOOTH_TOL;
+                }
+            }
+            mask[(size_t)bj * nb + bi] = smooth;
+        }
+    }
+    free(rows);
+    if (glGetError() != GL_NO_ERROR) {
+        free(mask);
+        hz_gl_drain();
+        return;
+    }
+    r->lit_smooth = mask;
+    r->lit_smooth_cells = P;
+    r->lit_smooth_n = nb;
+}
+
+bool litmap_smooth_at(const hz_renderer *r, uint32_t x0, uint32_t z0)
+{
+    const uint32_t P = r->lit_smooth_cells;
+    if (!r->lit_smooth || !r->lit_valid || P != r->patch_cells || x0 % P || z0 % P)
+        return false;
+    const uint32_t bi = x0 / P, bj = z0 / P;
+    return bi < r->lit_smooth_n && bj < r->lit_smooth_n && r->lit_smooth[(size_t)bj * r->lit_smooth_n + bi];
+}
+
 static hz_result bake(hz_renderer *r, const float key[LIT_KEY_LEN], hz_err *err)
 {
     hz_result res = lit_setup(r, err);
@@ -114,6 +178,7 @@ static hz_result bake(hz_renderer *r, const float key[LIT_KEY_LEN], hz_err *err)
     }
     memcpy(r->lit_key, key, sizeof r->lit_key);
     r->lit_valid = true;
+    litmap_smooth(r, r->patch_cells);
     return HZ_OK;
 }
 
@@ -129,7 +194,12 @@ double litmap_prepare(hz_renderer *r, const fx_frame *f, bool plain, bool *use)
     r->lit_prev_set = true;
     if (r->lit_valid && memcmp(key, r->lit_key, sizeof key) == 0) {
         *use = true;
-        return 0.0;
+        if (r->patch_cells == r->lit_smooth_cells)
+            return 0.0;
+        /* the patches' size changed since the bake: their blocks again */
+        const double t0 = hz_time_ms();
+        litmap_smooth(r, r->patch_cells);
+        return hz_time_ms() - t0;
     }
     /* The lighting changed since the last bake: bake once it holds still
      * (the first bake of a map at once). */
@@ -159,6 +229,9 @@ void litmap_release(hz_renderer *r)
     glDeleteTextures(1, &r->lit_tex);
     r->lit_fbo = r->lit_tex = 0;
     r->lit_valid = false;
+    free(r->lit_smooth);
+    r->lit_smooth = NULL;
+    r->lit_smooth_cells = r->lit_smooth_n = 0;
 }
 
 void litmap_destroy(hz_renderer *r)

@@ -332,12 +332,16 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32
     }
     patch_segments(r, count, near);
     for (uint32_t g = 0; !r->streamed && g < r->n_seg; g++) {
-        /* the segment's still patches first, then the others, each in order */
+        /* the segment's still full-resolution patches first, the other still
+         * ones next, then the others, each in order */
         const uint32_t a = r->seg[g], b = r->seg[g + 1];
-        uint32_t still = 0;
-        for (uint32_t k = a; k < b; k++)
+        uint32_t still = 0, fine = 0;
+        for (uint32_t k = a; k < b; k++) {
             still += p[k].still != 0;
-        uint32_t at[2] = {a, a + still};
+            fine += p[k].still != 0 && p[k].shift == 0 && litmap_smooth_at(r, p[k].x0, p[k].z0);
+        }
+        uint32_t at[3] = {a, a + fine, a + still};
+        r->seg_fine[g] = a + fine;
         r->seg_still[g] = a + still;
         for (uint32_t k = a; k < b; k++) {
             const hz_patch *q = &p[k];
@@ -346,7 +350,8 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32
                 return hz_err_set(err, HZ_ERR_VALUE, "renderer: patch %u (%u, %u, shift %u) lies outside the map", k,
                                   q->x0, q->z0, q->shift);
             /* the shader finds the tile: level min(shift, top), (x0 >> level) / T */
-            const uint32_t slot = at[q->still == 0]++;
+            const uint32_t slot =
+                at[q->still == 0 ? 2 : (q->shift != 0 || !litmap_smooth_at(r, q->x0, q->z0))]++;
             uint32_t *o = r->inst_scratch + words * (size_t)slot;
             o[0] = q->x0 | (q->z0 << 16);
             o[1] = q->shift | ((uint32_t)q->coarse << 4);
@@ -355,7 +360,7 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32
         }
     }
     for (uint32_t g = 0; r->streamed && g < r->n_seg; g++)
-        r->seg_still[g] = r->seg[g]; /* streamed patches always draw with the morph code */
+        r->seg_fine[g] = r->seg_still[g] = r->seg[g]; /* streamed patches always draw with the morph code */
     glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
     if (bytes > r->inst_cap || bytes < r->inst_cap / 4) {
         r->inst_cap = bytes + bytes / 4 + 64;
@@ -483,7 +488,8 @@ static void patch_run(hz_renderer *r, const prog_variant *tp, const prog_variant
                             (GLsizei)(b - a));
 }
 
-void patch_draw(hz_renderer *r, const prog_variant *tp, const prog_variant *still, uint32_t first, uint32_t end)
+void patch_draw(hz_renderer *r, const prog_variant *tp, const prog_variant *still, const prog_variant *fine,
+                uint32_t first, uint32_t end)
 {
     if (end > r->n_inst)
         end = r->n_inst;
@@ -491,6 +497,8 @@ void patch_draw(hz_renderer *r, const prog_variant *tp, const prog_variant *stil
         return;
     glActiveTexture(GL_TEXTURE0 + FX_UNIT_TILES);
     glBindTexture(GL_TEXTURE_BUFFER, r->tiles_tex);
+    if (still && fine)
+        patch_program(r, fine);
     if (still)
         patch_program(r, still);
     patch_program(r, tp);
@@ -512,8 +520,13 @@ void patch_draw(hz_renderer *r, const prog_variant *tp, const prog_variant *stil
         if (sa >= sb)
             continue;
         const uint32_t mid = still ? (r->seg_still[g] < sa ? sa : (r->seg_still[g] > sb ? sb : r->seg_still[g])) : sa;
+        const uint32_t fn = still && fine ? (r->seg_fine[g] < sa ? sa : (r->seg_fine[g] > mid ? mid : r->seg_fine[g])) : sa;
+        if (fn > sa) {
+            patch_run(r, fine, &bound, sa, fn);
+            r->fine_patches += fn - sa;
+        }
         if (still)
-            patch_run(r, still, &bound, sa, mid);
+            patch_run(r, still, &bound, fn, mid);
         patch_run(r, tp, &bound, mid, sb);
         if (r->seg_flush[g] && sb == r->seg[g + 1])
             glFlush(); /* at each chunk's end, the last one's too: the terrain is

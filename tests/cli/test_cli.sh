@@ -198,7 +198,16 @@ read lm1 lv1 p1 < <(lv --lit-map vertex)
 [ "$lm0" = 3 ] && [ "$lv0" = 0 ] && [ "$lm1" = 3 ] && [ "$lv1" = 3 ] &&
   python3 -c "import sys; a,b=float('$p0'),float('$p1'); sys.exit(not (b < a and b > 25))" &&
   ok "--lit-map vertex: $lv1 of 3 frames per vertex, PSNR $p0 -> $p1 dB" || bad "--lit-map vertex: frames $lm0/$lv0, $lm1/$lv1, PSNR $p0/$p1"
-expect_fail "bad --lit-map"         "on, off or vertex"       $R --lit-map sideways
+# By default the still finest patches over smooth map read it per vertex, nearly the per-pixel
+# picture; --lit-map pixel reads it per pixel on every patch.
+lp() { $HZ bench --quiet --generate perlin --size 257 --lod cdlod --frames 3 --width 320 --height 180 --metrics off \
+         --effects none "$@" --json "$TMP/lp.json" >/dev/null 2>&1 &&
+       python3 -c "import json,sys;j=json.load(open('$TMP/lp.json'));print(j['lit_vertex_patches'],'%.2f'%j['psnr_db_median'])"; }
+read vp0 q0 < <(lp)
+read vp1 q1 < <(lp --lit-map pixel)
+[ "${vp0:-0}" -gt 0 ] && [ "$vp1" = 0 ] && python3 -c "import sys; sys.exit(not (abs(float('$q0') - float('$q1')) < 0.5))" &&
+  ok "--lit-map on: $vp0 patches per vertex in 3 frames, PSNR $q0 dB (per pixel: $q1)" || bad "--lit-map on/pixel: $vp0/$q0, $vp1/$q1"
+expect_fail "bad --lit-map"         "on, off, vertex or pixel" $R --lit-map sideways
 
 # More C*C2 -> more triangles.
 t1=$($R --generate diamond --size 1025 --lod quadtree --lod-c 25 --lod-c2 2.5 --json --out "$TMP/d.png" | python3 -c "import json,sys;print(json.load(sys.stdin)['triangles'])")

@@ -1135,6 +1135,89 @@ static void test_lit_map_per_vertex(void **state)
     free(pl.data);
 }
 
+/* The frame with the default lit map read (still full-resolution patches
+ * over smooth blocks per vertex) against every patch per pixel, on renderer
+ * r and terrain t: the patches of each kind (still finest; drawn per vertex),
+ * and the difference over the ground (mean, pixels off by > 4, by any). */
+static void fine_frame(hz_renderer *r, hz_terrain *t, float pitch, uint32_t *fine, uint32_t *drawn, double *mean, size_t *off4,
+                       size_t *any, size_t *ground)
+{
+    hz_err err = {0};
+    assert_int_equal(hz_lod_prepare(t->lod, HZ_LOD_CDLOD), HZ_OK);
+    assert_int_equal(hz_renderer_set_cdlod(r, t->lod, NULL, &err), HZ_OK);
+    hz_camera cam = hz_terrain_default_camera(t, W, H);
+    cam.pitch = pitch; /* the near ground, where the finest level lies, fills much of the view */
+    hz_patch_list pl = {0};
+    hz_lod_stats st;
+    hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = 1.0f, .viewport_height = H};
+    assert_int_equal(hz_lod_select_patches(t->lod, &cam, &p, &pl, &st), HZ_OK);
+    uint32_t still = 0, finest = 0;
+    *fine = 0;
+    for (size_t k = 0; k < pl.count; k++) {
+        *fine += pl.data[k].still && pl.data[k].shift == 0;
+        still += pl.data[k].still != 0;
+        finest += pl.data[k].shift == 0;
+    }
+    fprintf(stderr, "%zu patches, %u still, %u finest, %u both\n", pl.count, still, finest, *fine);
+    /* the frame has all three kinds: still finest, still coarser, morphing finest */
+    assert_true(*fine > 0 && still > *fine && finest > *fine);
+    uint8_t *pix = malloc(W * H * 3), *fin = malloc(W * H * 3), *sky = malloc(W * H);
+    hz_scene_params sp = {.patches = pl.data, .patch_count = (uint32_t)pl.count, .morph_scale = st.morph_scale,
+                          .morph_start = st.morph_start, .lit_pixel = true};
+    hz_draw_stats ds;
+    for (int k = 0; k < 2; k++) /* the map baked for this light */
+        assert_int_equal(hz_renderer_draw(r, &cam, &sp, NULL, 0, &ds, &err), HZ_OK);
+    assert_true(ds.lit_map);
+    assert_int_equal(ds.lit_vertex_patches, 0);
+    assert_int_equal(hz_renderer_read_rgb(r, pix, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_sky_mask(r, sky, &err), HZ_OK);
+    sp.lit_pixel = false;
+    assert_int_equal(hz_renderer_draw(r, &cam, &sp, NULL, 0, &ds, &err), HZ_OK);
+    assert_true(ds.lit_map);
+    assert_false(ds.lit_per_vertex);
+    *drawn = ds.lit_vertex_patches;
+    assert_int_equal(hz_renderer_read_rgb(r, fin, &err), HZ_OK);
+    *mean = ground_diff(pix, fin, sky, 4, ground, off4);
+    ground_diff(pix, fin, sky, 0, ground, any);
+    fprintf(stderr, "%u of them per vertex; against per pixel: mean difference %.3f of 255, %zu / %zu / %zu ground "
+            "pixels off by > 4 / any / in all\n", *drawn, *mean, *off4, *any, *ground);
+    assert_true(*ground > (size_t)W * H / 4);
+    /* --lit-map vertex: every patch */
+    sp.lit_per_vertex = true;
+    assert_int_equal(hz_renderer_draw(r, &cam, &sp, NULL, 0, &ds, &err), HZ_OK);
+    assert_int_equal(ds.lit_vertex_patches, (uint32_t)pl.count);
+    free(pix);
+    free(fin);
+    free(sky);
+    free(pl.data);
+}
+
+/* By default the still patches of the finest level (a vertex on every
+ * sample) read the lit map per vertex where it is smooth, the others per
+ * pixel: the frame is the per-pixel read's but for the interpolation inside
+ * the cells, within 2 levels of 255 (lit_pixel: every patch per pixel). On
+ * the rough fixture few patches qualify; drawn 20 times flatter (the same
+ * patches), its map is smooth and every still finest patch does. */
+static void test_lit_map_fine_patches_per_vertex(void **state)
+{
+    ctx *c = *state;
+    hz_err err = {0};
+    uint32_t fine, drawn;
+    double mean;
+    size_t off4, any, ground;
+    fine_frame(c->r, c->t, -12.0f, &fine, &drawn, &mean, &off4, &any, &ground);
+    assert_true(drawn < fine / 2);
+    assert_true(mean < 0.1);
+    assert_true(off4 * 1000 < ground);
+    assert_int_equal(hz_renderer_set_heightmap(c->r, &c->t->hm, c->t->spacing, c->t->zscale * 0.05f, &err), HZ_OK);
+    fine_frame(c->r, c->t, -40.0f, &fine, &drawn, &mean, &off4, &any, &ground);
+    assert_int_equal(hz_renderer_set_heightmap(c->r, &c->t->hm, c->t->spacing, c->t->zscale, &err), HZ_OK);
+    assert_int_equal(drawn, fine);
+    assert_true(mean < 0.1);
+    assert_true(off4 * 1000 < ground);
+    assert_true(any * 100 > ground); /* interpolated there, not read per pixel */
+}
+
 /* A streamed tile that arrives slides in instead of popping: the first
  * frame that draws it looks (nearly) like the frame before, and once it
  * has slid in, like the finer level. */
@@ -1218,6 +1301,7 @@ int main(void)
         cmocka_unit_test(test_default_camera_frames_the_summit),
         cmocka_unit_test(test_lit_map_matches_per_pixel_shading),
         cmocka_unit_test(test_lit_map_per_vertex),
+        cmocka_unit_test(test_lit_map_fine_patches_per_vertex),
         cmocka_unit_test(test_stream_tiles_slide_in),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
