@@ -52,12 +52,13 @@ const bool MORPH = true;
 // VLIT: the lit map is read per vertex (FX_VARIANT_VLIT, bit 26; --lit-map
 // vertex) and interpolated over the triangles, as fixed-function lighting is:
 // the fragment shader then only interpolates a colour.
-// FINE (FX_VARIANT_FINE, bit 27, with VLIT and STILL): a still patch of the
-// finest level, a vertex on every sample. By default these read the lit map
-// per vertex, the other patches per pixel: each vertex reads it filtered as
-// the per-pixel read would there (trilinear, at its mip level), so that
-// the two agree but for the interpolation inside the cells, and a patch
-// that turns still or starts to morph does not change colour.
+// FINE (FX_VARIANT_FINE, bit 27, with VLIT): a patch of the finest level, a
+// vertex on every sample, over smooth lit map (litmap_smooth_at). By default
+// these read the lit map per vertex, the other patches per pixel: each
+// vertex reads it filtered as the per-pixel read would there (trilinear, at
+// its mip level), so that the two agree but for the interpolation inside the
+// cells. A morphing vertex moves only in height: it reads its own sample,
+// as the per-pixel read does at its place (no colour morph).
 #if (FX_VARIANT & 134217728) != 0
 const bool FINE = true;
 #else

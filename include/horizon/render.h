@@ -173,8 +173,8 @@ typedef struct hz_scene_params {
      * does) instead of once per pixel. Cheaper per pixel (on llvmpipe about a
      * tenth of the frame), with less detail between the vertices. */
     bool lit_per_vertex;
-    /* Otherwise still patches of the finest level (hz_patch.still, shift 0:
-     * a vertex on every sample of the map) read it per vertex where the map
+    /* Otherwise patches of the finest level (shift 0: a vertex on every
+     * sample of the map) read it per vertex where the map
      * is smooth over them, the rest per pixel. Interpolated over the
      * triangles instead of bilinearly, the colour then differs by at most 2
      * of 255 inside the cells (the renderer checks each patch's block of
@@ -203,7 +203,7 @@ typedef struct hz_draw_stats {
     bool lit_map;             /* the terrain read its lit map (hz_scene_params.no_lit_map) */
     bool lit_per_vertex;      /* ... per vertex of its patches (hz_scene_params.lit_per_vertex) */
     uint32_t lit_vertex_patches; /* patches that read it per vertex (all with lit_per_vertex; else the
-                                    still full-resolution ones over smooth map, unless
+                                    full-resolution ones over smooth map, unless
                                     hz_scene_params.lit_pixel) */
     double lit_bake_ms;       /* this frame baked the lit map first: its time (in upload_ms) */
     uint32_t sky_cells;       /* cells of the plain sky's grid drawn in the main pass (of

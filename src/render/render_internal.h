@@ -214,11 +214,10 @@ struct hz_renderer {
                                   (patch_detail_split; all of them without the detail); the rest
                                   draw with terrain_patch_far */
     /* The instances come in segments (the flushed chunks, split at
-     * n_inst_near), each with its still patches (hz_patch.still) first, and
-     * of those the full-resolution ones (shift 0) first: segment k is
-     * [seg[k], seg[k + 1]), still up to seg_still[k], full-resolution still
-     * up to seg_fine[k]; seg_flush[k]: it ends a chunk (a glFlush follows it). */
-    uint32_t seg[PATCH_SEGS + 1], seg_still[PATCH_SEGS], seg_fine[PATCH_SEGS], n_seg;
+     * n_inst_near), each by class (PATCH_STILL_FINE .. PATCH_MORPH):
+     * segment k is [seg[k], seg[k + 1]), its class c starts at
+     * seg_class[k][c]; seg_flush[k]: it ends a chunk (a glFlush follows it). */
+    uint32_t seg[PATCH_SEGS + 1], seg_class[PATCH_SEGS][4], n_seg;
     bool seg_flush[PATCH_SEGS];
 
     GLuint sky_prog;          /* the plain sky */
@@ -231,8 +230,9 @@ struct hz_renderer {
     const prog_variant *terrain_patch_far; /* the same beyond the detail's fade (NULL: no detail) */
     const prog_variant *terrain_patch_still, *terrain_patch_far_still; /* the same two without the
                                               morph code, for the still patches (NULL: streamed) */
-    const prog_variant *terrain_patch_fine; /* still full-resolution patches reading the lit map per
-                                               vertex (NULL: per pixel; see hz_scene_params.lit_pixel) */
+    const prog_variant *terrain_patch_fine, *terrain_patch_fine_still; /* full-resolution patches over
+                                              smooth lit map, reading it per vertex (NULL: per pixel;
+                                              see hz_scene_params.lit_pixel) */
     uint32_t fine_patches;     /* instances of this frame drawn with it */
     const prog_variant *terrain_clip_cur;  /* this frame's reflection-pass variant (NULL: no water) */
 
@@ -347,21 +347,23 @@ void litmap_release(hz_renderer *r);
 void litmap_destroy(hz_renderer *r);
 
 /* ---- terrain_patch.c: cdlod patches ---- */
+/* The classes of patches, in their order inside a segment: still or not
+ * (hz_patch.still), and full-resolution (shift 0) over smooth lit map
+ * (litmap_smooth_at) or not. */
+enum { PATCH_STILL_FINE, PATCH_STILL, PATCH_MORPH_FINE, PATCH_MORPH, PATCH_CLASSES };
 /* Converts and uploads a frame's patches (instances), in segments (the
- * flushed chunks, split at near), each with its still patches first, the
- * full-resolution ones (shift 0) of those first. */
+ * flushed chunks, split at near), each by class. */
 hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32_t near, hz_err *err);
 /* How many of the uploaded patches (nearest first) come nearer to the eye
  * than dist, horizontally (a bound for any point they draw, whatever its
  * height or morph): every patch after that many lies entirely beyond it. */
 uint32_t patch_detail_split(const hz_renderer *r, const hz_patch *p, uint32_t count, const float eye[3], float dist);
 /* Draws uploaded patches [first, end) (segment bounds), flushed at the chunk
- * ends (PATCH_CHUNKS) they reach: the still ones with still (when not
- * NULL), of those the full-resolution ones with fine (when not NULL), the
- * others with tp. Every program's frame uniforms are set (terrain_program);
- * tp is bound on return. */
-void patch_draw(hz_renderer *r, const prog_variant *tp, const prog_variant *still, const prog_variant *fine,
-                uint32_t first, uint32_t end);
+ * ends (PATCH_CHUNKS) they reach, each class with its program in prog
+ * (PATCH_MORPH's never NULL; a NULL one: the still class's for
+ * PATCH_STILL_FINE, else PATCH_MORPH's). Every program's frame uniforms
+ * are set (terrain_program); prog[PATCH_MORPH] is bound on return. */
+void patch_draw(hz_renderer *r, const prog_variant *const prog[PATCH_CLASSES], uint32_t first, uint32_t end);
 void patch_destroy(hz_renderer *r);
 
 /* ---- fx_ground.c: light map, detail, colour map, forest cover ---- */

@@ -92,7 +92,7 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
             return HZ_ERR_GL;
     }
     r->terrain_patch_cur = r->terrain_patch_far = r->terrain_patch_still = r->terrain_patch_far_still = NULL;
-    r->terrain_patch_fine = NULL;
+    r->terrain_patch_fine = r->terrain_patch_fine_still = NULL;
     if (patches) {
         /* --lit-map vertex: the patches read the lit map per vertex (in
          * memory only: a streamed terrain has no lit map). */
@@ -113,16 +113,21 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
                                hz_shader_terrain_fs, "terrain (still patches)", 2, terrain_names, err);
             if (!r->terrain_patch_still)
                 return HZ_ERR_GL;
-            /* A still patch of the finest level has a vertex on every sample
-             * of the lit map: read per vertex and interpolated, the colour
-             * differs from the per-pixel read only inside the cells
-             * (triangles instead of bilinear), and costs a fraction. */
+            /* A patch of the finest level has a vertex on every sample of
+             * the lit map: where the map is smooth (litmap_smooth_at), read
+             * per vertex and interpolated, the colour differs from the
+             * per-pixel read by at most 2 of 255, and costs a fraction. */
             if (f->lit && !vlit && !f->sp.lit_pixel) {
+                r->terrain_patch_fine_still = prog_cache_get(
+                    &r->terrain, pkey | FX_VARIANT_STILL | FX_VARIANT_VLIT | FX_VARIANT_FINE,
+                    hz_shader_terrain_patch_vs, hz_shader_terrain_fs, "terrain (full-resolution still patches)", 2,
+                    terrain_names, err);
                 r->terrain_patch_fine =
-                    prog_cache_get(&r->terrain, pkey | FX_VARIANT_STILL | FX_VARIANT_VLIT | FX_VARIANT_FINE,
-                                   hz_shader_terrain_patch_vs,
-                                   hz_shader_terrain_fs, "terrain (full-resolution still patches)", 2, terrain_names,
-                                   err);
+                    r->terrain_patch_fine_still
+                        ? prog_cache_get(&r->terrain, pkey | FX_VARIANT_VLIT | FX_VARIANT_FINE,
+                                         hz_shader_terrain_patch_vs, hz_shader_terrain_fs,
+                                         "terrain (full-resolution patches)", 2, terrain_names, err)
+                        : NULL;
                 if (!r->terrain_patch_fine)
                     return HZ_ERR_GL;
             }
@@ -932,16 +937,19 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
             /* Still patches (no vertex morphs) without the morph code;
              * patches beyond the ground detail's fade with its far variant. */
             const uint32_t near = r->n_inst_near;
-            if (r->terrain_patch_fine)
-                terrain_program(r, f, v, r->terrain_patch_fine, true);
-            if (r->terrain_patch_still)
-                terrain_program(r, f, v, r->terrain_patch_still, true);
-            patch_draw(r, tp, r->terrain_patch_still, r->terrain_patch_fine, 0, near); /* binds tp again */
+            const prog_variant *const near_prog[PATCH_CLASSES] = {
+                r->terrain_patch_fine_still, r->terrain_patch_still, r->terrain_patch_fine, tp};
+            for (uint32_t c = 0; c < PATCH_MORPH; c++)
+                if (near_prog[c])
+                    terrain_program(r, f, v, near_prog[c], true);
+            patch_draw(r, near_prog, 0, near); /* binds tp again */
             if (near < r->n_inst) {
+                const prog_variant *const far_prog[PATCH_CLASSES] = {NULL, r->terrain_patch_far_still, NULL,
+                                                                     r->terrain_patch_far};
                 if (r->terrain_patch_far_still)
                     terrain_program(r, f, v, r->terrain_patch_far_still, true);
                 terrain_program(r, f, v, r->terrain_patch_far, true);
-                patch_draw(r, r->terrain_patch_far, r->terrain_patch_far_still, NULL, near, r->n_inst);
+                patch_draw(r, far_prog, near, r->n_inst);
             }
         } else {
             glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ibo);
@@ -974,8 +982,9 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
             glDepthFunc(GL_GEQUAL);
             glDepthMask(GL_FALSE);
             glUniform1i(tl[TL_WIRE], 1);
+            const prog_variant *const wire_prog[PATCH_CLASSES] = {NULL, NULL, NULL, tp};
             if (patches)
-                patch_draw(r, tp, NULL, NULL, 0, r->n_inst);
+                patch_draw(r, wire_prog, 0, r->n_inst);
             else
                 glDrawElements(GL_TRIANGLES, (GLsizei)count, GL_UNSIGNED_INT, (const void *)0);
             glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);

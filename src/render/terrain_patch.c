@@ -261,6 +261,17 @@ hz_result hz_renderer_set_cdlod(hz_renderer *r, hz_lod *lod, const uint8_t *vali
     return patch_grid(r, P, err);
 }
 
+_Static_assert(sizeof ((hz_renderer *)0)->seg_class[0] == PATCH_CLASSES * sizeof(uint32_t),
+               "a start per class in each segment");
+
+/* A patch's class in its segment (hz_renderer.seg_class): still or not, and
+ * of the finest level over smooth lit map (litmap_smooth_at) or not. */
+static uint32_t patch_class(const hz_renderer *r, const hz_patch *q)
+{
+    const bool fine = q->shift == 0 && litmap_smooth_at(r, q->x0, q->z0);
+    return q->still ? (fine ? PATCH_STILL_FINE : PATCH_STILL) : (fine ? PATCH_MORPH_FINE : PATCH_MORPH);
+}
+
 /* The segments of count patches: the chunks, cut at near. */
 static void patch_segments(hz_renderer *r, uint32_t count, uint32_t near)
 {
@@ -332,17 +343,15 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32
     }
     patch_segments(r, count, near);
     for (uint32_t g = 0; !r->streamed && g < r->n_seg; g++) {
-        /* the segment's still full-resolution patches first, the other still
-         * ones next, then the others, each in order */
+        /* the segment's patches by class (PATCH_STILL_FINE .. PATCH_MORPH),
+         * each in order */
         const uint32_t a = r->seg[g], b = r->seg[g + 1];
-        uint32_t still = 0, fine = 0;
-        for (uint32_t k = a; k < b; k++) {
-            still += p[k].still != 0;
-            fine += p[k].still != 0 && p[k].shift == 0 && litmap_smooth_at(r, p[k].x0, p[k].z0);
-        }
-        uint32_t at[3] = {a, a + fine, a + still};
-        r->seg_fine[g] = a + fine;
-        r->seg_still[g] = a + still;
+        uint32_t num[PATCH_CLASSES] = {0};
+        for (uint32_t k = a; k < b; k++)
+            num[patch_class(r, &p[k])]++;
+        uint32_t at[PATCH_CLASSES];
+        for (uint32_t c = 0, s = a; c < PATCH_CLASSES; s += num[c++])
+            r->seg_class[g][c] = at[c] = s;
         for (uint32_t k = a; k < b; k++) {
             const hz_patch *q = &p[k];
             if (q->shift > 15 || (q->coarse & ~15u) || q->x0 > 65535 || q->z0 > 65535 ||
@@ -350,8 +359,7 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32
                 return hz_err_set(err, HZ_ERR_VALUE, "renderer: patch %u (%u, %u, shift %u) lies outside the map", k,
                                   q->x0, q->z0, q->shift);
             /* the shader finds the tile: level min(shift, top), (x0 >> level) / T */
-            const uint32_t slot =
-                at[q->still == 0 ? 2 : (q->shift != 0 || !litmap_smooth_at(r, q->x0, q->z0))]++;
+            const uint32_t slot = at[patch_class(r, q)]++;
             uint32_t *o = r->inst_scratch + words * (size_t)slot;
             o[0] = q->x0 | (q->z0 << 16);
             o[1] = q->shift | ((uint32_t)q->coarse << 4);
@@ -360,7 +368,8 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32
         }
     }
     for (uint32_t g = 0; r->streamed && g < r->n_seg; g++)
-        r->seg_fine[g] = r->seg_still[g] = r->seg[g]; /* streamed patches always draw with the morph code */
+        for (uint32_t c = 0; c < PATCH_CLASSES; c++) /* streamed patches are all PATCH_MORPH */
+            r->seg_class[g][c] = r->seg[g];
     glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
     if (bytes > r->inst_cap || bytes < r->inst_cap / 4) {
         r->inst_cap = bytes + bytes / 4 + 64;
@@ -488,20 +497,23 @@ static void patch_run(hz_renderer *r, const prog_variant *tp, const prog_variant
                             (GLsizei)(b - a));
 }
 
-void patch_draw(hz_renderer *r, const prog_variant *tp, const prog_variant *still, const prog_variant *fine,
-                uint32_t first, uint32_t end)
+void patch_draw(hz_renderer *r, const prog_variant *const prog[PATCH_CLASSES], uint32_t first, uint32_t end)
 {
     if (end > r->n_inst)
         end = r->n_inst;
     if (first >= end)
         return;
+    /* a class without its own program draws with the next more general one */
+    const prog_variant *tp = prog[PATCH_MORPH], *use[PATCH_CLASSES];
+    use[PATCH_MORPH] = tp;
+    use[PATCH_MORPH_FINE] = prog[PATCH_MORPH_FINE] ? prog[PATCH_MORPH_FINE] : tp;
+    use[PATCH_STILL] = prog[PATCH_STILL] ? prog[PATCH_STILL] : tp;
+    use[PATCH_STILL_FINE] = prog[PATCH_STILL_FINE] ? prog[PATCH_STILL_FINE] : use[PATCH_STILL];
     glActiveTexture(GL_TEXTURE0 + FX_UNIT_TILES);
     glBindTexture(GL_TEXTURE_BUFFER, r->tiles_tex);
-    if (still && fine)
-        patch_program(r, fine);
-    if (still)
-        patch_program(r, still);
-    patch_program(r, tp);
+    for (uint32_t c = 0; c < PATCH_CLASSES; c++)
+        if (c == PATCH_MORPH || use[c] != tp)
+            patch_program(r, use[c]); /* tp last: bound */
     const prog_variant *bound = tp;
     glBindVertexArray(r->patch_vao);
     /* Over missing data the variants clip the triangles touching it away
@@ -514,20 +526,19 @@ void patch_draw(hz_renderer *r, const prog_variant *tp, const prog_variant *stil
      * rest of the frame are still being binned. A GPU does not care. */
     glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
     for (uint32_t g = 0; g < r->n_seg; g++) {
-        /* segment g as far as it lies in [first, end): its still patches
-         * (with still), then the others */
+        /* segment g as far as it lies in [first, end), class by class */
         const uint32_t sa = r->seg[g] > first ? r->seg[g] : first, sb = r->seg[g + 1] < end ? r->seg[g + 1] : end;
         if (sa >= sb)
             continue;
-        const uint32_t mid = still ? (r->seg_still[g] < sa ? sa : (r->seg_still[g] > sb ? sb : r->seg_still[g])) : sa;
-        const uint32_t fn = still && fine ? (r->seg_fine[g] < sa ? sa : (r->seg_fine[g] > mid ? mid : r->seg_fine[g])) : sa;
-        if (fn > sa) {
-            patch_run(r, fine, &bound, sa, fn);
-            r->fine_patches += fn - sa;
+        for (uint32_t c = 0; c < PATCH_CLASSES; c++) {
+            const uint32_t ca = r->seg_class[g][c], cb = c + 1 < PATCH_CLASSES ? r->seg_class[g][c + 1] : r->seg[g + 1];
+            const uint32_t a = ca > sa ? ca : sa, b = cb < sb ? cb : sb;
+            if (a >= b)
+                continue;
+            patch_run(r, use[c], &bound, a, b);
+            if (use[c]->key & FX_VARIANT_FINE)
+                r->fine_patches += b - a;
         }
-        if (still)
-            patch_run(r, still, &bound, fn, mid);
-        patch_run(r, tp, &bound, mid, sb);
         if (r->seg_flush[g] && sb == r->seg[g + 1])
             glFlush(); /* at each chunk's end, the last one's too: the terrain is
                           rasterised while the sky, forest and objects are binned */
