@@ -161,11 +161,6 @@ vec3 coarse_normal(int i, int j, ivec2 org, int shift, int layer)
 }
 
 #if (FX_VARIANT & 67108864) != 0
-// The lit colour of sample s, averaged over what a pixel covers at the
-// vertex's distance (mip level lod): a function of the vertex alone, so every
-// patch that draws it gives it the same colour (no seam between levels), and
-// continuous in the distance. Two texel fetches blended by hand: textureLod
-// with a level per vertex costs llvmpipe several times more.
 // The mip level the per-pixel read takes at sample s, dv from the eye: a
 // pixel's footprint on the surface (the sample's normal, from the normal
 // map), projected onto the map, along its longer screen axis (the texture
@@ -191,6 +186,11 @@ float lit_lod(ivec2 s, vec3 dv)
     return log2(max(d * u_lit_lod * f, 1.0));
 }
 
+// The lit colour of sample s, averaged over what a pixel covers at the
+// vertex's distance (mip level lod): a function of the vertex alone, so every
+// patch that draws it gives it the same colour (no seam between levels), and
+// continuous in the distance. Two texel fetches blended by hand: textureLod
+// with a level per vertex costs llvmpipe several times more.
 vec3 lit_at(ivec2 s, float lod)
 {
     int k = int(lod), top = u_lit_top;
@@ -331,13 +331,13 @@ void main()
     gl_ClipDistance[0] = ((t.a & 2u) != 0u ? 0.0 : 1.0) - 0.999;
 #endif
 #if (FX_VARIANT & 67108864) != 0
-    // Morphing, the colour moves as the height does: toward the midpoint of
-    // the two samples the vertex collapses between (a = b = the vertex when
-    // it does not morph).
     vec3 dv = hz_curve(vec3(p.x, h, p.z)) - u_eye;
     if (FINE) {
         v_lit = textureLod(u_lit, (vec2(i, j) + 0.5) / float(u_map), lit_lod(ivec2(i, j), dv)).rgb;
     } else {
+        // Morphing, the colour moves as the height does: toward the midpoint
+        // of the two samples the vertex collapses between (a = b = the vertex
+        // when it does not morph).
         float lod = log2(max(length(dv) * u_lit_lod, 1.0));
         v_lit = lit_at(ivec2(i, j), lod);
         if (MORPH && mc > 0.0)
