@@ -80,8 +80,9 @@ static hz_result lit_setup(hz_renderer *r, hz_err *err)
 #define LIT_SMOOTH_TOL 2
 
 /* The smooth blocks of P x P cells (hz_renderer.lit_smooth) of the baked
- * map, read back a row of blocks at a time. Not fatal when out of memory or
- * on a GL error: no block is smooth then (every patch reads per pixel). */
+ * map, read back from its framebuffer a row of blocks at a time (OpenGL
+ * 3.3). Not fatal when out of memory or on a GL error: no block is smooth
+ * then (every patch reads per pixel). */
 static void litmap_smooth(hz_renderer *r, uint32_t P)
 {
     free(r->lit_smooth);
@@ -98,10 +99,12 @@ static void litmap_smooth(hz_renderer *r, uint32_t P)
         free(rows);
         return;
     }
-    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    GLint read_fbo = 0;
+    glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &read_fbo);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, r->lit_fbo);
+    glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
     for (uint32_t bj = 0; bj < nb; bj++) {
-        glGetTextureSubImage(r->lit_tex, 0, 0, (GLint)(bj * P), 0, (GLsizei)n, (GLsizei)(P + 1), 1, GL_RGBA,
-                             GL_UNSIGNED_BYTE, (GLsizei)((size_t)(P + 1) * n * 4), rows);
+        glReadPixels(0, (GLint)(bj * P), (GLsizei)n, (GLsizei)(P + 1), GL_RGBA, GL_UNSIGNED_BYTE, rows);
         for (uint32_t bi = 0; bi < nb; bi++) {
             bool smooth = true;
             for (uint32_t j = 0; j < P && smooth; j++) {
@@ -117,6 +120,7 @@ static void litmap_smooth(hz_renderer *r, uint32_t P)
         }
     }
     free(rows);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, (GLuint)read_fbo);
     if (glGetError() != GL_NO_ERROR) {
         free(mask);
         hz_gl_drain();
