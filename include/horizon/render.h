@@ -177,9 +177,10 @@ typedef struct hz_scene_params {
      * sample of the map) read it per vertex where the map
      * is smooth over them, the rest per pixel. Interpolated over the
      * triangles instead of bilinearly, the colour then differs by at most 2
-     * of 255 inside the cells (the renderer checks each patch's block of
-     * the map when it bakes it), at a fraction of the cost. true: every
-     * patch per pixel. */
+     * of 255 inside the cells where the map is magnified (the renderer checks
+     * each patch's block of the map when it bakes it; far away the mip level
+     * estimated per vertex may differ a little from the pixel's), at a
+     * fraction of the cost. true: every patch per pixel. */
     bool lit_pixel;
     /* Optional: a CPU occlusion buffer built for this frame's camera
      * (horizon/occlusion.h, e.g. from the big near occluders of a city).

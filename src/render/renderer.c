@@ -116,7 +116,9 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
             /* A patch of the finest level has a vertex on every sample of
              * the lit map: where the map is smooth (litmap_smooth_at), read
              * per vertex and interpolated, the colour differs from the
-             * per-pixel read by at most 2 of 255, and costs a fraction. */
+             * per-pixel read by at most 2 of 255 where the map is magnified
+             * (a little more where the levels' estimates differ, far away),
+             * and costs a fraction. */
             if (f->lit && !vlit && !f->sp.lit_pixel) {
                 r->terrain_patch_fine_still = prog_cache_get(
                     &r->terrain, pkey | FX_VARIANT_STILL | FX_VARIANT_VLIT | FX_VARIANT_FINE,
