@@ -179,7 +179,8 @@ struct hz_renderer {
     /* Per block of lit_smooth_cells x lit_smooth_cells cells (a full-resolution
      * cdlod patch), lit_smooth_n a side: 1 where interpolating the map over
      * the mesh's triangles instead of bilinearly changes no colour by more
-     * than LIT_SMOOTH_TOL (litmap_smooth). NULL: none (no map, or no patches). */
+     * than LIT_SMOOTH_TOL (litmap_smooth). NULL: none (no map, no patches, or
+     * the readback failed). lit_smooth_cells: the patch size last tried. */
     uint8_t *lit_smooth;
     uint32_t lit_smooth_cells, lit_smooth_n;
 

@@ -87,7 +87,8 @@ static void litmap_smooth(hz_renderer *r, uint32_t P)
 {
     free(r->lit_smooth);
     r->lit_smooth = NULL;
-    r->lit_smooth_cells = r->lit_smooth_n = 0;
+    r->lit_smooth_cells = P; /* tried for this size, done or not: not again each frame */
+    r->lit_smooth_n = 0;
     const uint32_t n = r->size;
     if (!P || n < 2 || (n - 1) % P)
         return;
@@ -127,7 +128,6 @@ static void litmap_smooth(hz_renderer *r, uint32_t P)
         return;
     }
     r->lit_smooth = mask;
-    r->lit_smooth_cells = P;
     r->lit_smooth_n = nb;
 }
 
