@@ -174,13 +174,13 @@ typedef struct hz_scene_params {
      * tenth of the frame), with less detail between the vertices. */
     bool lit_per_vertex;
     /* Otherwise patches of the finest level (shift 0: a vertex on every
-     * sample of the map) read it per vertex where the map
-     * is smooth over them, the rest per pixel. Interpolated over the
-     * triangles instead of bilinearly, the colour then differs by at most 2
-     * of 255 inside the cells where the map is magnified (the renderer checks
-     * each patch's block of the map when it bakes it; far away the mip level
-     * estimated per vertex may differ a little from the pixel's), at a
-     * fraction of the cost. true: every patch per pixel. */
+     * sample of the map) read it per vertex where the map is smooth over
+     * them, the rest per pixel. Interpolated over the triangles instead of
+     * bilinearly, the colour then differs by at most 2 of 255 inside the
+     * cells where the map is magnified (the renderer checks each patch's
+     * block of the map when it bakes it; far away the mip level estimated
+     * per vertex may differ a little from the pixel's), at a fraction of the
+     * cost. true: every patch per pixel. */
     bool lit_pixel;
     /* Optional: a CPU occlusion buffer built for this frame's camera
      * (horizon/occlusion.h, e.g. from the big near occluders of a city).

@@ -79,8 +79,8 @@ typedef struct fx_frame {
 #define FX_VARIANT_LIT (1u << 24)        /* the plain terrain reads its colour from the lit map */
 #define FX_VARIANT_STILL (1u << 25)      /* patches none of whose vertices morph: no morph code */
 #define FX_VARIANT_VLIT (1u << 26)       /* patches read the lit map per vertex (--lit-map vertex) */
-#define FX_VARIANT_FINE (1u << 27)       /* with VLIT and STILL: full-resolution patches, read per vertex
-                                            at the per-pixel read's filtering (terrain_patch_vs.glsl) */
+#define FX_VARIANT_FINE (1u << 27)       /* with VLIT: full-resolution patches (still or not), read per
+                                            vertex at the per-pixel read's filtering (terrain_patch_vs.glsl) */
 #define SKY_CELLS (HZ_SKY_COLS * HZ_SKY_ROWS) /* the plain sky's grid (sky_grid_vs.glsl: SKY_COLS x SKY_ROWS) */
 #define LIT_KEY_LEN 8 /* the lit map's lighting: sun (3), ambient, snow line, tree line, aridity, zscale */
 /* The ground detail fades out between these multiples of its scale
@@ -234,7 +234,7 @@ struct hz_renderer {
     const prog_variant *terrain_patch_fine, *terrain_patch_fine_still; /* full-resolution patches over
                                               smooth lit map, reading it per vertex (NULL: per pixel;
                                               see hz_scene_params.lit_pixel) */
-    uint32_t fine_patches;     /* instances of this frame drawn with it */
+    uint32_t fine_patches;     /* instances of this frame drawn with those two */
     const prog_variant *terrain_clip_cur;  /* this frame's reflection-pass variant (NULL: no water) */
 
     /* Current heightmap, world units (metres, zscale applied). */

@@ -511,9 +511,10 @@ void patch_draw(hz_renderer *r, const prog_variant *const prog[PATCH_CLASSES], u
     use[PATCH_STILL_FINE] = prog[PATCH_STILL_FINE] ? prog[PATCH_STILL_FINE] : use[PATCH_STILL];
     glActiveTexture(GL_TEXTURE0 + FX_UNIT_TILES);
     glBindTexture(GL_TEXTURE_BUFFER, r->tiles_tex);
+    /* each program once (PATCH_STILL_FINE may share PATCH_STILL's), tp last: bound */
     for (uint32_t c = 0; c < PATCH_CLASSES; c++)
-        if (c == PATCH_MORPH || use[c] != tp)
-            patch_program(r, use[c]); /* tp last: bound */
+        if (c == PATCH_MORPH || (use[c] != tp && (c != PATCH_STILL_FINE || use[c] != use[PATCH_STILL])))
+            patch_program(r, use[c]);
     const prog_variant *bound = tp;
     glBindVertexArray(r->patch_vao);
     /* Over missing data the variants clip the triangles touching it away

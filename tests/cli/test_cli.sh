@@ -198,7 +198,7 @@ read lm1 lv1 p1 < <(lv --lit-map vertex)
 [ "$lm0" = 3 ] && [ "$lv0" = 0 ] && [ "$lm1" = 3 ] && [ "$lv1" = 3 ] &&
   python3 -c "import sys; a,b=float('$p0'),float('$p1'); sys.exit(not (b < a and b > 25))" &&
   ok "--lit-map vertex: $lv1 of 3 frames per vertex, PSNR $p0 -> $p1 dB" || bad "--lit-map vertex: frames $lm0/$lv0, $lm1/$lv1, PSNR $p0/$p1"
-# By default the still finest patches over smooth map read it per vertex, nearly the per-pixel
+# By default the finest patches over smooth map read it per vertex, nearly the per-pixel
 # picture; --lit-map pixel reads it per pixel on every patch.
 lp() { $HZ bench --quiet --generate perlin --size 257 --lod cdlod --frames 3 --width 320 --height 180 --metrics off \
          --effects none "$@" --json "$TMP/lp.json" >/dev/null 2>&1 &&

@@ -1139,8 +1139,8 @@ static void test_lit_map_per_vertex(void **state)
  * smooth blocks per vertex) against every patch per pixel, on renderer r and
  * terrain t: the patches of the finest level and those drawn per vertex,
  * and the difference over the ground (mean, pixels off by > 4, by any). */
-static void fine_frame(hz_renderer *r, hz_terrain *t, float pitch, uint32_t *fine, uint32_t *drawn, double *mean, size_t *off4,
-                       size_t *any, size_t *ground)
+static void fine_frame(hz_renderer *r, hz_terrain *t, float pitch, uint32_t *fine, uint32_t *drawn, double *mean,
+                       size_t *off4, size_t *any, size_t *ground)
 {
     hz_err err = {0};
     assert_int_equal(hz_lod_prepare(t->lod, HZ_LOD_CDLOD), HZ_OK);
