@@ -403,20 +403,30 @@ typedef struct cd_ctx {
     uint32_t cur_level;
 } cd_ctx;
 
-/* Culling test; sets the flag to CULLED (and lists it) or LEAF. */
-static hz_result classify(cd_ctx *c, uint32_t l, uint32_t x, uint32_t z, size_t idx, vec3 box[2], bool *is_culled)
+/* A node's entry in its level's list (lod->lv): x with bit 31 set when its
+ * box lies inside the frustum, so that its children's boxes (nested in it)
+ * need no test. */
+#define CD_INSIDE 0x80000000u
+
+/* Culling test; sets the flag to CULLED (and lists it) or LEAF. *inside:
+ * given, the node is known to lie inside the frustum (its parent does);
+ * returned, whether it does. */
+static hz_result classify(cd_ctx *c, uint32_t l, uint32_t x, uint32_t z, size_t idx, vec3 box[2], bool *is_culled,
+                          bool *inside)
 {
     hz_lod *lod = c->lod;
     *is_culled = false;
     c->st->nodes_visited++;
     box_of(lod, idx, x, z, half_of(lod, l), box);
-    if (!c->no_cull) {
-        if (box_outside((const vec3 *)box, (const vec4 *)c->planes, c->margin)) {
+    if (!c->no_cull && !*inside) {
+        const int where = box_frustum((const vec3 *)box, (const vec4 *)c->planes, c->margin);
+        if (where < 0) {
             lod->flags[idx] = ST_CULLED;
             c->st->nodes_culled++;
             *is_culled = true;
             return push_node(c->culled, x, z, half_of(lod, l), l);
         }
+        *inside = where > 0;
     }
     lod->flags[idx] = ST_LEAF;
     return HZ_OK;
@@ -425,13 +435,13 @@ static hz_result classify(cd_ctx *c, uint32_t l, uint32_t x, uint32_t z, size_t 
 /* Splits node (x, z) at level l (it exists and is a leaf), first forcing the
  * coarser neighbours it needs. Children at the level being processed are left
  * to the main loop; children at earlier levels are classified here. */
-static hz_result split_node(cd_ctx *c, uint32_t l, uint32_t x, uint32_t z, bool forced)
+static hz_result split_node(cd_ctx *c, uint32_t l, uint32_t x, uint32_t z, bool forced, bool inside)
 {
     hz_lod *lod = c->lod;
     const uint32_t s = half_of(lod, l);
     uint8_t f = ST_SPLIT;
     for (int dir = 0; dir < 4; dir++) {
-        uint8_t nb = hz__neighbour(lod, l, x, z, s, dir);
+        uint8_t nb = neighbour_of(lod, l, x, z, s, dir);
         if (nb == NB_ABSENT) {
             /* The same-level neighbour's parent Q is a leaf: split it first. */
             const uint32_t ps = 2 * s;
@@ -442,7 +452,9 @@ static hz_result split_node(cd_ctx *c, uint32_t l, uint32_t x, uint32_t z, bool 
             case DIR_N: qz -= 2 * ps; break;
             default: qz += 2 * ps; break;
             }
-            hz_result r = split_node(c, l - 1, qx, qz, true);
+            /* Q is a leaf of an earlier level: classified, not inside
+             * as far as its entry goes (a forced split is rare) */
+            hz_result r = split_node(c, l - 1, qx, qz, true, false);
             if (r != HZ_OK)
                 return r;
         } else if (nb == NB_DONTCARE) {
@@ -455,14 +467,15 @@ static hz_result split_node(cd_ctx *c, uint32_t l, uint32_t x, uint32_t z, bool 
     const uint32_t h = s / 2;
     const uint32_t cx[4] = {x - h, x + h, x - h, x + h}, cz[4] = {z - h, z - h, z + h, z + h};
     for (int k = 0; k < 4; k++) {
+        bool in = inside;
         if (l + 1 < c->cur_level) {
             bool culled;
             vec3 box[2];
-            hz_result r = classify(c, l + 1, cx[k], cz[k], node_index(lod, l + 1, cx[k], cz[k]), box, &culled);
+            hz_result r = classify(c, l + 1, cx[k], cz[k], node_index(lod, l + 1, cx[k], cz[k]), box, &culled, &in);
             if (r != HZ_OK)
                 return r;
         }
-        if (lv_push(lod, l + 1, cx[k], cz[k]))
+        if (lv_push(lod, l + 1, cx[k] | (in ? CD_INSIDE : 0u), cz[k]))
             return HZ_ERR_MEMORY;
     }
     return HZ_OK;
@@ -495,18 +508,20 @@ static hz_result cdlod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_pa
         c.cur_level = l;
         const bool can_split = l < lp;
         for (size_t k = 0; k < lod->lv_n[l]; k++) {
-            const uint32_t x = lod->lv[l][k].x, z = lod->lv[l][k].z;
+            const uint32_t x = lod->lv[l][k].x & ~CD_INSIDE, z = lod->lv[l][k].z;
             const size_t idx = node_index(lod, l, x, z);
-            bool is_culled;
+            bool is_culled, inside = (lod->lv[l][k].x & CD_INSIDE) != 0;
             vec3 box[2];
-            if (classify(&c, l, x, z, idx, box, &is_culled) != HZ_OK)
+            if (classify(&c, l, x, z, idx, box, &is_culled, &inside) != HZ_OK)
                 return HZ_ERR_MEMORY;
+            if (inside && !is_culled)
+                lod->lv[l][k].x = x | CD_INSIDE; /* forced splits later see it */
             if (is_culled || !can_split)
                 continue;
             /* distance to the box < range, compared squared */
             const float range = cd_range(lambda * lod->cd_err[cd_node(lod, l, x, z)] * hsw, rho, d0);
             if (box_distance2((const vec3 *)box, cam->pos) < range * range) {
-                hz_result r = split_node(&c, l, x, z, false);
+                hz_result r = split_node(&c, l, x, z, false, inside);
                 if (r != HZ_OK)
                     return r;
             }
@@ -543,6 +558,10 @@ static uint8_t patch_still(const hz_lod *lod, const hz_lod_stats *st, uint32_t l
 static hz_result emit_patches(hz_lod *lod, const hz_camera *cam, hz_patch_list *out, hz_lod_stats *st)
 {
     const uint32_t lp = lod->patch_level, P = lod->patch;
+    uint32_t tris[16]; /* hz__patch_triangles per stitching */
+    for (uint32_t c = 0; c < 16; c++)
+        tris[c] = hz__patch_triangles(P, (uint8_t)c);
+    const bool curved = lod->curv.earth_radius != 0.0f;
     for (uint32_t l = 0; l <= lp; l++) {
         const uint32_t s = half_of(lod, l);
         uint32_t shift = 0;
@@ -550,27 +569,35 @@ static hz_result emit_patches(hz_lod *lod, const hz_camera *cam, hz_patch_list *
             shift++;
         if (list_reserve((void **)&out->data, &out->cap, out->count + lod->lv_n[l], sizeof *out->data))
             return HZ_ERR_MEMORY;
+        size_t w = out->count;
+        uint32_t still = 0, leaves = 0, triangles = 0;
         for (size_t k = 0; k < lod->lv_n[l]; k++) {
-            const uint32_t x = lod->lv[l][k].x, z = lod->lv[l][k].z;
+            const uint32_t x = lod->lv[l][k].x & ~CD_INSIDE, z = lod->lv[l][k].z;
             const size_t idx = node_index(lod, l, x, z);
             if ((lod->flags[idx] & ST_MASK) != ST_LEAF)
                 continue;
             uint8_t coarse = 0;
             for (int dir = 0; dir < 4; dir++)
-                if (hz__neighbour(lod, l, x, z, s, dir) == NB_ABSENT)
+                if (neighbour_of(lod, l, x, z, s, dir) == NB_ABSENT)
                     coarse |= (uint8_t)(1u << dir);
             vec3 box[2];
-            box_of(lod, idx, x, z, s, box);
-            out->data[out->count++] = (hz_patch){.x0 = x - s, .z0 = z - s, .shift = (uint8_t)shift,
-                                                 .coarse = coarse, .level = (uint16_t)l,
-                                                 .dist = box_distance((const vec3 *)box, cam->pos),
-                                                 .still = patch_still(lod, st, l, x, z, box, cam->pos)};
-            st->triangles += hz__patch_triangles(P, coarse);
-            st->still += out->data[out->count - 1].still;
-            st->leaves++;
-            if (l > st->max_level)
-                st->max_level = l;
+            box_flat(lod, idx, x, z, s, box);
+            if (curved)
+                hz_camera_curve_box(&lod->curv, box);
+            const uint8_t st1 = patch_still(lod, st, l, x, z, box, cam->pos);
+            out->data[w++] = (hz_patch){.x0 = x - s, .z0 = z - s, .shift = (uint8_t)shift, .coarse = coarse,
+                                        .level = (uint16_t)l, .dist = box_distance((const vec3 *)box, cam->pos),
+                                        .still = st1};
+            triangles += tris[coarse];
+            still += st1;
+            leaves++;
         }
+        out->count = w;
+        st->triangles += triangles;
+        st->still += still;
+        st->leaves += leaves;
+        if (leaves && l > st->max_level)
+            st->max_level = l;
     }
     /* Nearest first, so the depth test rejects hidden fragments early: a
      * counting sort on the distance's logarithm (32 steps per doubling, 3 %),

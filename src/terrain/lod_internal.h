@@ -166,6 +166,23 @@ static inline bool box_outside(const vec3 box[2], const vec4 planes[6], float ma
     return false;
 }
 
+/* Where the box lies against the frustum: -1 outside (as box_outside), 1
+ * inside every plane by more than margin metres (so are boxes nested in
+ * it), 0 across. */
+static inline int box_frustum(const vec3 box[2], const vec4 planes[6], float margin)
+{
+    int inside = 1;
+    for (int p = 0; p < 6; p++) {
+        const float *pl = planes[p];
+        const float dp = pl[0] * box[pl[0] > 0.0f][0] + pl[1] * box[pl[1] > 0.0f][1] + pl[2] * box[pl[2] > 0.0f][2];
+        if (dp < -pl[3] - margin)
+            return -1;
+        const float dn = pl[0] * box[pl[0] <= 0.0f][0] + pl[1] * box[pl[1] <= 0.0f][1] + pl[2] * box[pl[2] <= 0.0f][2];
+        inside &= dn > -pl[3] + margin;
+    }
+    return inside;
+}
+
 /* Squared distance from p to the nearest point of the box (0 inside). */
 static inline float box_distance2(const vec3 box[2], const float p[3])
 {
@@ -387,8 +404,48 @@ hz_result hz__lod_roam_prepare(hz_lod *lod);
 hz_result hz__lod_cdlod_prepare(hz_lod *lod);
 size_t hz__lod_roam_bytes(const hz_lod *lod);
 
-/* Status (NB_*) of the same-level neighbour of node (x, z, s) at level l across
- * dir, for the quadtree-with-flags modes (quadtree, cdlod); see lod.c. */
+/* Status of the same-level neighbour of node (x, z, s) at level l across dir.
+ * The neighbour exists iff its parent split this frame. Its parent is either
+ * our parent P (a sibling: exists) or P's neighbour Q across the same edge.
+ * Q's flag is only read when P saw Q exist (P's don't-care bit clear), so Q was
+ * visited this frame and its flag is fresh: the flag array never needs
+ * clearing. A culled Q means nothing is drawn there: don't care. */
+static inline uint8_t neighbour_of(const hz_lod *lod, uint32_t l, uint32_t x, uint32_t z, uint32_t s, int dir)
+{
+    const uint32_t n = lod->size;
+    switch (dir) {
+    case DIR_W: if (x == s) return NB_DONTCARE; break;
+    case DIR_E: if (x + s == n - 1) return NB_DONTCARE; break;
+    case DIR_N: if (z == s) return NB_DONTCARE; break;
+    default:    if (z + s == n - 1) return NB_DONTCARE; break;
+    }
+    if (l == 0)
+        return NB_DONTCARE;
+    const uint32_t ps = 2 * s;
+    const uint32_t px = centre_of(x, ps);
+    const uint32_t pz = centre_of(z, ps);
+    bool sibling;
+    uint32_t qx = px, qz = pz;
+    switch (dir) {
+    case DIR_W: sibling = x > px; qx = px - 2 * ps; break;
+    case DIR_E: sibling = x < px; qx = px + 2 * ps; break;
+    case DIR_N: sibling = z > pz; qz = pz - 2 * ps; break;
+    default:    sibling = z < pz; qz = pz + 2 * ps; break;
+    }
+    if (sibling)
+        return NB_EXISTS;
+    uint8_t pf = lod->flags[node_index(lod, l - 1, px, pz)];
+    if (pf & (1u << (DC_SHIFT + dir)))
+        return NB_DONTCARE;
+    uint8_t qf = lod->flags[node_index(lod, l - 1, qx, qz)] & ST_MASK;
+    if (qf == ST_SPLIT)
+        return NB_EXISTS;
+    if (qf == ST_CULLED)
+        return NB_DONTCARE;
+    return NB_ABSENT;
+}
+
+/* neighbour_of, out of line. */
 uint8_t hz__neighbour(const hz_lod *lod, uint32_t l, uint32_t x, uint32_t z, uint32_t s, int dir);
 
 /* Fan emission with the skip rule (T6a): nb[dir] == NB_ABSENT skips that edge

@@ -35,45 +35,9 @@ uint32_t hz__emit_fan(uint32_t *dst, uint32_t n, uint32_t x, uint32_t z, uint32_
     return k;
 }
 
-/* Status of the same-level neighbour of node (x, z, s) at level l across dir.
- * The neighbour exists iff its parent split this frame. Its parent is either
- * our parent P (a sibling: exists) or P's neighbour Q across the same edge.
- * Q's flag is only read when P saw Q exist (P's don't-care bit clear), so Q was
- * visited this frame and its flag is fresh: the flag array never needs
- * clearing. A culled Q means nothing is drawn there: don't care. */
 uint8_t hz__neighbour(const hz_lod *lod, uint32_t l, uint32_t x, uint32_t z, uint32_t s, int dir)
 {
-    const uint32_t n = lod->size;
-    switch (dir) {
-    case DIR_W: if (x == s) return NB_DONTCARE; break;
-    case DIR_E: if (x + s == n - 1) return NB_DONTCARE; break;
-    case DIR_N: if (z == s) return NB_DONTCARE; break;
-    default:    if (z + s == n - 1) return NB_DONTCARE; break;
-    }
-    if (l == 0)
-        return NB_DONTCARE;
-    const uint32_t ps = 2 * s;
-    const uint32_t px = centre_of(x, ps);
-    const uint32_t pz = centre_of(z, ps);
-    bool sibling;
-    uint32_t qx = px, qz = pz;
-    switch (dir) {
-    case DIR_W: sibling = x > px; qx = px - 2 * ps; break;
-    case DIR_E: sibling = x < px; qx = px + 2 * ps; break;
-    case DIR_N: sibling = z > pz; qz = pz - 2 * ps; break;
-    default:    sibling = z < pz; qz = pz + 2 * ps; break;
-    }
-    if (sibling)
-        return NB_EXISTS;
-    uint8_t pf = lod->flags[node_index(lod, l - 1, px, pz)];
-    if (pf & (1u << (DC_SHIFT + dir)))
-        return NB_DONTCARE;
-    uint8_t qf = lod->flags[node_index(lod, l - 1, qx, qz)] & ST_MASK;
-    if (qf == ST_SPLIT)
-        return NB_EXISTS;
-    if (qf == ST_CULLED)
-        return NB_DONTCARE;
-    return NB_ABSENT;
+    return neighbour_of(lod, l, x, z, s, dir);
 }
 
 void hz_lod_cell_triangles(bool main_diagonal, uint32_t a, uint32_t b, uint32_t c, uint32_t d, uint32_t out[6])

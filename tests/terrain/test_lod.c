@@ -331,6 +331,45 @@ static void test_culling_conservative(void **state)
     hz_grid_free(&g);
 }
 
+/* cdlod culls whole subtrees: a node inside the frustum passes that on to
+ * its children, which are then not tested. Every patch it keeps must still
+ * touch the frustum (its box grown by the cull's margin is not outside);
+ * that it keeps every patch the frustum cuts, the mesh checks show. */
+static void test_cdlod_culling_effective(void **state)
+{
+    (void)state;
+    hz_grid g;
+    make_random_grid(&g, 1025, 600.0f);
+    terrain t;
+    terrain_from_grid(&t, "random", &g, 10.0f, HZ_LAYOUT_BLOCKED);
+    hz_patch_list pl = {0};
+    size_t kept = 0, culled = 0;
+    for (int k = 0; k < 60; k++) {
+        hz_camera cam = random_camera(&t);
+        hz_lod_stats st;
+        hz_lod_params p = {.mode = HZ_LOD_CDLOD, .pixel_error = frand(0.5f, 4.0f)};
+        assert_int_equal(hz_lod_select_patches(t.lod, &cam, &p, &pl, &st), HZ_OK);
+        /* the cull's conservative margin (lod_internal.h frustum_margin), twice */
+        const float grow = 2.0f * (1e-4f * (cam.zfar + fabsf(cam.pos[0]) + fabsf(cam.pos[1]) + fabsf(cam.pos[2])) +
+                                   1e-2f) + 1.0f;
+        for (size_t c = 0; c < pl.count; c++) {
+            vec3 box[2];
+            assert_true(hz_lod_patch_box(t.lod, &pl.data[c], &cam, &st, box));
+            for (int a = 0; a < 3; a++) {
+                box[0][a] -= grow;
+                box[1][a] += grow;
+            }
+            assert_false(box_outside_eye(&cam, (const vec3 *)box));
+        }
+        kept += pl.count;
+        culled += st.nodes_culled;
+    }
+    assert_true(kept > 1000 && culled > 100); /* the cameras saw terrain and culled some */
+    free(pl.data);
+    terrain_free(&t);
+    hz_grid_free(&g);
+}
+
 /* ---- layouts, flags, detail ---- */
 
 static void test_layouts_identical(void **state)
@@ -450,6 +489,7 @@ int main(void)
         cmocka_unit_test(test_mesh_valid_generated),
         cmocka_unit_test(test_mesh_valid_real_dem),
         cmocka_unit_test(test_culling_conservative),
+        cmocka_unit_test(test_cdlod_culling_effective),
         cmocka_unit_test(test_layouts_identical),
         cmocka_unit_test(test_stale_flags_harmless),
         cmocka_unit_test(test_detail_grows_with_c),
