@@ -139,7 +139,7 @@ typedef struct hist_slot {
 
 /* cdlod patches: the main view's go in at most PATCH_CHUNKS flushed draws
  * (terrain_patch.c), cut once more where the ground detail fades. */
-#define PATCH_CHUNKS 4
+#define PATCH_CHUNKS 5
 #define PATCH_SEGS (PATCH_CHUNKS + 1)
 
 struct hz_renderer {
