@@ -452,8 +452,9 @@ static hz_result split_node(cd_ctx *c, uint32_t l, uint32_t x, uint32_t z, bool 
             case DIR_N: qz -= 2 * ps; break;
             default: qz += 2 * ps; break;
             }
-            /* Q is a leaf of an earlier level: classified, not inside
-             * as far as its entry goes (a forced split is rare) */
+            /* Q, a leaf of the level before, may lie inside the frustum,
+             * but that was not kept: its children are tested (forced
+             * splits are few) */
             hz_result r = split_node(c, l - 1, qx, qz, true, false);
             if (r != HZ_OK)
                 return r;
@@ -514,8 +515,6 @@ static hz_result cdlod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_pa
             vec3 box[2];
             if (classify(&c, l, x, z, idx, box, &is_culled, &inside) != HZ_OK)
                 return HZ_ERR_MEMORY;
-            if (inside && !is_culled)
-                lod->lv[l][k].x = x | CD_INSIDE; /* forced splits later see it */
             if (is_culled || !can_split)
                 continue;
             /* distance to the box < range, compared squared */
