@@ -44,6 +44,12 @@ static uint32_t patch_chunks(uint32_t n)
     return n >= PATCH_CHUNKS * PATCH_CHUNK_MIN ? PATCH_CHUNKS : 1;
 }
 
+/* Where chunk c of chunks (patch_chunks) ends among count patches. */
+static uint32_t chunk_end(uint32_t c, uint32_t chunks, uint32_t count)
+{
+    return chunks == 1 ? count : (uint32_t)((uint64_t)count * CHUNK_END[c] / 20);
+}
+
 /* Tile texel: h16, morph q, morph target (sum of two h16, 17 bits) low, and
  * its high bit plus a no-data flag. */
 enum { TEXEL_CH = 4 };
@@ -288,8 +294,7 @@ static void patch_segments(hz_renderer *r, uint32_t count, uint32_t near)
     r->n_seg = 0;
     r->seg[0] = 0;
     for (uint32_t c = 0; c < chunks; c++) {
-        const uint32_t ca = chunks == 1 ? 0 : (c ? (uint32_t)((uint64_t)count * CHUNK_END[c - 1] / 20) : 0);
-        const uint32_t cb = chunks == 1 ? count : (uint32_t)((uint64_t)count * CHUNK_END[c] / 20);
+        const uint32_t ca = c ? chunk_end(c - 1, chunks, count) : 0, cb = chunk_end(c, chunks, count);
         if (near > ca && near < cb) {
             r->seg_flush[r->n_seg] = false;
             r->seg[++r->n_seg] = near;

@@ -560,7 +560,6 @@ static hz_result emit_patches(hz_lod *lod, const hz_camera *cam, hz_patch_list *
     uint32_t tris[16]; /* hz__patch_triangles per stitching */
     for (uint32_t c = 0; c < 16; c++)
         tris[c] = hz__patch_triangles(P, (uint8_t)c);
-    const bool curved = lod->curv.earth_radius != 0.0f;
     for (uint32_t l = 0; l <= lp; l++) {
         const uint32_t s = half_of(lod, l);
         uint32_t shift = 0;
@@ -580,9 +579,7 @@ static hz_result emit_patches(hz_lod *lod, const hz_camera *cam, hz_patch_list *
                 if (neighbour_of(lod, l, x, z, s, dir) == NB_ABSENT)
                     coarse |= (uint8_t)(1u << dir);
             vec3 box[2];
-            box_flat(lod, idx, x, z, s, box);
-            if (curved)
-                hz_camera_curve_box(&lod->curv, box);
+            box_of(lod, idx, x, z, s, box);
             const uint8_t st1 = patch_still(lod, st, l, x, z, box, cam->pos);
             out->data[w++] = (hz_patch){.x0 = x - s, .z0 = z - s, .shift = (uint8_t)shift, .coarse = coarse,
                                         .level = (uint16_t)l, .dist = box_distance((const vec3 *)box, cam->pos),

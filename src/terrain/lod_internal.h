@@ -145,11 +145,13 @@ static inline void box_flat(const hz_lod *lod, size_t i, uint32_t x, uint32_t z,
 }
 
 /* The node's box as drawn for the selection's camera: lowered by the Earth
- * curvature's drop over it (nothing on a flat world). */
+ * curvature's drop over it (nothing on a flat world, where no call is made:
+ * this runs for every node every frame). */
 static inline void box_of(const hz_lod *lod, size_t i, uint32_t x, uint32_t z, uint32_t s, vec3 box[2])
 {
     box_flat(lod, i, x, z, s, box);
-    hz_camera_curve_box(&lod->curv, box);
+    if (lod->curv.earth_radius != 0.0f)
+        hz_camera_curve_box(&lod->curv, box);
 }
 
 /* Box outside the frustum? p-vertex test against each plane (conservative:
@@ -444,9 +446,6 @@ static inline uint8_t neighbour_of(const hz_lod *lod, uint32_t l, uint32_t x, ui
         return NB_DONTCARE;
     return NB_ABSENT;
 }
-
-/* neighbour_of, out of line. */
-uint8_t hz__neighbour(const hz_lod *lod, uint32_t l, uint32_t x, uint32_t z, uint32_t s, int dir);
 
 /* Fan emission with the skip rule (T6a): nb[dir] == NB_ABSENT skips that edge
  * midpoint. Counter-clockwise seen from above. Returns triangles written

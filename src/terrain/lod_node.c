@@ -35,11 +35,6 @@ uint32_t hz__emit_fan(uint32_t *dst, uint32_t n, uint32_t x, uint32_t z, uint32_
     return k;
 }
 
-uint8_t hz__neighbour(const hz_lod *lod, uint32_t l, uint32_t x, uint32_t z, uint32_t s, int dir)
-{
-    return neighbour_of(lod, l, x, z, s, dir);
-}
-
 void hz_lod_cell_triangles(bool main_diagonal, uint32_t a, uint32_t b, uint32_t c, uint32_t d, uint32_t out[6])
 {
     if (main_diagonal) {

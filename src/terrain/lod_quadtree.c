@@ -43,7 +43,7 @@ hz_result hz__lod_select_quadtree(hz_lod *lod, const hz_camera *cam, const hz_lo
             uint8_t nb[4];
             bool blocked = false;
             for (int dir = 0; dir < 4; dir++) {
-                nb[dir] = hz__neighbour(lod, l, x, z, s, dir);
+                nb[dir] = neighbour_of(lod, l, x, z, s, dir);
                 blocked |= nb[dir] == NB_ABSENT;
             }
             bool split = false;

@@ -618,7 +618,7 @@ static hz_result lv_add(hz_stream *s, uint32_t sh, uint32_t x, uint32_t z)
     return HZ_OK;
 }
 
-/* The four same-level neighbours of (sh, ix, iz) (NB_*, as hz__neighbour,
+/* The four same-level neighbours of (sh, ix, iz) (NB_*, as neighbour_of,
  * by dir): its parent is looked up once. */
 static void neighbours(hz_stream *s, uint32_t sh, uint32_t ix, uint32_t iz, uint8_t nb[4])
 {
