@@ -7,6 +7,7 @@
 #include <stdint.h>
 #include <stdbool.h>
 #include <stdio.h>
+#include <pthread.h>
 
 #ifdef __cplusplus
 extern "C" {
@@ -67,6 +68,26 @@ bool hz_progress_line(hz_progress_lines *st, FILE *f, const char *label, uint64_
 
 /* Monotonic wall clock in milliseconds. */
 double hz_time_ms(void);
+
+/* A function run on a thread of its own while the caller goes on, and
+ * waited for later (a frame's horizon cull runs while the renderer draws the
+ * nearest patches). Zero it before its first start; free of resources
+ * between a wait and the next start. */
+typedef struct hz_job {
+    void (*fn)(void *arg);
+    void *arg;
+    pthread_t thread;
+    bool running; /* started on a thread and not yet waited for */
+} hz_job;
+
+/* Runs fn(arg) on a new thread; waits first for a job still running. When
+ * no thread can be made, runs it here before returning (false). */
+bool hz_job_start(hz_job *job, void (*fn)(void *arg), void *arg);
+
+/* Waits until the job's function has returned; at once when it has
+ * already been waited for or never started. Returns the milliseconds it
+ * waited. */
+double hz_job_wait(hz_job *job);
 
 /* Peak resident set size of this process in bytes (0 if unknown). */
 uint64_t hz_peak_rss_bytes(void);

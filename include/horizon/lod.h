@@ -148,6 +148,14 @@ typedef struct hz_lod_stats {
     double ms;              /* CPU time of the selection */
 } hz_lod_stats;
 
+/* What hz_lod_horizon_hide hid. */
+typedef struct hz_horizon_stats {
+    uint32_t patches;   /* patches hidden */
+    uint32_t triangles; /* their triangles (as hz_lod_stats.triangles counts them) */
+    uint32_t still;     /* those of them still (hz_patch.still) */
+    double ms;          /* CPU time of the cull */
+} hz_horizon_stats;
+
 /* Replaces the progress callback given in the desc (e.g. when its user data
  * goes out of scope); NULL for none. */
 void hz_lod_set_progress(hz_lod *lod, hz_progress_fn progress, void *user);
@@ -235,6 +243,23 @@ uint32_t hz_lod_patch_cells(const hz_lod *lod);
  * output are proportional to the nodes, not to the triangles. */
 hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params,
                                 hz_patch_list *out, hz_lod_stats *stats);
+
+/* Horizon culling apart from the selection, to run on a thread of its own
+ * while the renderer draws the nearest patches (hz_scene_params.
+ * patch_late_job): for patches[0, count), the list hz_lod_select_patches
+ * just gave for cam and params (selected: its stats; run it without
+ * horizon_cull), hidden[k] = 1 for each patch from index from on that
+ * nearer ground hides (what horizon_cull would drop), 0 for the others and
+ * for every one before from (those are drawn before the cull is done; all
+ * patches still serve as occluders). stats (may be NULL) counts what it hid.
+ * Hides nothing with no_cull, over holes or when the eye is not above the
+ * ground nearby. Reads the patches and writes only hidden, stats and lod's
+ * culling scratch: the caller may read the patches meanwhile, but must not
+ * use lod until it returns. HZ_ERR_MEMORY (nothing hidden) when out of
+ * memory. */
+hz_result hz_lod_horizon_hide(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params,
+                              const hz_lod_stats *selected, const hz_patch *patches, size_t count, size_t from,
+                              uint8_t *hidden, hz_horizon_stats *stats);
 
 /* The triangles n patches draw, as indices into the full-resolution grid
  * (stitched edges applied, collapsed triangles dropped), appended to out.

@@ -107,6 +107,37 @@ double hz_time_ms(void)
     return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
 }
 
+static void *job_main(void *p)
+{
+    hz_job *job = p;
+    job->fn(job->arg);
+    return NULL;
+}
+
+bool hz_job_start(hz_job *job, void (*fn)(void *arg), void *arg)
+{
+    HZ_ASSERT(job && fn);
+    hz_job_wait(job);
+    job->fn = fn;
+    job->arg = arg;
+    if (pthread_create(&job->thread, NULL, job_main, job) == 0) {
+        job->running = true;
+        return true;
+    }
+    fn(arg);
+    return false;
+}
+
+double hz_job_wait(hz_job *job)
+{
+    if (!job || !job->running)
+        return 0.0;
+    const double t0 = hz_time_ms();
+    pthread_join(job->thread, NULL);
+    job->running = false;
+    return hz_time_ms() - t0;
+}
+
 uint64_t hz_peak_rss_bytes(void)
 {
     struct rusage ru;

@@ -601,6 +601,23 @@ static hz_result emit_patches(hz_lod *lod, const hz_camera *cam, hz_patch_list *
     return hz__sort_patches(out, &lod->patch_tmp, &lod->patch_tmp_cap);
 }
 
+/* Horizon culling of the selection's patches (st: its stats): hidden[k]
+ * for each of [0, count). */
+static hz_result horizon_hidden(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, const hz_lod_stats *st,
+                                const hz_patch *patches, size_t count, uint8_t *hidden)
+{
+    if (p->no_cull || lod->desc.holes) { /* a hole lets a ray through the surface */
+        memset(hidden, 0, count);
+        return HZ_OK;
+    }
+    const float tau = p->pixel_error > 0 ? p->pixel_error : 1.0f;
+    /* the near bound: a morph moves a vertex at most d / (a K / tau_n),
+     * a the least morph start (cd_morph_start_at at R / Rp = 1 / rho) */
+    const float rho = st->morph_near;
+    return hz__horizon_hidden(lod, cam, pixel_k(cam, p) / tau * rho, cd_morph_start_at(st->morph_start, 1.0f, rho),
+                              st->morph_scale > 0.0f, patches, count, hidden);
+}
+
 hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params, hz_patch_list *out,
                                 hz_lod_stats *stats)
 {
@@ -611,17 +628,57 @@ hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_
     hz_result r = cdlod_select(lod, cam, &p, NULL, &st);
     if (r == HZ_OK)
         r = emit_patches(lod, cam, out, &st);
-    if (r == HZ_OK && p.horizon_cull && !p.no_cull && !lod->desc.holes) {
-        const float tau = p.pixel_error > 0 ? p.pixel_error : 1.0f;
-        /* the near bound: a morph moves a vertex at most d / (a K / tau_n),
-         * a the least morph start (cd_morph_start_at at R / Rp = 1 / rho) */
-        const float rho = st.morph_near;
-        r = hz__horizon_cull(lod, cam, pixel_k(cam, &p) / tau * rho, cd_morph_start_at(st.morph_start, 1.0f, rho),
-                             st.morph_scale > 0.0f, out, &st);
+    if (r == HZ_OK && p.horizon_cull) {
+        if (list_reserve((void **)&lod->hz_hidden, &lod->hz_hidden_cap, out->count, 1))
+            r = HZ_ERR_MEMORY;
+        else
+            r = horizon_hidden(lod, cam, &p, &st, out->data, out->count, lod->hz_hidden);
+        size_t w = 0; /* drop the hidden ones, keeping the order */
+        for (size_t k = 0; r == HZ_OK && k < out->count; k++) {
+            const hz_patch *q = &out->data[k];
+            if (lod->hz_hidden[k]) {
+                st.triangles -= hz__patch_triangles(lod->patch, q->coarse);
+                st.still -= q->still;
+                st.leaves--;
+                st.hidden++;
+                continue;
+            }
+            out->data[w++] = *q;
+        }
+        if (r == HZ_OK)
+            out->count = w;
     }
     st.ms = hz_time_ms() - t0;
     if (stats)
         *stats = st;
+    return r;
+}
+
+hz_result hz_lod_horizon_hide(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params,
+                              const hz_lod_stats *selected, const hz_patch *patches, size_t count, size_t from,
+                              uint8_t *hidden, hz_horizon_stats *stats)
+{
+    HZ_ASSERT(lod && cam && selected && (patches || !count) && (hidden || !count));
+    const double t0 = hz_time_ms();
+    hz_lod_params p = params ? *params : (hz_lod_params){0};
+    hz_horizon_stats hs = {0};
+    hz_result r = horizon_hidden(lod, cam, &p, selected, patches, count, hidden);
+    if (r != HZ_OK)
+        memset(hidden, 0, count);
+    for (size_t k = 0; k < count; k++) {
+        if (k < from) {
+            hidden[k] = 0; /* drawn before the cull was done */
+            continue;
+        }
+        if (hidden[k]) {
+            hs.patches++;
+            hs.triangles += hz__patch_triangles(lod->patch, patches[k].coarse);
+            hs.still += patches[k].still;
+        }
+    }
+    hs.ms = hz_time_ms() - t0;
+    if (stats)
+        *stats = hs;
     return r;
 }
 

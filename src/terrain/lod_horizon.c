@@ -269,19 +269,20 @@ static inline float horizon_low(const float *H, int32_t b0, int32_t b1)
     return m;
 }
 
-hz_result hz__horizon_cull(hz_lod *lod, const hz_camera *cam, float lambda, float morph_start, bool morphing,
-                           hz_patch_list *pl, hz_lod_stats *st)
+hz_result hz__horizon_hidden(hz_lod *lod, const hz_camera *cam, float lambda, float morph_start, bool morphing,
+                             const hz_patch *patches, size_t count, uint8_t *hidden)
 {
-    if (pl->count == 0 || !eye_ok(lod, cam))
+    if (count)
+        memset(hidden, 0, count);
+    if (count == 0 || !eye_ok(lod, cam))
         return HZ_OK;
     if (hz__horizon_prepare(lod) != HZ_OK)
         return HZ_ERR_MEMORY;
     const uint32_t P = lod->patch, off = sub_off(P);
     const float hsw = lod->hm->scale * lod->zscale, hof = lod->hm->offset * lod->zscale;
-    const size_t most = pl->count * ((size_t)1 << (2 * off)) + pl->count;
+    const size_t most = count * ((size_t)1 << (2 * off)) + count;
     if (list_reserve((void **)&lod->hz_cells, &lod->hz_cells_cap, most, sizeof(hcell)) ||
-        list_reserve((void **)&lod->hz_sorted, &lod->hz_sorted_cap, most, sizeof(hcell)) ||
-        list_reserve((void **)&lod->hz_hidden, &lod->hz_hidden_cap, pl->count, 1))
+        list_reserve((void **)&lod->hz_sorted, &lod->hz_sorted_cap, most, sizeof(hcell)))
         return HZ_ERR_MEMORY;
     /* The morph's reach below and above the samples: d_far / (a lambda),
      * with a margin for the float rounding. */
@@ -290,13 +291,13 @@ hz_result hz__horizon_cull(hz_lod *lod, const hz_camera *cam, float lambda, floa
     int32_t f0 = 0, f1 = 0;
     const bool clip = view_span(cam, &f0, &f1);
     hcell *c = lod->hz_cells;
-    uint32_t count[256] = {0};
+    uint32_t per_ring[256] = {0};
     /* c[0 .. patches): the occludees, their highest slope, ring of r_min
      * (UINT32_MAX: around the eye, drawn); then the occluder cells, their
      * lowest slope, ring of r_max. */
-    size_t nc = pl->count;
-    for (size_t k = 0; k < pl->count; k++) {
-        const hz_patch *p = &pl->data[k];
+    size_t nc = count;
+    for (size_t k = 0; k < count; k++) {
+        const hz_patch *p = &patches[k];
         const uint32_t s = half_of(lod, p->level);
         const size_t ni = node_index(lod, p->level, p->x0 + s, p->z0 + s);
         vec3 box[2];
@@ -374,29 +375,27 @@ hz_result hz__horizon_cull(hz_lod *lod, const hz_camera *cam, float lambda, floa
         if (c[k].ring == UINT32_MAX)
             continue;
         c[k].ring = c[k].ring > 255 ? 255 : c[k].ring;
-        count[c[k].ring]++;
+        per_ring[c[k].ring]++;
     }
     uint32_t start[256], acc = 0;
     for (int r = 0; r < 256; r++) {
         start[r] = acc;
-        acc += count[r];
+        acc += per_ring[r];
     }
     hcell *srt = lod->hz_sorted;
     for (size_t k = 0; k < nc; k++) {
         if (c[k].ring == UINT32_MAX)
             continue;
         hcell e = c[k];
-        e.ring = k < pl->count ? (uint32_t)k : UINT32_MAX;
+        e.ring = k < count ? (uint32_t)k : UINT32_MAX;
         srt[start[c[k].ring]++] = e;
     }
     float H[HB];
     for (int b = 0; b < HB; b++)
         H[b] = -FLT_MAX;
-    uint8_t *hidden = lod->hz_hidden;
-    memset(hidden, 0, pl->count);
     size_t pos = 0;
     for (int r = 0; r < 256; r++) {
-        const size_t end = pos + count[r];
+        const size_t end = pos + per_ring[r];
         for (size_t k = pos; k < end; k++)
             if (srt[k].ring != UINT32_MAX)
                 hidden[srt[k].ring] = horizon_low(H, srt[k].b0, srt[k].b1) > srt[k].slope;
@@ -405,17 +404,5 @@ hz_result hz__horizon_cull(hz_lod *lod, const hz_camera *cam, float lambda, floa
                 horizon_raise(H, srt[k].b0, srt[k].b1, srt[k].slope);
         pos = end;
     }
-    size_t w = 0;
-    for (size_t k = 0; k < pl->count; k++) {
-        if (hidden[k]) {
-            st->triangles -= hz__patch_triangles(P, pl->data[k].coarse);
-            st->still -= pl->data[k].still;
-            st->leaves--;
-            st->hidden++;
-            continue;
-        }
-        pl->data[w++] = pl->data[k];
-    }
-    pl->count = w;
     return HZ_OK;
 }

@@ -2,7 +2,10 @@
  * terminal (hz_progress_line, on a clock of the test's): nothing for short
  * work, then one line per 10 % or per 10 s, whichever first, one at the end;
  * plain lines (no carriage return); a new label or done going back is a new
- * task. */
+ * task. And hz_job, the core's other helper for long work. */
+#include <pthread.h>
+#include <stdatomic.h>
+#include <unistd.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -116,9 +119,51 @@ static void test_new_task(void **state)
     free(s);
 }
 
+typedef struct job_probe {
+    atomic_int go, done;
+    pthread_t ran_on;
+} job_probe;
+
+static void probe_run(void *arg)
+{
+    job_probe *p = arg;
+    for (int k = 0; k < 2000 && !atomic_load(&p->go); k++) /* at most 2 s (run inline: never) */
+        usleep(1000);
+    if (!atomic_load(&p->go))
+        return;
+    p->ran_on = pthread_self();
+    atomic_store(&p->done, atomic_load(&p->done) + 1);
+}
+
+/* A job runs on a thread of its own, concurrently with its starter, and
+ * hz_job_wait returns once it has finished; waiting again, or for a job
+ * never started, returns at once; a job can be started again. */
+static void test_job_runs_alongside(void **state)
+{
+    (void)state;
+    hz_job job = {0};
+    assert_true(hz_job_wait(&job) == 0.0);
+    job_probe p = {0};
+    assert_true(hz_job_start(&job, probe_run, &p));
+    assert_true(job.running);
+    usleep(20000);
+    assert_int_equal(atomic_load(&p.done), 0); /* it waits for go: not run inline */
+    atomic_store(&p.go, 1);
+    assert_true(hz_job_wait(&job) >= 0.0);
+    assert_false(job.running);
+    assert_int_equal(atomic_load(&p.done), 1);
+    assert_false(pthread_equal(p.ran_on, pthread_self()));
+    assert_true(hz_job_wait(&job) == 0.0);
+    assert_int_equal(atomic_load(&p.done), 1);
+    assert_true(hz_job_start(&job, probe_run, &p)); /* again (go is set) */
+    hz_job_wait(&job);
+    assert_int_equal(atomic_load(&p.done), 2);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_job_runs_alongside),
         cmocka_unit_test(test_short_work_is_silent),
         cmocka_unit_test(test_every_ten_percent),
         cmocka_unit_test(test_every_ten_seconds_when_slow),
