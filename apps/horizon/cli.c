@@ -805,12 +805,63 @@ static void mask_triangles(const hz_terrain *t, cli_lod_frame *f)
     f->masked = (before - f->il.count) / 3;
 }
 
+/* The late cull (on f->job). */
+static void late_cull(void *arg)
+{
+    cli_lod_frame *f = arg;
+    f->late_res = hz_lod_horizon_hide(f->lod, &f->cam, &f->params, &f->sel, f->pl.data, f->pl.count, f->from,
+                                      f->hidden, &f->hs);
+}
+
+hz_result cli_lod_finish(cli_lod_frame *f)
+{
+    if (!f->late)
+        return HZ_OK;
+    hz_job_wait(&f->job);
+    f->late = false;
+    size_t w = 0;
+    for (size_t k = 0; k < f->pl.count; k++)
+        if (!f->hidden[k])
+            f->pl.data[w++] = f->pl.data[k];
+    f->pl.count = w;
+    f->st.triangles -= f->hs.triangles;
+    f->st.still -= f->hs.still;
+    f->st.leaves -= f->hs.patches;
+    f->st.hidden += f->hs.patches;
+    f->cull_ms = f->hs.ms;
+    return f->late_res;
+}
+
 hz_result cli_lod_select(hz_terrain *t, const hz_camera *cam, const hz_lod_params *p, cli_lod_frame *f)
 {
+    cli_lod_finish(f); /* (a frame drawn without it) */
     f->patches = p->mode == HZ_LOD_CDLOD;
     f->il.count = 0;
     f->pl.count = 0;
     f->masked = 0;
+    f->cull_ms = 0.0;
+    if (f->patches && f->late_ok && p->horizon_cull) {
+        f->params = *p;
+        f->params.horizon_cull = false;
+        hz_result r = hz_lod_select_patches(t->lod, cam, &f->params, &f->pl, &f->st);
+        if (r != HZ_OK)
+            return r;
+        if (f->pl.count > f->hidden_cap) {
+            uint8_t *h = realloc(f->hidden, f->pl.count);
+            if (!h)
+                return HZ_ERR_MEMORY;
+            f->hidden = h;
+            f->hidden_cap = f->pl.count;
+        }
+        f->lod = t->lod;
+        f->cam = *cam;
+        f->sel = f->st;
+        f->from = hz_renderer_patch_lead((uint32_t)f->pl.count);
+        f->hs = (hz_horizon_stats){0};
+        f->late = true;
+        hz_job_start(&f->job, late_cull, f);
+        return HZ_OK;
+    }
     if (f->patches)
         return hz_lod_select_patches(t->lod, cam, p, &f->pl, &f->st);
     hz_result r = hz_lod_select(t->lod, cam, p, &f->il, NULL, NULL, &f->st);
@@ -819,12 +870,18 @@ hz_result cli_lod_select(hz_terrain *t, const hz_camera *cam, const hz_lod_param
     return r;
 }
 
-void cli_lod_scene(const cli_lod_frame *f, hz_scene_params *sp, const uint32_t **idx, uint32_t *count)
+void cli_lod_scene(cli_lod_frame *f, hz_scene_params *sp, const uint32_t **idx, uint32_t *count)
 {
     cli_scene_lod(sp, &f->st);
+    sp->patch_late_job = NULL;
+    sp->patch_late_hidden = NULL;
     if (f->patches) {
         sp->patches = f->pl.data;
         sp->patch_count = (uint32_t)f->pl.count;
+        if (f->late) {
+            sp->patch_late_job = &f->job;
+            sp->patch_late_hidden = f->hidden;
+        }
         *idx = NULL;
         *count = 0;
     } else {
@@ -848,6 +905,8 @@ hz_result cli_lod_indices(hz_terrain *t, cli_lod_frame *f)
 
 void cli_lod_frame_free(cli_lod_frame *f)
 {
+    cli_lod_finish(f);
+    free(f->hidden);
     free(f->il.data);
     free(f->pl.data);
     memset(f, 0, sizeof *f);

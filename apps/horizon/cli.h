@@ -200,13 +200,34 @@ typedef struct cli_lod_frame {
     hz_lod_stats st;
     bool patches;
     size_t masked;      /* triangles dropped because they touch nodata or padding (index lists) */
+    /* Set by a caller that draws each selection once: cdlod's horizon cull
+     * (hz_lod_params.horizon_cull) then runs on a thread of its own while
+     * the renderer draws the nearest patches (hz_lod_horizon_hide), and
+     * cli_lod_finish completes the frame after the draw. */
+    bool late_ok;
+    bool late;                 /* this frame's cull is on job */
+    hz_job job;
+    hz_lod *lod;               /* the job's input: the selection's lod, camera, */
+    hz_camera cam;             /* parameters and stats, and the first patch */
+    hz_lod_params params;      /* it may hide */
+    hz_lod_stats sel;
+    size_t from;
+    uint8_t *hidden;           /* its output: a flag per patch */
+    size_t hidden_cap;
+    hz_horizon_stats hs;       /* and what it hid */
+    hz_result late_res;
+    double cull_ms;            /* the last late cull's CPU time (0: none) */
 } cli_lod_frame;
 
 /* Selects the frame for cam with p (p->mode). */
 hz_result cli_lod_select(hz_terrain *t, const hz_camera *cam, const hz_lod_params *p, cli_lod_frame *f);
-/* The frame in sp (patches and morphing) and the index list to pass to
- * hz_renderer_draw (none for patches). */
-void cli_lod_scene(const cli_lod_frame *f, hz_scene_params *sp, const uint32_t **idx, uint32_t *count);
+/* The frame in sp (patches and morphing, a late cull) and the index list to
+ * pass to hz_renderer_draw (none for patches). */
+void cli_lod_scene(cli_lod_frame *f, hz_scene_params *sp, const uint32_t **idx, uint32_t *count);
+/* After the draw: waits for the frame's late cull, drops the patches it
+ * hid from f->pl and counts them in f->st (as the cull in the selection
+ * would have; f->cull_ms its time). Nothing to do without one. */
+hz_result cli_lod_finish(cli_lod_frame *f);
 /* The frame's triangles as indices in f->il (cdlod: expands the patches). */
 hz_result cli_lod_indices(hz_terrain *t, cli_lod_frame *f);
 void cli_lod_frame_free(cli_lod_frame *f);

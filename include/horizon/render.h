@@ -162,6 +162,14 @@ typedef struct hz_scene_params {
      * must be 0). Reflections still draw reflection_indices. */
     const hz_patch *patches;
     uint32_t patch_count;
+    /* Optional, with patches: horizon culling still running (hz_lod_horizon_hide
+     * on patch_late_job, from hz_renderer_patch_lead(patch_count) on). The
+     * renderer draws the nearest patches first, then waits for the job and
+     * leaves out the later patches whose patch_late_hidden[k] is set: the cull
+     * runs while the first patches are drawn. The caller waits for the job
+     * too after the draw (it may have failed before waiting). */
+    hz_job *patch_late_job;
+    const uint8_t *patch_late_hidden;
     /* Without terrain effects, a colour map or imagery, an in-memory terrain
      * reads its colour lit from a map baked per sample by the same shading
      * (one texture fetch a pixel instead of the normal map, the colour and
@@ -209,7 +217,14 @@ typedef struct hz_draw_stats {
     double lit_bake_ms;       /* this frame baked the lit map first: its time (in upload_ms) */
     uint32_t sky_cells;       /* cells of the plain sky's grid drawn in the main pass (of
                                  HZ_SKY_COLS x HZ_SKY_ROWS; fewer with sky_occluders) */
+    uint32_t late_hidden;     /* patches left out after waiting for patch_late_job */
+    double late_wait_ms;      /* how long the draw waited for it */
 } hz_draw_stats;
+
+/* How many of count patches the renderer draws before it waits for
+ * hz_scene_params.patch_late_job: the nearest chunk, a twentieth of them
+ * (all of them when they are too few to draw in chunks). */
+uint32_t hz_renderer_patch_lead(uint32_t count);
 
 /* Draws sky then terrain triangles (count indices, a multiple of 3, into the
  * row-major sample grid: index = j * size + i), then the effects in

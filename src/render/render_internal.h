@@ -220,6 +220,15 @@ struct hz_renderer {
      * seg_class[k][c]; seg_flush[k]: it ends a chunk (a glFlush follows it). */
     uint32_t seg[PATCH_SEGS + 1], seg_class[PATCH_SEGS][4], n_seg;
     bool seg_flush[PATCH_SEGS];
+    /* Late culling (hz_scene_params.patch_late_job): the segments from
+     * late_seg on are packed only once the job is done, without the patches
+     * late_hidden marks, so segment k's last class ends at seg_end[k]
+     * (<= seg[k + 1]). late_p: the frame's patches, while it draws. */
+    uint32_t seg_end[PATCH_SEGS], late_seg, late_skipped;
+    hz_job *late_job;
+    const uint8_t *late_hidden;
+    const hz_patch *late_p;
+    double late_wait_ms;
 
     GLuint sky_prog;          /* the plain sky */
     uint32_t sky_cells;       /* cells of its grid the last main pass drew */
@@ -355,6 +364,13 @@ enum { PATCH_STILL_FINE, PATCH_STILL, PATCH_MORPH_FINE, PATCH_MORPH, PATCH_CLASS
 /* Converts and uploads a frame's patches (instances), in segments (the
  * flushed chunks, split at near), each by class. */
 hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32_t near, hz_err *err);
+/* The same with late culling (see hz_renderer.late_seg): the segments
+ * before hz_renderer_patch_lead(count) now, the rest when patch_draw
+ * first reaches them, after waiting for job. */
+hz_result patch_upload_late(hz_renderer *r, const hz_patch *p, uint32_t count, uint32_t near, hz_job *job,
+                            const uint8_t *hidden, hz_err *err);
+/* Forgets the frame's late culling (its patches are gone after the draw). */
+void patch_late_end(hz_renderer *r);
 /* How many of the uploaded patches (nearest first) come nearer to the eye
  * than dist, horizontally (a bound for any point they draw, whatever its
  * height or morph): every patch after that many lies entirely beyond it. */

@@ -1041,9 +1041,8 @@ static const fx_scene_pass scene_passes[] = {
     {"weather", HZ_FX_WEATHER, fx_weather_draw},     /* blended, sorted back to front */
 };
 
-hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_params *params,
-                           const uint32_t *indices, uint32_t count, hz_draw_stats *stats,
-                           hz_err *err)
+static hz_result draw_frame(hz_renderer *r, const hz_camera *cam, const hz_scene_params *params,
+                            const uint32_t *indices, uint32_t count, hz_draw_stats *stats, hz_err *err)
 {
     HZ_ASSERT(r && cam);
     if (stats)
@@ -1170,7 +1169,8 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         const float fade = FX_DETAIL_FADE_FAR * fr.fx.detail_scale * 1.001f;
         near = patch_detail_split(r, params->patches, npatch, cam->pos, fade);
     }
-    if (npatch > 0 && patch_upload(r, params->patches, npatch, near, err) != HZ_OK) {
+    if (npatch > 0 && patch_upload_late(r, params->patches, npatch, near, params->patch_late_job,
+                                        params->patch_late_hidden, err) != HZ_OK) {
         glBindVertexArray(0);
         return HZ_ERR_GL;
     }
@@ -1269,6 +1269,20 @@ hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_
         stats->sky_cells = (fr.bits & HZ_FX_SKY) ? 0 : r->sky_cells;
     }
     return hz_gl_check(err, "frame draw");
+}
+
+hz_result hz_renderer_draw(hz_renderer *r, const hz_camera *cam, const hz_scene_params *params,
+                           const uint32_t *indices, uint32_t count, hz_draw_stats *stats, hz_err *err)
+{
+    r->late_skipped = 0;
+    r->late_wait_ms = 0.0;
+    hz_result res = draw_frame(r, cam, params, indices, count, stats, err);
+    patch_late_end(r); /* waits for a late cull the frame did not reach */
+    if (stats) {
+        stats->late_hidden = r->late_skipped;
+        stats->late_wait_ms = r->late_wait_ms;
+    }
+    return res;
 }
 
 /* Binds the frame we drew for reading. */

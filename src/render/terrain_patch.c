@@ -306,7 +306,53 @@ static void patch_segments(hz_renderer *r, uint32_t count, uint32_t near)
     }
 }
 
-hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32_t near, hz_err *err)
+uint32_t hz_renderer_patch_lead(uint32_t count)
+{
+    return chunk_end(0, patch_chunks(count), count);
+}
+
+/* Packs segment g of the in-memory patches p into the instance scratch by
+ * class, leaving out those hidden marks (hidden may be NULL): its class
+ * starts and end. block_mask: the bits of a patch's blocks. */
+static void pack_segment(hz_renderer *r, const hz_patch *p, const uint8_t *hidden, uint32_t g, uint16_t block_mask)
+{
+    const uint32_t words = inst_words(r), a = r->seg[g], b = r->seg[g + 1];
+    uint32_t num[PATCH_CLASSES] = {0};
+    for (uint32_t k = a; k < b; k++)
+        if (!hidden || !hidden[k])
+            num[patch_class(r, &p[k])]++;
+    uint32_t at[PATCH_CLASSES], s = a;
+    for (uint32_t c = 0; c < PATCH_CLASSES; s += num[c++])
+        r->seg_class[g][c] = at[c] = s;
+    r->seg_end[g] = s;
+    for (uint32_t k = a; k < b; k++) {
+        const hz_patch *q = &p[k];
+        if (hidden && hidden[k]) {
+            r->late_skipped++;
+            continue;
+        }
+        /* the shader finds the tile: level min(shift, top), (x0 >> level) / T */
+        const uint32_t slot = at[patch_class(r, q)]++;
+        uint32_t *o = r->inst_scratch + words * (size_t)slot;
+        o[0] = q->x0 | (q->z0 << 16);
+        o[1] = q->shift | ((uint32_t)q->coarse << 4);
+        r->inst_hidden[slot] = q->hidden & block_mask;
+        r->any_hidden |= r->inst_hidden[slot] != 0;
+    }
+}
+
+/* Instances [a, b) of the scratch into the instance buffer (left bound). */
+static void inst_write(hz_renderer *r, uint32_t a, uint32_t b)
+{
+    const size_t w = inst_words(r) * sizeof(uint32_t);
+    glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
+    if (b > a)
+        glBufferSubData(GL_ARRAY_BUFFER, (GLintptr)(a * w), (GLsizeiptr)((b - a) * w), r->inst_scratch + a * (w / 4));
+    r->inst_bytes += b > a ? (b - a) * w : 0;
+}
+
+hz_result patch_upload_late(hz_renderer *r, const hz_patch *p, uint32_t count, uint32_t near, hz_job *job,
+                            const uint8_t *hidden, hz_err *err)
 {
     if (!r->tiles_tex)
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: cdlod patches to draw before hz_renderer_set_cdlod");
@@ -330,9 +376,17 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32
     const uint16_t block_mask = (uint16_t)((1u << (r->patch_blocks * r->patch_blocks)) - 1u);
     r->any_hidden = false;
     r->cmd_bytes = 0;
+    r->inst_bytes = 0;
     const uint32_t T = r->tile_cells, n = r->size;
-    for (uint32_t k = 0; r->streamed && k < count; k++) {
+    for (uint32_t k = 0; k < count; k++) {
         const hz_patch *q = &p[k];
+        if (!r->streamed) {
+            if (q->shift > 15 || (q->coarse & ~15u) || q->x0 > 65535 || q->z0 > 65535 ||
+                ((r->patch_cells << q->shift) + q->x0 > n - 1) || ((r->patch_cells << q->shift) + q->z0 > n - 1))
+                return hz_err_set(err, HZ_ERR_VALUE, "renderer: patch %u (%u, %u, shift %u) lies outside the map", k,
+                                  q->x0, q->z0, q->shift);
+            continue;
+        }
         /* a repeating terrain's patches may be one period off the map */
         const int64_t lo = r->wrap ? -(int64_t)(n - 1) : 0, hi = r->wrap ? 2 * (int64_t)(n - 1) : (int64_t)(n - 1);
         const int64_t x0 = r->wrap ? (int64_t)(int32_t)q->x0 : (int64_t)q->x0;
@@ -356,44 +410,69 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32
         r->any_hidden |= r->inst_hidden[k] != 0;
     }
     patch_segments(r, count, near);
-    for (uint32_t g = 0; !r->streamed && g < r->n_seg; g++) {
-        /* the segment's patches by class (PATCH_STILL_FINE .. PATCH_MORPH),
-         * each in order */
-        const uint32_t a = r->seg[g], b = r->seg[g + 1];
-        uint32_t num[PATCH_CLASSES] = {0};
-        for (uint32_t k = a; k < b; k++)
-            num[patch_class(r, &p[k])]++;
-        uint32_t at[PATCH_CLASSES];
-        for (uint32_t c = 0, s = a; c < PATCH_CLASSES; s += num[c++])
-            r->seg_class[g][c] = at[c] = s;
-        for (uint32_t k = a; k < b; k++) {
-            const hz_patch *q = &p[k];
-            if (q->shift > 15 || (q->coarse & ~15u) || q->x0 > 65535 || q->z0 > 65535 ||
-                ((r->patch_cells << q->shift) + q->x0 > n - 1) || ((r->patch_cells << q->shift) + q->z0 > n - 1))
-                return hz_err_set(err, HZ_ERR_VALUE, "renderer: patch %u (%u, %u, shift %u) lies outside the map", k,
-                                  q->x0, q->z0, q->shift);
-            /* the shader finds the tile: level min(shift, top), (x0 >> level) / T */
-            const uint32_t slot = at[patch_class(r, q)]++;
-            uint32_t *o = r->inst_scratch + words * (size_t)slot;
-            o[0] = q->x0 | (q->z0 << 16);
-            o[1] = q->shift | ((uint32_t)q->coarse << 4);
-            r->inst_hidden[slot] = q->hidden & block_mask;
-            r->any_hidden |= r->inst_hidden[slot] != 0;
+    /* late culling: the segments from the lead on wait (streamed patches are never culled late) */
+    const uint32_t lead = hz_renderer_patch_lead(count);
+    r->late_seg = r->n_seg;
+    r->late_skipped = 0;
+    r->late_wait_ms = 0.0;
+    r->late_p = NULL;
+    r->late_job = NULL;
+    r->late_hidden = NULL;
+    if (job && hidden && !r->streamed && lead < count) {
+        r->late_seg = 0;
+        while (r->late_seg < r->n_seg && r->seg[r->late_seg] < lead)
+            r->late_seg++;
+        r->late_p = p;
+        r->late_job = job;
+        r->late_hidden = hidden;
+    }
+    for (uint32_t g = 0; g < r->n_seg; g++) {
+        if (r->streamed) { /* streamed patches are all PATCH_MORPH, in order */
+            for (uint32_t c = 0; c < PATCH_CLASSES; c++)
+                r->seg_class[g][c] = r->seg[g];
+            r->seg_end[g] = r->seg[g + 1];
+        } else if (g < r->late_seg) {
+            pack_segment(r, p, NULL, g, block_mask);
         }
     }
-    for (uint32_t g = 0; r->streamed && g < r->n_seg; g++)
-        for (uint32_t c = 0; c < PATCH_CLASSES; c++) /* streamed patches are all PATCH_MORPH */
-            r->seg_class[g][c] = r->seg[g];
     glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
     if (bytes > r->inst_cap || bytes < r->inst_cap / 4) {
         r->inst_cap = bytes + bytes / 4 + 64;
     }
     glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)r->inst_cap, NULL, GL_STREAM_DRAW);
-    glBufferSubData(GL_ARRAY_BUFFER, 0, (GLsizeiptr)bytes, r->inst_scratch);
+    inst_write(r, 0, r->seg[r->late_seg]);
     glBindBuffer(GL_ARRAY_BUFFER, 0);
     r->n_inst = count;
-    r->inst_bytes = bytes;
     return hz_gl_check(err, "patch instance upload");
+}
+
+hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32_t near, hz_err *err)
+{
+    return patch_upload_late(r, p, count, near, NULL, NULL, err);
+}
+
+/* The late segments, once the culling job is done: packed without the
+ * hidden patches and uploaded. */
+static void late_pack(hz_renderer *r)
+{
+    if (!r->late_job)
+        return;
+    r->late_wait_ms = hz_job_wait(r->late_job);
+    const uint16_t block_mask = (uint16_t)((1u << (r->patch_blocks * r->patch_blocks)) - 1u);
+    for (uint32_t g = r->late_seg; g < r->n_seg; g++)
+        pack_segment(r, r->late_p, r->late_hidden, g, block_mask);
+    inst_write(r, r->seg[r->late_seg], r->seg_end[r->n_seg - 1]);
+    r->late_job = NULL;
+}
+
+void patch_late_end(hz_renderer *r)
+{
+    if (r->late_job) { /* a frame that never drew its far patches: still waited for */
+        late_pack(r);
+        glBindBuffer(GL_ARRAY_BUFFER, 0);
+    }
+    r->late_p = NULL;
+    r->late_hidden = NULL;
 }
 
 uint32_t patch_detail_split(const hz_renderer *r, const hz_patch *p, uint32_t count, const float eye[3], float dist)
@@ -545,8 +624,10 @@ void patch_draw(hz_renderer *r, const prog_variant *const prog[PATCH_CLASSES], u
         const uint32_t sa = r->seg[g] > first ? r->seg[g] : first, sb = r->seg[g + 1] < end ? r->seg[g + 1] : end;
         if (sa >= sb)
             continue;
+        if (g >= r->late_seg)
+            late_pack(r); /* (leaves the instance buffer bound) */
         for (uint32_t c = 0; c < PATCH_CLASSES; c++) {
-            const uint32_t ca = r->seg_class[g][c], cb = c + 1 < PATCH_CLASSES ? r->seg_class[g][c + 1] : r->seg[g + 1];
+            const uint32_t ca = r->seg_class[g][c], cb = c + 1 < PATCH_CLASSES ? r->seg_class[g][c + 1] : r->seg_end[g];
             const uint32_t a = ca > sa ? ca : sa, b = cb < sb ? cb : sb;
             if (a >= b)
                 continue;

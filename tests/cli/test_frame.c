@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "horizon/metrics.h"
 #include "horizon/occlusion.h"
@@ -682,6 +683,95 @@ static void test_patches_skip_missing_data(void **state)
     free(pl.data);
 }
 
+/* hz_lod_horizon_hide's arguments, run as a job. */
+typedef struct late_arg {
+    hz_lod *lod;
+    const hz_camera *cam;
+    const hz_lod_params *p;
+    const hz_lod_stats *sel;
+    const hz_patch_list *pl;
+    size_t from;
+    uint8_t *hidden;
+    hz_horizon_stats *hs;
+    hz_result res;
+    unsigned sleep_ms; /* first (late_all: then every patch from `from` on is hidden) */
+} late_arg;
+
+static void late_hide(void *arg)
+{
+    late_arg *a = arg;
+    a->res = hz_lod_horizon_hide(a->lod, a->cam, a->p, a->sel, a->pl->data, a->pl->count, a->from, a->hidden, a->hs);
+}
+
+/* After a pause, every patch from `from` on hidden. */
+static void late_all(void *arg)
+{
+    late_arg *a = arg;
+    usleep(a->sleep_ms * 1000u);
+    memset(a->hidden, 0, a->pl->count);
+    memset(a->hidden + a->from, 1, a->pl->count - a->from);
+}
+
+/* The renderer draws the first chunk of patches, then waits for the late
+ * cull's job before it reads its flags: a job that takes its time and then
+ * hides every later patch leaves the frame of the first chunk alone (colour
+ * and depth), and the draw says it waited and left them out. */
+static void test_late_cull_waited_for(void **state)
+{
+    ctx *c = *state;
+    hz_err err = {0};
+    hz_camera cam;
+    hz_index_list il = {0};
+    hz_patch_list pl = {0};
+    hz_lod_stats st;
+    cdlod_frame_all(c, 0.5f, NULL, true, &cam, &pl, &il, &st);
+    const uint32_t n = (uint32_t)pl.count, lead = hz_renderer_patch_lead(n);
+    fprintf(stderr, "%u patches, the first %u before the wait\n", n, lead);
+    assert_true(lead > 0 && lead * 10 < n);
+    uint8_t *hid = calloc(n, 1), *rgb = malloc(2 * W * H * 3);
+    float *dep = malloc(2 * W * H * sizeof *dep);
+    late_arg la = {.pl = &pl, .from = lead, .hidden = hid, .sleep_ms = 60};
+    hz_job job = {0};
+    hz_job_start(&job, late_all, &la);
+    hz_scene_params sp = {.patches = pl.data, .patch_count = n, .patch_late_job = &job, .patch_late_hidden = hid};
+    hz_draw_stats ds;
+    assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, &ds, &err), HZ_OK);
+    assert_false(job.running);
+    fprintf(stderr, "late: %u left out, waited %.1f ms\n", ds.late_hidden, ds.late_wait_ms);
+    assert_int_equal(ds.late_hidden, n - lead);
+    assert_true(ds.late_wait_ms > 10.0);
+    assert_int_equal(hz_renderer_read_rgb(c->r, rgb, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_depth(c->r, dep, &err), HZ_OK);
+    hz_scene_params first = {.patches = pl.data, .patch_count = lead};
+    assert_int_equal(hz_renderer_draw(c->r, &cam, &first, NULL, 0, &ds, &err), HZ_OK);
+    assert_int_equal(ds.late_hidden, 0);
+    assert_int_equal(hz_renderer_read_rgb(c->r, rgb + W * H * 3, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_depth(c->r, dep + W * H, &err), HZ_OK);
+    size_t off = 0, ground = 0;
+    for (size_t q = 0; q < (size_t)W * H * 3; q++)
+        off += rgb[q] != rgb[W * H * 3 + q];
+    for (size_t q = 0; q < (size_t)W * H; q++) {
+        off += dep[q] != dep[W * H + q];
+        ground += dep[q] != 0.0f;
+    }
+    assert_int_equal(off, 0);
+    assert_true(ground > 1000); /* the first chunk shows */
+    /* and the full frame has more ground: the later patches were left out */
+    sp = (hz_scene_params){.patches = pl.data, .patch_count = n};
+    assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, &ds, &err), HZ_OK);
+    assert_int_equal(hz_renderer_read_depth(c->r, dep, &err), HZ_OK);
+    size_t full = 0;
+    for (size_t q = 0; q < (size_t)W * H; q++)
+        full += dep[q] != 0.0f;
+    fprintf(stderr, "ground pixels: %zu first chunk, %zu all patches\n", ground, full);
+    assert_true(full > ground + ground / 10);
+    free(hid);
+    free(rgb);
+    free(dep);
+    free(il.data);
+    free(pl.data);
+}
+
 /* Horizon culling drops the patches that nearer ground hides, and only
  * those: low over the ridges, looking across them at several headings and
  * bounds, and at the summit from the default camera, the frame with the hidden patches dropped equals the frame with
@@ -699,7 +789,7 @@ static void test_horizon_culling_hides_nothing(void **state)
     uint8_t *rgb = malloc(2 * W * H * 3);
     float *dep = malloc(2 * W * H * sizeof *dep);
     hz_patch_list pl[2] = {{0}, {0}};
-    size_t all = 0, hidden = 0, views = 0, hiding = 0;
+    size_t all = 0, hidden = 0, views = 0, hiding = 0, late_total = 0, near_half = 0;
     for (int k = 0; k < 16; k++) {
         hz_camera cam = hz_terrain_default_camera(t, W, H);
         if (k < 12) { /* low over the ridges, all around */
@@ -722,6 +812,66 @@ static void test_horizon_culling_hides_nothing(void **state)
             assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, NULL, &err), HZ_OK);
             assert_int_equal(hz_renderer_read_rgb(c->r, rgb + (size_t)v * W * H * 3, &err), HZ_OK);
             assert_int_equal(hz_renderer_read_depth(c->r, dep + (size_t)v * W * H, &err), HZ_OK);
+        }
+        /* The late cull (hz_lod_horizon_hide on a job while the renderer
+         * draws the first chunk): the same frame again, every patch from the
+         * renderer's lead on that the cull in the selection drops left out,
+         * and only those. */
+        {
+            const uint32_t lead = hz_renderer_patch_lead((uint32_t)pl[1].count);
+            uint8_t *hid = malloc(pl[1].count + 1), *all_hid = malloc(pl[1].count + 1);
+            hz_horizon_stats hs, hs0;
+            const hz_lod_params lp = {.mode = HZ_LOD_CDLOD, .pixel_error = tau, .viewport_height = H};
+            late_arg la = {.lod = t->lod, .cam = &cam, .p = &lp, .sel = &st[1], .pl = &pl[1], .from = lead,
+                           .hidden = hid, .hs = &hs, .res = HZ_ERR_VALUE};
+            hz_job job = {0};
+            hz_job_start(&job, late_hide, &la);
+            hz_scene_params sp = {.morph_scale = st[1].morph_scale, .morph_start = st[1].morph_start,
+                                  .patches = pl[1].data, .patch_count = (uint32_t)pl[1].count,
+                                  .patch_late_job = &job, .patch_late_hidden = hid};
+            hz_draw_stats ds;
+            assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, &ds, &err), HZ_OK);
+            assert_false(job.running); /* the renderer waited */
+            assert_int_equal(la.res, HZ_OK);
+            uint8_t *late_rgb = malloc(W * H * 3);
+            float *late_dep = malloc(W * H * sizeof *late_dep);
+            assert_int_equal(hz_renderer_read_rgb(c->r, late_rgb, &err), HZ_OK);
+            assert_int_equal(hz_renderer_read_depth(c->r, late_dep, &err), HZ_OK);
+            size_t late_off = 0;
+            for (size_t q = 0; q < (size_t)W * H * 3; q++)
+                late_off += late_rgb[q] != rgb[(size_t)W * H * 3 + q];
+            for (size_t q = 0; q < (size_t)W * H; q++)
+                late_off += late_dep[q] != dep[(size_t)W * H + q];
+            assert_int_equal(late_off, 0);
+            /* from 0 on, the late cull hides what the selection's drops */
+            assert_int_equal(hz_lod_horizon_hide(t->lod, &cam, la.p, &st[1], pl[1].data, pl[1].count, 0, all_hid,
+                                                 &hs0),
+                             HZ_OK);
+            assert_int_equal(hs0.patches, st[0].hidden);
+            assert_int_equal(hs0.triangles, st[1].triangles - st[0].triangles);
+            size_t before = 0, marked = 0;
+            for (size_t i = 0; i < pl[1].count; i++) {
+                assert_true(hid[i] == (i >= lead && all_hid[i]));
+                before += i < lead && all_hid[i];
+                marked += hid[i];
+            }
+            assert_int_equal(hs.patches, marked);
+            assert_int_equal(ds.late_hidden, marked);
+            assert_int_equal(marked + before, st[0].hidden);
+            late_total += marked;
+            /* from the middle on: none of the nearer half, whatever hides it */
+            const size_t half = pl[1].count / 2;
+            assert_int_equal(hz_lod_horizon_hide(t->lod, &cam, la.p, &st[1], pl[1].data, pl[1].count, half, hid,
+                                                 &hs0),
+                             HZ_OK);
+            for (size_t i = 0; i < pl[1].count; i++) {
+                assert_true(hid[i] == (i >= half && all_hid[i]));
+                near_half += i < half && all_hid[i];
+            }
+            free(late_rgb);
+            free(late_dep);
+            free(hid);
+            free(all_hid);
         }
         /* the same selection, less the hidden patches, in the same order */
         assert_int_equal(st[1].hidden, 0);
@@ -748,7 +898,10 @@ static void test_horizon_culling_hides_nothing(void **state)
         views++;
         hiding += st[0].hidden > 0;
     }
-    fprintf(stderr, "horizon culling: %zu of %zu patches hidden over %zu views\n", hidden, all, views);
+    fprintf(stderr, "horizon culling: %zu of %zu patches hidden over %zu views (%zu by the late cull)\n", hidden,
+            all, views, late_total);
+    assert_true(late_total * 2 >= hidden); /* most lie beyond the first chunk */
+    assert_true(near_half > 0);          /* (the `from` test above had some to leave) */
     assert_true(hiding >= views / 2);
     assert_true(hidden * 10 >= all); /* at least a tenth */
     free(pl[0].data);
@@ -1297,6 +1450,7 @@ int main(void)
         cmocka_unit_test(test_far_patches_keep_the_detail_colour),
         cmocka_unit_test(test_patches_skip_missing_data),
         cmocka_unit_test(test_horizon_culling_hides_nothing),
+        cmocka_unit_test(test_late_cull_waited_for),
         cmocka_unit_test(test_sky_skips_covered_cells),
         cmocka_unit_test(test_default_camera_frames_the_summit),
         cmocka_unit_test(test_lit_map_matches_per_pixel_shading),
