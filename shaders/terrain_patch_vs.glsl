@@ -49,6 +49,16 @@ const bool MORPH = false;
 const bool MORPH = true;
 #endif
 
+// SIMPLE (FX_VARIANT_SIMPLE, bit 28): a patch none of whose even vertices
+// morphs (hz_patch.simple): the two neighbours an odd vertex collapses
+// between stand still, so its target is their stored midpoint (target_of),
+// without reading and morphing them. The same positions.
+#if (FX_VARIANT & 268435456) != 0
+const bool SIMPLE = true;
+#else
+const bool SIMPLE = false;
+#endif
+
 // VLIT: the lit map is read per vertex (FX_VARIANT_VLIT, bit 26; --lit-map
 // vertex) and interpolated over the triangles, as fixed-function lighting is:
 // the fragment shader then only interpolates a colour.
@@ -290,7 +300,9 @@ void main()
                 a = ivec2(i, j - bj);
                 b = ivec2(i, j + bj);
             }
-            if (STREAM == 0) {
+            if (STREAM == 0 && SIMPLE) {
+                p.y = mix(h, target_of(t), m);
+            } else if (STREAM == 0) {
                 p.y = mix(h, 0.5 * (morph1_texel(level_texel(a, lv, lm, lbase), a.x, a.y) +
                                     morph1_texel(level_texel(b, lv, lm, lbase), b.x, b.y)), m);
             } else {

@@ -826,6 +826,7 @@ hz_result cli_lod_finish(cli_lod_frame *f)
     f->pl.count = w;
     f->st.triangles -= f->hs.triangles;
     f->st.still -= f->hs.still;
+    f->st.simple -= f->hs.simple;
     f->st.leaves -= f->hs.patches;
     f->st.hidden += f->hs.patches;
     f->cull_ms = f->hs.ms;

@@ -20,7 +20,7 @@
 
 typedef struct frame_row {
     double t;
-    uint32_t triangles, nodes_visited, nodes_culled, nodes_hidden, restricted, nodes_drawn, nodes_still;
+    uint32_t triangles, nodes_visited, nodes_culled, nodes_hidden, restricted, nodes_drawn, nodes_still, nodes_simple;
     double lod_ms, upload_ms, draw_ms, frame_ms, upload_kb;
     double cull_ms, cull_wait_ms; /* a late horizon cull: its CPU time on its thread, the draw's wait for it */
     double px_p99, px_max;
@@ -563,6 +563,7 @@ static hz_result run(bench *b, const hz_lod_params *lod, frame_row *rows)
         row->cull_wait_ms = ds.late_wait_ms;
         row->nodes_drawn = st.leaves;
         row->nodes_still = st.still;
+        row->nodes_simple = st.simple;
         row->upload_kb = (double)ds.upload_bytes / 1024.0;
         row->triangles = st.triangles;
         row->nodes_visited = st.nodes_visited;
@@ -668,7 +669,7 @@ typedef struct col {
 } col;
 /* Columns by name; those from COL_PSNR on need the reference. */
 enum {
-    COL_TRIANGLES, COL_VISITED, COL_CULLED, COL_HIDDEN, COL_DRAWN, COL_STILL, COL_UPLOAD_KB, COL_LOD, COL_CULL, COL_CULL_WAIT,
+    COL_TRIANGLES, COL_VISITED, COL_CULLED, COL_HIDDEN, COL_DRAWN, COL_STILL, COL_SIMPLE, COL_UPLOAD_KB, COL_LOD, COL_CULL, COL_CULL_WAIT,
     COL_UPLOAD_MS, COL_DRAW,
     COL_FRAME, COL_P99, COL_PXMAX, COL_PSNR, COL_SIL, COL_POP, COL_POP_MAX, COL_POP_MEAN, NCOLS,
     NCOLS_NOREF = COL_PSNR
@@ -680,6 +681,7 @@ static const col COLS[NCOLS] = {
     [COL_HIDDEN] = {"nodes_hidden", OFF(nodes_hidden), true, false},
     [COL_DRAWN] = {"nodes_drawn", OFF(nodes_drawn), true, false},
     [COL_STILL] = {"nodes_still", OFF(nodes_still), true, false},
+    [COL_SIMPLE] = {"nodes_simple", OFF(nodes_simple), true, false},
     [COL_UPLOAD_KB] = {"upload_kb", OFF(upload_kb), false, false},
     [COL_LOD] = {"lod_ms", OFF(lod_ms), false, false},
     [COL_CULL] = {"cull_ms", OFF(cull_ms), false, false},
@@ -856,6 +858,7 @@ static json_t *bench_json(const bench *b, const hz_lod_params *lod, const frame_
         jx_set(o, "frame_ms", jx_fix(r->frame_ms, 3));
         jx_set(o, "nodes_drawn", jx_int(r->nodes_drawn));
         jx_set(o, "nodes_still", jx_int(r->nodes_still));
+        jx_set(o, "nodes_simple", jx_int(r->nodes_simple));
         jx_set(o, "upload_kb", jx_fix(r->upload_kb, 3));
         jx_set(o, "lit_map", jx_bool(r->lit_map));
         jx_set(o, "lit_vertex_patches", jx_int(r->lit_vertex_patches));

@@ -138,6 +138,7 @@ typedef struct hz_lod_stats {
                                bidirectional: coarse nodes split */
     uint32_t merged;        /* bidirectional: fine subtrees coarsened; roam: merges */
     uint32_t still;         /* cdlod patches: those none of whose vertices morphs (hz_patch.still) */
+    uint32_t simple;        /* ... those none of whose even vertices morphs (hz_patch.simple) */
     uint32_t hidden;        /* cdlod patches dropped because nearer ground hides them */
     float morph_scale;      /* cdlod: metres of morph range per h16 step of a vertex's
                                morph error at pixel_error (0: no morphing this frame);
@@ -153,6 +154,7 @@ typedef struct hz_horizon_stats {
     uint32_t patches;   /* patches hidden */
     uint32_t triangles; /* their triangles (as hz_lod_stats.triangles counts them) */
     uint32_t still;     /* those of them still (hz_patch.still) */
+    uint32_t simple;    /* those of them morphing simply or still (hz_patch.simple) */
     double ms;          /* CPU time of the cull */
 } hz_horizon_stats;
 
@@ -208,6 +210,11 @@ typedef struct hz_patch {
      * farthest point is nearer than its vertices' morph starts), so the
      * renderer draws it without the morph code. 0 = may morph. */
     uint8_t still;
+    /* In-memory terrains: none of the patch's even vertices (those of the
+     * next coarser grid) morphs for this eye, so every odd vertex morphs
+     * toward the midpoint of two unmoved neighbours (hz_lod_morph_target2):
+     * the renderer draws it with the simpler morph code. Set when still. */
+    uint8_t simple;
     /* Occlusion culling (set by the caller after selection): bit B * bz + bx
      * set leaves block (bx, bz) of the patch's B x B blocks undrawn, B =
      * hz_lod_patch_blocks (each block P / B cells square, bx along x). The

@@ -81,6 +81,8 @@ typedef struct fx_frame {
 #define FX_VARIANT_VLIT (1u << 26)       /* patches read the lit map per vertex (--lit-map vertex) */
 #define FX_VARIANT_FINE (1u << 27)       /* with VLIT: full-resolution patches (still or not), read per
                                             vertex at the per-pixel read's filtering (terrain_patch_vs.glsl) */
+#define FX_VARIANT_SIMPLE (1u << 28)     /* patches whose even vertices are still (hz_patch.simple): each
+                                            odd vertex morphs toward its stored target */
 #define SKY_CELLS (HZ_SKY_COLS * HZ_SKY_ROWS) /* the plain sky's grid (sky_grid_vs.glsl: SKY_COLS x SKY_ROWS) */
 #define LIT_KEY_LEN 8 /* the lit map's lighting: sun (3), ambient, snow line, tree line, aridity, zscale */
 /* The ground detail fades out between these multiples of its scale
@@ -218,7 +220,7 @@ struct hz_renderer {
      * n_inst_near), each by class (PATCH_STILL_FINE .. PATCH_MORPH):
      * segment k is [seg[k], seg[k + 1]), its class c starts at
      * seg_class[k][c]; seg_flush[k]: it ends a chunk (a glFlush follows it). */
-    uint32_t seg[PATCH_SEGS + 1], seg_class[PATCH_SEGS][4], n_seg;
+    uint32_t seg[PATCH_SEGS + 1], seg_class[PATCH_SEGS][6], n_seg;
     bool seg_flush[PATCH_SEGS];
     /* Late culling (hz_scene_params.patch_late_job): the segments from
      * late_seg on are packed only once the job is done, without the patches
@@ -243,6 +245,9 @@ struct hz_renderer {
     const prog_variant *terrain_patch_fine, *terrain_patch_fine_still; /* full-resolution patches over
                                               smooth lit map, reading it per vertex (NULL: per pixel;
                                               see hz_scene_params.lit_pixel) */
+    const prog_variant *terrain_patch_simple, *terrain_patch_fine_simple, *terrain_patch_far_simple;
+                                           /* the morphing ones with the simpler morph, for the patches
+                                              whose even vertices are still (NULL: streamed) */
     uint32_t fine_patches;     /* instances of this frame drawn with those two */
     const prog_variant *terrain_clip_cur;  /* this frame's reflection-pass variant (NULL: no water) */
 
@@ -357,10 +362,18 @@ void litmap_release(hz_renderer *r);
 void litmap_destroy(hz_renderer *r);
 
 /* ---- terrain_patch.c: cdlod patches ---- */
-/* The classes of patches, in their order inside a segment: still or not
- * (hz_patch.still), and full-resolution (shift 0) over smooth lit map
- * (litmap_smooth_at) or not. */
-enum { PATCH_STILL_FINE, PATCH_STILL, PATCH_MORPH_FINE, PATCH_MORPH, PATCH_CLASSES };
+/* The classes of patches, in their order inside a segment: still
+ * (hz_patch.still), morphing simply (hz_patch.simple) or morphing, each
+ * full-resolution (shift 0) over smooth lit map (litmap_smooth_at) or not. */
+enum {
+    PATCH_STILL_FINE,
+    PATCH_STILL,
+    PATCH_SIMPLE_FINE,
+    PATCH_SIMPLE,
+    PATCH_MORPH_FINE,
+    PATCH_MORPH,
+    PATCH_CLASSES
+};
 /* Converts and uploads a frame's patches (instances), in segments (the
  * flushed chunks, split at near), each by class. */
 hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32_t near, hz_err *err);
@@ -377,8 +390,9 @@ void patch_late_end(hz_renderer *r);
 uint32_t patch_detail_split(const hz_renderer *r, const hz_patch *p, uint32_t count, const float eye[3], float dist);
 /* Draws uploaded patches [first, end) (segment bounds), flushed at the chunk
  * ends (PATCH_CHUNKS) they reach, each class with its program in prog
- * (PATCH_MORPH's never NULL; a NULL one: the still class's for
- * PATCH_STILL_FINE, else PATCH_MORPH's). Every program's frame uniforms
+ * (PATCH_MORPH's never NULL; a NULL one: for a FINE class its other
+ * FINE class's program or, without one, its class's without FINE; else
+ * PATCH_MORPH's). Every program's frame uniforms
  * are set (terrain_program); prog[PATCH_MORPH] is bound on return. */
 void patch_draw(hz_renderer *r, const prog_variant *const prog[PATCH_CLASSES], uint32_t first, uint32_t end);
 void patch_destroy(hz_renderer *r);

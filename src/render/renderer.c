@@ -93,6 +93,7 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
     }
     r->terrain_patch_cur = r->terrain_patch_far = r->terrain_patch_still = r->terrain_patch_far_still = NULL;
     r->terrain_patch_fine = r->terrain_patch_fine_still = NULL;
+    r->terrain_patch_simple = r->terrain_patch_fine_simple = r->terrain_patch_far_simple = NULL;
     if (patches) {
         /* --lit-map vertex: the patches read the lit map per vertex (in
          * memory only: a streamed terrain has no lit map). */
@@ -113,6 +114,13 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
                                hz_shader_terrain_fs, "terrain (still patches)", 2, terrain_names, err);
             if (!r->terrain_patch_still)
                 return HZ_ERR_GL;
+            /* Most morphing patches morph toward still vertices: their
+             * targets are stored, not read from the neighbours, morphed. */
+            r->terrain_patch_simple =
+                prog_cache_get(&r->terrain, pkey | FX_VARIANT_SIMPLE, hz_shader_terrain_patch_vs,
+                               hz_shader_terrain_fs, "terrain (simply morphing patches)", 2, terrain_names, err);
+            if (!r->terrain_patch_simple)
+                return HZ_ERR_GL;
             /* A patch of the finest level has a vertex on every sample of
              * the lit map: where the map is smooth (litmap_smooth_at), read
              * per vertex and interpolated, the colour differs from the
@@ -132,6 +140,12 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
                         : NULL;
                 if (!r->terrain_patch_fine)
                     return HZ_ERR_GL;
+                r->terrain_patch_fine_simple = prog_cache_get(
+                    &r->terrain, pkey | FX_VARIANT_SIMPLE | FX_VARIANT_VLIT | FX_VARIANT_FINE,
+                    hz_shader_terrain_patch_vs, hz_shader_terrain_fs, "terrain (full-resolution simply morphing patches)",
+                    2, terrain_names, err);
+                if (!r->terrain_patch_fine_simple)
+                    return HZ_ERR_GL;
             }
         }
         if (key & HZ_FX_DETAIL) {
@@ -145,6 +159,11 @@ hz_result fx_terrain_select(hz_renderer *r, const fx_frame *f, bool patches, hz_
                     &r->terrain, pkey | FX_VARIANT_DETAIL_FAR | FX_VARIANT_STILL, hz_shader_terrain_patch_vs,
                     hz_shader_terrain_fs, "terrain (far still patches)", 2, terrain_names, err);
                 if (!r->terrain_patch_far_still)
+                    return HZ_ERR_GL;
+                r->terrain_patch_far_simple = prog_cache_get(
+                    &r->terrain, pkey | FX_VARIANT_DETAIL_FAR | FX_VARIANT_SIMPLE, hz_shader_terrain_patch_vs,
+                    hz_shader_terrain_fs, "terrain (far simply morphing patches)", 2, terrain_names, err);
+                if (!r->terrain_patch_far_simple)
                     return HZ_ERR_GL;
             }
         }
@@ -936,21 +955,25 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
                                                        : (r->terrain_cur ? r->terrain_cur : r->terrain_plain));
         terrain_program(r, f, v, tp, patches);
         if (patches) {
-            /* Still patches (no vertex morphs) without the morph code;
-             * patches beyond the ground detail's fade with its far variant. */
+            /* Still patches (no vertex morphs) without the morph code,
+             * simply morphing ones with the simple morph; patches beyond the
+             * ground detail's fade with its far variants. */
             const uint32_t near = r->n_inst_near;
             const prog_variant *const near_prog[PATCH_CLASSES] = {
-                r->terrain_patch_fine_still, r->terrain_patch_still, r->terrain_patch_fine, tp};
+                [PATCH_STILL_FINE] = r->terrain_patch_fine_still, [PATCH_STILL] = r->terrain_patch_still,
+                [PATCH_SIMPLE_FINE] = r->terrain_patch_fine_simple, [PATCH_SIMPLE] = r->terrain_patch_simple,
+                [PATCH_MORPH_FINE] = r->terrain_patch_fine, [PATCH_MORPH] = tp};
             for (uint32_t c = 0; c < PATCH_MORPH; c++)
                 if (near_prog[c])
                     terrain_program(r, f, v, near_prog[c], true);
             patch_draw(r, near_prog, 0, near); /* binds tp again */
             if (near < r->n_inst) {
-                const prog_variant *const far_prog[PATCH_CLASSES] = {NULL, r->terrain_patch_far_still, NULL,
-                                                                     r->terrain_patch_far};
-                if (r->terrain_patch_far_still)
-                    terrain_program(r, f, v, r->terrain_patch_far_still, true);
-                terrain_program(r, f, v, r->terrain_patch_far, true);
+                const prog_variant *const far_prog[PATCH_CLASSES] = {[PATCH_STILL] = r->terrain_patch_far_still,
+                                                                     [PATCH_SIMPLE] = r->terrain_patch_far_simple,
+                                                                     [PATCH_MORPH] = r->terrain_patch_far};
+                for (uint32_t c = 0; c < PATCH_CLASSES; c++)
+                    if (far_prog[c])
+                        terrain_program(r, f, v, far_prog[c], true);
                 patch_draw(r, far_prog, near, r->n_inst);
             }
         } else {
@@ -984,7 +1007,7 @@ static void draw_scene_base(hz_renderer *r, const fx_frame *f, const fx_view *v,
             glDepthFunc(GL_GEQUAL);
             glDepthMask(GL_FALSE);
             glUniform1i(tl[TL_WIRE], 1);
-            const prog_variant *const wire_prog[PATCH_CLASSES] = {NULL, NULL, NULL, tp};
+            const prog_variant *const wire_prog[PATCH_CLASSES] = {[PATCH_MORPH] = tp};
             if (patches)
                 patch_draw(r, wire_prog, 0, r->n_inst);
             else

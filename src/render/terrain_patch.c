@@ -284,7 +284,8 @@ _Static_assert(sizeof ((hz_renderer *)0)->seg_class[0] == PATCH_CLASSES * sizeof
 static uint32_t patch_class(const hz_renderer *r, const hz_patch *q)
 {
     const bool fine = q->shift == 0 && litmap_smooth_at(r, q->x0, q->z0);
-    return q->still ? (fine ? PATCH_STILL_FINE : PATCH_STILL) : (fine ? PATCH_MORPH_FINE : PATCH_MORPH);
+    const uint32_t c = q->still ? PATCH_STILL_FINE : (q->simple ? PATCH_SIMPLE_FINE : PATCH_MORPH_FINE);
+    return fine ? c : c + 1;
 }
 
 /* The segments of count patches: the chunks, cut at near. */
@@ -600,14 +601,23 @@ void patch_draw(hz_renderer *r, const prog_variant *const prog[PATCH_CLASSES], u
     const prog_variant *tp = prog[PATCH_MORPH], *use[PATCH_CLASSES];
     use[PATCH_MORPH] = tp;
     use[PATCH_MORPH_FINE] = prog[PATCH_MORPH_FINE] ? prog[PATCH_MORPH_FINE] : tp;
+    use[PATCH_SIMPLE] = prog[PATCH_SIMPLE] ? prog[PATCH_SIMPLE] : tp;
+    use[PATCH_SIMPLE_FINE] = prog[PATCH_SIMPLE_FINE]  ? prog[PATCH_SIMPLE_FINE]
+                             : prog[PATCH_MORPH_FINE] ? use[PATCH_MORPH_FINE]
+                                                      : use[PATCH_SIMPLE];
     use[PATCH_STILL] = prog[PATCH_STILL] ? prog[PATCH_STILL] : tp;
     use[PATCH_STILL_FINE] = prog[PATCH_STILL_FINE] ? prog[PATCH_STILL_FINE] : use[PATCH_STILL];
     glActiveTexture(GL_TEXTURE0 + FX_UNIT_TILES);
     glBindTexture(GL_TEXTURE_BUFFER, r->tiles_tex);
-    /* each program once (PATCH_STILL_FINE may share PATCH_STILL's), tp last: bound */
-    for (uint32_t c = 0; c < PATCH_CLASSES; c++)
-        if (c == PATCH_MORPH || (use[c] != tp && (c != PATCH_STILL_FINE || use[c] != use[PATCH_STILL])))
+    /* each program once, tp last: bound */
+    for (uint32_t c = 0; c < PATCH_CLASSES; c++) {
+        bool seen = use[c] == tp;
+        for (uint32_t d = 0; d < c; d++)
+            seen |= use[d] == use[c];
+        if (!seen)
             patch_program(r, use[c]);
+    }
+    patch_program(r, tp);
     const prog_variant *bound = tp;
     glBindVertexArray(r->patch_vao);
     /* Over missing data the variants clip the triangles touching it away

@@ -177,7 +177,7 @@ size_t hz_lod_memory_bytes(const hz_lod *lod)
     if (lod->stamp)
         b += lod->nodes;
     if (lod->cd_err)
-        b += lod->cd_nodes * (sizeof(float) + sizeof(uint16_t));
+        b += lod->cd_nodes * (sizeof(float) + 2 * sizeof(uint16_t));
     if (lod->morph_err)
         b += (size_t)lod->size * lod->size * sizeof(uint16_t);
     return b + hz__lod_roam_bytes(lod);

@@ -124,7 +124,7 @@ static hz_result cdlod_prepare(hz_lod *lod)
     const size_t cd_nodes = lod->level_offset[lp] + ((size_t)1 << (2 * lp));
     float *e = malloc(cd_nodes * sizeof *e);
     uint16_t *me = malloc((size_t)n * n * sizeof *me);
-    uint16_t *qmin = malloc(cd_nodes * sizeof *qmin);
+    uint16_t *qmin = malloc(2 * cd_nodes * sizeof *qmin);
     if (!e || !me || !qmin) {
         free(e);
         free(me);
@@ -219,19 +219,26 @@ static hz_result cdlod_prepare(hz_lod *lod)
     /* Per node, the least morph error of the (P + 1)^2 samples its patch
      * draws (stitched vertices are among them): while the node's farthest
      * point is nearer than morph_start times that range, none of its
-     * vertices morphs (emit_patches marks the patch still). */
+     * vertices morphs (emit_patches marks the patch still). Then the same
+     * over its even vertices (those of the next coarser grid, which every
+     * odd vertex morphs toward): while none of them morphs, the patch
+     * morphs simply (hz_patch.simple). */
     for (uint32_t l = 0; l <= lp; l++) {
         const uint32_t s = half_of(lod, l), m = 1u << l, h = 2 * s / P;
         for (uint32_t zi = 0; zi < m; zi++)
             for (uint32_t xi = 0; xi < m; xi++) {
                 const uint32_t x0 = xi * 2 * s, z0 = zi * 2 * s;
-                uint16_t q = UINT16_MAX;
+                uint16_t q = UINT16_MAX, qe = UINT16_MAX;
                 for (uint32_t b = 0; b <= P; b++) {
                     const uint16_t *row = me + (size_t)(z0 + b * h) * n + x0;
-                    for (uint32_t a = 0; a <= P; a++)
+                    for (uint32_t a = 0; a <= P; a++) {
                         q = row[a * h] < q ? row[a * h] : q;
+                        if (!((a | b) & 1))
+                            qe = row[a * h] < qe ? row[a * h] : qe;
+                    }
                 }
-                qmin[cd_index(lod, l, xi, zi)] = q;
+                qmin[2 * cd_index(lod, l, xi, zi)] = q;
+                qmin[2 * cd_index(lod, l, xi, zi) + 1] = qe;
             }
     }
     prep_progress(lod, total * 2, total * 2);
@@ -529,17 +536,17 @@ static hz_result cdlod_select(hz_lod *lod, const hz_camera *cam, const hz_lod_pa
     return HZ_OK;
 }
 
-/* Whether no vertex of node (l, x, z)'s patch morphs for the eye: its box's
- * farthest point (the box as drawn, lowered for the Earth's curvature, holds
- * every vertex before morphing, where the shader measures the distance) is
- * nearer than the smallest range's morph start, with a margin for the
- * shader's float rounding. */
+/* Whether no vertex of node (l, x, z)'s patch morphs for the eye (even:
+ * none of its even vertices): its box's farthest point (the box as drawn,
+ * lowered for the Earth's curvature, holds every vertex before morphing,
+ * where the shader measures the distance) is nearer than the smallest
+ * range's morph start, with a margin for the shader's float rounding. */
 static uint8_t patch_still(const hz_lod *lod, const hz_lod_stats *st, uint32_t l, uint32_t x, uint32_t z,
-                           vec3 box[2], const vec3 eye)
+                           vec3 box[2], const vec3 eye, bool even)
 {
     if (st->morph_scale <= 0.0f)
         return 1;
-    const uint16_t q = lod->cd_qmin[cd_node(lod, l, x, z)];
+    const uint16_t q = lod->cd_qmin[2 * cd_node(lod, l, x, z) + even];
     if (q == UINT16_MAX)
         return 1; /* nothing here ever morphs */
     float d2 = 0.0f;
@@ -568,7 +575,7 @@ static hz_result emit_patches(hz_lod *lod, const hz_camera *cam, hz_patch_list *
         if (list_reserve((void **)&out->data, &out->cap, out->count + lod->lv_n[l], sizeof *out->data))
             return HZ_ERR_MEMORY;
         size_t w = out->count;
-        uint32_t still = 0, leaves = 0, triangles = 0;
+        uint32_t still = 0, simple = 0, leaves = 0, triangles = 0;
         for (size_t k = 0; k < lod->lv_n[l]; k++) {
             const uint32_t x = lod->lv[l][k].x & ~CD_INSIDE, z = lod->lv[l][k].z;
             const size_t idx = node_index(lod, l, x, z);
@@ -580,10 +587,12 @@ static hz_result emit_patches(hz_lod *lod, const hz_camera *cam, hz_patch_list *
                     coarse |= (uint8_t)(1u << dir);
             vec3 box[2];
             box_of(lod, idx, x, z, s, box);
-            const uint8_t st1 = patch_still(lod, st, l, x, z, box, cam->pos);
+            const uint8_t st1 = patch_still(lod, st, l, x, z, box, cam->pos, false);
             out->data[w++] = (hz_patch){.x0 = x - s, .z0 = z - s, .shift = (uint8_t)shift, .coarse = coarse,
                                         .level = (uint16_t)l, .dist = box_distance((const vec3 *)box, cam->pos),
-                                        .still = st1};
+                                        .still = st1,
+                                        .simple = st1 || patch_still(lod, st, l, x, z, box, cam->pos, true)};
+            simple += out->data[w - 1].simple;
             triangles += tris[coarse];
             still += st1;
             leaves++;
@@ -591,6 +600,7 @@ static hz_result emit_patches(hz_lod *lod, const hz_camera *cam, hz_patch_list *
         out->count = w;
         st->triangles += triangles;
         st->still += still;
+        st->simple += simple;
         st->leaves += leaves;
         if (leaves && l > st->max_level)
             st->max_level = l;
@@ -639,6 +649,7 @@ hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_
             if (lod->hz_hidden[k]) {
                 st.triangles -= hz__patch_triangles(lod->patch, q->coarse);
                 st.still -= q->still;
+                st.simple -= q->simple;
                 st.leaves--;
                 st.hidden++;
                 continue;
@@ -674,6 +685,7 @@ hz_result hz_lod_horizon_hide(hz_lod *lod, const hz_camera *cam, const hz_lod_pa
             hs.patches++;
             hs.triangles += hz__patch_triangles(lod->patch, patches[k].coarse);
             hs.still += patches[k].still;
+            hs.simple += patches[k].simple;
         }
     }
     hs.ms = hz_time_ms() - t0;

@@ -59,7 +59,8 @@ struct hz_lod {
     /* cdlod, built on first use: per node the nested error bound delta' of
      * its fan (h16 steps, float), per sample the morph error (h16 steps). */
     float *cd_err;       /* per node of the patch levels 0..patch_level */
-    uint16_t *cd_qmin;   /* per node alike: the least morph error (q) of the samples its patch grid draws */
+    uint16_t *cd_qmin;   /* per node alike, two each: the least morph error (q) of the samples its patch
+                            grid draws, and of its even ones (patch_still) */
     size_t cd_nodes;
     uint16_t *morph_err;
     uint32_t patch;       /* cdlod patch cells per side (power of two) */

@@ -602,9 +602,10 @@ static void test_cdlod_horizon_culling_conditions(void **state)
 }
 
 /* A patch the selection marks still (drawn without the morph code) has no
- * vertex that morphs, for any camera, bound, morph start and Earth
- * curvature; and the mark is not vacuous: many patches carry it, and many
- * of the others do morph. */
+ * vertex that morphs, and one it marks simple (drawn with the simple morph)
+ * no even vertex that morphs, for any camera, bound, morph start and Earth
+ * curvature; and the marks are not vacuous: many patches carry each, many
+ * of the others do morph, and so do many of the simple ones. */
 static void test_cdlod_still_patches_do_not_morph(void **state)
 {
     (void)state;
@@ -612,7 +613,7 @@ static void test_cdlod_still_patches_do_not_morph(void **state)
     terrain t;
     rough_terrain(&g, &t);
     hz_patch_list pl = {0};
-    size_t still = 0, moving = 0, morphing = 0, checked = 0;
+    size_t still = 0, moving = 0, morphing = 0, checked = 0, simple = 0, simple_morphing = 0, checked_even = 0;
     for (int k = 0; k < 60; k++) {
         hz_camera cam = random_camera(&t);
         if (k % 3 == 2)
@@ -620,11 +621,12 @@ static void test_cdlod_still_patches_do_not_morph(void **state)
         hz_lod_stats st;
         random_patches(&t, k, &cam, &pl, &st);
         const uint32_t n = t.hm.size;
-        uint32_t marked = 0;
+        uint32_t marked = 0, marked_simple = 0;
         for (size_t q = 0; q < pl.count; q++) {
             const hz_patch *pt = &pl.data[q];
             const uint32_t step = 1u << pt->shift, side = hz_lod_patch_cells(t.lod) << pt->shift;
             bool any = false;
+            assert_true(!pt->still || pt->simple);
             for (uint32_t j = pt->z0; j <= pt->z0 + side; j += step)
                 for (uint32_t i = pt->x0; i <= pt->x0 + side; i += step) {
                     const float m = hz_lod_morph_factor(t.lod, &cam, &st, j * n + i);
@@ -633,18 +635,30 @@ static void test_cdlod_still_patches_do_not_morph(void **state)
                         assert_true(m == 0.0f);
                         checked++;
                     }
+                    if (pt->simple && !((((i - pt->x0) | (j - pt->z0)) >> pt->shift) & 1)) {
+                        assert_true(m == 0.0f); /* an even vertex: still */
+                        checked_even++;
+                    }
                 }
             marked += pt->still != 0;
+            marked_simple += pt->simple != 0;
+            simple += pt->simple && !pt->still;
+            simple_morphing += pt->simple && !pt->still && any;
             still += pt->still != 0;
             moving += pt->still == 0;
             morphing += !pt->still && any;
         }
         assert_int_equal(st.still, marked);
+        assert_int_equal(st.simple, marked_simple);
     }
     fprintf(stderr, "still patches: %zu (%zu vertices, none morphing); others %zu, %zu of them morphing\n", still,
             checked, moving, morphing);
+    fprintf(stderr, "simple patches not still: %zu (%zu even vertices, none morphing), %zu of them morphing\n", simple,
+            checked_even, simple_morphing);
     assert_true(still > 0.3 * (double)(still + moving));
     assert_true(morphing > 0.5 * (double)moving);
+    assert_true(simple > 0.5 * (double)moving);
+    assert_true(simple_morphing > 0.5 * (double)simple);
     free(pl.data);
     terrain_free(&t);
     hz_grid_free(&g);
