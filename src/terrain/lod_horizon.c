@@ -316,7 +316,9 @@ hz_result hz__horizon_hidden(hz_lod *lod, const hz_camera *cam, float lambda, fl
         e->ring = ring_of(rmin);
         e->b0 = (int32_t)floorf(p0);
         e->b1 = (int32_t)floorf(p1) + 1;
-        e->slope = slope_hi(box[1][1] + kb * dfar - eye[1], rmin, rmax);
+        /* a still patch is drawn at its samples' heights: no morph to allow for */
+        const float kp = p->still ? 0.0f : kb;
+        e->slope = slope_hi(box[1][1] + kp * dfar - eye[1], rmin, rmax);
         if (clip && !clip_span(&e->b0, &e->b1, f0, f1))
             e->b0 = e->b1 = 0; /* outside the view's azimuths: hidden */
         /* The occluders: the patch's cells, 4 x 4 from 64 bins wide, 2 x 2
@@ -330,7 +332,7 @@ hz_result hz__horizon_hidden(hz_lod *lod, const hz_camera *cam, float lambda, fl
             int32_t b0 = (int32_t)ceilf(p0), b1 = (int32_t)floorf(p1);
             if (b1 > b0 && (!clip || clip_span(&b0, &b1, f0, f1)))
                 c[nc++] = (hcell){.ring = ring_of(rmax), .b0 = b0, .b1 = b1,
-                                  .slope = slope_lo(box[0][1] - kb * dfar - eye[1], rmin, rmax)};
+                                  .slope = slope_lo(box[0][1] - kp * dfar - eye[1], rmin, rmax)};
             continue;
         }
         float q[25]; /* the cells' corners' pseudo-angles, (n + 1)^2 */
@@ -364,7 +366,7 @@ hz_result hz__horizon_hidden(hz_lod *lod, const hz_camera *cam, float lambda, fl
                 int32_t b0 = (int32_t)ceilf(c0), b1 = (int32_t)floorf(c1);
                 if (b1 <= b0 || (clip && !clip_span(&b0, &b1, f0, f1)))
                     continue;
-                const float slope = slope_lo(cb[0][1] - kb * sqrtf(cmax * cmax + dy * dy) - eye[1], cmin, cmax);
+                const float slope = slope_lo(cb[0][1] - kp * sqrtf(cmax * cmax + dy * dy) - eye[1], cmin, cmax);
                 c[nc++] = (hcell){.ring = ring_of(cmax), .b0 = b0, .b1 = b1, .slope = slope};
             }
     }
