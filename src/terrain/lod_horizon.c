@@ -316,8 +316,11 @@ hz_result hz__horizon_hidden(hz_lod *lod, const hz_camera *cam, float lambda, fl
         e->ring = ring_of(rmin);
         e->b0 = (int32_t)floorf(p0);
         e->b1 = (int32_t)floorf(p1) + 1;
-        /* a still patch is drawn at its samples' heights: no morph to allow for */
-        const float kp = p->still ? 0.0f : kb;
+        /* A patch still or morphing simply (hz_patch.simple) is drawn within
+         * its samples' heights: a vertex lies between its sample and the
+         * midpoint of two samples beside it in the same cell. No morph to
+         * allow for. */
+        const float kp = p->simple ? 0.0f : kb;
         e->slope = slope_hi(box[1][1] + kp * dfar - eye[1], rmin, rmax);
         if (clip && !clip_span(&e->b0, &e->b1, f0, f1))
             e->b0 = e->b1 = 0; /* outside the view's azimuths: hidden */

@@ -614,6 +614,7 @@ static void test_cdlod_still_patches_do_not_morph(void **state)
     rough_terrain(&g, &t);
     hz_patch_list pl = {0};
     size_t still = 0, moving = 0, morphing = 0, checked = 0, simple = 0, simple_morphing = 0, checked_even = 0;
+    size_t within = 0; /* morphing vertices of simple patches checked within their block */
     for (int k = 0; k < 60; k++) {
         hz_camera cam = random_camera(&t);
         if (k % 3 == 2)
@@ -639,6 +640,25 @@ static void test_cdlod_still_patches_do_not_morph(void **state)
                         assert_true(m == 0.0f); /* an even vertex: still */
                         checked_even++;
                     }
+                    if (pt->simple) {
+                        /* drawn within the samples of its block of 2 x 2 grid cells (the
+                         * horizon cull's cells allow no morph for it) */
+                        const uint32_t bi = pt->x0 + (((i - pt->x0) >> (pt->shift + 1)) << (pt->shift + 1));
+                        const uint32_t bj = pt->z0 + (((j - pt->z0) >> (pt->shift + 1)) << (pt->shift + 1));
+                        float lo = INFINITY, hi = -INFINITY;
+                        for (uint32_t b = 0; b <= 2; b++)
+                            for (uint32_t a = 0; a <= 2; a++) {
+                                const uint32_t si = bi + (a << pt->shift), sj = bj + (b << pt->shift);
+                                if (si >= n || sj >= n)
+                                    continue;
+                                const float hs = hz_heightmap_get(&t.hm, si, sj);
+                                lo = fminf(lo, hs);
+                                hi = fmaxf(hi, hs);
+                            }
+                        const float hd = hz_lod_morph_height(t.lod, &cam, &st, j * n + i);
+                        assert_true(hd >= lo - 1e-3f && hd <= hi + 1e-3f);
+                        within += m > 0.0f;
+                    }
                 }
             marked += pt->still != 0;
             marked_simple += pt->simple != 0;
@@ -653,8 +673,9 @@ static void test_cdlod_still_patches_do_not_morph(void **state)
     }
     fprintf(stderr, "still patches: %zu (%zu vertices, none morphing); others %zu, %zu of them morphing\n", still,
             checked, moving, morphing);
-    fprintf(stderr, "simple patches not still: %zu (%zu even vertices, none morphing), %zu of them morphing\n", simple,
-            checked_even, simple_morphing);
+    fprintf(stderr, "simple patches not still: %zu (%zu even vertices, none morphing), %zu of them morphing; %zu "
+            "morphing vertices within their blocks' samples\n", simple, checked_even, simple_morphing, within);
+    assert_true(within > 1000);
     assert_true(still > 0.3 * (double)(still + moving));
     assert_true(morphing > 0.5 * (double)moving);
     assert_true(simple > 0.5 * (double)moving);
