@@ -92,8 +92,9 @@ typedef struct hz_lod_params {
                              [HZ_LOD_MORPH_START_MIN, _MAX]; 0 -> HZ_LOD_MORPH_START_DEFAULT */
     bool horizon_cull;    /* cdlod patches: drop those that nearer ground hides (horizon
                              culling; off by default: it costs about 1 ms of CPU a frame on
-                             the peers' flight and saved 0-10 % of the frame on llvmpipe;
-                             no_cull turns it off) */
+                             the peers' flight, which pays on llvmpipe, not on a GPU; run it
+                             beside the drawing with hz_lod_horizon_hide; no_cull turns it
+                             off) */
     /* cdlod: a looser bound near the eye. Within near_distance metres the
      * bound is near_pixel_error (> pixel_error; otherwise off); beyond, it
      * tightens as 1 / sqrt(distance) and is pixel_error from
