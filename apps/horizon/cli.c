@@ -810,7 +810,7 @@ static void late_cull(void *arg)
 {
     cli_lod_frame *f = arg;
     f->late_res = hz_lod_horizon_hide(f->lod, &f->cam, &f->params, &f->sel, f->pl.data, f->pl.count, f->from,
-                                      f->hidden, &f->hs);
+                                      f->hidden, f->blocks, &f->hs);
 }
 
 hz_result cli_lod_finish(cli_lod_frame *f)
@@ -819,10 +819,13 @@ hz_result cli_lod_finish(cli_lod_frame *f)
         return HZ_OK;
     hz_job_wait(&f->job);
     f->late = false;
-    size_t w = 0;
-    for (size_t k = 0; k < f->pl.count; k++)
-        if (!f->hidden[k])
-            f->pl.data[w++] = f->pl.data[k];
+    size_t w = 0; /* the patches as drawn */
+    for (size_t k = 0; k < f->pl.count; k++) {
+        if (f->hidden[k])
+            continue;
+        f->pl.data[w] = f->pl.data[k];
+        f->pl.data[w++].hidden |= f->blocks[k];
+    }
     f->pl.count = w;
     f->st.triangles -= f->hs.triangles;
     f->st.still -= f->hs.still;
@@ -849,9 +852,13 @@ hz_result cli_lod_select(hz_terrain *t, const hz_camera *cam, const hz_lod_param
             return r;
         if (f->pl.count > f->hidden_cap) {
             uint8_t *h = realloc(f->hidden, f->pl.count);
-            if (!h)
+            if (h)
+                f->hidden = h;
+            uint16_t *b = realloc(f->blocks, f->pl.count * sizeof *b);
+            if (b)
+                f->blocks = b;
+            if (!h || !b)
                 return HZ_ERR_MEMORY;
-            f->hidden = h;
             f->hidden_cap = f->pl.count;
         }
         f->lod = t->lod;
@@ -876,12 +883,14 @@ void cli_lod_scene(cli_lod_frame *f, hz_scene_params *sp, const uint32_t **idx, 
     cli_scene_lod(sp, &f->st);
     sp->patch_late_job = NULL;
     sp->patch_late_hidden = NULL;
+    sp->patch_late_blocks = NULL;
     if (f->patches) {
         sp->patches = f->pl.data;
         sp->patch_count = (uint32_t)f->pl.count;
         if (f->late) {
             sp->patch_late_job = &f->job;
             sp->patch_late_hidden = f->hidden;
+            sp->patch_late_blocks = f->blocks;
         }
         *idx = NULL;
         *count = 0;
@@ -908,6 +917,7 @@ void cli_lod_frame_free(cli_lod_frame *f)
 {
     cli_lod_finish(f);
     free(f->hidden);
+    free(f->blocks);
     free(f->il.data);
     free(f->pl.data);
     memset(f, 0, sizeof *f);

@@ -213,6 +213,7 @@ typedef struct cli_lod_frame {
     hz_lod_stats sel;
     size_t from;
     uint8_t *hidden;           /* its output: a flag per patch */
+    uint16_t *blocks;          /* and the hidden blocks of the others */
     size_t hidden_cap;
     hz_horizon_stats hs;       /* and what it hid */
     hz_result late_res;

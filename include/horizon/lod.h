@@ -153,9 +153,10 @@ typedef struct hz_lod_stats {
 /* What hz_lod_horizon_hide hid. */
 typedef struct hz_horizon_stats {
     uint32_t patches;   /* patches hidden */
-    uint32_t triangles; /* their triangles (as hz_lod_stats.triangles counts them) */
+    uint32_t triangles; /* their triangles and the quadrants' (as hz_lod_stats.triangles counts them) */
     uint32_t still;     /* those of them still (hz_patch.still) */
     uint32_t simple;    /* those of them morphing simply or still (hz_patch.simple) */
+    uint32_t quadrants; /* quadrants hidden of patches not hidden whole */
     double ms;          /* CPU time of the cull */
 } hz_horizon_stats;
 
@@ -259,7 +260,10 @@ hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_
  * horizon_cull), hidden[k] = 1 for each patch from index from on that
  * nearer ground hides (what horizon_cull would drop), 0 for the others and
  * for every one before from (those are drawn before the cull is done; all
- * patches still serve as occluders). stats (may be NULL) counts what it hid.
+ * patches still serve as occluders). blocks (may be NULL): for each patch
+ * from `from` on not hidden whole, the blocks (hz_patch.hidden's bits) of
+ * its quadrants that nearer ground hides, 0 for the others (patches of 2
+ * cells have no quadrants: all 0). stats (may be NULL) counts what it hid.
  * Hides nothing with no_cull, over holes or when the eye is not above the
  * ground nearby. Reads the patches and writes only hidden, stats and lod's
  * culling scratch: the caller may read the patches meanwhile, but must not
@@ -267,7 +271,7 @@ hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_
  * memory. */
 hz_result hz_lod_horizon_hide(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params,
                               const hz_lod_stats *selected, const hz_patch *patches, size_t count, size_t from,
-                              uint8_t *hidden, hz_horizon_stats *stats);
+                              uint8_t *hidden, uint16_t *blocks, hz_horizon_stats *stats);
 
 /* The triangles n patches draw, as indices into the full-resolution grid
  * (stitched edges applied, collapsed triangles dropped), appended to out.

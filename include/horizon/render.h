@@ -165,11 +165,13 @@ typedef struct hz_scene_params {
     /* Optional, with patches: horizon culling still running (hz_lod_horizon_hide
      * on patch_late_job, from hz_renderer_patch_lead(patch_count) on). The
      * renderer draws the nearest patches first, then waits for the job and
-     * leaves out the later patches whose patch_late_hidden[k] is set: the cull
-     * runs while the first patches are drawn. The caller waits for the job
-     * too after the draw (it may have failed before waiting). */
+     * leaves out the later patches whose patch_late_hidden[k] is set, and the
+     * blocks patch_late_blocks[k] marks (hz_patch.hidden's bits; may be NULL):
+     * the cull runs while the first patches are drawn. The caller waits for
+     * the job too after the draw (it may have failed before waiting). */
     hz_job *patch_late_job;
     const uint8_t *patch_late_hidden;
+    const uint16_t *patch_late_blocks;
     /* Without terrain effects, a colour map or imagery, an in-memory terrain
      * reads its colour lit from a map baked per sample by the same shading
      * (one texture fetch a pixel instead of the normal map, the colour and
@@ -222,8 +224,10 @@ typedef struct hz_draw_stats {
 } hz_draw_stats;
 
 /* How many of count patches the renderer draws before it waits for
- * hz_scene_params.patch_late_job: the nearest chunk, a twentieth of them
- * (all of them when they are too few to draw in chunks). */
+ * hz_scene_params.patch_late_job: its two nearest chunks, 15 % of them
+ * (all of them when they are too few to draw in chunks). A cull of 1-2 ms
+ * is done by then on llvmpipe: the first chunk gives the drawing thread
+ * nothing to wait for, the second the rasterisers' start to share cores. */
 uint32_t hz_renderer_patch_lead(uint32_t count);
 
 /* Draws sky then terrain triangles (count indices, a multiple of 3, into the

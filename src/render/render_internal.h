@@ -229,6 +229,7 @@ struct hz_renderer {
     uint32_t seg_end[PATCH_SEGS], late_seg, late_skipped;
     hz_job *late_job;
     const uint8_t *late_hidden;
+    const uint16_t *late_blocks;
     const hz_patch *late_p;
     double late_wait_ms;
 
@@ -381,7 +382,7 @@ hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32
  * before hz_renderer_patch_lead(count) now, the rest when patch_draw
  * first reaches them, after waiting for job. */
 hz_result patch_upload_late(hz_renderer *r, const hz_patch *p, uint32_t count, uint32_t near, hz_job *job,
-                            const uint8_t *hidden, hz_err *err);
+                            const uint8_t *hidden, const uint16_t *blocks, hz_err *err);
 /* Forgets the frame's late culling (its patches are gone after the draw). */
 void patch_late_end(hz_renderer *r);
 /* How many of the uploaded patches (nearest first) come nearer to the eye

@@ -1193,7 +1193,7 @@ static hz_result draw_frame(hz_renderer *r, const hz_camera *cam, const hz_scene
         near = patch_detail_split(r, params->patches, npatch, cam->pos, fade);
     }
     if (npatch > 0 && patch_upload_late(r, params->patches, npatch, near, params->patch_late_job,
-                                        params->patch_late_hidden, err) != HZ_OK) {
+                                        params->patch_late_hidden, params->patch_late_blocks, err) != HZ_OK) {
         glBindVertexArray(0);
         return HZ_ERR_GL;
     }

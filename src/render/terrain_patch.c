@@ -309,13 +309,16 @@ static void patch_segments(hz_renderer *r, uint32_t count, uint32_t near)
 
 uint32_t hz_renderer_patch_lead(uint32_t count)
 {
-    return chunk_end(0, patch_chunks(count), count);
+    const uint32_t chunks = patch_chunks(count);
+    return chunk_end(chunks > 1 ? 1 : 0, chunks, count);
 }
 
 /* Packs segment g of the in-memory patches p into the instance scratch by
- * class, leaving out those hidden marks (hidden may be NULL): its class
- * starts and end. block_mask: the bits of a patch's blocks. */
-static void pack_segment(hz_renderer *r, const hz_patch *p, const uint8_t *hidden, uint32_t g, uint16_t block_mask)
+ * class, leaving out those hidden marks and the blocks blocks marks (both
+ * may be NULL): its class starts and end. block_mask: the bits of a
+ * patch's blocks. */
+static void pack_segment(hz_renderer *r, const hz_patch *p, const uint8_t *hidden, const uint16_t *blocks,
+                         uint32_t g, uint16_t block_mask)
 {
     const uint32_t words = inst_words(r), a = r->seg[g], b = r->seg[g + 1];
     uint32_t num[PATCH_CLASSES] = {0};
@@ -337,7 +340,7 @@ static void pack_segment(hz_renderer *r, const hz_patch *p, const uint8_t *hidde
         uint32_t *o = r->inst_scratch + words * (size_t)slot;
         o[0] = q->x0 | (q->z0 << 16);
         o[1] = q->shift | ((uint32_t)q->coarse << 4);
-        r->inst_hidden[slot] = q->hidden & block_mask;
+        r->inst_hidden[slot] = (q->hidden | (blocks ? blocks[k] : 0)) & block_mask;
         r->any_hidden |= r->inst_hidden[slot] != 0;
     }
 }
@@ -353,7 +356,7 @@ static void inst_write(hz_renderer *r, uint32_t a, uint32_t b)
 }
 
 hz_result patch_upload_late(hz_renderer *r, const hz_patch *p, uint32_t count, uint32_t near, hz_job *job,
-                            const uint8_t *hidden, hz_err *err)
+                            const uint8_t *hidden, const uint16_t *blocks, hz_err *err)
 {
     if (!r->tiles_tex)
         return hz_err_set(err, HZ_ERR_VALUE, "renderer: cdlod patches to draw before hz_renderer_set_cdlod");
@@ -419,6 +422,7 @@ hz_result patch_upload_late(hz_renderer *r, const hz_patch *p, uint32_t count, u
     r->late_p = NULL;
     r->late_job = NULL;
     r->late_hidden = NULL;
+    r->late_blocks = NULL;
     if (job && hidden && !r->streamed && lead < count) {
         r->late_seg = 0;
         while (r->late_seg < r->n_seg && r->seg[r->late_seg] < lead)
@@ -426,6 +430,7 @@ hz_result patch_upload_late(hz_renderer *r, const hz_patch *p, uint32_t count, u
         r->late_p = p;
         r->late_job = job;
         r->late_hidden = hidden;
+        r->late_blocks = blocks;
     }
     for (uint32_t g = 0; g < r->n_seg; g++) {
         if (r->streamed) { /* streamed patches are all PATCH_MORPH, in order */
@@ -433,7 +438,7 @@ hz_result patch_upload_late(hz_renderer *r, const hz_patch *p, uint32_t count, u
                 r->seg_class[g][c] = r->seg[g];
             r->seg_end[g] = r->seg[g + 1];
         } else if (g < r->late_seg) {
-            pack_segment(r, p, NULL, g, block_mask);
+            pack_segment(r, p, NULL, NULL, g, block_mask);
         }
     }
     glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
@@ -449,7 +454,7 @@ hz_result patch_upload_late(hz_renderer *r, const hz_patch *p, uint32_t count, u
 
 hz_result patch_upload(hz_renderer *r, const hz_patch *p, uint32_t count, uint32_t near, hz_err *err)
 {
-    return patch_upload_late(r, p, count, near, NULL, NULL, err);
+    return patch_upload_late(r, p, count, near, NULL, NULL, NULL, err);
 }
 
 /* The late segments, once the culling job is done: packed without the
@@ -461,7 +466,7 @@ static void late_pack(hz_renderer *r)
     r->late_wait_ms = hz_job_wait(r->late_job);
     const uint16_t block_mask = (uint16_t)((1u << (r->patch_blocks * r->patch_blocks)) - 1u);
     for (uint32_t g = r->late_seg; g < r->n_seg; g++)
-        pack_segment(r, r->late_p, r->late_hidden, g, block_mask);
+        pack_segment(r, r->late_p, r->late_hidden, r->late_blocks, g, block_mask);
     inst_write(r, r->seg[r->late_seg], r->seg_end[r->n_seg - 1]);
     r->late_job = NULL;
 }
@@ -474,6 +479,7 @@ void patch_late_end(hz_renderer *r)
     }
     r->late_p = NULL;
     r->late_hidden = NULL;
+    r->late_blocks = NULL;
 }
 
 uint32_t patch_detail_split(const hz_renderer *r, const hz_patch *p, uint32_t count, const float eye[3], float dist)

@@ -614,10 +614,12 @@ static hz_result emit_patches(hz_lod *lod, const hz_camera *cam, hz_patch_list *
 /* Horizon culling of the selection's patches (st: its stats): hidden[k]
  * for each of [0, count). */
 static hz_result horizon_hidden(hz_lod *lod, const hz_camera *cam, const hz_lod_params *p, const hz_lod_stats *st,
-                                const hz_patch *patches, size_t count, uint8_t *hidden)
+                                const hz_patch *patches, size_t count, uint8_t *hidden, uint16_t *quads, size_t from)
 {
     if (p->no_cull || lod->desc.holes) { /* a hole lets a ray through the surface */
         memset(hidden, 0, count);
+        if (quads)
+            memset(quads, 0, count * sizeof *quads);
         return HZ_OK;
     }
     const float tau = p->pixel_error > 0 ? p->pixel_error : 1.0f;
@@ -625,7 +627,7 @@ static hz_result horizon_hidden(hz_lod *lod, const hz_camera *cam, const hz_lod_
      * a the least morph start (cd_morph_start_at at R / Rp = 1 / rho) */
     const float rho = st->morph_near;
     return hz__horizon_hidden(lod, cam, pixel_k(cam, p) / tau * rho, cd_morph_start_at(st->morph_start, 1.0f, rho),
-                              st->morph_scale > 0.0f, patches, count, hidden);
+                              st->morph_scale > 0.0f, patches, count, hidden, quads, from);
 }
 
 hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params, hz_patch_list *out,
@@ -642,7 +644,7 @@ hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_
         if (list_reserve((void **)&lod->hz_hidden, &lod->hz_hidden_cap, out->count, 1))
             r = HZ_ERR_MEMORY;
         else
-            r = horizon_hidden(lod, cam, &p, &st, out->data, out->count, lod->hz_hidden);
+            r = horizon_hidden(lod, cam, &p, &st, out->data, out->count, lod->hz_hidden, NULL, 0);
         size_t w = 0; /* drop the hidden ones, keeping the order */
         for (size_t k = 0; r == HZ_OK && k < out->count; k++) {
             const hz_patch *q = &out->data[k];
@@ -667,26 +669,53 @@ hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_
 
 hz_result hz_lod_horizon_hide(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params,
                               const hz_lod_stats *selected, const hz_patch *patches, size_t count, size_t from,
-                              uint8_t *hidden, hz_horizon_stats *stats)
+                              uint8_t *hidden, uint16_t *blocks, hz_horizon_stats *stats)
 {
     HZ_ASSERT(lod && cam && selected && (patches || !count) && (hidden || !count));
     const double t0 = hz_time_ms();
     hz_lod_params p = params ? *params : (hz_lod_params){0};
     hz_horizon_stats hs = {0};
-    hz_result r = horizon_hidden(lod, cam, &p, selected, patches, count, hidden);
-    if (r != HZ_OK)
+    const uint32_t P = lod->patch, B = hz_lod_patch_blocks(P);
+    if (B < 2)
+        blocks = NULL; /* a patch drawn whole: no quadrants to leave out */
+    hz_result r = horizon_hidden(lod, cam, &p, selected, patches, count, hidden, blocks, from);
+    if (r != HZ_OK) {
         memset(hidden, 0, count);
+        if (blocks)
+            memset(blocks, 0, count * sizeof *blocks);
+    }
     for (size_t k = 0; k < count; k++) {
         if (k < from) {
             hidden[k] = 0; /* drawn before the cull was done */
+            if (blocks)
+                blocks[k] = 0;
             continue;
         }
+        const uint8_t coarse = patches[k].coarse;
         if (hidden[k]) {
             hs.patches++;
-            hs.triangles += hz__patch_triangles(lod->patch, patches[k].coarse);
+            hs.triangles += hz__patch_triangles(P, coarse);
             hs.still += patches[k].still;
             hs.simple += patches[k].simple;
+            continue;
         }
+        const uint16_t quads = blocks ? blocks[k] : 0;
+        uint16_t mask = 0;
+        for (uint32_t q = 0; q < 4; q++) {
+            if (!(quads >> q & 1u))
+                continue;
+            /* the quadrant's blocks, and its triangles: P^2 / 2, less one per
+             * odd vertex of a stitched patch edge along it (P / 4 an edge) */
+            const uint32_t qx = q & 1u, qz = q >> 1, h = B / 2;
+            for (uint32_t bz = qz * h; bz < (qz + 1) * h; bz++)
+                for (uint32_t bx = qx * h; bx < (qx + 1) * h; bx++)
+                    mask |= (uint16_t)(1u << (B * bz + bx));
+            const uint32_t edges = ((coarse >> qx) & 1u) + ((coarse >> (2 + qz)) & 1u);
+            hs.triangles += P * P / 2 - edges * (P / 4);
+            hs.quadrants++;
+        }
+        if (blocks)
+            blocks[k] = mask;
     }
     hs.ms = hz_time_ms() - t0;
     if (stats)

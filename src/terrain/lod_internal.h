@@ -382,12 +382,15 @@ uint32_t hz__patch_triangles(uint32_t P, uint8_t coarse);
 hz_result hz__sort_patches(hz_patch_list *out, hz_patch **tmp, size_t *tmp_cap);
 
 /* Horizon culling (lod_horizon.c): hidden[k] = 1 for each of patches
- * [0, count) (nearest first) that nearer ground hides, 0 for the others.
- * lambda = K / tau, morph_start as the selection's; morphing false when the
- * patches are drawn unmorphed. Hides nothing when the eye is not above the
- * ground nearby. Uses lod's scratch: one call at a time per hz_lod. */
+ * [0, count) (nearest first) that nearer ground hides, 0 for the others;
+ * with quads, for each patch from `from` on not hidden whole, bit q of
+ * quads[k] for each quadrant q (x half q & 1, z half q >> 1: the child
+ * node) that is hidden. lambda = K / tau, morph_start as the selection's;
+ * morphing false when the patches are drawn unmorphed. Hides nothing when
+ * the eye is not above the ground nearby. Uses lod's scratch: one call at a
+ * time per hz_lod. */
 hz_result hz__horizon_hidden(hz_lod *lod, const hz_camera *cam, float lambda, float morph_start, bool morphing,
-                             const hz_patch *patches, size_t count, uint8_t *hidden);
+                             const hz_patch *patches, size_t count, uint8_t *hidden, uint16_t *quads, size_t from);
 
 /* Builds the occluder cells' minima (16 bytes per patch node), once. */
 hz_result hz__horizon_prepare(hz_lod *lod);

@@ -692,6 +692,7 @@ typedef struct late_arg {
     const hz_patch_list *pl;
     size_t from;
     uint8_t *hidden;
+    uint16_t *blocks;
     hz_horizon_stats *hs;
     hz_result res;
     unsigned sleep_ms; /* first (late_all: then every patch from `from` on is hidden) */
@@ -700,7 +701,8 @@ typedef struct late_arg {
 static void late_hide(void *arg)
 {
     late_arg *a = arg;
-    a->res = hz_lod_horizon_hide(a->lod, a->cam, a->p, a->sel, a->pl->data, a->pl->count, a->from, a->hidden, a->hs);
+    a->res = hz_lod_horizon_hide(a->lod, a->cam, a->p, a->sel, a->pl->data, a->pl->count, a->from, a->hidden,
+                                 a->blocks, a->hs);
 }
 
 /* After a pause, every patch from `from` on hidden. */
@@ -727,7 +729,7 @@ static void test_late_cull_waited_for(void **state)
     cdlod_frame_all(c, 0.5f, NULL, true, &cam, &pl, &il, &st);
     const uint32_t n = (uint32_t)pl.count, lead = hz_renderer_patch_lead(n);
     fprintf(stderr, "%u patches, the first %u before the wait\n", n, lead);
-    assert_true(lead > 0 && lead * 10 < n);
+    assert_true(lead > 0 && lead * 5 < n);
     uint8_t *hid = calloc(n, 1), *rgb = malloc(2 * W * H * 3);
     float *dep = malloc(2 * W * H * sizeof *dep);
     late_arg la = {.pl = &pl, .from = lead, .hidden = hid, .sleep_ms = 60};
@@ -789,7 +791,7 @@ static void test_horizon_culling_hides_nothing(void **state)
     uint8_t *rgb = malloc(2 * W * H * 3);
     float *dep = malloc(2 * W * H * sizeof *dep);
     hz_patch_list pl[2] = {{0}, {0}};
-    size_t all = 0, hidden = 0, views = 0, hiding = 0, late_total = 0, near_half = 0;
+    size_t all = 0, hidden = 0, views = 0, hiding = 0, late_total = 0, near_half = 0, late_blocks = 0;
     for (int k = 0; k < 16; k++) {
         hz_camera cam = hz_terrain_default_camera(t, W, H);
         if (k < 12) { /* low over the ridges, all around */
@@ -820,15 +822,16 @@ static void test_horizon_culling_hides_nothing(void **state)
         {
             const uint32_t lead = hz_renderer_patch_lead((uint32_t)pl[1].count);
             uint8_t *hid = malloc(pl[1].count + 1), *all_hid = malloc(pl[1].count + 1);
+            uint16_t *blk = malloc((pl[1].count + 1) * sizeof *blk);
             hz_horizon_stats hs, hs0;
             const hz_lod_params lp = {.mode = HZ_LOD_CDLOD, .pixel_error = tau, .viewport_height = H};
             late_arg la = {.lod = t->lod, .cam = &cam, .p = &lp, .sel = &st[1], .pl = &pl[1], .from = lead,
-                           .hidden = hid, .hs = &hs, .res = HZ_ERR_VALUE};
+                           .hidden = hid, .blocks = blk, .hs = &hs, .res = HZ_ERR_VALUE};
             hz_job job = {0};
             hz_job_start(&job, late_hide, &la);
             hz_scene_params sp = {.morph_scale = st[1].morph_scale, .morph_start = st[1].morph_start,
                                   .patches = pl[1].data, .patch_count = (uint32_t)pl[1].count,
-                                  .patch_late_job = &job, .patch_late_hidden = hid};
+                                  .patch_late_job = &job, .patch_late_hidden = hid, .patch_late_blocks = blk};
             hz_draw_stats ds;
             assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, &ds, &err), HZ_OK);
             assert_false(job.running); /* the renderer waited */
@@ -845,16 +848,20 @@ static void test_horizon_culling_hides_nothing(void **state)
             assert_int_equal(late_off, 0);
             /* from 0 on, the late cull hides what the selection's drops */
             assert_int_equal(hz_lod_horizon_hide(t->lod, &cam, la.p, &st[1], pl[1].data, pl[1].count, 0, all_hid,
-                                                 &hs0),
+                                                 NULL, &hs0),
                              HZ_OK);
             assert_int_equal(hs0.patches, st[0].hidden);
             assert_int_equal(hs0.triangles, st[1].triangles - st[0].triangles);
-            size_t before = 0, marked = 0;
+            size_t before = 0, marked = 0, with_blocks = 0;
             for (size_t i = 0; i < pl[1].count; i++) {
                 assert_true(hid[i] == (i >= lead && all_hid[i]));
+                assert_true(blk[i] == 0 || (i >= lead && !hid[i])); /* quadrants only of the drawn, late */
                 before += i < lead && all_hid[i];
                 marked += hid[i];
+                with_blocks += blk[i] != 0;
             }
+            assert_true(hs.quadrants >= with_blocks && hs.quadrants <= 3 * with_blocks);
+            late_blocks += with_blocks;
             assert_int_equal(hs.patches, marked);
             assert_int_equal(ds.late_hidden, marked);
             assert_int_equal(marked + before, st[0].hidden);
@@ -862,7 +869,7 @@ static void test_horizon_culling_hides_nothing(void **state)
             /* from the middle on: none of the nearer half, whatever hides it */
             const size_t half = pl[1].count / 2;
             assert_int_equal(hz_lod_horizon_hide(t->lod, &cam, la.p, &st[1], pl[1].data, pl[1].count, half, hid,
-                                                 &hs0),
+                                                 NULL, &hs0),
                              HZ_OK);
             for (size_t i = 0; i < pl[1].count; i++) {
                 assert_true(hid[i] == (i >= half && all_hid[i]));
@@ -872,6 +879,7 @@ static void test_horizon_culling_hides_nothing(void **state)
             free(late_dep);
             free(hid);
             free(all_hid);
+            free(blk);
         }
         /* the same selection, less the hidden patches, in the same order */
         assert_int_equal(st[1].hidden, 0);
@@ -898,8 +906,9 @@ static void test_horizon_culling_hides_nothing(void **state)
         views++;
         hiding += st[0].hidden > 0;
     }
-    fprintf(stderr, "horizon culling: %zu of %zu patches hidden over %zu views (%zu by the late cull)\n", hidden,
-            all, views, late_total);
+    fprintf(stderr, "horizon culling: %zu of %zu patches hidden over %zu views (%zu by the late cull, which hid "
+            "quadrants of %zu more)\n", hidden, all, views, late_total, late_blocks);
+    assert_true(late_blocks * 20 >= late_total); /* the quadrants hide some more */
     assert_true(late_total * 2 >= hidden); /* most lie beyond the first chunk */
     assert_true(near_half > 0);          /* (the `from` test above had some to leave) */
     assert_true(hiding >= views / 2);
