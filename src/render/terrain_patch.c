@@ -465,9 +465,10 @@ static void late_pack(hz_renderer *r)
         return;
     r->late_wait_ms = hz_job_wait(r->late_job);
     const uint16_t block_mask = (uint16_t)((1u << (r->patch_blocks * r->patch_blocks)) - 1u);
-    for (uint32_t g = r->late_seg; g < r->n_seg; g++)
+    for (uint32_t g = r->late_seg; g < r->n_seg; g++) {
         pack_segment(r, r->late_p, r->late_hidden, r->late_blocks, g, block_mask);
-    inst_write(r, r->seg[r->late_seg], r->seg_end[r->n_seg - 1]);
+        inst_write(r, r->seg[g], r->seg_end[g]);
+    }
     r->late_job = NULL;
 }
 
