@@ -225,9 +225,10 @@ typedef struct hz_draw_stats {
 
 /* How many of count patches the renderer draws before it waits for
  * hz_scene_params.patch_late_job: its two nearest chunks, 15 % of them
- * (all of them when they are too few to draw in chunks). A cull of 1-2 ms
- * is done by then on llvmpipe: the first chunk gives the drawing thread
- * nothing to wait for, the second the rasterisers' start to share cores. */
+ * (all of them when they are too few to draw in chunks). On llvmpipe a
+ * cull of 1-2 ms started with the frame is done by then: the rasterisers
+ * idle while the first chunk is binned, and the second makes up for the
+ * cores the cull shares with them once they start. */
 uint32_t hz_renderer_patch_lead(uint32_t count);
 
 /* Draws sky then terrain triangles (count indices, a multiple of 3, into the

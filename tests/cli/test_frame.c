@@ -714,10 +714,11 @@ static void late_all(void *arg)
     memset(a->hidden + a->from, 1, a->pl->count - a->from);
 }
 
-/* The renderer draws the first chunk of patches, then waits for the late
- * cull's job before it reads its flags: a job that takes its time and then
- * hides every later patch leaves the frame of the first chunk alone (colour
- * and depth), and the draw says it waited and left them out. */
+/* The renderer draws the nearest patches (hz_renderer_patch_lead), then
+ * waits for the late cull's job before it reads its flags: a job that takes
+ * its time and then hides every later patch leaves the frame of those
+ * nearest patches alone (colour and depth), and the draw says it waited and
+ * left the others out. */
 static void test_late_cull_waited_for(void **state)
 {
     ctx *c = *state;
@@ -757,7 +758,7 @@ static void test_late_cull_waited_for(void **state)
         ground += dep[q] != 0.0f;
     }
     assert_int_equal(off, 0);
-    assert_true(ground > 1000); /* the first chunk shows */
+    assert_true(ground > 1000); /* the nearest patches show */
     /* and the full frame has more ground: the later patches were left out */
     sp = (hz_scene_params){.patches = pl.data, .patch_count = n};
     assert_int_equal(hz_renderer_draw(c->r, &cam, &sp, NULL, 0, &ds, &err), HZ_OK);
@@ -765,7 +766,7 @@ static void test_late_cull_waited_for(void **state)
     size_t full = 0;
     for (size_t q = 0; q < (size_t)W * H; q++)
         full += dep[q] != 0.0f;
-    fprintf(stderr, "ground pixels: %zu first chunk, %zu all patches\n", ground, full);
+    fprintf(stderr, "ground pixels: %zu nearest patches, %zu all patches\n", ground, full);
     assert_true(full > ground + ground / 10);
     free(hid);
     free(rgb);
@@ -816,9 +817,9 @@ static void test_horizon_culling_hides_nothing(void **state)
             assert_int_equal(hz_renderer_read_depth(c->r, dep + (size_t)v * W * H, &err), HZ_OK);
         }
         /* The late cull (hz_lod_horizon_hide on a job while the renderer
-         * draws the first chunk): the same frame again, every patch from the
-         * renderer's lead on that the cull in the selection drops left out,
-         * and only those. */
+         * draws the nearest patches): the same frame again, every patch from
+         * the renderer's lead on that the cull in the selection drops left
+         * out, and hidden quadrants of others, and only those. */
         {
             const uint32_t lead = hz_renderer_patch_lead((uint32_t)pl[1].count);
             uint8_t *hid = malloc(pl[1].count + 1), *all_hid = malloc(pl[1].count + 1);
@@ -909,7 +910,7 @@ static void test_horizon_culling_hides_nothing(void **state)
     fprintf(stderr, "horizon culling: %zu of %zu patches hidden over %zu views (%zu by the late cull, which hid "
             "quadrants of %zu more)\n", hidden, all, views, late_total, late_blocks);
     assert_true(late_blocks * 20 >= late_total); /* the quadrants hide some more */
-    assert_true(late_total * 2 >= hidden); /* most lie beyond the first chunk */
+    assert_true(late_total * 2 >= hidden); /* most lie beyond the lead */
     assert_true(near_half > 0);          /* (the `from` test above had some to leave) */
     assert_true(hiding >= views / 2);
     assert_true(hidden * 10 >= all); /* at least a tenth */
