@@ -827,11 +827,7 @@ hz_result cli_lod_finish(cli_lod_frame *f)
         f->pl.data[w++].hidden |= f->blocks[k];
     }
     f->pl.count = w;
-    f->st.triangles -= f->hs.triangles;
-    f->st.still -= f->hs.still;
-    f->st.simple -= f->hs.simple;
-    f->st.leaves -= f->hs.patches;
-    f->st.hidden += f->hs.patches;
+    hz_lod_stats_hide(&f->st, &f->hs);
     f->cull_ms = f->hs.ms;
     return f->late_res;
 }

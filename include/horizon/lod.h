@@ -272,6 +272,10 @@ hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_
 hz_result hz_lod_horizon_hide(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params,
                               const hz_lod_stats *selected, const hz_patch *patches, size_t count, size_t from,
                               uint8_t *hidden, uint16_t *blocks, hz_horizon_stats *stats);
+/* Takes what hz_lod_horizon_hide hid off the selection's stats st: its
+ * triangles, still and simple patches and leaves; adds its patches to
+ * st->hidden. */
+void hz_lod_stats_hide(hz_lod_stats *st, const hz_horizon_stats *hs);
 
 /* The triangles n patches draw, as indices into the full-resolution grid
  * (stitched edges applied, collapsed triangles dropped), appended to out.

@@ -313,13 +313,19 @@ uint32_t hz_renderer_patch_lead(uint32_t count)
     return chunk_end(chunks > 1 ? 1 : 0, chunks, count);
 }
 
+/* The bits of a patch's blocks in hz_patch.hidden (the others mean nothing). */
+static uint16_t blocks_mask(const hz_renderer *r)
+{
+    return (uint16_t)((1u << (r->patch_blocks * r->patch_blocks)) - 1u);
+}
+
 /* Packs segment g of the in-memory patches p into the instance scratch by
  * class, leaving out those hidden marks and the blocks blocks marks (both
- * may be NULL): its class starts and end. block_mask: the bits of a
- * patch's blocks. */
+ * may be NULL): its class starts and end. */
 static void pack_segment(hz_renderer *r, const hz_patch *p, const uint8_t *hidden, const uint16_t *blocks,
-                         uint32_t g, uint16_t block_mask)
+                         uint32_t g)
 {
+    const uint16_t block_mask = blocks_mask(r);
     const uint32_t words = inst_words(r), a = r->seg[g], b = r->seg[g + 1];
     uint32_t num[PATCH_CLASSES] = {0};
     for (uint32_t k = a; k < b; k++)
@@ -376,8 +382,7 @@ hz_result patch_upload_late(hz_renderer *r, const hz_patch *p, uint32_t count, u
         r->inst_hidden = h;
         r->inst_hidden_cap = count;
     }
-    /* hidden bits beyond the patch's blocks mean nothing */
-    const uint16_t block_mask = (uint16_t)((1u << (r->patch_blocks * r->patch_blocks)) - 1u);
+    const uint16_t block_mask = blocks_mask(r);
     r->any_hidden = false;
     r->cmd_bytes = 0;
     r->inst_bytes = 0;
@@ -416,9 +421,7 @@ hz_result patch_upload_late(hz_renderer *r, const hz_patch *p, uint32_t count, u
     patch_segments(r, count, near);
     /* late culling: the segments from the lead on wait (streamed patches are never culled late) */
     const uint32_t lead = hz_renderer_patch_lead(count);
-    r->late_seg = r->n_seg;
-    r->late_skipped = 0;
-    r->late_wait_ms = 0.0;
+    r->late_seg = r->n_seg; /* (late_skipped, late_wait_ms: reset by hz_renderer_draw) */
     r->late_p = NULL;
     r->late_job = NULL;
     r->late_hidden = NULL;
@@ -438,7 +441,7 @@ hz_result patch_upload_late(hz_renderer *r, const hz_patch *p, uint32_t count, u
                 r->seg_class[g][c] = r->seg[g];
             r->seg_end[g] = r->seg[g + 1];
         } else if (g < r->late_seg) {
-            pack_segment(r, p, NULL, NULL, g, block_mask);
+            pack_segment(r, p, NULL, NULL, g);
         }
     }
     glBindBuffer(GL_ARRAY_BUFFER, r->patch_vbo);
@@ -464,9 +467,8 @@ static void late_pack(hz_renderer *r)
     if (!r->late_job)
         return;
     r->late_wait_ms = hz_job_wait(r->late_job);
-    const uint16_t block_mask = (uint16_t)((1u << (r->patch_blocks * r->patch_blocks)) - 1u);
     for (uint32_t g = r->late_seg; g < r->n_seg; g++) {
-        pack_segment(r, r->late_p, r->late_hidden, r->late_blocks, g, block_mask);
+        pack_segment(r, r->late_p, r->late_hidden, r->late_blocks, g);
         inst_write(r, r->seg[g], r->seg_end[g]);
     }
     r->late_job = NULL;

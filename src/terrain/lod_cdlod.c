@@ -641,30 +641,33 @@ hz_result hz_lod_select_patches(hz_lod *lod, const hz_camera *cam, const hz_lod_
     if (r == HZ_OK)
         r = emit_patches(lod, cam, out, &st);
     if (r == HZ_OK && p.horizon_cull) {
+        hz_horizon_stats hs;
         if (list_reserve((void **)&lod->hz_hidden, &lod->hz_hidden_cap, out->count, 1))
             r = HZ_ERR_MEMORY;
         else
-            r = horizon_hidden(lod, cam, &p, &st, out->data, out->count, lod->hz_hidden, NULL, 0);
+            r = hz_lod_horizon_hide(lod, cam, &p, &st, out->data, out->count, 0, lod->hz_hidden, NULL, &hs);
         size_t w = 0; /* drop the hidden ones, keeping the order */
-        for (size_t k = 0; r == HZ_OK && k < out->count; k++) {
-            const hz_patch *q = &out->data[k];
-            if (lod->hz_hidden[k]) {
-                st.triangles -= hz__patch_triangles(lod->patch, q->coarse);
-                st.still -= q->still;
-                st.simple -= q->simple;
-                st.leaves--;
-                st.hidden++;
-                continue;
-            }
-            out->data[w++] = *q;
-        }
-        if (r == HZ_OK)
+        for (size_t k = 0; r == HZ_OK && k < out->count; k++)
+            if (!lod->hz_hidden[k])
+                out->data[w++] = out->data[k];
+        if (r == HZ_OK) {
             out->count = w;
+            hz_lod_stats_hide(&st, &hs);
+        }
     }
     st.ms = hz_time_ms() - t0;
     if (stats)
         *stats = st;
     return r;
+}
+
+void hz_lod_stats_hide(hz_lod_stats *st, const hz_horizon_stats *hs)
+{
+    st->triangles -= hs->triangles;
+    st->still -= hs->still;
+    st->simple -= hs->simple;
+    st->leaves -= hs->patches;
+    st->hidden += hs->patches;
 }
 
 hz_result hz_lod_horizon_hide(hz_lod *lod, const hz_camera *cam, const hz_lod_params *params,
